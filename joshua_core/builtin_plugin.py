@@ -1,0 +1,15 @@
+"""JOSHUA's own plugin: the components that ship with joshua-core and need no other distribution."""
+
+from __future__ import annotations
+
+from joshua_core.hookspecs import hookimpl
+from joshua_core.plugins import Registrar
+
+
+@hookimpl
+def joshua_register_modes(registry: Registrar) -> None:
+    registry.add(
+        "HEADLESS",
+        "joshua_core.headless:HeadlessMode",
+        "physics only, no rendering: steps the model, checks it stays finite, reports speed",
+    )

@@ -1,0 +1,152 @@
+"""The `joshua` command line: run a preset or config, list presets and plugins."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from google.protobuf import text_format
+
+from joshua_core import __version__
+from joshua_core.config import (
+    LoadedConfig,
+    apply_override,
+    finalize,
+    load_default,
+    load_file,
+    load_preset,
+    preset_names,
+    required_components,
+)
+from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig
+from joshua_core.errors import JoshuaError, PluginNotFoundError
+from joshua_core.interfaces import RunContext
+from joshua_core.plugins import DISABLE_ENV_VAR, Kind, PluginHost
+
+DEFAULT_OUTPUT_DIR = "joshua_output"
+
+EPILOG = f"""\
+examples:
+  joshua                                   run the embedded default (headless SO-ARM100 physics check)
+  joshua --preset sim_offscreen            run a shipped preset
+  joshua --preset sim_passive --set simulation.trajectory_path=my_motion.csv
+  joshua --config my_run.pbtxt             run a text-format JoshuaConfig (it may `extends: "PRESET"`)
+  joshua --preset ant_train_mjx --print-config
+  joshua presets                           list the presets
+  joshua plugins                           list installed plugins and what they provide
+
+Relative model and trajectory paths resolve against the config file's folder, the working
+directory, then the models shipped with JOSHUA. {DISABLE_ENV_VAR}=a,b skips plugins by name.
+exit status: 0 ok, 1 runtime failure, 2 usage or config error."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="joshua",
+        description="JOSHUA: robot simulation and reinforcement learning on MuJoCo.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"joshua {__version__}")
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument("--preset", metavar="NAME", help="run a shipped preset (see `joshua presets`)")
+    source.add_argument("--config", metavar="FILE", type=Path, help="run a text-format .pbtxt config")
+    parser.add_argument(
+        "--set",
+        dest="overrides",
+        metavar="PATH=VALUE",
+        action="append",
+        default=[],
+        help="override one field, e.g. simulation.render_width=1280 (repeatable)",
+    )
+    parser.add_argument("--print-config", action="store_true", help="print the final config and exit")
+    commands = parser.add_subparsers(dest="command", title="commands", metavar="COMMAND")
+    commands.add_parser("presets", help="list the shipped presets with their descriptions")
+    commands.add_parser("plugins", help="list installed plugins: distribution, version, what they register")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the `joshua` script; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "presets":
+            return list_presets()
+        if args.command == "plugins":
+            return list_plugins(PluginHost.discover())
+        return run(args)
+    except JoshuaError as error:
+        print(f"joshua: error: {error}", file=sys.stderr)
+        return error.exit_code
+    except KeyboardInterrupt:
+        print("joshua: interrupted", file=sys.stderr)
+        return 130
+
+
+def list_presets() -> int:
+    names = preset_names()
+    width = max(map(len, names))
+    for name in names:
+        description = load_preset(name).message.description
+        print(f"{name:<{width}}  {description}")
+    return 0
+
+
+def list_plugins(host: PluginHost) -> int:
+    for info in host.plugins:
+        state = " [disabled]" if info.disabled else " [BROKEN]" if info.error else ""
+        print(f"{info.name}  ({info.distribution} {info.version}){state}  {info.module}")
+        if info.error:
+            print(f"    error: {info.error}")
+        for component in info.components:
+            print(f"    {component.kind.value:<8} {component.name:<14} {component.summary}")
+    for conflict in host.conflicts:
+        print(f"conflict: {conflict}")
+    return 0
+
+
+def load(args: argparse.Namespace) -> JoshuaConfig:
+    """The config the arguments describe, overridden and finalized."""
+    loaded: LoadedConfig
+    if args.preset:
+        loaded = load_preset(args.preset)
+    elif args.config:
+        loaded = load_file(args.config)
+    else:
+        loaded = load_default()
+    for assignment in args.overrides:
+        apply_override(loaded.message, assignment)
+    return finalize(loaded)
+
+
+def run(args: argparse.Namespace) -> int:
+    config = load(args)
+    if args.print_config:
+        print(text_format.MessageToString(config), end="")
+        return 0
+    host = PluginHost.discover()
+    for problem in host.problems:
+        print(f"joshua: warning: {problem}", file=sys.stderr)
+    missing = []
+    for kind, name in required_components(config):
+        try:
+            host.component(kind, name)
+        except PluginNotFoundError as error:
+            missing.append(str(error))
+    if missing:
+        raise PluginNotFoundError("\n".join(missing))
+    if config.operation_mode == JoshuaConfig.SIMULATION:
+        simulation = config.simulation
+        context = RunContext(host, Path(simulation.output_dir or DEFAULT_OUTPUT_DIR))
+        host.mode(SimulationConfig.Mode.Name(simulation.mode)).run(simulation, context)
+    else:
+        training = config.training
+        context = RunContext(host, Path(training.checkpoint_dir or DEFAULT_OUTPUT_DIR))
+        host.trainer(training.trainer).train(training, context)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

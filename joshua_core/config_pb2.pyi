@@ -1,0 +1,122 @@
+from google.protobuf.internal import containers as _containers
+from google.protobuf.internal import enum_type_wrapper as _enum_type_wrapper
+from google.protobuf import descriptor as _descriptor
+from google.protobuf import message as _message
+from collections.abc import Iterable as _Iterable, Mapping as _Mapping
+from typing import ClassVar as _ClassVar, Optional as _Optional, Union as _Union
+
+DESCRIPTOR: _descriptor.FileDescriptor
+
+class JoshuaConfig(_message.Message):
+    __slots__ = ("operation_mode", "simulation", "training", "description", "extends")
+    class OperationMode(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        SIMULATION: _ClassVar[JoshuaConfig.OperationMode]
+        TRAINING: _ClassVar[JoshuaConfig.OperationMode]
+    SIMULATION: JoshuaConfig.OperationMode
+    TRAINING: JoshuaConfig.OperationMode
+    OPERATION_MODE_FIELD_NUMBER: _ClassVar[int]
+    SIMULATION_FIELD_NUMBER: _ClassVar[int]
+    TRAINING_FIELD_NUMBER: _ClassVar[int]
+    DESCRIPTION_FIELD_NUMBER: _ClassVar[int]
+    EXTENDS_FIELD_NUMBER: _ClassVar[int]
+    operation_mode: JoshuaConfig.OperationMode
+    simulation: SimulationConfig
+    training: TrainingConfig
+    description: str
+    extends: str
+    def __init__(self, operation_mode: _Optional[_Union[JoshuaConfig.OperationMode, str]] = ..., simulation: _Optional[_Union[SimulationConfig, _Mapping]] = ..., training: _Optional[_Union[TrainingConfig, _Mapping]] = ..., description: _Optional[str] = ..., extends: _Optional[str] = ...) -> None: ...
+
+class SimulationConfig(_message.Message):
+    __slots__ = ("mode", "model_path", "trajectory_path", "mirror_topic_mappings", "render_width", "render_height", "backend", "keyframe", "duration", "output_dir")
+    class Mode(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        INTERACTIVE: _ClassVar[SimulationConfig.Mode]
+        PASSIVE: _ClassVar[SimulationConfig.Mode]
+        MIRROR: _ClassVar[SimulationConfig.Mode]
+        OFFSCREEN: _ClassVar[SimulationConfig.Mode]
+        HEADLESS: _ClassVar[SimulationConfig.Mode]
+    INTERACTIVE: SimulationConfig.Mode
+    PASSIVE: SimulationConfig.Mode
+    MIRROR: SimulationConfig.Mode
+    OFFSCREEN: SimulationConfig.Mode
+    HEADLESS: SimulationConfig.Mode
+    MODE_FIELD_NUMBER: _ClassVar[int]
+    MODEL_PATH_FIELD_NUMBER: _ClassVar[int]
+    TRAJECTORY_PATH_FIELD_NUMBER: _ClassVar[int]
+    MIRROR_TOPIC_MAPPINGS_FIELD_NUMBER: _ClassVar[int]
+    RENDER_WIDTH_FIELD_NUMBER: _ClassVar[int]
+    RENDER_HEIGHT_FIELD_NUMBER: _ClassVar[int]
+    BACKEND_FIELD_NUMBER: _ClassVar[int]
+    KEYFRAME_FIELD_NUMBER: _ClassVar[int]
+    DURATION_FIELD_NUMBER: _ClassVar[int]
+    OUTPUT_DIR_FIELD_NUMBER: _ClassVar[int]
+    mode: SimulationConfig.Mode
+    model_path: str
+    trajectory_path: str
+    mirror_topic_mappings: MirrorTopicMappings
+    render_width: int
+    render_height: int
+    backend: str
+    keyframe: str
+    duration: float
+    output_dir: str
+    def __init__(self, mode: _Optional[_Union[SimulationConfig.Mode, str]] = ..., model_path: _Optional[str] = ..., trajectory_path: _Optional[str] = ..., mirror_topic_mappings: _Optional[_Union[MirrorTopicMappings, _Mapping]] = ..., render_width: _Optional[int] = ..., render_height: _Optional[int] = ..., backend: _Optional[str] = ..., keyframe: _Optional[str] = ..., duration: _Optional[float] = ..., output_dir: _Optional[str] = ...) -> None: ...
+
+class MirrorTopicMappings(_message.Message):
+    __slots__ = ("mappings",)
+    MAPPINGS_FIELD_NUMBER: _ClassVar[int]
+    mappings: _containers.RepeatedCompositeFieldContainer[TopicMapping]
+    def __init__(self, mappings: _Optional[_Iterable[_Union[TopicMapping, _Mapping]]] = ...) -> None: ...
+
+class TopicMapping(_message.Message):
+    __slots__ = ("ros_topic", "mujoco_actuator", "offset")
+    ROS_TOPIC_FIELD_NUMBER: _ClassVar[int]
+    MUJOCO_ACTUATOR_FIELD_NUMBER: _ClassVar[int]
+    OFFSET_FIELD_NUMBER: _ClassVar[int]
+    ros_topic: str
+    mujoco_actuator: str
+    offset: float
+    def __init__(self, ros_topic: _Optional[str] = ..., mujoco_actuator: _Optional[str] = ..., offset: _Optional[float] = ...) -> None: ...
+
+class TrainingConfig(_message.Message):
+    __slots__ = ("framework", "model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed")
+    class Framework(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        MJX: _ClassVar[TrainingConfig.Framework]
+        SB3: _ClassVar[TrainingConfig.Framework]
+    MJX: TrainingConfig.Framework
+    SB3: TrainingConfig.Framework
+    FRAMEWORK_FIELD_NUMBER: _ClassVar[int]
+    MODEL_PATH_FIELD_NUMBER: _ClassVar[int]
+    NUM_ENVS_FIELD_NUMBER: _ClassVar[int]
+    TOTAL_TIMESTEPS_FIELD_NUMBER: _ClassVar[int]
+    CHECKPOINT_DIR_FIELD_NUMBER: _ClassVar[int]
+    NUM_STEPS_FIELD_NUMBER: _ClassVar[int]
+    NUM_EPOCHS_FIELD_NUMBER: _ClassVar[int]
+    MINIBATCH_SIZE_FIELD_NUMBER: _ClassVar[int]
+    LEARNING_RATE_FIELD_NUMBER: _ClassVar[int]
+    GAMMA_FIELD_NUMBER: _ClassVar[int]
+    GAE_LAMBDA_FIELD_NUMBER: _ClassVar[int]
+    CLIP_EPSILON_FIELD_NUMBER: _ClassVar[int]
+    TASK_FIELD_NUMBER: _ClassVar[int]
+    BACKEND_FIELD_NUMBER: _ClassVar[int]
+    TRAINER_FIELD_NUMBER: _ClassVar[int]
+    SEED_FIELD_NUMBER: _ClassVar[int]
+    framework: TrainingConfig.Framework
+    model_path: str
+    num_envs: int
+    total_timesteps: int
+    checkpoint_dir: str
+    num_steps: int
+    num_epochs: int
+    minibatch_size: int
+    learning_rate: float
+    gamma: float
+    gae_lambda: float
+    clip_epsilon: float
+    task: str
+    backend: str
+    trainer: str
+    seed: int
+    def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ...) -> None: ...

@@ -1,0 +1,76 @@
+"""The hooks a JOSHUA plugin implements. Each one only *registers* components; none does work.
+
+A plugin is a module named by an entry point in the group `joshua`, e.g. in its pyproject.toml:
+
+    [project.entry-points.joshua]
+    mujoco = "joshua_mujoco.plugin"
+
+and implements any of the hooks below with `@joshua_core.hookimpl`. That module must import
+nothing heavy (no mujoco, jax, torch, pxr): it names its classes as "module:attribute" strings,
+which JOSHUA imports only when a run needs them, so one broken stack can't break the CLI.
+
+Every hook is called by `joshua_core.plugins.PluginHost` while it is being built (once per run,
+for each plugin separately so that the host knows who registered what), receives a `Registrar`
+for one kind of component, and returns None. A hook that raises marks its plugin broken and
+discards what that plugin registered in that hook; the other plugins still load.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import pluggy
+
+if TYPE_CHECKING:
+    from joshua_core.plugins import Registrar
+
+PROJECT_NAME = "joshua"
+
+hookspec = pluggy.HookspecMarker(PROJECT_NAME)
+hookimpl = pluggy.HookimplMarker(PROJECT_NAME)
+
+
+@hookspec
+def joshua_register_backends(registry: Registrar) -> None:
+    """Register physics backends: `registry.add(name, target, summary)`.
+
+    Called by PluginHost when it is built. `target` is a `joshua_core.interfaces.Backend` subclass
+    or its "module:Class" path; `name` is what configs put in `backend` (e.g. "mujoco", "mjx").
+    """
+
+
+@hookspec
+def joshua_register_modes(registry: Registrar) -> None:
+    """Register simulation modes: `registry.add(name, target, summary)`.
+
+    Called by PluginHost when it is built. `name` is a `SimulationConfig.Mode` name
+    (e.g. "OFFSCREEN"); `target` is a `joshua_core.interfaces.Mode` subclass or its path.
+    """
+
+
+@hookspec
+def joshua_register_trainers(registry: Registrar) -> None:
+    """Register trainers: `registry.add(name, target, summary)`.
+
+    Called by PluginHost when it is built. `name` is what `TrainingConfig.trainer` names
+    (e.g. "ppo", "sb3"); `target` is a `joshua_core.interfaces.Trainer` subclass or its path.
+    """
+
+
+@hookspec
+def joshua_register_tasks(registry: Registrar) -> None:
+    """Register tasks (environments built from terms): `registry.add(name, target, summary)`.
+
+    Called by PluginHost when it is built. `name` is what `TrainingConfig.task` names
+    (e.g. "ant_locomotion"); `target` is the task's class or factory, or its path.
+    """
+
+
+@hookspec
+def joshua_register_terms(registry: Registrar) -> None:
+    """Register task terms: `registry.add(name, target, summary)`.
+
+    Called by PluginHost when it is built. `target` is a term function
+    `quantity_kernel(ctx, **params)` (see `joshua_core.interfaces.Term`) or its path; tasks and
+    configs refer to it by `name`.
+    """

@@ -1,0 +1,122 @@
+"""The small abstract classes plugins implement. Hooks only register these; the work happens here.
+
+- Backend: turns a model file into an Engine (one simulation you can step).
+- Mode: runs a SimulationConfig (viewer, replay, mirror, offscreen, headless).
+- Trainer: runs a TrainingConfig and leaves checkpoints behind.
+- Term: a task term, a plain function `quantity_kernel(ctx, **params)` returning a batched array.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+if TYPE_CHECKING:
+    from joshua_core.config_pb2 import SimulationConfig, TrainingConfig
+    from joshua_core.plugins import PluginHost
+
+
+class Engine(ABC):
+    """One simulation instance: a compiled model (`model`) and its mutable state (`data`)."""
+
+    model: Any
+    data: Any
+
+    @property
+    @abstractmethod
+    def timestep(self) -> float:
+        """Seconds of simulated time one `step()` advances."""
+
+    @property
+    @abstractmethod
+    def time(self) -> float:
+        """Current simulated time in seconds."""
+
+    @abstractmethod
+    def reset(self, keyframe: str | None = None) -> None:
+        """Return to the model's initial state, or to the named keyframe (its qpos, qvel and ctrl)."""
+
+    @abstractmethod
+    def step(self, n: int = 1) -> None:
+        """Advance the physics by `n` timesteps with the current controls."""
+
+    @abstractmethod
+    def set_ctrl(self, values: ArrayLike) -> None:
+        """Set all actuator controls; wrong length or non-finite values raise ValueError, changing nothing."""
+
+    @abstractmethod
+    def get_qpos(self) -> NDArray[np.float64]:
+        """Copy of the generalized positions."""
+
+    @abstractmethod
+    def get_sensor(self, name: str) -> NDArray[np.float64]:
+        """Copy of one named sensor's reading; an unknown name raises KeyError listing the sensors."""
+
+    @abstractmethod
+    def render(self, camera: str | int | None = None) -> NDArray[np.uint8]:
+        """Render the current state headless and return an (H, W, 3) uint8 RGB image."""
+
+    def close(self) -> None:
+        """Release rendering and other native resources; the engine may not be used afterwards."""
+
+    def __enter__(self) -> Engine:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+class Backend(ABC):
+    """A physics backend registered under a name (e.g. "mujoco"); creates engines."""
+
+    @abstractmethod
+    def create_engine(self, model_path: Path, *, render_width: int = 640, render_height: int = 480) -> Engine:
+        """Load the model at `model_path`; a missing or invalid model raises ModelError."""
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """What a mode or trainer gets besides its config: the plugins of this run and where to write."""
+
+    plugins: PluginHost
+    output_dir: Path
+
+    def create_engine(self, simulation: SimulationConfig) -> Engine:
+        """Engine for a simulation config, from the backend it names (default "mujoco")."""
+        backend = self.plugins.backend(simulation.backend or "mujoco")
+        return backend.create_engine(
+            Path(simulation.model_path),
+            render_width=simulation.render_width or 640,
+            render_height=simulation.render_height or 480,
+        )
+
+
+class Mode(ABC):
+    """A simulation mode, registered under its SimulationConfig.Mode name (e.g. "OFFSCREEN")."""
+
+    @abstractmethod
+    def run(self, config: SimulationConfig, context: RunContext) -> None:
+        """Run the simulation until done or interrupted; raise JoshuaError subclasses for user-facing failures."""
+
+
+class Trainer(ABC):
+    """A training algorithm, registered under a name (e.g. "ppo", "sb3")."""
+
+    @abstractmethod
+    def train(self, config: TrainingConfig, context: RunContext) -> Path:
+        """Train until `config.total_timesteps`; return the folder of the last checkpoint."""
+
+
+class Term(Protocol):
+    """A task term: `quantity_kernel(ctx, **params)` returns an array whose leading axis is environments.
+
+    `ctx` exposes the batched simulation state and the array namespace (`ctx.xp`: numpy or jax.numpy),
+    so one function runs on CPU and inside `jax.jit`.
+    """
+
+    def __call__(self, ctx: Any, **params: Any) -> Any: ...

@@ -1,0 +1,273 @@
+"""Plugin discovery and the component registry of one run.
+
+`PluginHost.discover()` loads every entry point of the group `joshua` into a fresh pluggy
+PluginManager (there is no global one), asks each plugin separately what it registers, and keeps
+going when a plugin is broken: the problem is recorded against that plugin and reported, the
+others still load. Components are looked up by kind and name; a name nobody provides raises an
+error that lists what is installed and which distribution would provide it.
+"""
+
+from __future__ import annotations
+
+import difflib
+import enum
+import importlib
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from importlib import metadata
+from types import ModuleType
+from typing import Any, TypeVar
+
+import pluggy
+
+from joshua_core import hookspecs
+from joshua_core.errors import PluginLoadError, PluginNotFoundError, UsageError
+from joshua_core.interfaces import Backend, Mode, Trainer
+
+ENTRY_POINT_GROUP = "joshua"
+DISABLE_ENV_VAR = "JOSHUA_DISABLE_PLUGINS"
+CORE_DISTRIBUTION = "joshua-core"
+
+
+class Kind(enum.Enum):
+    """The kinds of component a plugin can register, with the hook that registers each."""
+
+    BACKEND = "backend"
+    MODE = "mode"
+    TRAINER = "trainer"
+    TASK = "task"
+    TERM = "term"
+
+    @property
+    def hook_name(self) -> str:
+        return f"joshua_register_{self.value}s"
+
+
+# Which first-party distribution provides each well-known component, for "pip install ..." hints.
+KNOWN_PROVIDERS: dict[tuple[Kind, str], str] = {
+    (Kind.BACKEND, "mujoco"): "joshua-mujoco",
+    (Kind.BACKEND, "mjx"): "joshua-mjx",
+    (Kind.BACKEND, "usd"): "joshua-usd",
+    (Kind.MODE, "HEADLESS"): CORE_DISTRIBUTION,
+    (Kind.MODE, "INTERACTIVE"): "joshua-modes",
+    (Kind.MODE, "PASSIVE"): "joshua-modes",
+    (Kind.MODE, "OFFSCREEN"): "joshua-modes",
+    (Kind.MODE, "MIRROR"): "joshua-mirror",
+    (Kind.TRAINER, "ppo"): "joshua-ppo",
+    (Kind.TRAINER, "sb3"): "joshua-sb3",
+}
+
+
+@dataclass
+class PluginInfo:
+    """One installed plugin as `joshua plugins` shows it."""
+
+    name: str
+    distribution: str
+    version: str
+    module: str
+    disabled: bool = False
+    error: str | None = None
+    components: list[Component] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Component:
+    """A registered backend, mode, trainer, task or term; `target` is the object or its "module:attr" path."""
+
+    kind: Kind
+    name: str
+    target: object
+    summary: str
+    plugin: PluginInfo
+
+    def load(self) -> Any:
+        """Import the target if it is still a path; a failure names the plugin and the cause."""
+        if not isinstance(self.target, str):
+            return self.target
+        module_name, _, attribute = self.target.partition(":")
+        try:
+            return getattr(importlib.import_module(module_name), attribute)
+        except ModuleNotFoundError as error:
+            raise PluginLoadError(
+                f"{self.kind.value} '{self.name}' from plugin '{self.plugin.name}' ({self.plugin.distribution}) "
+                f"cannot be loaded: missing module '{error.name}'. Reinstall its dependencies: "
+                f"pip install --force-reinstall {self.plugin.distribution}"
+            ) from error
+        except Exception as error:  # a plugin's import can fail in any way; report it, don't crash
+            raise PluginLoadError(
+                f"{self.kind.value} '{self.name}' from plugin '{self.plugin.name}' ({self.plugin.distribution}) "
+                f"failed to load {self.target}: {type(error).__name__}: {error}"
+            ) from error
+
+
+class Registrar:
+    """Handed to one plugin's registration hook; records what that plugin provides of one kind."""
+
+    def __init__(self, kind: Kind, plugin: PluginInfo) -> None:
+        self.kind = kind
+        self.plugin = plugin
+        self.added: list[Component] = []
+
+    def add(self, name: str, target: object, summary: str = "") -> None:
+        """Register `target` (an object, or a "module:attr" path imported on first use) as `name`."""
+        if not isinstance(name, str) or not name:
+            raise TypeError(f"{self.kind.value} name must be a non-empty string, got {name!r}")
+        if isinstance(target, str) and ":" not in target:
+            raise ValueError(f"{self.kind.value} '{name}': target path must look like 'module:attribute', got {target!r}")
+        self.added.append(Component(self.kind, name, target, summary, self.plugin))
+
+
+T = TypeVar("T")
+
+
+class PluginHost:
+    """The plugins of one run and everything they registered."""
+
+    def __init__(self, plugins: Iterable[tuple[PluginInfo, ModuleType | object]]) -> None:
+        """Register already-imported plugin objects (entry-point modules, or any object with hookimpls)."""
+        self.plugins: list[PluginInfo] = []
+        self._components: dict[tuple[Kind, str], Component] = {}
+        self._conflicts: dict[tuple[Kind, str], list[PluginInfo]] = {}
+        self._manager = pluggy.PluginManager(hookspecs.PROJECT_NAME)
+        self._manager.add_hookspecs(hookspecs)
+        loaded: list[tuple[PluginInfo, object]] = []
+        for info, plugin in plugins:
+            self.plugins.append(info)
+            if info.disabled or info.error:
+                continue
+            try:
+                self._manager.register(plugin, name=info.name)
+            except Exception as error:  # pluggy rejects bad hook signatures and name clashes
+                info.error = f"{type(error).__name__}: {error}"
+                continue
+            loaded.append((info, plugin))
+        for kind in Kind:
+            for info, plugin in loaded:
+                self._collect(kind, info, plugin)
+
+    @classmethod
+    def discover(cls, disabled: Iterable[str] | None = None) -> PluginHost:
+        """Load the built-in plugin and every installed entry point of the group `joshua`.
+
+        `disabled` names plugins (entry-point or distribution names) to skip; by default it is read
+        from the comma-separated environment variable JOSHUA_DISABLE_PLUGINS.
+        """
+        if disabled is None:
+            disabled = os.environ.get(DISABLE_ENV_VAR, "").split(",")
+        skip = {name.strip() for name in disabled if name.strip()}
+        from joshua_core import __version__, builtin_plugin
+
+        entries: list[tuple[PluginInfo, object]] = [
+            (PluginInfo("core", CORE_DISTRIBUTION, __version__, builtin_plugin.__name__), builtin_plugin)
+        ]
+        for entry_point in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda ep: ep.name):
+            distribution = entry_point.dist.name if entry_point.dist else "unknown"
+            version = entry_point.dist.version if entry_point.dist else "?"
+            info = PluginInfo(entry_point.name, distribution, version, entry_point.value)
+            info.disabled = bool({entry_point.name, distribution} & skip)
+            module: object = None
+            if not info.disabled:
+                try:
+                    module = entry_point.load()
+                except Exception as error:  # a broken plugin must not stop the others
+                    info.error = f"{type(error).__name__}: {error}"
+            entries.append((info, module))
+        return cls(entries)
+
+    def _collect(self, kind: Kind, info: PluginInfo, plugin: object) -> None:
+        """Call one plugin's registration hook for `kind` and file what it registered."""
+        if not hasattr(plugin, kind.hook_name):
+            return
+        others = [p for p in self._manager.get_plugins() if p is not plugin]
+        call = self._manager.subset_hook_caller(kind.hook_name, remove_plugins=others)
+        registrar = Registrar(kind, info)
+        try:
+            call(registry=registrar)
+        except Exception as error:  # a plugin's hook can fail in any way; record it against the plugin
+            info.error = f"{kind.hook_name} raised {type(error).__name__}: {error}"
+            return
+        for component in registrar.added:
+            key = (kind, component.name)
+            info.components.append(component)
+            if key in self._conflicts:
+                self._conflicts[key].append(info)
+            elif key in self._components:
+                self._conflicts[key] = [self._components.pop(key).plugin, info]
+            else:
+                self._components[key] = component
+
+    @property
+    def conflicts(self) -> list[str]:
+        """One line per name registered by more than one plugin."""
+        return [self._conflict_message(kind, name) for kind, name in self._conflicts]
+
+    @property
+    def problems(self) -> list[str]:
+        """One line per broken plugin, then the conflicts."""
+        broken = [
+            f"plugin '{info.name}' ({info.distribution} {info.version}) is broken: {info.error}"
+            for info in self.plugins
+            if info.error
+        ]
+        return broken + self.conflicts
+
+    def _conflict_message(self, kind: Kind, name: str) -> str:
+        providers = self._conflicts[(kind, name)]
+        names = " and ".join(f"'{info.name}' ({info.distribution})" for info in providers)
+        return (
+            f"{kind.value} '{name}' is registered by both {names}; it is unusable until one is removed "
+            f"or disabled with {DISABLE_ENV_VAR}={providers[-1].name}"
+        )
+
+    def names(self, kind: Kind) -> list[str]:
+        """Sorted names of the usable components of one kind."""
+        return sorted(name for k, name in self._components if k is kind)
+
+    def component(self, kind: Kind, name: str) -> Component:
+        """The registered component, or an error saying what to install or fix."""
+        key = (kind, name)
+        if key in self._components:
+            return self._components[key]
+        if key in self._conflicts:
+            raise UsageError(self._conflict_message(kind, name))
+        raise PluginNotFoundError(self.missing_message(kind, name))
+
+    def missing_message(self, kind: Kind, name: str) -> str:
+        """Why `name` is unavailable: which distribution provides it, and what is installed instead."""
+        message = f"no {kind.value} named '{name}' is installed."
+        provider = KNOWN_PROVIDERS.get((kind, name))
+        installed = {info.distribution: info for info in self.plugins}
+        if provider and provider in installed and installed[provider].disabled:
+            message += f" It comes from {provider}, which is disabled by {DISABLE_ENV_VAR}."
+        elif provider and provider in installed and installed[provider].error:
+            message += f" It comes from {provider}, which is installed but broken: {installed[provider].error}"
+        elif provider:
+            message += f" Install the plugin that provides it: pip install {provider}"
+        else:
+            close = difflib.get_close_matches(name, self.names(kind), n=3)
+            if close:
+                message += f" Did you mean: {', '.join(close)}?"
+        available = ", ".join(self.names(kind)) or "none"
+        return f"{message}\nInstalled {kind.value}s: {available}"
+
+    def create(self, kind: Kind, name: str, base: type[T]) -> T:
+        """Instantiate the registered class `name`, checking that it implements `base`."""
+        component = self.component(kind, name)
+        target = component.load()
+        if not (isinstance(target, type) and issubclass(target, base)):
+            raise PluginLoadError(
+                f"{kind.value} '{name}' from plugin '{component.plugin.name}' ({component.plugin.distribution}) "
+                f"is {target!r}, not a subclass of {base.__module__}.{base.__qualname__}"
+            )
+        return target()
+
+    def backend(self, name: str) -> Backend:
+        return self.create(Kind.BACKEND, name, Backend)
+
+    def mode(self, name: str) -> Mode:
+        return self.create(Kind.MODE, name, Mode)
+
+    def trainer(self, name: str) -> Trainer:
+        return self.create(Kind.TRAINER, name, Trainer)

@@ -1,0 +1,22 @@
+"""Progress display for long work: a tqdm bar with rate and ETA on a terminal, periodic lines otherwise."""
+
+from __future__ import annotations
+
+import sys
+
+from tqdm import tqdm
+
+
+def progress_bar(total: float, *, description: str, unit: str) -> tqdm:
+    """A progress bar over `total` units; when stderr is not a terminal it prints a line every 5 s."""
+    interactive = sys.stderr.isatty()
+    return tqdm(
+        total=total,
+        desc=description,
+        unit=unit,
+        file=sys.stderr,
+        dynamic_ncols=interactive,
+        mininterval=0.2 if interactive else 5.0,
+        ascii=not interactive,
+        bar_format="{desc}: {percentage:3.0f}%|{bar:20}| {n:.1f}/{total:.1f} {unit} [{elapsed}<{remaining}, {rate_fmt}]",
+    )

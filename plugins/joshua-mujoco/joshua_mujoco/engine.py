@@ -1,0 +1,140 @@
+"""`MuJoCoEngine`: the MjModel + MjData lifecycle, stepping, controls, sensors and headless rendering."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from joshua_core.errors import ModelError
+from joshua_core.interfaces import Backend, Engine
+from joshua_core.resources import resolve_data_path
+
+
+class MuJoCoEngine(Engine):
+    """One MuJoCo simulation: `model` (MjModel), `data` (MjData) and the seed's methods.
+
+    Load from a file (`model_path`, relative paths also resolve against the shipped models) or from
+    an XML string (`xml`, with optional in-memory `assets` such as meshes keyed by file name).
+    """
+
+    def __init__(
+        self,
+        model_path: str | Path | None = None,
+        *,
+        xml: str | None = None,
+        assets: Mapping[str, bytes] | None = None,
+        render_width: int = 640,
+        render_height: int = 480,
+    ) -> None:
+        if (model_path is None) == (xml is None):
+            raise TypeError("MuJoCoEngine needs exactly one of model_path= or xml=")
+        self.model = _compile(model_path, xml, assets)
+        self.data = mujoco.MjData(self.model)
+        self.render_width = render_width
+        self.render_height = render_height
+        self._renderer: mujoco.Renderer | None = None
+        self._sensor_slices = {
+            self.model.sensor(i).name: slice(self.model.sensor_adr[i], self.model.sensor_adr[i] + self.model.sensor_dim[i])
+            for i in range(self.model.nsensor)
+        }
+        mujoco.mj_forward(self.model, self.data)
+
+    @property
+    def timestep(self) -> float:
+        return float(self.model.opt.timestep)
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    def reset(self, keyframe: str | None = None) -> None:
+        """mj_resetData, or mj_resetDataKeyframe for a named keyframe; then recompute derived quantities."""
+        if keyframe is None:
+            mujoco.mj_resetData(self.model, self.data)
+        else:
+            key_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_KEY, keyframe)
+            if key_id < 0:
+                names = [self.model.key(i).name for i in range(self.model.nkey)]
+                raise KeyError(f"no keyframe '{keyframe}' in the model; keyframes: {', '.join(names) or 'none'}")
+            mujoco.mj_resetDataKeyframe(self.model, self.data, key_id)
+        mujoco.mj_forward(self.model, self.data)
+
+    def step(self, n: int = 1) -> None:
+        """mj_step `n` times."""
+        mujoco.mj_step(self.model, self.data, n)
+
+    def set_ctrl(self, values: ArrayLike) -> None:
+        """Set `data.ctrl`; applied at the next step. Checked first, so a bad call changes nothing."""
+        ctrl = np.asarray(values, dtype=np.float64)
+        if ctrl.shape != (self.model.nu,):
+            raise ValueError(f"set_ctrl expects {self.model.nu} values (one per actuator), got shape {ctrl.shape}")
+        bad = np.flatnonzero(~np.isfinite(ctrl))
+        if bad.size:
+            names = ", ".join(f"{self.model.actuator(i).name or i}={ctrl[i]}" for i in bad)
+            raise ValueError(f"set_ctrl got non-finite values for actuators: {names}")
+        self.data.ctrl[:] = ctrl
+
+    def get_qpos(self) -> NDArray[np.float64]:
+        return self.data.qpos.copy()
+
+    def get_sensor(self, name: str) -> NDArray[np.float64]:
+        try:
+            return self.data.sensordata[self._sensor_slices[name]].copy()
+        except KeyError:
+            raise KeyError(
+                f"no sensor '{name}' in the model; sensors: {', '.join(self._sensor_slices) or 'none'}"
+            ) from None
+
+    def render(self, camera: str | int | None = None) -> NDArray[np.uint8]:
+        """(H, W, 3) uint8 image of the current state from `camera` (default: the model's first camera,
+        else the free camera)."""
+        if camera is None:
+            camera = 0 if self.model.ncam else -1
+        renderer = self._renderer or self._create_renderer()
+        renderer.update_scene(self.data, camera=camera)
+        return renderer.render()
+
+    def _create_renderer(self) -> mujoco.Renderer:
+        visual = self.model.vis.global_
+        visual.offwidth = max(visual.offwidth, self.render_width)
+        visual.offheight = max(visual.offheight, self.render_height)
+        try:
+            self._renderer = mujoco.Renderer(self.model, height=self.render_height, width=self.render_width)
+        except Exception as error:  # GL platform failures surface as several exception types
+            raise RuntimeError(
+                f"headless rendering failed ({type(error).__name__}: {error}). Set MUJOCO_GL=egl (or osmesa) "
+                "before importing mujoco, or import joshua_mujoco first; Debian packages for EGL: "
+                "libegl1 libgl1-mesa-dri libopengl0"
+            ) from error
+        return self._renderer
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+class MuJoCoBackend(Backend):
+    """The `mujoco` backend: a MuJoCoEngine per model."""
+
+    def create_engine(self, model_path: Path, *, render_width: int = 640, render_height: int = 480) -> MuJoCoEngine:
+        return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height)
+
+
+def _compile(model_path: str | Path | None, xml: str | None, assets: Mapping[str, bytes] | None) -> mujoco.MjModel:
+    """Compile the model, turning MuJoCo's errors into ModelError that names the file."""
+    if model_path is not None:
+        path = resolve_data_path(model_path)
+        source = str(path)
+    else:
+        source = "<xml string>"
+    try:
+        if model_path is not None:
+            return mujoco.MjModel.from_xml_path(source)
+        return mujoco.MjModel.from_xml_string(xml, dict(assets or {}))
+    except ValueError as error:
+        raise ModelError(f"{source}: model does not compile: {error}") from None
