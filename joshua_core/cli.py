@@ -23,7 +23,7 @@ from joshua_core.config import (
 from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig
 from joshua_core.errors import JoshuaError, PluginNotFoundError
 from joshua_core.interfaces import RunContext
-from joshua_core.plugins import DISABLE_ENV_VAR, Kind, PluginHost
+from joshua_core.plugins import DISABLE_ENV_VAR, PluginHost
 
 DEFAULT_OUTPUT_DIR = "joshua_output"
 

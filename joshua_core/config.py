@@ -57,7 +57,7 @@ def preset_path(name: str) -> Path:
 
 def load_preset(name: str) -> LoadedConfig:
     """Parse a shipped preset (following its `extends`)."""
-    return LoadedConfig(_parse_file(preset_path(name), seen=()), f"preset {name}", None)
+    return LoadedConfig(_parse_file(preset_path(name), seen=(name,)), f"preset {name}", None)
 
 
 def load_file(path: str | Path) -> LoadedConfig:
@@ -100,7 +100,7 @@ def _bare_message(error: text_format.ParseError) -> str:
 def _clear_repeated_fields_set_in(overlay: Message, base: Message) -> None:
     """Empty every repeated field of `base` that `overlay` lists, so the overlay replaces, not appends."""
     for field, value in overlay.ListFields():
-        if field.label == FieldDescriptor.LABEL_REPEATED:
+        if field.is_repeated:
             base.ClearField(field.name)
         elif field.type == FieldDescriptor.TYPE_MESSAGE:
             _clear_repeated_fields_set_in(value, getattr(base, field.name))
@@ -138,7 +138,7 @@ def apply_override(config: JoshuaConfig, assignment: str) -> None:
 
 def _descend(message: Message, field: FieldDescriptor, index: str | None, assignment: str) -> Message:
     """The sub-message `field` (item `index` of a list; one past the end appends a new item)."""
-    if field.label != FieldDescriptor.LABEL_REPEATED:
+    if not field.is_repeated:
         if index is not None:
             raise UsageError(f"--set {assignment}: '{field.name}' is not a list")
         return getattr(message, field.name)
@@ -155,7 +155,7 @@ def _merge_field(message: Message, field: FieldDescriptor, value: str, assignmen
     """Set one scalar field by letting protobuf's text parser read `name: value` (types, enums, quoting)."""
     if field.type == FieldDescriptor.TYPE_STRING and not value.startswith(('"', "'")):
         value = '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if field.label == FieldDescriptor.LABEL_REPEATED:
+    if field.is_repeated:
         message.ClearField(field.name)
     try:
         text_format.Merge(f"{field.name}: {value}", message)

@@ -15,7 +15,7 @@ import numpy as np
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import JoshuaError
-from joshua_core.interfaces import Mode, RunContext
+from joshua_core.interfaces import Engine, Mode, RunContext
 from joshua_core.progress import progress_bar
 
 DEFAULT_DURATION_S = 5.0
@@ -43,7 +43,7 @@ class HeadlessMode(Mode):
         )
 
 
-def simulate(engine, duration: float) -> dict[str, float]:
+def simulate(engine: Engine, duration: float) -> dict[str, float]:
     """Step `engine` for `duration` simulated seconds, one-second chunks, checking finiteness each chunk."""
     total_steps = max(1, math.ceil(duration / engine.timestep))
     chunk = max(1, round(1.0 / engine.timestep))
@@ -57,8 +57,9 @@ def simulate(engine, duration: float) -> dict[str, float]:
             engine.step(n)
             done += n
             qpos = engine.get_qpos()
-            if not np.all(np.isfinite(qpos)):
-                raise JoshuaError(f"simulation diverged (non-finite qpos) by t = {engine.time:.3f} s")
+            problem = engine.instability() or (None if np.all(np.isfinite(qpos)) else "non-finite qpos")
+            if problem:
+                raise JoshuaError(f"simulation diverged by t = {done * engine.timestep:.3f} s: {problem}")
             max_drift = max(max_drift, float(np.max(np.abs(qpos - start_qpos), initial=0.0)))
             bar.update(n * engine.timestep)
     wall = time.perf_counter() - started

@@ -58,9 +58,14 @@ class Engine(ABC):
         """Copy of one named sensor's reading; an unknown name raises KeyError listing the sensors."""
 
     @abstractmethod
+    def instability(self) -> str | None:
+        """Describe numerical instability since the last reset (the physics blew up), or None if there was none."""
+
+    @abstractmethod
     def render(self, camera: str | int | None = None) -> NDArray[np.uint8]:
         """Render the current state headless and return an (H, W, 3) uint8 RGB image."""
 
+    @abstractmethod
     def close(self) -> None:
         """Release rendering and other native resources; the engine may not be used afterwards."""
 

@@ -115,7 +115,9 @@ class Registrar:
         if not isinstance(name, str) or not name:
             raise TypeError(f"{self.kind.value} name must be a non-empty string, got {name!r}")
         if isinstance(target, str) and ":" not in target:
-            raise ValueError(f"{self.kind.value} '{name}': target path must look like 'module:attribute', got {target!r}")
+            raise ValueError(
+                f"{self.kind.value} '{name}': target path must look like 'module:attribute', got {target!r}"
+            )
         self.added.append(Component(self.kind, name, target, summary, self.plugin))
 
 

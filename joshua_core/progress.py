@@ -6,6 +6,8 @@ import sys
 
 from tqdm import tqdm
 
+BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar:20}| {n:.1f}/{total:.1f} {unit} [{elapsed}<{remaining}, {rate_fmt}]"
+
 
 def progress_bar(total: float, *, description: str, unit: str) -> tqdm:
     """A progress bar over `total` units; when stderr is not a terminal it prints a line every 5 s."""
@@ -18,5 +20,5 @@ def progress_bar(total: float, *, description: str, unit: str) -> tqdm:
         dynamic_ncols=interactive,
         mininterval=0.2 if interactive else 5.0,
         ascii=not interactive,
-        bar_format="{desc}: {percentage:3.0f}%|{bar:20}| {n:.1f}/{total:.1f} {unit} [{elapsed}<{remaining}, {rate_fmt}]",
+        bar_format=BAR_FORMAT,
     )

@@ -1,9 +1,22 @@
-"""JOSHUA's MuJoCo backend: `MuJoCoEngine`, one MuJoCo simulation behind the seed's API."""
+"""JOSHUA's MuJoCo backend: `MuJoCoEngine`, one MuJoCo simulation behind the seed's API.
 
-from joshua_mujoco.gl import choose_headless_gl
+The package itself stays light (the `joshua` entry point imports `joshua_mujoco.plugin`);
+mujoco is imported the first time `MuJoCoEngine` or `MuJoCoBackend` is used.
+"""
 
-choose_headless_gl()  # must run before mujoco is imported: mujoco picks its GL platform at import
+from __future__ import annotations
 
-from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine  # noqa: E402
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine
 
 __all__ = ["MuJoCoBackend", "MuJoCoEngine"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in __all__:
+        from joshua_mujoco import engine
+
+        return getattr(engine, name)
+    raise AttributeError(f"module 'joshua_mujoco' has no attribute '{name}'")

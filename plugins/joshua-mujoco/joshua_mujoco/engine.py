@@ -5,13 +5,25 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-import mujoco
-import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from joshua_mujoco.gl import choose_headless_gl
 
-from joshua_core.errors import ModelError
-from joshua_core.interfaces import Backend, Engine
-from joshua_core.resources import resolve_data_path
+choose_headless_gl()  # must run before mujoco is imported: mujoco picks its GL platform at import
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+from numpy.typing import ArrayLike, NDArray  # noqa: E402
+
+from joshua_core.errors import ModelError  # noqa: E402
+from joshua_core.interfaces import Backend, Engine  # noqa: E402
+from joshua_core.resources import resolve_data_path  # noqa: E402
+
+# MuJoCo warnings that mean the state went non-finite (MuJoCo then silently resets the data).
+_INSTABILITY_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQACC,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADCTRL,
+)
 
 
 class MuJoCoEngine(Engine):
@@ -38,7 +50,9 @@ class MuJoCoEngine(Engine):
         self.render_height = render_height
         self._renderer: mujoco.Renderer | None = None
         self._sensor_slices = {
-            self.model.sensor(i).name: slice(self.model.sensor_adr[i], self.model.sensor_adr[i] + self.model.sensor_dim[i])
+            self.model.sensor(i).name: slice(
+                self.model.sensor_adr[i], self.model.sensor_adr[i] + self.model.sensor_dim[i]
+            )
             for i in range(self.model.nsensor)
         }
         mujoco.mj_forward(self.model, self.data)
@@ -88,6 +102,15 @@ class MuJoCoEngine(Engine):
             raise KeyError(
                 f"no sensor '{name}' in the model; sensors: {', '.join(self._sensor_slices) or 'none'}"
             ) from None
+
+    def instability(self) -> str | None:
+        """MuJoCo's bad-qacc/qvel/qpos/ctrl warnings since the last reset, as one message."""
+        raised = [
+            f"{warning.name} x{self.data.warning[warning].number}"
+            for warning in _INSTABILITY_WARNINGS
+            if self.data.warning[warning].number
+        ]
+        return f"MuJoCo reported a non-finite state ({', '.join(raised)})" if raised else None
 
     def render(self, camera: str | int | None = None) -> NDArray[np.uint8]:
         """(H, W, 3) uint8 image of the current state from `camera` (default: the model's first camera,

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Set up JOSHUA in ./.venv on Debian with Python 3.11.
+#   ./setup.sh          the runtime: joshua-core + the joshua-mujoco backend
+#   ./setup.sh --dev    also what the tests need: pytest, protoc (grpcio-tools), trimesh, MJX + JAX (CPU)
+# Versions come from constraints.txt. pip's cache stays inside the clone (.cache/pip).
+set -euo pipefail
+cd "$(dirname "$0")"
+
+SYSTEM_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0)  # EGL: headless rendering without a display
+missing=()
+for package in "${SYSTEM_PACKAGES[@]}"; do
+  dpkg -s "$package" >/dev/null 2>&1 || missing+=("$package")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing system packages: ${missing[*]}"
+  sudo_cmd=()
+  [[ $(id -u) == 0 ]] || sudo_cmd=(sudo)
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq "${missing[@]}"
+fi
+
+PYTHON=${PYTHON:-python3.11}
+command -v "$PYTHON" >/dev/null || PYTHON=python3
+[[ -x .venv/bin/python ]] || "$PYTHON" -m venv .venv
+export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
+
+requirements=(-e . -e plugins/joshua-mujoco)
+if [[ ${1:-} == --dev ]]; then
+  requirements=(-e ".[dev]" -e plugins/joshua-mujoco mujoco-mjx jax)
+fi
+echo "setup: installing ${requirements[*]} into .venv"
+.venv/bin/pip install -q -c constraints.txt "${requirements[@]}"
+echo "setup: done; run .venv/bin/joshua --help"

@@ -1,0 +1,88 @@
+"""The `joshua` command end to end: exit codes, messages, the embedded default run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+
+def test_presets_lists_the_nine_with_descriptions(run_joshua) -> None:
+    result = run_joshua("presets")
+    assert result.returncode == 0
+    names = [line.split()[0] for line in result.stdout.splitlines()]
+    assert len(names) == 9 and "sim_offscreen" in names and "isaac_trileg" in names
+    assert all(len(line.split(maxsplit=1)) == 2 for line in result.stdout.splitlines())
+
+
+def test_plugins_lists_the_mujoco_backend_and_the_builtin_mode(run_joshua) -> None:
+    result = run_joshua("plugins")
+    assert result.returncode == 0
+    assert "mujoco  (joshua-mujoco 0.1.0)" in result.stdout
+    assert "backend  mujoco" in result.stdout and "mode     HEADLESS" in result.stdout
+
+
+def test_unknown_preset_exits_2_with_suggestions(run_joshua) -> None:
+    result = run_joshua("--preset", "no_such")
+    assert result.returncode == 2
+    assert "unknown preset 'no_such'" in result.stderr and "Available presets:" in result.stderr
+    close = run_joshua("--preset", "sim_pasive")
+    assert close.returncode == 2 and "Did you mean: sim_passive" in close.stderr
+    assert "Traceback" not in result.stderr + close.stderr
+
+
+def test_config_parse_error_exits_2_with_location(run_joshua, tmp_path: Path) -> None:
+    config = tmp_path / "run.pbtxt"
+    config.write_text("simulation {\n  mode: HEADLESS\n  model_path: so_arm100/scene.xml\n}\n")
+    result = run_joshua("--config", str(config))
+    assert result.returncode == 2
+    assert f"{config}:3:15:" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_missing_mode_plugin_says_what_to_install(run_joshua) -> None:
+    result = run_joshua("--preset", "sim_passive")
+    assert result.returncode == 2
+    assert "no mode named 'PASSIVE' is installed. Install the plugin that provides it: pip install joshua-modes" in (
+        result.stderr
+    )
+    training = run_joshua("--preset", "ant_train_mjx")
+    assert training.returncode == 2
+    assert "pip install joshua-ppo" in training.stderr and "pip install joshua-mjx" in training.stderr
+
+
+def test_missing_model_exits_2_naming_the_paths(run_joshua, tmp_path: Path) -> None:
+    result = run_joshua("--set", "simulation.model_path=robots/absent.xml")
+    assert result.returncode == 2
+    assert str(tmp_path / "robots" / "absent.xml") in result.stderr
+
+
+def test_bad_override_exits_2(run_joshua) -> None:
+    result = run_joshua("--set", "simulation.duraton=3")
+    assert result.returncode == 2 and "Did you mean: duration" in result.stderr
+
+
+def test_print_config_shows_resolved_paths(run_joshua) -> None:
+    result = run_joshua("--preset", "sim_passive", "--print-config")
+    assert result.returncode == 0
+    assert 'model_path: "/' in result.stdout and "so_arm100/scene.xml" in result.stdout
+
+
+def test_default_run_steps_the_arm_headless_and_writes_a_summary(run_joshua, tmp_path: Path) -> None:
+    result = run_joshua("--set", "simulation.duration=2")
+    assert result.returncode == 0, result.stderr
+    summary = json.loads((tmp_path / "joshua_output" / "headless_summary.json").read_text())
+    assert summary["sim_seconds"] >= 2.0 and summary["steps"] > 0
+    assert summary["realtime_factor"] > 0 and summary["keyframe"] == "home"
+    assert summary["max_qpos_drift"] < 1e-3  # held at home by its actuators
+    assert "real time" in result.stdout
+
+
+def test_diverging_model_is_a_runtime_failure(run_joshua, tmp_path: Path) -> None:
+    model = tmp_path / "unstable.xml"
+    model.write_text(
+        '<mujoco><option timestep="0.5"/><worldbody><body><joint type="slide" stiffness="1e9"/>'
+        '<geom size="0.1" mass="1e-6"/></body></worldbody>'
+        '<keyframe><key name="start" qpos="1"/></keyframe></mujoco>'
+    )
+    result = run_joshua("--set", f"simulation.model_path={model}", "--set", "simulation.keyframe=start")
+    assert result.returncode == 1
+    assert "simulation diverged" in result.stderr

@@ -1,0 +1,46 @@
+"""Installed wheels work outside the repository: presets, models and generated code ship inside."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_wheels_work_from_any_directory(tmp_path: Path) -> None:
+    wheels, site, elsewhere = tmp_path / "wheels", tmp_path / "site", tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    pip = [sys.executable, "-m", "pip", "--disable-pip-version-check", "-q"]
+    sources = [str(REPO_ROOT), str(REPO_ROOT / "plugins" / "joshua-mujoco")]
+    subprocess.run([*pip, "wheel", "--no-deps", "--no-build-isolation", "-w", str(wheels), *sources], check=True)
+    subprocess.run([*pip, "install", "--no-deps", "--target", str(site), *map(str, wheels.glob("*.whl"))], check=True)
+    env = {**os.environ, "PYTHONPATH": str(site)}
+
+    def joshua(*args: str) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "joshua_core.cli", *args]
+        return subprocess.run(command, cwd=elsewhere, env=env, capture_output=True, text=True, timeout=120)
+
+    located = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import joshua_core, joshua_mujoco; print(joshua_core.__file__, joshua_mujoco.__file__)",
+        ],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert all(path.startswith(str(site)) for path in located.stdout.split())
+    assert len(joshua("presets").stdout.splitlines()) == 9
+    printed = joshua("--preset", "sim_passive", "--print-config")
+    assert printed.returncode == 0, printed.stderr
+    assert f'model_path: "{site}/joshua_core/models/so_arm100/scene.xml"' in printed.stdout
+    assert f'trajectory_path: "{site}/joshua_core/models/trajectories/so_arm100_example.csv"' in printed.stdout
+    run = joshua("--set", "simulation.duration=0.2")
+    assert run.returncode == 0, run.stderr
+    assert (elsewhere / "joshua_output" / "headless_summary.json").is_file()

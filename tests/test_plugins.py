@@ -1,0 +1,179 @@
+"""Plugin discovery: entry points, broken and duplicate plugins, disabling, lazy loading, errors."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from joshua_core import hookimpl
+from joshua_core.errors import PluginLoadError, PluginNotFoundError, UsageError
+from joshua_core.interfaces import Backend, Mode
+from joshua_core.plugins import Kind, PluginHost, PluginInfo
+
+
+def install_fake_distribution(site: Path, distribution: str, entry_name: str, module: str, source: str) -> None:
+    """Write a real installed distribution (module + dist-info with a `joshua` entry point) into `site`."""
+    site.mkdir(exist_ok=True)
+    (site / f"{module}.py").write_text(textwrap.dedent(source))
+    dist_info = site / f"{distribution.replace('-', '_')}-0.3.dist-info"
+    dist_info.mkdir()
+    (dist_info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {distribution}\nVersion: 0.3\n")
+    (dist_info / "entry_points.txt").write_text(f"[joshua]\n{entry_name} = {module}\n")
+
+
+BROKEN_PLUGIN = """
+    raise ImportError("libfoo.so.1: cannot open shared object file")
+"""
+
+SECOND_MUJOCO_PLUGIN = """
+    from joshua_core import hookimpl
+
+    @hookimpl
+    def joshua_register_backends(registry):
+        registry.add("mujoco", "joshua_mujoco.engine:MuJoCoBackend", "a fork")
+"""
+
+
+def test_broken_plugin_is_reported_and_the_others_still_load(tmp_path: Path, run_joshua) -> None:
+    site = tmp_path / "site"
+    install_fake_distribution(site, "joshua-broken", "broken", "joshua_broken_plugin", BROKEN_PLUGIN)
+    listing = run_joshua("plugins", env={"PYTHONPATH": str(site)})
+    assert listing.returncode == 0, listing.stderr
+    assert "broken  (joshua-broken 0.3) [BROKEN]" in listing.stdout
+    assert "ImportError: libfoo.so.1: cannot open shared object file" in listing.stdout
+    assert "backend  mujoco" in listing.stdout
+
+    run = run_joshua("--set", "simulation.duration=0.2", env={"PYTHONPATH": str(site)})
+    assert run.returncode == 0, run.stderr
+    assert "warning: plugin 'broken' (joshua-broken 0.3) is broken" in run.stderr
+    assert "Traceback" not in run.stderr
+
+
+def test_duplicate_names_are_rejected_naming_both_providers(tmp_path: Path, run_joshua) -> None:
+    site = tmp_path / "site"
+    install_fake_distribution(site, "mujoco-fork", "mujoco_fork", "mujoco_fork_plugin", SECOND_MUJOCO_PLUGIN)
+    env = {"PYTHONPATH": str(site)}
+    listing = run_joshua("plugins", env=env)
+    assert (
+        "conflict: backend 'mujoco' is registered by both 'mujoco' (joshua-mujoco) and 'mujoco_fork' (mujoco-fork)"
+        in (listing.stdout)
+    )
+    run = run_joshua(env=env)
+    assert run.returncode == 2
+    assert "registered by both" in run.stderr and "JOSHUA_DISABLE_PLUGINS=mujoco_fork" in run.stderr
+    fixed = run_joshua("--set", "simulation.duration=0.2", env={**env, "JOSHUA_DISABLE_PLUGINS": "mujoco-fork"})
+    assert fixed.returncode == 0, fixed.stderr
+
+
+def test_disabled_plugin_is_listed_and_named_when_needed(run_joshua) -> None:
+    env = {"JOSHUA_DISABLE_PLUGINS": "mujoco"}
+    assert "[disabled]" in run_joshua("plugins", env=env).stdout
+    run = run_joshua(env=env)
+    assert run.returncode == 2
+    assert "no backend named 'mujoco' is installed. It comes from joshua-mujoco, which is disabled" in run.stderr
+
+
+def test_entry_point_modules_import_no_physics_or_ml_stack() -> None:
+    probe = (
+        "import sys; from joshua_core.plugins import PluginHost, Kind; host = PluginHost.discover(); "
+        "assert host.names(Kind.BACKEND), 'no backend'; "
+        "print(sorted(m for m in ('mujoco', 'jax', 'torch', 'pxr', 'rclpy') if m in sys.modules))"
+    )
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    assert result.stdout.strip() == "[]"
+
+
+class GoodMode(Mode):
+    def run(self, config, context) -> None:
+        return None
+
+
+def host_of(*plugins: tuple[str, object]) -> PluginHost:
+    return PluginHost((PluginInfo(name, f"dist-{name}", "1.0", name), plugin) for name, plugin in plugins)
+
+
+def plugin_module(**hooks: object) -> ModuleType:
+    """An in-memory plugin module whose attributes are the given hook implementations."""
+    module = ModuleType("test_plugin")
+    for hook_name, function in hooks.items():
+        setattr(module, hook_name, hookimpl(function))
+    return module
+
+
+def plugin_registering(kind: str, name: str, target: object) -> ModuleType:
+    def register(registry) -> None:
+        registry.add(name, target, "test component")
+
+    return plugin_module(**{f"joshua_register_{kind}s": register})
+
+
+def test_component_is_created_from_an_object_or_a_lazy_path() -> None:
+    host = host_of(
+        ("direct", plugin_registering("mode", "GOOD", GoodMode)),
+        ("lazy", plugin_registering("backend", "mujoco", "joshua_mujoco.engine:MuJoCoBackend")),
+    )
+    assert isinstance(host.mode("GOOD"), GoodMode)
+    assert isinstance(host.backend("mujoco"), Backend)
+    assert host.names(Kind.MODE) == ["GOOD"]
+
+
+def test_unknown_name_lists_installed_ones_and_the_providing_distribution() -> None:
+    host = host_of(("direct", plugin_registering("mode", "GOOD", GoodMode)))
+    with pytest.raises(PluginNotFoundError, match=r"(?s)pip install joshua-modes.*Installed modes: GOOD"):
+        host.mode("OFFSCREEN")
+    with pytest.raises(PluginNotFoundError, match="Did you mean: GOOD"):
+        host.mode("GOOF")
+
+
+def test_hook_that_raises_marks_only_its_plugin_broken() -> None:
+    def explode(registry) -> None:
+        registry.add("HALF", GoodMode)
+        raise RuntimeError("config file missing")
+
+    host = host_of(
+        ("bad", plugin_module(joshua_register_modes=explode)),
+        ("good", plugin_registering("mode", "GOOD", GoodMode)),
+    )
+    assert host.names(Kind.MODE) == ["GOOD"]
+    assert host.problems == [
+        "plugin 'bad' (dist-bad 1.0) is broken: joshua_register_modes raised RuntimeError: config file missing"
+    ]
+
+
+def test_hookimpl_with_a_wrong_signature_is_a_broken_plugin() -> None:
+    def wrong(registry, extra) -> None:
+        return None
+
+    host = host_of(("bad", plugin_module(joshua_register_modes=wrong)))
+    assert "bad" in host.problems[0] and "extra" in host.problems[0]
+
+
+def test_lazy_target_with_a_missing_dependency_names_plugin_and_module() -> None:
+    host = host_of(("heavy", plugin_registering("trainer", "ppo", "joshua_no_such_module.trainer:PPO")))
+    with pytest.raises(PluginLoadError, match=r"plugin 'heavy' \(dist-heavy\).*missing module 'joshua_no_such_module'"):
+        host.component(Kind.TRAINER, "ppo").load()
+
+
+def test_target_of_the_wrong_type_is_rejected() -> None:
+    host = host_of(("odd", plugin_registering("mode", "ODD", "joshua_core.config:load_file")))
+    with pytest.raises(PluginLoadError, match="not a subclass of joshua_core.interfaces.Mode"):
+        host.mode("ODD")
+
+
+def test_conflict_makes_the_name_unusable() -> None:
+    host = host_of(
+        ("one", plugin_registering("mode", "GOOD", GoodMode)),
+        ("two", plugin_registering("mode", "GOOD", GoodMode)),
+    )
+    with pytest.raises(UsageError, match="'one' \\(dist-one\\) and 'two' \\(dist-two\\)"):
+        host.mode("GOOD")
+
+
+def test_registration_rejects_malformed_targets() -> None:
+    host = host_of(("bad", plugin_registering("mode", "X", "no_colon_here")))
+    assert "module:attribute" in host.problems[0]
