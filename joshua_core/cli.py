@@ -107,9 +107,8 @@ def list_plugins(host: PluginHost) -> int:
     return 0
 
 
-def load(args: argparse.Namespace) -> JoshuaConfig:
-    """The config the arguments describe, overridden and finalized."""
-    loaded: LoadedConfig
+def load(args: argparse.Namespace) -> LoadedConfig:
+    """The config the arguments describe, with the --set overrides applied."""
     if args.preset:
         loaded = load_preset(args.preset)
     elif args.config:
@@ -118,25 +117,26 @@ def load(args: argparse.Namespace) -> JoshuaConfig:
         loaded = load_default()
     for assignment in args.overrides:
         apply_override(loaded.message, assignment)
-    return finalize(loaded)
+    return loaded
 
 
 def run(args: argparse.Namespace) -> int:
-    config = load(args)
+    loaded = load(args)
     if args.print_config:
-        print(text_format.MessageToString(config), end="")
+        print(text_format.MessageToString(finalize(loaded)), end="")
         return 0
     host = PluginHost.discover()
     for problem in host.problems:
         print(f"joshua: warning: {problem}", file=sys.stderr)
     missing = []
-    for kind, name in required_components(config):
+    for kind, name in required_components(loaded.message):  # plugins first: installing them comes first
         try:
             host.component(kind, name)
         except PluginNotFoundError as error:
             missing.append(str(error))
     if missing:
         raise PluginNotFoundError("\n".join(missing))
+    config = finalize(loaded)
     if config.operation_mode == JoshuaConfig.SIMULATION:
         simulation = config.simulation
         context = RunContext(host, Path(simulation.output_dir or DEFAULT_OUTPUT_DIR))

@@ -28,6 +28,17 @@ FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
     TrainingConfig.SB3: ("sb3", "mujoco"),
 }
 DEFAULT_SIMULATION_BACKEND = "mujoco"
+NON_NEGATIVE_TRAINING_FIELDS = (
+    "num_envs",
+    "total_timesteps",
+    "num_steps",
+    "num_epochs",
+    "minibatch_size",
+    "learning_rate",
+    "gamma",
+    "gae_lambda",
+    "clip_epsilon",
+)
 
 
 @dataclass(frozen=True)
@@ -80,6 +91,7 @@ def _parse_file(path: Path, seen: tuple[str, ...]) -> JoshuaConfig:
     merged = _parse_file(preset_path(own.extends), seen=(*seen, own.extends))
     _clear_repeated_fields_set_in(own, merged)
     text_format.Merge(text, merged)
+    merged.ClearField("extends")  # applied; the result stands on its own (e.g. in --print-config)
     return merged
 
 
@@ -114,6 +126,8 @@ def apply_override(config: JoshuaConfig, assignment: str) -> None:
     path, separator, value = assignment.partition("=")
     if not separator or not path:
         raise UsageError(f"--set expects path.to.field=value, got '{assignment}'")
+    if path.strip() == "extends":
+        raise UsageError("--set extends=... has no effect; put `extends` in a config file or use --preset")
     message: Message = config
     parts = path.strip().split(".")
     for depth, part in enumerate(parts):
@@ -180,12 +194,13 @@ def finalize(loaded: LoadedConfig) -> JoshuaConfig:
             raise ConfigError(f"{loaded.source}: render_width and render_height must not be negative")
         if simulation.duration < 0:
             raise ConfigError(f"{loaded.source}: simulation.duration must not be negative")
+        simulation.backend = simulation.backend or DEFAULT_SIMULATION_BACKEND
     else:
         training = config.training
         if not training.model_path:
             raise ConfigError(f"{loaded.source}: training.model_path is required")
         training.model_path = str(resolve_data_path(training.model_path, base_dirs=base_dirs))
-        for name in ("num_envs", "total_timesteps", "num_steps", "num_epochs", "minibatch_size"):
+        for name in NON_NEGATIVE_TRAINING_FIELDS:
             if getattr(training, name) < 0:
                 raise ConfigError(f"{loaded.source}: training.{name} must not be negative")
         trainer, backend = FRAMEWORK_DEFAULTS[training.framework]
@@ -195,11 +210,12 @@ def finalize(loaded: LoadedConfig) -> JoshuaConfig:
 
 
 def required_components(config: JoshuaConfig) -> list[tuple[Kind, str]]:
-    """The plugin components a config needs to run."""
+    """The plugin components a config needs to run (before or after `finalize`)."""
     if config.operation_mode == JoshuaConfig.SIMULATION:
         mode = SimulationConfig.Mode.Name(config.simulation.mode)
         return [(Kind.MODE, mode), (Kind.BACKEND, config.simulation.backend or DEFAULT_SIMULATION_BACKEND)]
-    return [(Kind.TRAINER, config.training.trainer), (Kind.BACKEND, config.training.backend)]
+    trainer, backend = FRAMEWORK_DEFAULTS[config.training.framework]
+    return [(Kind.TRAINER, config.training.trainer or trainer), (Kind.BACKEND, config.training.backend or backend)]
 
 
 # What `joshua` runs when given neither --preset nor --config: a headless smoke run of the arm at home.

@@ -14,7 +14,7 @@ import numpy as np
 
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import SimulationConfig
-from joshua_core.errors import JoshuaError
+from joshua_core.errors import ConfigError, JoshuaError
 from joshua_core.interfaces import Engine, Mode, RunContext
 from joshua_core.progress import progress_bar
 
@@ -26,12 +26,12 @@ class HeadlessMode(Mode):
     """Runs `duration` simulated seconds as fast as possible and reports how it went."""
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
-        engine = context.create_engine(config)
-        try:
-            engine.reset(config.keyframe or None)
+        with context.create_engine(config) as engine:
+            try:
+                engine.reset(config.keyframe or None)
+            except KeyError as error:
+                raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
             summary = simulate(engine, config.duration or DEFAULT_DURATION_S)
-        finally:
-            engine.close()
         summary["model_path"] = config.model_path
         summary["keyframe"] = config.keyframe
         path = context.output_dir / SUMMARY_FILE

@@ -92,8 +92,8 @@ class RunContext:
     output_dir: Path
 
     def create_engine(self, simulation: SimulationConfig) -> Engine:
-        """Engine for a simulation config, from the backend it names (default "mujoco")."""
-        backend = self.plugins.backend(simulation.backend or "mujoco")
+        """Engine for a finalized simulation config, from the backend it names."""
+        backend = self.plugins.backend(simulation.backend)
         return backend.create_engine(
             Path(simulation.model_path),
             render_width=simulation.render_width or 640,

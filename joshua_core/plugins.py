@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import difflib
 import enum
+import functools
 import importlib
 import os
 from collections.abc import Iterable
@@ -86,20 +87,19 @@ class Component:
         """Import the target if it is still a path; a failure names the plugin and the cause."""
         if not isinstance(self.target, str):
             return self.target
-        module_name, _, attribute = self.target.partition(":")
+        module_name, _, attribute_path = self.target.partition(":")
+        owner = f"{self.kind.value} '{self.name}' from plugin '{self.plugin.name}' ({self.plugin.distribution})"
         try:
-            return getattr(importlib.import_module(module_name), attribute)
+            return functools.reduce(getattr, attribute_path.split("."), importlib.import_module(module_name))
         except ModuleNotFoundError as error:
+            if error.name and module_name.startswith(error.name):
+                raise PluginLoadError(f"{owner} names module '{module_name}', which does not exist") from error
             raise PluginLoadError(
-                f"{self.kind.value} '{self.name}' from plugin '{self.plugin.name}' ({self.plugin.distribution}) "
-                f"cannot be loaded: missing module '{error.name}'. Reinstall its dependencies: "
-                f"pip install --force-reinstall {self.plugin.distribution}"
+                f"{owner} cannot be loaded: missing module '{error.name}'. Reinstall the plugin with its "
+                f"dependencies: pip install --force-reinstall {self.plugin.distribution}"
             ) from error
         except Exception as error:  # a plugin's import can fail in any way; report it, don't crash
-            raise PluginLoadError(
-                f"{self.kind.value} '{self.name}' from plugin '{self.plugin.name}' ({self.plugin.distribution}) "
-                f"failed to load {self.target}: {type(error).__name__}: {error}"
-            ) from error
+            raise PluginLoadError(f"{owner} failed to load {self.target}: {type(error).__name__}: {error}") from error
 
 
 class Registrar:
@@ -118,10 +118,17 @@ class Registrar:
             raise ValueError(
                 f"{self.kind.value} '{name}': target path must look like 'module:attribute', got {target!r}"
             )
+        if any(component.name == name for component in self.added):
+            raise ValueError(f"{self.kind.value} '{name}' registered twice by the same plugin")
         self.added.append(Component(self.kind, name, target, summary, self.plugin))
 
 
 T = TypeVar("T")
+
+
+def _normalized(name: str) -> str:
+    """Plugin and distribution names compare case-insensitively, with `-`, `_` and `.` alike."""
+    return name.strip().lower().replace("_", "-").replace(".", "-")
 
 
 class PluginHost:
@@ -134,31 +141,34 @@ class PluginHost:
         self._conflicts: dict[tuple[Kind, str], list[PluginInfo]] = {}
         self._manager = pluggy.PluginManager(hookspecs.PROJECT_NAME)
         self._manager.add_hookspecs(hookspecs)
-        loaded: list[tuple[PluginInfo, object]] = []
         for info, plugin in plugins:
             self.plugins.append(info)
             if info.disabled or info.error:
                 continue
             try:
                 self._manager.register(plugin, name=info.name)
-            except Exception as error:  # pluggy rejects bad hook signatures and name clashes
-                info.error = f"{type(error).__name__}: {error}"
+                self._manager.check_pending()  # a misspelled hook name is an error, not silence
+                components = self._registrations_of(info, plugin)
+            except Exception as error:  # a plugin can fail in any way; record it and drop what it registered
+                info.error = str(error) if isinstance(error, PluginLoadError) else f"{type(error).__name__}: {error}"
+                if self._manager.is_registered(plugin):
+                    self._manager.unregister(plugin)
                 continue
-            loaded.append((info, plugin))
-        for kind in Kind:
-            for info, plugin in loaded:
-                self._collect(kind, info, plugin)
+            info.components = components
+            for component in components:
+                self._file(component)
 
     @classmethod
     def discover(cls, disabled: Iterable[str] | None = None) -> PluginHost:
         """Load the built-in plugin and every installed entry point of the group `joshua`.
 
-        `disabled` names plugins (entry-point or distribution names) to skip; by default it is read
-        from the comma-separated environment variable JOSHUA_DISABLE_PLUGINS.
+        `disabled` names plugins (entry-point or distribution names; `-` and `_` alike) to skip; by
+        default it is read from the comma-separated environment variable JOSHUA_DISABLE_PLUGINS.
+        The built-in plugin "core" cannot be disabled.
         """
         if disabled is None:
             disabled = os.environ.get(DISABLE_ENV_VAR, "").split(",")
-        skip = {name.strip() for name in disabled if name.strip()}
+        skip = {_normalized(name) for name in disabled if name.strip()}
         from joshua_core import __version__, builtin_plugin
 
         entries: list[tuple[PluginInfo, object]] = [
@@ -168,7 +178,7 @@ class PluginHost:
             distribution = entry_point.dist.name if entry_point.dist else "unknown"
             version = entry_point.dist.version if entry_point.dist else "?"
             info = PluginInfo(entry_point.name, distribution, version, entry_point.value)
-            info.disabled = bool({entry_point.name, distribution} & skip)
+            info.disabled = bool({_normalized(entry_point.name), _normalized(distribution)} & skip)
             module: object = None
             if not info.disabled:
                 try:
@@ -178,27 +188,28 @@ class PluginHost:
             entries.append((info, module))
         return cls(entries)
 
-    def _collect(self, kind: Kind, info: PluginInfo, plugin: object) -> None:
-        """Call one plugin's registration hook for `kind` and file what it registered."""
-        if not hasattr(plugin, kind.hook_name):
-            return
+    def _registrations_of(self, info: PluginInfo, plugin: object) -> list[Component]:
+        """Call each registration hook of one plugin (only that plugin's) and return what it registered."""
         others = [p for p in self._manager.get_plugins() if p is not plugin]
-        call = self._manager.subset_hook_caller(kind.hook_name, remove_plugins=others)
-        registrar = Registrar(kind, info)
-        try:
-            call(registry=registrar)
-        except Exception as error:  # a plugin's hook can fail in any way; record it against the plugin
-            info.error = f"{kind.hook_name} raised {type(error).__name__}: {error}"
-            return
-        for component in registrar.added:
-            key = (kind, component.name)
-            info.components.append(component)
-            if key in self._conflicts:
-                self._conflicts[key].append(info)
-            elif key in self._components:
-                self._conflicts[key] = [self._components.pop(key).plugin, info]
-            else:
-                self._components[key] = component
+        components: list[Component] = []
+        for kind in Kind:
+            registrar = Registrar(kind, info)
+            try:
+                self._manager.subset_hook_caller(kind.hook_name, remove_plugins=others)(registry=registrar)
+            except Exception as error:  # a plugin's hook can fail in any way
+                raise PluginLoadError(f"{kind.hook_name} raised {type(error).__name__}: {error}") from error
+            components += registrar.added
+        return components
+
+    def _file(self, component: Component) -> None:
+        """Make a component usable by name, or record a conflict with another plugin's."""
+        key = (component.kind, component.name)
+        if key in self._conflicts:
+            self._conflicts[key].append(component.plugin)
+        elif key in self._components:
+            self._conflicts[key] = [self._components.pop(key).plugin, component.plugin]
+        else:
+            self._components[key] = component
 
     @property
     def conflicts(self) -> list[str]:
@@ -246,7 +257,10 @@ class PluginHost:
         elif provider and provider in installed and installed[provider].error:
             message += f" It comes from {provider}, which is installed but broken: {installed[provider].error}"
         elif provider:
-            message += f" Install the plugin that provides it: pip install {provider}"
+            message += (
+                f" Install the plugin that provides it: pip install {provider}"
+                f" (from a source checkout: pip install -e plugins/{provider})"
+            )
         else:
             close = difflib.get_close_matches(name, self.names(kind), n=3)
             if close:

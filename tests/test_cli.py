@@ -86,3 +86,16 @@ def test_diverging_model_is_a_runtime_failure(run_joshua, tmp_path: Path) -> Non
     result = run_joshua("--set", f"simulation.model_path={model}", "--set", "simulation.keyframe=start")
     assert result.returncode == 1
     assert "simulation diverged" in result.stderr
+
+
+def test_unknown_keyframe_is_a_config_error(run_joshua) -> None:
+    result = run_joshua("--set", "simulation.keyframe=nope")
+    assert result.returncode == 2
+    assert "simulation.keyframe: no keyframe 'nope' in the model; keyframes: home" in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_missing_plugin_is_reported_before_missing_files(run_joshua) -> None:
+    result = run_joshua("--preset", "sim_passive", "--set", "simulation.trajectory_path=absent.csv")
+    assert result.returncode == 2
+    assert "pip install joshua-modes" in result.stderr and "absent.csv" not in result.stderr

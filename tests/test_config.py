@@ -193,3 +193,18 @@ def test_default_config_is_a_headless_run() -> None:
     config = finalize(config_module.load_default())
     assert config.operation_mode == JoshuaConfig.SIMULATION
     assert config.simulation.mode == SimulationConfig.HEADLESS
+
+
+def test_extends_is_applied_and_cannot_be_set_from_the_command_line(tmp_path: Path) -> None:
+    custom = tmp_path / "lab.pbtxt"
+    custom.write_text('extends: "sim_passive"\n')
+    assert load_file(custom).message.extends == ""
+    with pytest.raises(UsageError, match="extends"):
+        apply_override(load_preset("sim_passive").message, "extends=sim_mirror")
+
+
+def test_negative_hyper_parameters_are_rejected() -> None:
+    loaded = load_preset("ant_train_mjx")
+    apply_override(loaded.message, "training.learning_rate=-0.1")
+    with pytest.raises(ConfigError, match="learning_rate must not be negative"):
+        finalize(loaded)

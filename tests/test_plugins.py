@@ -153,10 +153,59 @@ def test_hookimpl_with_a_wrong_signature_is_a_broken_plugin() -> None:
     assert "bad" in host.problems[0] and "extra" in host.problems[0]
 
 
-def test_lazy_target_with_a_missing_dependency_names_plugin_and_module() -> None:
-    host = host_of(("heavy", plugin_registering("trainer", "ppo", "joshua_no_such_module.trainer:PPO")))
-    with pytest.raises(PluginLoadError, match=r"plugin 'heavy' \(dist-heavy\).*missing module 'joshua_no_such_module'"):
+def test_lazy_target_with_a_missing_dependency_names_plugin_and_module(tmp_path: Path, monkeypatch) -> None:
+    (tmp_path / "heavy_trainer_module.py").write_text("import jax_that_is_not_installed\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    host = host_of(("heavy", plugin_registering("trainer", "ppo", "heavy_trainer_module:PPO")))
+    with pytest.raises(
+        PluginLoadError, match=r"plugin 'heavy' \(dist-heavy\).*missing module 'jax_that_is_not_installed'"
+    ):
         host.component(Kind.TRAINER, "ppo").load()
+
+
+def test_lazy_target_naming_a_module_that_does_not_exist() -> None:
+    host = host_of(("typo", plugin_registering("trainer", "ppo", "joshua_no_such_module.trainer:PPO")))
+    with pytest.raises(PluginLoadError, match="names module 'joshua_no_such_module.trainer', which does not exist"):
+        host.component(Kind.TRAINER, "ppo").load()
+
+
+def test_lazy_target_may_name_a_nested_attribute() -> None:
+    host = host_of(("nested", plugin_registering("mode", "NESTED", "joshua_core.plugins:Kind.MODE")))
+    assert host.component(Kind.MODE, "NESTED").load() is Kind.MODE
+
+
+def test_misspelled_hook_name_marks_the_plugin_broken() -> None:
+    def register(registry) -> None:
+        registry.add("GOOD", GoodMode)
+
+    host = host_of(("typo", plugin_module(joshua_register_mode=register)))
+    assert "joshua_register_mode" in host.problems[0] and host.names(Kind.MODE) == []
+
+
+def test_broken_plugin_keeps_nothing_it_registered() -> None:
+    def modes(registry) -> None:
+        registry.add("EARLY", GoodMode)
+
+    def trainers(registry) -> None:
+        raise RuntimeError("late failure")
+
+    host = host_of(("bad", plugin_module(joshua_register_modes=modes, joshua_register_trainers=trainers)))
+    assert host.names(Kind.MODE) == [] and host.plugins[0].components == []
+
+
+def test_same_name_twice_from_one_plugin_is_its_own_error() -> None:
+    def modes(registry) -> None:
+        registry.add("TWICE", GoodMode)
+        registry.add("TWICE", GoodMode)
+
+    host = host_of(("bad", plugin_module(joshua_register_modes=modes)))
+    assert "registered twice by the same plugin" in host.problems[0]
+    assert host.conflicts == []
+
+
+def test_disable_list_matches_names_with_dashes_or_underscores() -> None:
+    host = PluginHost.discover(disabled=["JOSHUA_MUJOCO"])
+    assert [info.disabled for info in host.plugins if info.name == "mujoco"] == [True]
 
 
 def test_target_of_the_wrong_type_is_rejected() -> None:

@@ -1,0 +1,4 @@
+"""joshua-rk4: an example JOSHUA plugin that adds the `mujoco_rk4` backend.
+
+Kept empty on purpose: `joshua` imports `joshua_rk4.plugin`, and so this package, whenever it discovers plugins.
+"""

@@ -1,0 +1,23 @@
+"""The `mujoco_rk4` backend: a `MuJoCoEngine` whose model steps with the 4th-order Runge-Kutta integrator.
+
+Imported only when a run uses the backend, so importing mujoco here is fine.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from joshua_core.interfaces import Backend
+from joshua_mujoco import MuJoCoEngine  # before mujoco: loading MuJoCoEngine picks the headless GL platform
+
+# isort: split
+import mujoco
+
+
+class RK4Backend(Backend):
+    """Creates MuJoCo engines that integrate with RK4 instead of the integrator the model file names."""
+
+    def create_engine(self, model_path: Path, *, render_width: int = 640, render_height: int = 480) -> MuJoCoEngine:
+        engine = MuJoCoEngine(model_path, render_width=render_width, render_height=render_height)
+        engine.model.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+        return engine

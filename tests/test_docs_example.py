@@ -1,0 +1,126 @@
+"""The worked plugin example of docs/architecture.md (docs/examples/joshua-rk4) builds, installs and works."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = REPO_ROOT / "docs" / "examples" / "joshua-rk4"
+
+# A pendulum: its motion depends on the integrator, so RK4 and the default give different states.
+PENDULUM = """
+<mujoco>
+  <option timestep="0.01"/>
+  <worldbody>
+    <body>
+      <joint name="hinge" type="hinge" axis="0 1 0" damping="0.05"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02" mass="1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+# Runs with the example installed: discovery stays light, then the backend's engines step with RK4.
+PROBE = """
+import json, sys
+from pathlib import Path
+import joshua_rk4
+from joshua_core.plugins import Kind, PluginHost
+
+host = PluginHost.discover()
+component = host.component(Kind.BACKEND, "mujoco_rk4")
+light = "mujoco" not in sys.modules
+engine = host.backend("mujoco_rk4").create_engine(Path(sys.argv[1]))
+
+import mujoco
+
+def run_raw(integrator):
+    model = mujoco.MjModel.from_xml_path(sys.argv[1])
+    if integrator is not None:
+        model.opt.integrator = integrator
+    data = mujoco.MjData(model)
+    data.qpos[0] = 1.0
+    mujoco.mj_step(model, data, 200)
+    return data.qpos.tolist()
+
+engine.data.qpos[0] = 1.0
+engine.step(200)
+print(json.dumps({
+    "package": joshua_rk4.__file__,
+    "distribution": component.plugin.distribution,
+    "target": component.target,
+    "light": light,
+    "integrator": int(engine.model.opt.integrator),
+    "rk4": int(mujoco.mjtIntegrator.mjINT_RK4),
+    "engine_qpos": engine.get_qpos().tolist(),
+    "raw_rk4_qpos": run_raw(mujoco.mjtIntegrator.mjINT_RK4),
+    "raw_default_qpos": run_raw(None),
+}))
+"""
+
+
+@pytest.fixture(scope="module")
+def example_site(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The example built into a wheel and installed into its own folder, as a user's pip would."""
+    root = tmp_path_factory.mktemp("joshua_rk4")
+    wheels, site = root / "wheels", root / "site"
+    pip = [sys.executable, "-m", "pip", "--disable-pip-version-check", "-q"]
+    subprocess.run([*pip, "wheel", "--no-deps", "--no-build-isolation", "-w", str(wheels), str(EXAMPLE)], check=True)
+    built = sorted(wheels.glob("joshua_rk4-*.whl"))
+    assert len(built) == 1, built
+    subprocess.run([*pip, "install", "--no-deps", "--target", str(site), str(built[0])], check=True)
+    return site
+
+
+def test_plugins_lists_the_rk4_backend(example_site: Path, run_joshua) -> None:
+    result = run_joshua("plugins", env={"PYTHONPATH": str(example_site)})
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    header = next(i for i, line in enumerate(lines) if line.startswith("rk4  (joshua-rk4 "))
+    assert lines[header].endswith("joshua_rk4.plugin") and "[BROKEN]" not in lines[header]
+    assert lines[header + 1].split()[:2] == ["backend", "mujoco_rk4"]
+    assert "backend  mujoco_rk4" in lines[header + 1]
+    assert "conflict" not in result.stdout
+
+
+def test_a_run_on_the_rk4_backend_succeeds(example_site: Path, run_joshua, tmp_path: Path) -> None:
+    result = run_joshua(
+        "--set",
+        "simulation.backend=mujoco_rk4",
+        "--set",
+        "simulation.duration=0.2",
+        env={"PYTHONPATH": str(example_site)},
+    )
+    assert result.returncode == 0, result.stderr
+    assert "warning" not in result.stderr
+    summary = json.loads((tmp_path / "joshua_output" / "headless_summary.json").read_text())
+    assert summary["sim_seconds"] >= 0.2 and summary["steps"] > 0
+
+
+def test_the_backend_creates_engines_that_step_with_rk4(example_site: Path, tmp_path: Path) -> None:
+    model = tmp_path / "pendulum.xml"
+    model.write_text(textwrap.dedent(PENDULUM))
+    probe = subprocess.run(
+        [sys.executable, "-c", PROBE, str(model)],
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(example_site)},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert probe.returncode == 0, probe.stderr
+    report = json.loads(probe.stdout)
+    assert report["package"].startswith(str(example_site))  # the built wheel, not the source folder
+    assert report["distribution"] == "joshua-rk4"
+    assert report["target"] == "joshua_rk4.backend:RK4Backend"
+    assert report["light"], "discovering the plugin imported mujoco"
+    assert report["integrator"] == report["rk4"]
+    assert report["engine_qpos"] == report["raw_rk4_qpos"]
+    assert report["engine_qpos"] != pytest.approx(report["raw_default_qpos"], abs=1e-9)
