@@ -11,8 +11,8 @@ which JOSHUA imports only when a run needs them, so one broken stack can't break
 
 Every hook is called by `joshua_core.plugins.PluginHost` while it is being built (once per run,
 for each plugin separately so that the host knows who registered what), receives a `Registrar`
-for one kind of component, and returns None. A hook that raises marks its plugin broken and
-discards what that plugin registered in that hook; the other plugins still load.
+for one kind of component, and returns None. A hook that raises, or a misspelled hook name, marks
+its plugin broken and drops everything that plugin registered; the other plugins still load.
 """
 
 from __future__ import annotations
