@@ -229,9 +229,10 @@ class PluginHost:
     def _conflict_message(self, kind: Kind, name: str) -> str:
         providers = self._conflicts[(kind, name)]
         names = " and ".join(f"'{info.name}' ({info.distribution})" for info in providers)
+        disable = " or ".join(f"{DISABLE_ENV_VAR}={info.name}" for info in providers)
         return (
-            f"{kind.value} '{name}' is registered by both {names}; it is unusable until one is removed "
-            f"or disabled with {DISABLE_ENV_VAR}={providers[-1].name}"
+            f"{kind.value} '{name}' is registered by both {names}; "
+            f"it is unusable until one is removed or disabled ({disable})"
         )
 
     def names(self, kind: Kind) -> list[str]:
