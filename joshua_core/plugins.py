@@ -17,7 +17,6 @@ import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from importlib import metadata
-from types import ModuleType
 from typing import Any, TypeVar
 
 import pluggy
@@ -123,18 +122,18 @@ class Registrar:
         self.added.append(Component(self.kind, name, target, summary, self.plugin))
 
 
-T = TypeVar("T")
-
-
 def _normalized(name: str) -> str:
     """Plugin and distribution names compare case-insensitively, with `-`, `_` and `.` alike."""
     return name.strip().lower().replace("_", "-").replace(".", "-")
 
 
+T = TypeVar("T")
+
+
 class PluginHost:
     """The plugins of one run and everything they registered."""
 
-    def __init__(self, plugins: Iterable[tuple[PluginInfo, ModuleType | object]]) -> None:
+    def __init__(self, plugins: Iterable[tuple[PluginInfo, object]]) -> None:
         """Register already-imported plugin objects (entry-point modules, or any object with hookimpls)."""
         self.plugins: list[PluginInfo] = []
         self._components: dict[tuple[Kind, str], Component] = {}
