@@ -134,8 +134,10 @@ def run(args: argparse.Namespace) -> int:
             host.component(kind, name)
         except PluginNotFoundError as error:
             missing.append(str(error))
+    if len(missing) == 1:
+        raise PluginNotFoundError(missing[0])
     if missing:
-        raise PluginNotFoundError("\n".join(missing))
+        raise PluginNotFoundError("this config needs plugins that are not installed:\n- " + "\n- ".join(missing))
     config = finalize(loaded)
     if config.operation_mode == JoshuaConfig.SIMULATION:
         simulation = config.simulation
