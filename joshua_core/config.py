@@ -134,7 +134,7 @@ def apply_override(config: JoshuaConfig, assignment: str) -> None:
         match = _PATH_PART.match(part)
         field = message.DESCRIPTOR.fields_by_name.get(match["name"]) if match else None
         where = ".".join(parts[:depth]) or message.DESCRIPTOR.name
-        if field is None:
+        if match is None or field is None:
             options = sorted(message.DESCRIPTOR.fields_by_name)
             close = difflib.get_close_matches(part, options, n=3)
             hint = f" Did you mean: {', '.join(close)}?" if close else ""

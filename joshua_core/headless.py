@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import Any
 
 import numpy as np
 
@@ -43,7 +44,7 @@ class HeadlessMode(Mode):
         )
 
 
-def simulate(engine: Engine, duration: float) -> dict[str, float]:
+def simulate(engine: Engine, duration: float) -> dict[str, Any]:
     """Step `engine` for `duration` simulated seconds, one-second chunks, checking finiteness each chunk."""
     total_steps = max(1, math.ceil(duration / engine.timestep))
     chunk = max(1, round(1.0 / engine.timestep))

@@ -17,7 +17,7 @@ import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from importlib import metadata
-from typing import Any, TypeVar
+from typing import Any
 
 import pluggy
 
@@ -125,9 +125,6 @@ class Registrar:
 def _normalized(name: str) -> str:
     """Plugin and distribution names compare case-insensitively, with `-`, `_` and `.` alike."""
     return name.strip().lower().replace("_", "-").replace(".", "-")
-
-
-T = TypeVar("T")
 
 
 class PluginHost:
@@ -268,8 +265,8 @@ class PluginHost:
         available = ", ".join(self.names(kind)) or "none"
         return f"{message}\nInstalled {kind.value}s: {available}"
 
-    def create(self, kind: Kind, name: str, base: type[T]) -> T:
-        """Instantiate the registered class `name`, checking that it implements `base`."""
+    def create(self, kind: Kind, name: str, base: type[Any]) -> Any:
+        """Instantiate the registered class `name`, checking that it implements `base` (an ABC)."""
         component = self.component(kind, name)
         target = component.load()
         if not (isinstance(target, type) and issubclass(target, base)):
