@@ -7,11 +7,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from joshua_core.interfaces import Backend
-from joshua_mujoco import MuJoCoEngine  # before mujoco: loading MuJoCoEngine picks the headless GL platform
-
-# isort: split
 import mujoco
+
+from joshua_core.interfaces import Backend
+from joshua_mujoco import MuJoCoEngine
 
 
 class RK4Backend(Backend):
