@@ -194,7 +194,7 @@ def finalize(loaded: LoadedConfig) -> JoshuaConfig:
             raise ConfigError(f"{loaded.source}: render_width and render_height must not be negative")
         if simulation.duration < 0:
             raise ConfigError(f"{loaded.source}: simulation.duration must not be negative")
-        simulation.backend = simulation.backend or DEFAULT_SIMULATION_BACKEND
+        simulation.backend = simulation_backend(simulation)
     else:
         training = config.training
         if not training.model_path:
@@ -203,9 +203,7 @@ def finalize(loaded: LoadedConfig) -> JoshuaConfig:
         for name in NON_NEGATIVE_TRAINING_FIELDS:
             if getattr(training, name) < 0:
                 raise ConfigError(f"{loaded.source}: training.{name} must not be negative")
-        trainer, backend = FRAMEWORK_DEFAULTS[training.framework]
-        training.trainer = training.trainer or trainer
-        training.backend = training.backend or backend
+        training.trainer, training.backend = training_plugins(training)
     return config
 
 
@@ -213,9 +211,20 @@ def required_components(config: JoshuaConfig) -> list[tuple[Kind, str]]:
     """The plugin components a config needs to run (before or after `finalize`)."""
     if config.operation_mode == JoshuaConfig.SIMULATION:
         mode = SimulationConfig.Mode.Name(config.simulation.mode)
-        return [(Kind.MODE, mode), (Kind.BACKEND, config.simulation.backend or DEFAULT_SIMULATION_BACKEND)]
-    trainer, backend = FRAMEWORK_DEFAULTS[config.training.framework]
-    return [(Kind.TRAINER, config.training.trainer or trainer), (Kind.BACKEND, config.training.backend or backend)]
+        return [(Kind.MODE, mode), (Kind.BACKEND, simulation_backend(config.simulation))]
+    trainer, backend = training_plugins(config.training)
+    return [(Kind.TRAINER, trainer), (Kind.BACKEND, backend)]
+
+
+def simulation_backend(simulation: SimulationConfig) -> str:
+    """The backend a simulation uses: the one it names, else the default."""
+    return simulation.backend or DEFAULT_SIMULATION_BACKEND
+
+
+def training_plugins(training: TrainingConfig) -> tuple[str, str]:
+    """The (trainer, backend) a training job uses: the ones it names, else its framework's defaults."""
+    trainer, backend = FRAMEWORK_DEFAULTS[training.framework]
+    return training.trainer or trainer, training.backend or backend
 
 
 # What `joshua` runs when given neither --preset nor --config: a headless smoke run of the arm at home.

@@ -91,7 +91,7 @@ class Component:
         try:
             return functools.reduce(getattr, attribute_path.split("."), importlib.import_module(module_name))
         except ModuleNotFoundError as error:
-            if error.name and module_name.startswith(error.name):
+            if error.name and (module_name == error.name or module_name.startswith(f"{error.name}.")):
                 raise PluginLoadError(f"{owner} names module '{module_name}', which does not exist") from error
             raise PluginLoadError(
                 f"{owner} cannot be loaded: missing module '{error.name}'. Reinstall the plugin with its "
