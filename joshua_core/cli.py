@@ -23,7 +23,7 @@ from joshua_core.config import (
 from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig
 from joshua_core.errors import JoshuaError, PluginNotFoundError
 from joshua_core.interfaces import RunContext
-from joshua_core.plugins import DISABLE_ENV_VAR, PluginHost
+from joshua_core.plugins import DISABLE_ENV_VAR, Kind, PluginHost
 
 DEFAULT_OUTPUT_DIR = "joshua_output"
 
@@ -42,7 +42,8 @@ directory, then the models shipped with JOSHUA. {DISABLE_ENV_VAR}=a,b skips plug
 exit status: 0 ok, 1 runtime failure, 2 usage or config error."""
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.ArgumentParser:
+    """The top-level parser; `plugin_commands` maps subcommands that plugins registered to their help."""
     parser = argparse.ArgumentParser(
         prog="joshua",
         description="JOSHUA: robot simulation and reinforcement learning on MuJoCo.",
@@ -65,18 +66,27 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", title="commands", metavar="COMMAND")
     commands.add_parser("presets", help="list the shipped presets with their descriptions")
     commands.add_parser("plugins", help="list installed plugins: distribution, version, what they register")
+    for name, summary in (plugin_commands or {}).items():  # their own arguments are parsed by the plugin
+        commands.add_parser(name, help=summary, add_help=False)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `joshua` script; returns the exit status."""
-    args = build_parser().parse_args(argv)
+    host = PluginHost.discover()
+    plugin_commands = {name: host.component(Kind.COMMAND, name).summary for name in host.names(Kind.COMMAND)}
+    parser = build_parser(plugin_commands)
+    args, command_argv = parser.parse_known_args(argv)
+    if command_argv and args.command not in plugin_commands:
+        parser.error(f"unrecognized arguments: {' '.join(command_argv)}")
     try:
         if args.command == "presets":
             return list_presets()
         if args.command == "plugins":
-            return list_plugins(PluginHost.discover())
-        return run(args)
+            return list_plugins(host)
+        if args.command in plugin_commands:
+            return run_plugin_command(host, args.command, command_argv)
+        return run(args, host)
     except JoshuaError as error:
         print(f"joshua: error: {error}", file=sys.stderr)
         return error.exit_code
@@ -107,6 +117,14 @@ def list_plugins(host: PluginHost) -> int:
     return 0
 
 
+def run_plugin_command(host: PluginHost, name: str, argv: list[str]) -> int:
+    """Load the plugin's subcommand, let it declare its arguments, and run it."""
+    command = host.command(name)
+    parser = argparse.ArgumentParser(prog=f"joshua {name}", description=host.component(Kind.COMMAND, name).summary)
+    command.add_arguments(parser)
+    return command.run(parser.parse_args(argv), host)
+
+
 def load(args: argparse.Namespace) -> LoadedConfig:
     """The config the arguments describe, with the --set overrides applied."""
     if args.preset:
@@ -120,12 +138,11 @@ def load(args: argparse.Namespace) -> LoadedConfig:
     return loaded
 
 
-def run(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace, host: PluginHost) -> int:
     loaded = load(args)
     if args.print_config:
         print(text_format.MessageToString(finalize(loaded)), end="")
         return 0
-    host = PluginHost.discover()
     for problem in host.problems:
         print(f"joshua: warning: {problem}", file=sys.stderr)
     missing = []

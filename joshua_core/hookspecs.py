@@ -74,3 +74,13 @@ def joshua_register_terms(registry: Registrar) -> None:
     `quantity_kernel(ctx, **params)` (see `joshua_core.interfaces.Term`) or its path; tasks and
     configs refer to it by `name`.
     """
+
+
+@hookspec
+def joshua_register_commands(registry: Registrar) -> None:
+    """Register `joshua` subcommands: `registry.add(name, target, summary)`.
+
+    Called by PluginHost when it is built. `name` is the subcommand (e.g. "mirror-replay", "eval");
+    `summary` is its one-line help; `target` is a `joshua_core.interfaces.Command` subclass or its
+    path, imported only when that subcommand runs.
+    """

@@ -3,6 +3,7 @@
 - Backend: turns a model file into an Engine (one simulation you can step).
 - Mode: runs a SimulationConfig (viewer, replay, mirror, offscreen, headless).
 - Trainer: runs a TrainingConfig and leaves checkpoints behind.
+- Command: a `joshua` subcommand a plugin adds (e.g. `joshua mirror-replay`).
 - Term: a task term, a plain function `quantity_kernel(ctx, **params)` returning a batched array.
 """
 
@@ -17,6 +18,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 if TYPE_CHECKING:
+    import argparse
+
     from joshua_core.config_pb2 import SimulationConfig, TrainingConfig
     from joshua_core.plugins import PluginHost
 
@@ -115,6 +118,18 @@ class Trainer(ABC):
     @abstractmethod
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
         """Train until `config.total_timesteps`; return the folder of the last checkpoint."""
+
+
+class Command(ABC):
+    """A `joshua NAME ...` subcommand registered by a plugin; loaded only when NAME is on the command line."""
+
+    @abstractmethod
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        """Declare the subcommand's arguments on its own parser."""
+
+    @abstractmethod
+    def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        """Do the work and return the exit status; raise JoshuaError subclasses for user-facing failures."""
 
 
 class Term(Protocol):

@@ -23,7 +23,7 @@ import pluggy
 
 from joshua_core import hookspecs
 from joshua_core.errors import PluginLoadError, PluginNotFoundError, UsageError
-from joshua_core.interfaces import Backend, Mode, Trainer
+from joshua_core.interfaces import Backend, Command, Mode, Trainer
 
 ENTRY_POINT_GROUP = "joshua"
 DISABLE_ENV_VAR = "JOSHUA_DISABLE_PLUGINS"
@@ -38,6 +38,7 @@ class Kind(enum.Enum):
     TRAINER = "trainer"
     TASK = "task"
     TERM = "term"
+    COMMAND = "command"
 
     @property
     def hook_name(self) -> str:
@@ -284,3 +285,6 @@ class PluginHost:
 
     def trainer(self, name: str) -> Trainer:
         return self.create(Kind.TRAINER, name, Trainer)
+
+    def command(self, name: str) -> Command:
+        return self.create(Kind.COMMAND, name, Command)

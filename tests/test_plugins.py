@@ -226,3 +226,36 @@ def test_conflict_makes_the_name_unusable() -> None:
 def test_registration_rejects_malformed_targets() -> None:
     host = host_of(("bad", plugin_registering("mode", "X", "no_colon_here")))
     assert "module:attribute" in host.problems[0]
+
+
+GREETING_PLUGIN = """
+    from joshua_core import hookimpl
+    from joshua_core.interfaces import Command
+
+    class Greet(Command):
+        def add_arguments(self, parser):
+            parser.add_argument("who")
+            parser.add_argument("--times", type=int, default=1)
+
+        def run(self, args, plugins):
+            print(" ".join([f"hello {args.who}"] * args.times))
+            return 3
+
+    @hookimpl
+    def joshua_register_commands(registry):
+        registry.add("greet", Greet, "say hello")
+"""
+
+
+def test_plugin_subcommand_gets_its_own_arguments_and_exit_status(tmp_path: Path, run_joshua) -> None:
+    site = tmp_path / "site"
+    install_fake_distribution(site, "joshua-greet", "greet", "joshua_greet_plugin", GREETING_PLUGIN)
+    env = {"PYTHONPATH": str(site)}
+    assert "greet" in run_joshua("--help", env=env).stdout
+    result = run_joshua("greet", "world", "--times", "2", env=env)
+    assert result.returncode == 3, result.stderr
+    assert result.stdout.strip() == "hello world hello world"
+    usage = run_joshua("greet", "--help", env=env)
+    assert usage.returncode == 0 and "usage: joshua greet" in usage.stdout and "--times" in usage.stdout
+    wrong = run_joshua("presets", "--times", "2", env=env)
+    assert wrong.returncode == 2 and "unrecognized arguments: --times 2" in wrong.stderr

@@ -127,7 +127,7 @@ def write_csv(path: Path, times: np.ndarray, positions: np.ndarray) -> None:
         "# Units: seconds, radians (joint_6 is the jaw angle, 0 = nearly closed, positive opens)",
         "timestamp," + ",".join(JOINTS),
     ]
-    lines += [f"{t:.3f}," + ",".join(f"{v:.6f}" for v in q) for t, q in zip(times, positions)]
+    lines += [f"{t:.3f}," + ",".join(f"{v:.6f}" for v in q) for t, q in zip(times, positions, strict=True)]
     path.write_text("\n".join(lines) + "\n")
 
 
