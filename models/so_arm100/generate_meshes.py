@@ -42,9 +42,7 @@ def box(lo: Vec, hi: Vec) -> trimesh.Trimesh:
 
 def cylinder(p0: Vec, p1: Vec, radius: float) -> trimesh.Trimesh:
     """Cylinder of ``radius`` whose axis runs from ``p0`` to ``p1``."""
-    return trimesh.creation.cylinder(
-        radius=radius, segment=np.array([p0, p1], dtype=float), sections=CYLINDER_SECTIONS
-    )
+    return trimesh.creation.cylinder(radius=radius, segment=np.array([p0, p1], dtype=float), sections=CYLINDER_SECTIONS)
 
 
 def bar_xz(p0: Vec, p1: Vec, width: float, y_lo: float, y_hi: float) -> trimesh.Trimesh:

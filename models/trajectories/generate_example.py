@@ -42,9 +42,7 @@ def min_jerk(s: np.ndarray) -> np.ndarray:
     return s**3 * (10.0 - 15.0 * s + 6.0 * s**2)
 
 
-def solve_ik(
-    model: mujoco.MjModel, target: np.ndarray, pad_normal: np.ndarray, q_init: np.ndarray
-) -> np.ndarray:
+def solve_ik(model: mujoco.MjModel, target: np.ndarray, pad_normal: np.ndarray, q_init: np.ndarray) -> np.ndarray:
     """Arm joints (joint_1..5) putting the ``gripper`` site at ``target``, pointing down, pads along ``pad_normal``."""
     data = mujoco.MjData(model)
     site = model.site("gripper").id
