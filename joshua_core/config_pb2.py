@@ -24,27 +24,39 @@ _sym_db = _symbol_database.Default()
 
 
 
-DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x13joshua/config.proto\x12\x06joshua\"\xf7\x01\n\x0cJoshuaConfig\x12:\n\x0eoperation_mode\x18\x01 \x01(\x0e\x32\".joshua.JoshuaConfig.OperationMode\x12,\n\nsimulation\x18\x02 \x01(\x0b\x32\x18.joshua.SimulationConfig\x12(\n\x08training\x18\x03 \x01(\x0b\x32\x16.joshua.TrainingConfig\x12\x13\n\x0b\x64\x65scription\x18\x04 \x01(\t\x12\x0f\n\x07\x65xtends\x18\x05 \x01(\t\"-\n\rOperationMode\x12\x0e\n\nSIMULATION\x10\x00\x12\x0c\n\x08TRAINING\x10\x01\"\xed\x02\n\x10SimulationConfig\x12+\n\x04mode\x18\x01 \x01(\x0e\x32\x1d.joshua.SimulationConfig.Mode\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x17\n\x0ftrajectory_path\x18\x03 \x01(\t\x12:\n\x15mirror_topic_mappings\x18\x04 \x01(\x0b\x32\x1b.joshua.MirrorTopicMappings\x12\x14\n\x0crender_width\x18\x05 \x01(\x05\x12\x15\n\rrender_height\x18\x06 \x01(\x05\x12\x0f\n\x07\x62\x61\x63kend\x18\x07 \x01(\t\x12\x10\n\x08keyframe\x18\x08 \x01(\t\x12\x10\n\x08\x64uration\x18\t \x01(\x01\x12\x12\n\noutput_dir\x18\n \x01(\t\"M\n\x04Mode\x12\x0f\n\x0bINTERACTIVE\x10\x00\x12\x0b\n\x07PASSIVE\x10\x01\x12\n\n\x06MIRROR\x10\x02\x12\r\n\tOFFSCREEN\x10\x03\x12\x0c\n\x08HEADLESS\x10\x04\"=\n\x13MirrorTopicMappings\x12&\n\x08mappings\x18\x01 \x03(\x0b\x32\x14.joshua.TopicMapping\"J\n\x0cTopicMapping\x12\x11\n\tros_topic\x18\x01 \x01(\t\x12\x17\n\x0fmujoco_actuator\x18\x02 \x01(\t\x12\x0e\n\x06offset\x18\x03 \x01(\x02\"\x88\x03\n\x0eTrainingConfig\x12\x33\n\tframework\x18\x01 \x01(\x0e\x32 .joshua.TrainingConfig.Framework\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x10\n\x08num_envs\x18\x03 \x01(\x05\x12\x17\n\x0ftotal_timesteps\x18\x04 \x01(\x03\x12\x16\n\x0e\x63heckpoint_dir\x18\x05 \x01(\t\x12\x11\n\tnum_steps\x18\x06 \x01(\x05\x12\x12\n\nnum_epochs\x18\x07 \x01(\x05\x12\x16\n\x0eminibatch_size\x18\x08 \x01(\x05\x12\x15\n\rlearning_rate\x18\t \x01(\x02\x12\r\n\x05gamma\x18\n \x01(\x02\x12\x12\n\ngae_lambda\x18\x0b \x01(\x02\x12\x14\n\x0c\x63lip_epsilon\x18\x0c \x01(\x02\x12\x0c\n\x04task\x18\r \x01(\t\x12\x0f\n\x07\x62\x61\x63kend\x18\x0e \x01(\t\x12\x0f\n\x07trainer\x18\x0f \x01(\t\x12\x0c\n\x04seed\x18\x10 \x01(\x03\"\x1d\n\tFramework\x12\x07\n\x03MJX\x10\x00\x12\x07\n\x03SB3\x10\x01\x62\x06proto3')
+DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x13joshua/config.proto\x12\x06joshua\"\xf7\x01\n\x0cJoshuaConfig\x12:\n\x0eoperation_mode\x18\x01 \x01(\x0e\x32\".joshua.JoshuaConfig.OperationMode\x12,\n\nsimulation\x18\x02 \x01(\x0b\x32\x18.joshua.SimulationConfig\x12(\n\x08training\x18\x03 \x01(\x0b\x32\x16.joshua.TrainingConfig\x12\x13\n\x0b\x64\x65scription\x18\x04 \x01(\t\x12\x0f\n\x07\x65xtends\x18\x05 \x01(\t\"-\n\rOperationMode\x12\x0e\n\nSIMULATION\x10\x00\x12\x0c\n\x08TRAINING\x10\x01\"\x94\x03\n\x10SimulationConfig\x12+\n\x04mode\x18\x01 \x01(\x0e\x32\x1d.joshua.SimulationConfig.Mode\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x17\n\x0ftrajectory_path\x18\x03 \x01(\t\x12:\n\x15mirror_topic_mappings\x18\x04 \x01(\x0b\x32\x1b.joshua.MirrorTopicMappings\x12\x14\n\x0crender_width\x18\x05 \x01(\x05\x12\x15\n\rrender_height\x18\x06 \x01(\x05\x12\x0f\n\x07\x62\x61\x63kend\x18\x07 \x01(\t\x12\x10\n\x08keyframe\x18\x08 \x01(\t\x12\x10\n\x08\x64uration\x18\t \x01(\x01\x12\x12\n\noutput_dir\x18\n \x01(\t\x12%\n\x06mirror\x18\x0e \x01(\x0b\x32\x15.joshua.MirrorOptions\"M\n\x04Mode\x12\x0f\n\x0bINTERACTIVE\x10\x00\x12\x0b\n\x07PASSIVE\x10\x01\x12\n\n\x06MIRROR\x10\x02\x12\r\n\tOFFSCREEN\x10\x03\x12\x0c\n\x08HEADLESS\x10\x04\"\xe0\x04\n\rMirrorOptions\x12*\n\x05\x61pply\x18\x01 \x01(\x0e\x32\x1b.joshua.MirrorOptions.Apply\x12\x37\n\x0cmessage_type\x18\x02 \x01(\x0e\x32!.joshua.MirrorOptions.MessageType\x12\x19\n\x11joint_state_topic\x18\x03 \x01(\t\x12\x45\n\x11joint_state_names\x18\x04 \x03(\x0b\x32*.joshua.MirrorOptions.JointStateNamesEntry\x12\x15\n\rstale_timeout\x18\x05 \x01(\x01\x12\x15\n\rstatus_period\x18\x06 \x01(\x01\x12\x14\n\x0crange_margin\x18\x07 \x01(\x01\x12.\n\x07\x64isplay\x18\x08 \x01(\x0e\x32\x1d.joshua.MirrorOptions.Display\x12\x13\n\x0b\x64isplay_fps\x18\t \x01(\x01\x12\x0e\n\x06\x63\x61mera\x18\n \x01(\t\x12\x11\n\tnode_name\x18\x0b \x01(\t\x1a\x36\n\x14JointStateNamesEntry\x12\x0b\n\x03key\x18\x01 \x01(\t\x12\r\n\x05value\x18\x02 \x01(\t:\x02\x38\x01\"@\n\x05\x41pply\x12\r\n\tKINEMATIC\x10\x00\x12\x0c\n\x08\x41\x43TUATOR\x10\x01\x12\x1a\n\x16KINEMATIC_AND_ACTUATOR\x10\x02\"+\n\x0bMessageType\x12\x0b\n\x07\x46LOAT64\x10\x00\x12\x0f\n\x0bJOINT_STATE\x10\x01\"5\n\x07\x44isplay\x12\x08\n\x04\x41UTO\x10\x00\x12\x08\n\x04NONE\x10\x01\x12\n\n\x06VIEWER\x10\x02\x12\n\n\x06RECORD\x10\x03\"=\n\x13MirrorTopicMappings\x12&\n\x08mappings\x18\x01 \x03(\x0b\x32\x14.joshua.TopicMapping\"J\n\x0cTopicMapping\x12\x11\n\tros_topic\x18\x01 \x01(\t\x12\x17\n\x0fmujoco_actuator\x18\x02 \x01(\t\x12\x0e\n\x06offset\x18\x03 \x01(\x02\"\x88\x03\n\x0eTrainingConfig\x12\x33\n\tframework\x18\x01 \x01(\x0e\x32 .joshua.TrainingConfig.Framework\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x10\n\x08num_envs\x18\x03 \x01(\x05\x12\x17\n\x0ftotal_timesteps\x18\x04 \x01(\x03\x12\x16\n\x0e\x63heckpoint_dir\x18\x05 \x01(\t\x12\x11\n\tnum_steps\x18\x06 \x01(\x05\x12\x12\n\nnum_epochs\x18\x07 \x01(\x05\x12\x16\n\x0eminibatch_size\x18\x08 \x01(\x05\x12\x15\n\rlearning_rate\x18\t \x01(\x02\x12\r\n\x05gamma\x18\n \x01(\x02\x12\x12\n\ngae_lambda\x18\x0b \x01(\x02\x12\x14\n\x0c\x63lip_epsilon\x18\x0c \x01(\x02\x12\x0c\n\x04task\x18\r \x01(\t\x12\x0f\n\x07\x62\x61\x63kend\x18\x0e \x01(\t\x12\x0f\n\x07trainer\x18\x0f \x01(\t\x12\x0c\n\x04seed\x18\x10 \x01(\x03\"\x1d\n\tFramework\x12\x07\n\x03MJX\x10\x00\x12\x07\n\x03SB3\x10\x01\x62\x06proto3')
 
 _globals = globals()
 _builder.BuildMessageAndEnumDescriptors(DESCRIPTOR, _globals)
 _builder.BuildTopDescriptorsAndMessages(DESCRIPTOR, 'joshua.config_pb2', _globals)
 if not _descriptor._USE_C_DESCRIPTORS:
   DESCRIPTOR._loaded_options = None
+  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._loaded_options = None
+  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_options = b'8\001'
   _globals['_JOSHUACONFIG']._serialized_start=32
   _globals['_JOSHUACONFIG']._serialized_end=279
   _globals['_JOSHUACONFIG_OPERATIONMODE']._serialized_start=234
   _globals['_JOSHUACONFIG_OPERATIONMODE']._serialized_end=279
   _globals['_SIMULATIONCONFIG']._serialized_start=282
-  _globals['_SIMULATIONCONFIG']._serialized_end=647
-  _globals['_SIMULATIONCONFIG_MODE']._serialized_start=570
-  _globals['_SIMULATIONCONFIG_MODE']._serialized_end=647
-  _globals['_MIRRORTOPICMAPPINGS']._serialized_start=649
-  _globals['_MIRRORTOPICMAPPINGS']._serialized_end=710
-  _globals['_TOPICMAPPING']._serialized_start=712
-  _globals['_TOPICMAPPING']._serialized_end=786
-  _globals['_TRAININGCONFIG']._serialized_start=789
-  _globals['_TRAININGCONFIG']._serialized_end=1181
-  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_start=1152
-  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_end=1181
+  _globals['_SIMULATIONCONFIG']._serialized_end=686
+  _globals['_SIMULATIONCONFIG_MODE']._serialized_start=609
+  _globals['_SIMULATIONCONFIG_MODE']._serialized_end=686
+  _globals['_MIRROROPTIONS']._serialized_start=689
+  _globals['_MIRROROPTIONS']._serialized_end=1297
+  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_start=1077
+  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_end=1131
+  _globals['_MIRROROPTIONS_APPLY']._serialized_start=1133
+  _globals['_MIRROROPTIONS_APPLY']._serialized_end=1197
+  _globals['_MIRROROPTIONS_MESSAGETYPE']._serialized_start=1199
+  _globals['_MIRROROPTIONS_MESSAGETYPE']._serialized_end=1242
+  _globals['_MIRROROPTIONS_DISPLAY']._serialized_start=1244
+  _globals['_MIRROROPTIONS_DISPLAY']._serialized_end=1297
+  _globals['_MIRRORTOPICMAPPINGS']._serialized_start=1299
+  _globals['_MIRRORTOPICMAPPINGS']._serialized_end=1360
+  _globals['_TOPICMAPPING']._serialized_start=1362
+  _globals['_TOPICMAPPING']._serialized_end=1436
+  _globals['_TRAININGCONFIG']._serialized_start=1439
+  _globals['_TRAININGCONFIG']._serialized_end=1831
+  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_start=1802
+  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_end=1831
 # @@protoc_insertion_point(module_scope)

@@ -28,7 +28,7 @@ class JoshuaConfig(_message.Message):
     def __init__(self, operation_mode: _Optional[_Union[JoshuaConfig.OperationMode, str]] = ..., simulation: _Optional[_Union[SimulationConfig, _Mapping]] = ..., training: _Optional[_Union[TrainingConfig, _Mapping]] = ..., description: _Optional[str] = ..., extends: _Optional[str] = ...) -> None: ...
 
 class SimulationConfig(_message.Message):
-    __slots__ = ("mode", "model_path", "trajectory_path", "mirror_topic_mappings", "render_width", "render_height", "backend", "keyframe", "duration", "output_dir")
+    __slots__ = ("mode", "model_path", "trajectory_path", "mirror_topic_mappings", "render_width", "render_height", "backend", "keyframe", "duration", "output_dir", "mirror")
     class Mode(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         INTERACTIVE: _ClassVar[SimulationConfig.Mode]
@@ -51,6 +51,7 @@ class SimulationConfig(_message.Message):
     KEYFRAME_FIELD_NUMBER: _ClassVar[int]
     DURATION_FIELD_NUMBER: _ClassVar[int]
     OUTPUT_DIR_FIELD_NUMBER: _ClassVar[int]
+    MIRROR_FIELD_NUMBER: _ClassVar[int]
     mode: SimulationConfig.Mode
     model_path: str
     trajectory_path: str
@@ -61,7 +62,65 @@ class SimulationConfig(_message.Message):
     keyframe: str
     duration: float
     output_dir: str
-    def __init__(self, mode: _Optional[_Union[SimulationConfig.Mode, str]] = ..., model_path: _Optional[str] = ..., trajectory_path: _Optional[str] = ..., mirror_topic_mappings: _Optional[_Union[MirrorTopicMappings, _Mapping]] = ..., render_width: _Optional[int] = ..., render_height: _Optional[int] = ..., backend: _Optional[str] = ..., keyframe: _Optional[str] = ..., duration: _Optional[float] = ..., output_dir: _Optional[str] = ...) -> None: ...
+    mirror: MirrorOptions
+    def __init__(self, mode: _Optional[_Union[SimulationConfig.Mode, str]] = ..., model_path: _Optional[str] = ..., trajectory_path: _Optional[str] = ..., mirror_topic_mappings: _Optional[_Union[MirrorTopicMappings, _Mapping]] = ..., render_width: _Optional[int] = ..., render_height: _Optional[int] = ..., backend: _Optional[str] = ..., keyframe: _Optional[str] = ..., duration: _Optional[float] = ..., output_dir: _Optional[str] = ..., mirror: _Optional[_Union[MirrorOptions, _Mapping]] = ...) -> None: ...
+
+class MirrorOptions(_message.Message):
+    __slots__ = ("apply", "message_type", "joint_state_topic", "joint_state_names", "stale_timeout", "status_period", "range_margin", "display", "display_fps", "camera", "node_name")
+    class Apply(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        KINEMATIC: _ClassVar[MirrorOptions.Apply]
+        ACTUATOR: _ClassVar[MirrorOptions.Apply]
+        KINEMATIC_AND_ACTUATOR: _ClassVar[MirrorOptions.Apply]
+    KINEMATIC: MirrorOptions.Apply
+    ACTUATOR: MirrorOptions.Apply
+    KINEMATIC_AND_ACTUATOR: MirrorOptions.Apply
+    class MessageType(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        FLOAT64: _ClassVar[MirrorOptions.MessageType]
+        JOINT_STATE: _ClassVar[MirrorOptions.MessageType]
+    FLOAT64: MirrorOptions.MessageType
+    JOINT_STATE: MirrorOptions.MessageType
+    class Display(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        AUTO: _ClassVar[MirrorOptions.Display]
+        NONE: _ClassVar[MirrorOptions.Display]
+        VIEWER: _ClassVar[MirrorOptions.Display]
+        RECORD: _ClassVar[MirrorOptions.Display]
+    AUTO: MirrorOptions.Display
+    NONE: MirrorOptions.Display
+    VIEWER: MirrorOptions.Display
+    RECORD: MirrorOptions.Display
+    class JointStateNamesEntry(_message.Message):
+        __slots__ = ("key", "value")
+        KEY_FIELD_NUMBER: _ClassVar[int]
+        VALUE_FIELD_NUMBER: _ClassVar[int]
+        key: str
+        value: str
+        def __init__(self, key: _Optional[str] = ..., value: _Optional[str] = ...) -> None: ...
+    APPLY_FIELD_NUMBER: _ClassVar[int]
+    MESSAGE_TYPE_FIELD_NUMBER: _ClassVar[int]
+    JOINT_STATE_TOPIC_FIELD_NUMBER: _ClassVar[int]
+    JOINT_STATE_NAMES_FIELD_NUMBER: _ClassVar[int]
+    STALE_TIMEOUT_FIELD_NUMBER: _ClassVar[int]
+    STATUS_PERIOD_FIELD_NUMBER: _ClassVar[int]
+    RANGE_MARGIN_FIELD_NUMBER: _ClassVar[int]
+    DISPLAY_FIELD_NUMBER: _ClassVar[int]
+    DISPLAY_FPS_FIELD_NUMBER: _ClassVar[int]
+    CAMERA_FIELD_NUMBER: _ClassVar[int]
+    NODE_NAME_FIELD_NUMBER: _ClassVar[int]
+    apply: MirrorOptions.Apply
+    message_type: MirrorOptions.MessageType
+    joint_state_topic: str
+    joint_state_names: _containers.ScalarMap[str, str]
+    stale_timeout: float
+    status_period: float
+    range_margin: float
+    display: MirrorOptions.Display
+    display_fps: float
+    camera: str
+    node_name: str
+    def __init__(self, apply: _Optional[_Union[MirrorOptions.Apply, str]] = ..., message_type: _Optional[_Union[MirrorOptions.MessageType, str]] = ..., joint_state_topic: _Optional[str] = ..., joint_state_names: _Optional[_Mapping[str, str]] = ..., stale_timeout: _Optional[float] = ..., status_period: _Optional[float] = ..., range_margin: _Optional[float] = ..., display: _Optional[_Union[MirrorOptions.Display, str]] = ..., display_fps: _Optional[float] = ..., camera: _Optional[str] = ..., node_name: _Optional[str] = ...) -> None: ...
 
 class MirrorTopicMappings(_message.Message):
     __slots__ = ("mappings",)

@@ -1,0 +1,220 @@
+"""`Mirror`: writes checked encoder values into a MuJoCo simulation and keeps the per-joint statistics.
+
+`receive` runs on the ROS executor thread for every message; the main thread steps physics, renders
+and prints status. One lock guards `MjData`; `receive` holds it only to write qpos/ctrl and run
+mj_forward (tens of microseconds), and the main thread holds it for one physics step at a time.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from joshua_core.config_pb2 import MirrorOptions
+from joshua_mirror.joints import MirroredJoint
+
+APPLY_LATENCY_SAMPLES = 100_000  # kept for the report's percentiles; older ones are dropped
+
+
+@dataclass
+class JointStats:
+    """What happened to one joint's messages."""
+
+    received: int = 0
+    accepted: int = 0
+    rejected_non_finite: int = 0
+    rejected_out_of_range: int = 0
+    clamped: int = 0
+    last_value: float | None = None  # the last accepted encoder value
+    last_rejected_value: float | None = None
+    last_accepted_at: float | None = None  # monotonic seconds
+    stale: bool = False
+    stale_episodes: int = 0
+    received_at_last_status: int = 0
+    errors: list[float] = field(default_factory=list)  # sim - real at each message, when tracking through actuators
+
+    @property
+    def rejected(self) -> int:
+        return self.rejected_non_finite + self.rejected_out_of_range
+
+
+class Mirror:
+    """The mirrored simulation: engine state, the mapped joints and what their messages did."""
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        joints: list[MirroredJoint],
+        options: MirrorOptions,
+        *,
+        stale_timeout: float,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.model = model
+        self.data = data
+        self.joints = joints
+        self.kinematic = options.apply in (MirrorOptions.KINEMATIC, MirrorOptions.KINEMATIC_AND_ACTUATOR)
+        self.actuated = options.apply in (MirrorOptions.ACTUATOR, MirrorOptions.KINEMATIC_AND_ACTUATOR)
+        self.range_margin = options.range_margin
+        self.stale_timeout = stale_timeout
+        self.clock = clock
+        self.lock = threading.Lock()
+        self.stats = [JointStats() for _ in joints]
+        self.unknown_names: dict[str, int] = {}  # JointState names (or Float64 topics) nobody mapped
+        self.malformed = 0  # JointState messages whose position list is shorter than their name list
+        self.apply_latency_us: list[float] = []  # message callback entered -> state updated
+        self.started_at = clock()
+        self.on_applied: Callable[[int, float], None] | None = None  # (joint index, value) after each update
+
+    def receive(self, updates: Iterable[tuple[int, float]], entered_ns: int) -> None:
+        """Check each (joint index, encoder value) and write the good ones; `entered_ns` is when the callback began."""
+        now = self.clock()
+        accepted: list[tuple[int, float, float]] = []
+        for index, value in updates:
+            stats = self.stats[index]
+            stats.received += 1
+            target = self._checked_target(index, value)
+            if target is not None:
+                accepted.append((index, value, target))
+        if not accepted:
+            return
+        with self.lock:
+            for index, _, target in accepted:
+                joint = self.joints[index]
+                if self.actuated:
+                    stats = self.stats[index]
+                    if stats.accepted:  # before the first target the simulation had no chance to follow
+                        stats.errors.append(float(self.data.qpos[joint.qpos_address]) - target)
+                    self.data.ctrl[joint.actuator_id] = target
+                if self.kinematic:
+                    self.data.qpos[joint.qpos_address] = target
+            if self.kinematic:
+                mujoco.mj_forward(self.model, self.data)
+        self._record_latency(entered_ns)
+        for index, value, _ in accepted:
+            stats = self.stats[index]
+            stats.accepted += 1
+            stats.last_value = value
+            stats.last_accepted_at = now
+            if self.on_applied is not None:
+                self.on_applied(index, value)
+
+    def _checked_target(self, index: int, value: float) -> float | None:
+        """value + offset, clamped into the joint range within the margin; None (counted) if it is rejected."""
+        stats = self.stats[index]
+        joint = self.joints[index]
+        if not math.isfinite(value):
+            stats.rejected_non_finite += 1
+            stats.last_rejected_value = value
+            return None
+        target = joint.to_sim(value)
+        if target < joint.low - self.range_margin or target > joint.high + self.range_margin:
+            stats.rejected_out_of_range += 1
+            stats.last_rejected_value = value
+            return None
+        if target < joint.low or target > joint.high:
+            stats.clamped += 1
+            target = min(max(target, joint.low), joint.high)
+        return target
+
+    def _record_latency(self, entered_ns: int) -> None:
+        if len(self.apply_latency_us) >= APPLY_LATENCY_SAMPLES:
+            del self.apply_latency_us[: APPLY_LATENCY_SAMPLES // 2]
+        self.apply_latency_us.append((time.perf_counter_ns() - entered_ns) / 1e3)
+
+    def count_unknown(self, name: str) -> None:
+        self.unknown_names[name] = self.unknown_names.get(name, 0) + 1
+
+    def update_staleness(self) -> list[MirroredJoint]:
+        """Mark joints with no accepted message for `stale_timeout` seconds stale; return those that just became so."""
+        now = self.clock()
+        became_stale = []
+        for joint, stats in zip(self.joints, self.stats, strict=True):
+            last = stats.last_accepted_at if stats.last_accepted_at is not None else self.started_at
+            stale = now - last > self.stale_timeout
+            if stale and not stats.stale:
+                stats.stale_episodes += 1
+                became_stale.append(joint)
+            stats.stale = stale
+        return became_stale
+
+    def status_line(self, period: float) -> str:
+        """Rate per joint since the last status line, age of its last value, rejections and unknown names."""
+        now = self.clock()
+        parts = []
+        for joint, stats in zip(self.joints, self.stats, strict=True):
+            rate = (stats.received - stats.received_at_last_status) / period
+            stats.received_at_last_status = stats.received
+            age = "never" if stats.last_accepted_at is None else f"{(now - stats.last_accepted_at) * 1e3:.0f}ms"
+            flags = " STALE" if stats.stale else ""
+            flags += f" rejected {stats.rejected}" if stats.rejected else ""
+            parts.append(f"{joint.joint} {rate:.0f}/s {age}{flags}")
+        unknown = sum(self.unknown_names.values())
+        tail = f" | unknown {unknown}" if unknown else ""
+        return f"[mirror {now - self.started_at:6.1f} s] " + " | ".join(parts) + tail
+
+    def report(self) -> dict[str, Any]:
+        """Per-joint statistics, the final state and the tracking error, as JSON-ready data."""
+        now = self.clock()
+        joints = {}
+        with self.lock:
+            qpos = self.data.qpos.copy()
+            ctrl = self.data.ctrl.copy()
+        for joint, stats in zip(self.joints, self.stats, strict=True):
+            joints[joint.joint] = {
+                "source": joint.source,
+                "actuator": joint.actuator,
+                "offset": joint.offset,
+                "received": stats.received,
+                "accepted": stats.accepted,
+                "rejected_non_finite": stats.rejected_non_finite,
+                "rejected_out_of_range": stats.rejected_out_of_range,
+                "clamped": stats.clamped,
+                "last_value": stats.last_value,
+                "last_rejected_value": _json_float(stats.last_rejected_value),
+                "last_age_s": None if stats.last_accepted_at is None else now - stats.last_accepted_at,
+                "stale": stats.stale,
+                "stale_episodes": stats.stale_episodes,
+                "final_qpos": float(qpos[joint.qpos_address]),
+                "final_ctrl": float(ctrl[joint.actuator_id]),
+                "tracking_error": _error_summary(stats.errors) if self.actuated else None,
+            }
+        return {
+            "joints": joints,
+            "unknown": dict(sorted(self.unknown_names.items())),
+            "malformed_messages": self.malformed,
+            "apply_latency_us": _percentiles(self.apply_latency_us),
+        }
+
+
+def _error_summary(errors: list[float]) -> dict[str, Any]:
+    """RMS and largest absolute sim-vs-real error (radians or metres) over the messages of one joint."""
+    if not errors:
+        return {"samples": 0, "rms": None, "max_abs": None}
+    values = np.asarray(errors)
+    return {
+        "samples": len(errors),
+        "rms": float(np.sqrt(np.mean(values**2))),
+        "max_abs": float(np.max(np.abs(values))),
+    }
+
+
+def _percentiles(samples: list[float]) -> dict[str, Any]:
+    if not samples:
+        return {"samples": 0}
+    values = np.asarray(samples)
+    p50, p99 = np.percentile(values, [50, 99])
+    return {"samples": len(samples), "p50": float(p50), "p99": float(p99), "max": float(values.max())}
+
+
+def _json_float(value: float | None) -> float | str | None:
+    """JSON has no NaN or infinity; write those as strings."""
+    return value if value is None or math.isfinite(value) else str(value)

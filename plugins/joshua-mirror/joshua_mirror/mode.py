@@ -1,0 +1,314 @@
+"""The MIRROR mode: a ROS 2 digital twin. Encoder messages move the simulated robot as they arrive.
+
+Threads: the ROS executor thread applies every message the moment it arrives (`Mirror.receive`); the
+main thread steps physics in real time when tracking through actuators, checks staleness, prints the
+status line and feeds the display from a copy of the state, so rendering never delays a message.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from contextlib import ExitStack
+from pathlib import Path
+from typing import Any
+
+import mujoco
+
+from joshua_core.atomic import atomic_write_json
+from joshua_core.config_pb2 import MirrorOptions, SimulationConfig
+from joshua_core.errors import ConfigError, JoshuaError, UsageError
+from joshua_core.interfaces import Engine, Mode, RunContext
+from joshua_mirror.joints import MAPPINGS_FIELD, MirroredJoint, resolve_joints
+from joshua_mirror.mirror import Mirror
+from joshua_mirror.ros import RosSession, message_types, sensor_qos
+
+REPORT_FILE = "mirror_report.json"
+DEFAULT_JOINT_STATE_TOPIC = "/joint_states"
+DEFAULT_NODE_NAME = "joshua_mirror"
+DEFAULT_STALE_TIMEOUT_S = 0.5
+DEFAULT_STATUS_PERIOD_S = 1.0
+DEFAULT_DISPLAY_FPS = 30.0
+STALE_CHECK_PERIOD_S = 0.05
+QUEUE_DEPTH = 100  # messages kept per subscription if the callback thread falls behind
+MAX_CATCH_UP_S = 0.25  # physics further behind the wall clock than this skips ahead instead of racing
+GIL_SWITCH_INTERVAL_S = 2e-4  # the executor thread gets the GIL within this while the main thread runs Python
+FLOAT64_TYPE = "std_msgs/msg/Float64"
+DISPLAY_HINT = "pip install joshua-modes"
+
+
+class MirrorMode(Mode):
+    """Mirrors the mapped encoder topics into the simulation until `duration` wall seconds pass or Ctrl-C."""
+
+    def run(self, config: SimulationConfig, context: RunContext) -> None:
+        options = config.mirror
+        with ExitStack() as stack:
+            ros = stack.enter_context(RosSession(options.node_name or DEFAULT_NODE_NAME))
+            engine = stack.enter_context(context.create_engine(config))
+            _check_mujoco(engine)
+            try:
+                engine.reset(config.keyframe or None)
+            except KeyError as error:
+                raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
+            joints = resolve_joints(engine.model, config.mirror_topic_mappings.mappings, options)
+            mirror = Mirror(
+                engine.model,
+                engine.data,
+                joints,
+                options,
+                stale_timeout=options.stale_timeout or DEFAULT_STALE_TIMEOUT_S,
+            )
+            watcher = _subscribe(ros, mirror, options)
+            display = _open_display(stack, config, context.output_dir)
+            loop = _MainLoop(engine, mirror, watcher, display, options)
+            stopped_by = loop.run(config.duration)
+            ros.close()  # no callback may change the state while it is reported
+            report = _report(config, mirror, loop, stopped_by)
+        path = context.output_dir / REPORT_FILE
+        atomic_write_json(path, report)
+        accepted = sum(joint["accepted"] for joint in report["joints"].values())
+        rejected = sum(joint["rejected_non_finite"] + joint["rejected_out_of_range"] for joint in report["joints"].values())
+        stale = [name for name, joint in report["joints"].items() if joint["stale"]]
+        print(
+            f"mirrored {len(joints)} joints for {report['wall_seconds']:.1f} s ({stopped_by}): {accepted} values "
+            f"applied, {rejected} rejected, stale at the end: {', '.join(stale) or 'none'}; report: {path}"
+        )
+
+
+def _check_mujoco(engine: Engine) -> None:
+    if not isinstance(engine.model, mujoco.MjModel) or not isinstance(engine.data, mujoco.MjData):
+        raise UsageError("the MIRROR mode needs a MuJoCo-based backend (its engine's model must be a mujoco.MjModel)")
+
+
+class _UnknownTopicWatcher:
+    """Counts messages on Float64 topics next to the mapped ones (same namespace) that no mapping names."""
+
+    def __init__(self, ros: RosSession, mirror: Mirror, mapped: set[str], float64: Any) -> None:
+        self.ros = ros
+        self.mirror = mirror
+        self.mapped = mapped
+        self.namespaces = {topic.rsplit("/", 1)[0] for topic in mapped}
+        self.float64 = float64
+        self.watched: set[str] = set()
+
+    def poll(self) -> None:
+        """Subscribe to new unmapped Float64 topics in the graph; their messages are only counted."""
+        for topic, types in self.ros.node.get_topic_names_and_types():
+            if (
+                FLOAT64_TYPE in types
+                and topic not in self.mapped
+                and topic not in self.watched
+                and topic.rsplit("/", 1)[0] in self.namespaces
+            ):
+                self.watched.add(topic)
+                self.ros.node.create_subscription(
+                    self.float64, topic, lambda _message, name=topic: self.mirror.count_unknown(name), sensor_qos(1)
+                )
+
+
+def _subscribe(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> _UnknownTopicWatcher | None:
+    """Create the subscriptions whose callbacks feed `mirror`; invalid topic names are config errors."""
+    from rclpy.exceptions import InvalidTopicNameException
+
+    float64, joint_state = message_types()
+    qos = sensor_qos(QUEUE_DEPTH)
+    node = ros.node
+    if options.message_type == MirrorOptions.JOINT_STATE:
+        topic = options.joint_state_topic or DEFAULT_JOINT_STATE_TOPIC
+        by_name = {joint.source: index for index, joint in enumerate(mirror.joints)}
+
+        def on_joint_state(message: Any) -> None:
+            entered = time.perf_counter_ns()
+            names, positions = message.name, message.position
+            if len(positions) < len(names):
+                mirror.malformed += 1
+                return
+            updates = []
+            for name, position in zip(names, positions, strict=False):
+                index = by_name.get(name)
+                if index is None:
+                    mirror.count_unknown(name)
+                else:
+                    updates.append((index, position))
+            mirror.receive(updates, entered)
+
+        try:
+            node.create_subscription(joint_state, topic, on_joint_state, qos)
+        except InvalidTopicNameException as error:
+            raise ConfigError(f"simulation.mirror.joint_state_topic: {error}") from None
+        return None
+
+    mapped = set()
+    for index, joint in enumerate(mirror.joints):
+        try:
+            node.create_subscription(float64, joint.source, _float64_callback(mirror, index), qos)
+            mapped.add(node.resolve_topic_name(joint.source))
+        except InvalidTopicNameException as error:
+            raise ConfigError(f"{MAPPINGS_FIELD}[{index}].ros_topic: {error}") from None
+    return _UnknownTopicWatcher(ros, mirror, mapped, float64)
+
+
+def _float64_callback(mirror: Mirror, index: int) -> Any:
+    def on_float64(message: Any) -> None:
+        mirror.receive(((index, message.data),), time.perf_counter_ns())
+
+    return on_float64
+
+
+def _open_display(stack: ExitStack, config: SimulationConfig, output_dir: Path) -> _DisplayFeed | None:
+    """The display the options ask for, on an engine of its own; None (said once) when joshua-modes is missing."""
+    choice = config.mirror.display
+    if choice == MirrorOptions.NONE:
+        return None
+    try:
+        from joshua_modes.display import open_display
+    except ImportError:
+        if choice != MirrorOptions.AUTO:
+            name = MirrorOptions.Display.Name(choice)
+            raise UsageError(f"simulation.mirror.display: {name} needs the plugin joshua-modes: {DISPLAY_HINT}") from None
+        print(
+            f"joshua: mirror: running without a display; to watch or record the mirrored robot: {DISPLAY_HINT}",
+            file=sys.stderr,
+        )
+        return None
+    from joshua_mujoco import MuJoCoEngine
+
+    shadow = stack.enter_context(
+        MuJoCoEngine(config.model_path, render_width=config.render_width or 640, render_height=config.render_height or 480)
+    )
+    viewer = {MirrorOptions.AUTO: None, MirrorOptions.VIEWER: True, MirrorOptions.RECORD: False}[choice]
+    display = stack.enter_context(
+        open_display(
+            shadow,
+            output_dir=output_dir,
+            name="mirror",
+            fps=config.mirror.display_fps or DEFAULT_DISPLAY_FPS,
+            camera=config.mirror.camera or None,
+            viewer=viewer,
+        )
+    )
+    print(f"joshua: mirror: display: {display.description}", file=sys.stderr)
+    return _DisplayFeed(shadow, display, config.mirror.display_fps or DEFAULT_DISPLAY_FPS)
+
+
+class _DisplayFeed:
+    """Copies the mirrored state into the display's own engine (under the lock, microseconds) and renders it there."""
+
+    def __init__(self, shadow: Any, display: Any, fps: float) -> None:
+        self.shadow = shadow
+        self.display = display
+        self.period = 1.0 / fps
+
+    def show(self, mirror: Mirror, elapsed: float) -> bool:
+        """Render the current state; False once the user closed the viewer."""
+        source, target = mirror.data, self.shadow.data
+        with mirror.lock:
+            target.qpos[:] = source.qpos
+            target.qvel[:] = source.qvel
+            target.ctrl[:] = source.ctrl
+            target.act[:] = source.act
+            target.time = source.time
+        mujoco.mj_forward(self.shadow.model, target)
+        return bool(self.display.update(elapsed))
+
+
+class _MainLoop:
+    """Real-time physics (when tracking through actuators), staleness, status lines and display, until done."""
+
+    def __init__(
+        self,
+        engine: Engine,
+        mirror: Mirror,
+        watcher: _UnknownTopicWatcher | None,
+        display: _DisplayFeed | None,
+        options: MirrorOptions,
+    ) -> None:
+        self.engine = engine
+        self.mirror = mirror
+        self.watcher = watcher
+        self.display = display
+        period = options.status_period or DEFAULT_STATUS_PERIOD_S
+        self.print_status = period > 0  # a negative period turns the lines off; the watcher still polls
+        self.status_period = period if period > 0 else DEFAULT_STATUS_PERIOD_S
+        self.steps = 0
+        self.skipped_steps = 0
+        self.wall_seconds = 0.0
+
+    def run(self, duration: float) -> str:
+        """Loop until `duration` wall seconds (0: until Ctrl-C); return what stopped it."""
+        switch_interval = sys.getswitchinterval()
+        sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
+        start = time.monotonic()
+        try:
+            return self._loop(start, start + duration if duration > 0 else float("inf"))
+        except KeyboardInterrupt:
+            return "Ctrl-C"
+        finally:
+            sys.setswitchinterval(switch_interval)
+            self.wall_seconds = time.monotonic() - start
+
+    def _loop(self, start: float, deadline: float) -> str:
+        timestep = self.engine.timestep
+        next_stale_check = start + STALE_CHECK_PERIOD_S
+        next_status = start + self.status_period
+        next_frame = start
+        while True:
+            now = time.monotonic()
+            if now >= deadline:
+                return "duration"
+            if self.mirror.actuated:
+                self._step_physics(now - start, timestep)
+            if now >= next_stale_check:
+                next_stale_check = now + STALE_CHECK_PERIOD_S
+                _warn_stale(self.mirror.update_staleness(), self.mirror.stale_timeout)
+            if now >= next_status:
+                next_status = now + self.status_period
+                if self.watcher is not None:
+                    self.watcher.poll()
+                if self.print_status:
+                    print(self.mirror.status_line(self.status_period), file=sys.stderr, flush=True)
+            if self.display is not None and now >= next_frame:
+                next_frame = now + self.display.period
+                if not self.display.show(self.mirror, now - start):
+                    return "viewer closed"
+            wake = min(deadline, next_stale_check, next_status, next_frame if self.display else deadline)
+            if self.mirror.actuated:
+                wake = min(wake, start + (self.steps + self.skipped_steps + 1) * timestep)
+            time.sleep(max(0.0, wake - time.monotonic()))
+
+    def _step_physics(self, elapsed: float, timestep: float) -> None:
+        """Step until simulated time catches up with wall time, one step per lock so messages wait at most one."""
+        due = int(elapsed / timestep) - self.steps - self.skipped_steps
+        if due * timestep > MAX_CATCH_UP_S:
+            skip = due - int(MAX_CATCH_UP_S / timestep)
+            self.skipped_steps += skip
+            due -= skip
+        for _ in range(due):
+            with self.mirror.lock:
+                self.engine.step()
+            self.steps += 1
+        problem = self.engine.instability()
+        if problem:
+            raise JoshuaError(f"simulation diverged at t = {self.engine.time:.3f} s: {problem}")
+
+
+def _warn_stale(joints: list[MirroredJoint], timeout: float) -> None:
+    """One line for the joints that just went stale (e.g. all of them when the publisher is lost)."""
+    if joints:
+        names = ", ".join(f"{joint.joint} ({joint.source})" for joint in joints)
+        print(f"joshua: mirror: stale, no valid value for {timeout:g} s: {names}", file=sys.stderr)
+
+
+def _report(config: SimulationConfig, mirror: Mirror, loop: _MainLoop, stopped_by: str) -> dict[str, Any]:
+    options = config.mirror
+    return {
+        "model_path": config.model_path,
+        "apply": MirrorOptions.Apply.Name(options.apply),
+        "message_type": MirrorOptions.MessageType.Name(options.message_type),
+        "stopped_by": stopped_by,
+        "wall_seconds": loop.wall_seconds,
+        "physics_steps": loop.steps,
+        "physics_steps_skipped": loop.skipped_steps,
+        "stale_timeout_s": mirror.stale_timeout,
+        **mirror.report(),
+    }

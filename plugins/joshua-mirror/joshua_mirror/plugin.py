@@ -1,0 +1,24 @@
+"""Entry point of joshua-mirror: registers the MIRROR mode and `joshua mirror-replay`. Imports nothing heavy."""
+
+from __future__ import annotations
+
+from joshua_core import hookimpl
+from joshua_core.plugins import Registrar
+
+
+@hookimpl
+def joshua_register_modes(registry: Registrar) -> None:
+    registry.add(
+        "MIRROR",
+        "joshua_mirror.mode:MirrorMode",
+        "ROS 2 digital twin: mirrors encoder topics (Float64 or JointState) into the simulation in real time",
+    )
+
+
+@hookimpl
+def joshua_register_commands(registry: Registrar) -> None:
+    registry.add(
+        "mirror-replay",
+        "joshua_mirror.replay:MirrorReplayCommand",
+        "publish a trajectory CSV as the encoder topics of a MIRROR config, in real time",
+    )

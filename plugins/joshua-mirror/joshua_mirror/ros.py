@@ -1,0 +1,129 @@
+"""rclpy from the package registry, without a ROS install: a clear import error, and one ROS session per run.
+
+The `ros-jazzy-*` wheels need their native libraries on LD_LIBRARY_PATH. Their package
+`ros_wheels_bootstrapper` puts them there by itself: a `.pth` file makes every Python of the
+virtual environment restart once at startup (os.execve) with LD_LIBRARY_PATH extended and
+`_ROS_WHEELS_BOOTSTRAP_COMPLETE=1` set. So nothing has to be sourced; `import_rclpy` only explains
+what to do when that restart did not happen (python -S, or a guard variable inherited from another
+environment).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import sysconfig
+import threading
+from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+from joshua_core.errors import JoshuaError
+
+if TYPE_CHECKING:
+    from rclpy.node import Node
+    from rclpy.qos import QoSProfile
+
+ROS_PACKAGES = '"ros-jazzy-rclpy[fastrtps]==7.1.6" ros-jazzy-std-msgs==5.3.6 ros-jazzy-sensor-msgs==5.3.6'
+# rcl's own log file (~/.ros/log/*.log, one per process) is not wanted from a simulator; ROS_LOG_DIR still works
+# for nodes that enable it.
+RCL_ARGS = ["--ros-args", "--disable-external-lib-logs"]
+SPIN_TIMEOUT_S = 0.05  # how long the executor thread blocks before it checks whether to stop
+
+
+def import_rclpy() -> ModuleType:
+    """Import rclpy, or raise JoshuaError saying how to get a working one."""
+    try:
+        import rclpy
+        import rclpy.experimental  # noqa: F401  (the EventsExecutor, loaded now so a broken install fails here)
+    except ImportError as error:
+        raise JoshuaError(import_problem(error)) from None
+    return rclpy
+
+
+def import_problem(error: ImportError) -> str:
+    """What went wrong importing rclpy and what to do about it."""
+    if "cannot open shared object file" in str(error):
+        library_dirs = ":".join(str(path) for path in ros_library_dirs())
+        return (
+            f"rclpy is installed but its native libraries are not on LD_LIBRARY_PATH ({error}). The ros-jazzy wheels "
+            "set it by restarting Python at startup (ros_wheels_bootstrapper.pth), which did not happen here "
+            "(python -S, a package folder outside the virtual environment, or _ROS_WHEELS_BOOTSTRAP_COMPLETE "
+            f"inherited). Run: LD_LIBRARY_PATH={library_dirs} joshua ..."
+        )
+    return f"the MIRROR mode needs rclpy ({error}). Install it: pip install {ROS_PACKAGES}"
+
+
+def ros_library_dirs() -> list[Path]:
+    """The folders the ros-jazzy wheels keep their shared libraries in."""
+    site_packages = Path(sysconfig.get_paths()["purelib"])
+    return [Path(sys.prefix) / "lib", *sorted(site_packages.glob("ros_*.libs"))]
+
+
+class RosSession:
+    """An rclpy context of our own with one node, whose callbacks an EventsExecutor runs on a background thread.
+
+    Callbacks run as soon as a message arrives, independently of whatever the main thread does (stepping,
+    rendering), which keeps publish -> applied latency low. Use as a context manager: leaving it stops the
+    thread, destroys the node and shuts the context down, also after Ctrl-C.
+    """
+
+    def __init__(self, node_name: str) -> None:
+        rclpy = import_rclpy()
+        from rclpy.experimental import EventsExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        self.context = rclpy.Context()
+        # No rclpy signal handlers: Ctrl-C stays Python's KeyboardInterrupt in the main thread.
+        rclpy.init(args=RCL_ARGS, context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            self.node: Node = rclpy.create_node(node_name, context=self.context)
+        except Exception:
+            self.context.try_shutdown()
+            raise
+        self.executor = EventsExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, name="joshua-mirror-ros", daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        while not self._stop.is_set() and self.context.ok():
+            self.executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+
+    def close(self) -> None:
+        """Stop the executor thread, destroy the node, shut the context down (rclpy.shutdown for our context)."""
+        if self._stop.is_set():
+            return
+        self._stop.set()
+        self._thread.join()
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+    def __enter__(self) -> RosSession:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+def sensor_qos(depth: int) -> QoSProfile:
+    """Best-effort, keep-last QoS: it matches both reliable and best-effort publishers (what encoders use)."""
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth, reliability=ReliabilityPolicy.BEST_EFFORT)
+
+
+def local_only_environment(domain_id: int) -> dict[str, str]:
+    """Environment that keeps DDS traffic on this machine, in its own domain (for tests and benchmarks)."""
+    return {**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_DOMAIN_ID": str(domain_id)}
+
+
+def message_types() -> tuple[Any, Any]:
+    """The Float64 and JointState message classes."""
+    import_rclpy()
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64
+
+    return Float64, JointState
