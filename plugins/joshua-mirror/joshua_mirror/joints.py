@@ -33,7 +33,9 @@ class MirroredJoint:
         return value + self.offset
 
 
-def resolve_joints(model: mujoco.MjModel, mappings: Sequence[TopicMapping], options: MirrorOptions) -> list[MirroredJoint]:
+def resolve_joints(
+    model: mujoco.MjModel, mappings: Sequence[TopicMapping], options: MirrorOptions
+) -> list[MirroredJoint]:
     """Check every mapping against the model and the options; report all problems at once as ConfigError."""
     if not mappings:
         raise ConfigError(f"{MAPPINGS_FIELD} is empty: the MIRROR mode needs at least one topic -> actuator mapping")

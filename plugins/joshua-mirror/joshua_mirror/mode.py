@@ -67,7 +67,9 @@ class MirrorMode(Mode):
         path = context.output_dir / REPORT_FILE
         atomic_write_json(path, report)
         accepted = sum(joint["accepted"] for joint in report["joints"].values())
-        rejected = sum(joint["rejected_non_finite"] + joint["rejected_out_of_range"] for joint in report["joints"].values())
+        rejected = sum(
+            joint["rejected_non_finite"] + joint["rejected_out_of_range"] for joint in report["joints"].values()
+        )
         stale = [name for name, joint in report["joints"].items() if joint["stale"]]
         print(
             f"mirrored {len(joints)} joints for {report['wall_seconds']:.1f} s ({stopped_by}): {accepted} values "
@@ -165,7 +167,9 @@ def _open_display(stack: ExitStack, config: SimulationConfig, output_dir: Path) 
     except ImportError:
         if choice != MirrorOptions.AUTO:
             name = MirrorOptions.Display.Name(choice)
-            raise UsageError(f"simulation.mirror.display: {name} needs the plugin joshua-modes: {DISPLAY_HINT}") from None
+            raise UsageError(
+                f"simulation.mirror.display: {name} needs the plugin joshua-modes: {DISPLAY_HINT}"
+            ) from None
         print(
             f"joshua: mirror: running without a display; to watch or record the mirrored robot: {DISPLAY_HINT}",
             file=sys.stderr,
@@ -174,7 +178,9 @@ def _open_display(stack: ExitStack, config: SimulationConfig, output_dir: Path) 
     from joshua_mujoco import MuJoCoEngine
 
     shadow = stack.enter_context(
-        MuJoCoEngine(config.model_path, render_width=config.render_width or 640, render_height=config.render_height or 480)
+        MuJoCoEngine(
+            config.model_path, render_width=config.render_width or 640, render_height=config.render_height or 480
+        )
     )
     viewer = {MirrorOptions.AUTO: None, MirrorOptions.VIEWER: True, MirrorOptions.RECORD: False}[choice]
     display = stack.enter_context(

@@ -1,0 +1,190 @@
+"""`joshua mirror-replay CSV`: play a recorded trajectory as a robot's encoder topics, in real time.
+
+The config (a MIRROR preset or file) says which topics to publish and with which offsets; each value
+published is CSV value - offset, so that the mirror (which adds the offset back) shows the CSV's
+joint positions. It publishes std_msgs/Float64 per topic, or one sensor_msgs/JointState topic when
+the config's message_type is JOINT_STATE or with --joint-state.
+"""
+
+from __future__ import annotations
+
+import argparse
+import difflib
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from joshua_core.cli import load
+from joshua_core.config import finalize
+from joshua_core.config_pb2 import MirrorOptions, SimulationConfig
+from joshua_core.errors import ConfigError, UsageError
+from joshua_core.interfaces import Command
+from joshua_core.plugins import PluginHost
+from joshua_core.progress import progress_bar
+from joshua_core.resources import resolve_data_path
+from joshua_mirror.joints import MirroredJoint, resolve_joints
+from joshua_mirror.mode import DEFAULT_JOINT_STATE_TOPIC
+from joshua_mirror.ros import RosSession, message_types
+from joshua_mirror.trajectory import Trajectory, read_trajectory
+
+DEFAULT_PRESET = "sim_mirror"
+DEFAULT_RATE_HZ = 100.0
+SUBSCRIBER_WAIT_POLL_S = 0.02
+# After our side sees the subscriber, its side still needs a moment to match us; samples sent before are lost.
+MATCH_SETTLE_S = 0.5
+
+
+class MirrorReplayCommand(Command):
+    """Publishes a trajectory CSV on the encoder topics of a MIRROR config."""
+
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("csv", type=Path, help="trajectory CSV: '#' comments, header 'timestamp,<joint names>'")
+        source = parser.add_mutually_exclusive_group()
+        source.add_argument(
+            "--preset", metavar="NAME", help=f"MIRROR preset with the topics and offsets ({DEFAULT_PRESET})"
+        )
+        source.add_argument("--config", metavar="FILE", type=Path, help="MIRROR config file instead of a preset")
+        parser.add_argument(
+            "--set",
+            dest="overrides",
+            metavar="PATH=VALUE",
+            action="append",
+            default=[],
+            help="override one config field, as for `joshua --set` (repeatable)",
+        )
+        parser.add_argument(
+            "--rate",
+            type=float,
+            default=DEFAULT_RATE_HZ,
+            help=f"messages per second per topic, interpolated from the CSV (default {DEFAULT_RATE_HZ:g})",
+        )
+        parser.add_argument("--speed", type=float, default=1.0, help="playback speed factor (default 1: real time)")
+        parser.add_argument("--loops", type=int, default=1, help="play the trajectory this many times (default 1)")
+        parser.add_argument(
+            "--joint-state",
+            action="store_true",
+            help="publish sensor_msgs/JointState whatever the config's message_type says",
+        )
+        parser.add_argument(
+            "--wait",
+            type=float,
+            default=10.0,
+            metavar="S",
+            help="seconds to wait for the mirror to subscribe before playing (default 10)",
+        )
+
+    def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        if args.rate <= 0 or args.speed <= 0 or args.loops < 1:
+            raise UsageError("--rate and --speed must be positive and --loops at least 1")
+        if not args.preset and not args.config:
+            args.preset = DEFAULT_PRESET
+        config = finalize(load(args)).simulation
+        if config.mode != SimulationConfig.MIRROR:
+            raise ConfigError(
+                f"mirror-replay needs a MIRROR config; this one is {SimulationConfig.Mode.Name(config.mode)}"
+            )
+        if args.joint_state:
+            config.mirror.message_type = MirrorOptions.JOINT_STATE
+        joints = _joints_of(config)
+        trajectory = read_trajectory(resolve_data_path(args.csv, what="trajectory"))
+        columns = _columns(trajectory, joints, args.csv)
+        times = np.arange(trajectory.times[0], trajectory.times[-1] + 1e-9, 1.0 / args.rate)
+        encoder_values = np.stack(
+            [
+                np.interp(times, trajectory.times, trajectory.values[:, column]) - joint.offset
+                for joint, column in zip(joints, columns, strict=True)
+            ],
+            axis=1,
+        )
+        with RosSession("joshua_mirror_replay") as ros:
+            publisher = _EncoderPublisher(ros, config, joints)
+            publisher.wait_for_subscribers(args.wait)
+            try:
+                _play(publisher, times - times[0], encoder_values, args.speed, args.loops)
+            except KeyboardInterrupt:
+                print("joshua: mirror-replay: stopped", file=sys.stderr)
+                return 130
+        print(f"published {len(times) * args.loops} samples of {len(joints)} joints from {args.csv}")
+        return 0
+
+
+def _joints_of(config: SimulationConfig) -> list[MirroredJoint]:
+    """The config's mapped joints (checked against its model, like the mirror does)."""
+    from joshua_mujoco import MuJoCoEngine
+
+    with MuJoCoEngine(config.model_path) as engine:
+        return resolve_joints(engine.model, config.mirror_topic_mappings.mappings, config.mirror)
+
+
+def _columns(trajectory: Trajectory, joints: list[MirroredJoint], csv: Path) -> list[int]:
+    """The CSV column of each mapped joint (by the name of the MuJoCo joint it drives)."""
+    missing = [joint.joint for joint in joints if joint.joint not in trajectory.names]
+    if missing:
+        hints = []
+        for name in missing:
+            close = difflib.get_close_matches(name, trajectory.names, n=1)
+            hints.append(f"{name} (did you mean {close[0]}?)" if close else name)
+        raise UsageError(
+            f"{csv}: no column for the mapped joints {', '.join(hints)}; columns: {', '.join(trajectory.names)}"
+        )
+    return [trajectory.names.index(joint.joint) for joint in joints]
+
+
+class _EncoderPublisher:
+    """Publishes one row of encoder values the way the config's mirror listens: Float64 per topic or JointState."""
+
+    def __init__(self, ros: RosSession, config: SimulationConfig, joints: list[MirroredJoint]) -> None:
+        float64, joint_state = message_types()
+        self.node = ros.node
+        self.float64 = float64
+        self.joint_state = joint_state
+        if config.mirror.message_type == MirrorOptions.JOINT_STATE:
+            topic = config.mirror.joint_state_topic or DEFAULT_JOINT_STATE_TOPIC
+            self.publishers = [self.node.create_publisher(joint_state, topic, 10)]
+            self.names: list[str] | None = [joint.source for joint in joints]
+        else:
+            self.publishers = [self.node.create_publisher(float64, joint.source, 10) for joint in joints]
+            self.names = None
+
+    def publish(self, values: np.ndarray) -> None:
+        if self.names is None:
+            for publisher, value in zip(self.publishers, values.tolist(), strict=True):
+                publisher.publish(self.float64(data=value))
+            return
+        message = self.joint_state(name=self.names, position=values.tolist())
+        message.header.stamp = self.node.get_clock().now().to_msg()
+        self.publishers[0].publish(message)
+
+    def wait_for_subscribers(self, timeout: float) -> None:
+        """Wait until every topic has a subscriber (the mirror), so the start of the trajectory is not lost."""
+        deadline = time.monotonic() + timeout
+        while not all(publisher.get_subscription_count() for publisher in self.publishers):
+            if time.monotonic() > deadline:
+                print(
+                    f"joshua: mirror-replay: no mirror subscribed within {timeout:g} s; publishing anyway",
+                    file=sys.stderr,
+                )
+                return
+            time.sleep(SUBSCRIBER_WAIT_POLL_S)
+        time.sleep(MATCH_SETTLE_S)
+
+
+def _play(publisher: _EncoderPublisher, offsets_s: np.ndarray, values: np.ndarray, speed: float, loops: int) -> None:
+    """Publish row k at start + offsets_s[k] / speed (each loop starts one sample after the last), with progress."""
+    duration = float(offsets_s[-1])
+    period = duration / (len(offsets_s) - 1) if len(offsets_s) > 1 else 0.0
+    with progress_bar(duration * loops, description="mirror-replay", unit="s") as bar:
+        for loop in range(loops):
+            start = time.monotonic()
+            done = 0.0
+            for offset, row in zip(offsets_s, values, strict=True):
+                delay = start + offset / speed - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+                publisher.publish(row)
+                bar.update(float(offset) - done)
+                done = float(offset)
+            if loop + 1 < loops:
+                time.sleep(period / speed)

@@ -1,0 +1,61 @@
+"""A real ROS 2 publisher process for the tests: publishes the messages of a JSON plan, then exits.
+
+Plan: {"wait_for": TOPIC, "messages": [{"topic": T, "value": V} | {"topic": T, "names": [...],
+"positions": [...]} | {"sleep": S}, ...]}. Values may be "nan"/"inf". It first waits until TOPIC has
+a subscriber (the mirror), so no message is published before the mirror listens.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+
+import rclpy
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+MATCH_TIMEOUT_S = 30.0
+GAP_S = 0.002  # between messages, so a best-effort subscriber keeps up
+
+
+def main() -> None:
+    plan = json.loads(sys.argv[1])
+    rclpy.init()
+    node = rclpy.create_node("joshua_mirror_test_publisher")
+    qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+    publishers = {}
+
+    def publisher(topic: str, kind: type) -> rclpy.publisher.Publisher:
+        if topic not in publishers:
+            publishers[topic] = node.create_publisher(kind, topic, qos)
+        return publishers[topic]
+
+    for message in plan["messages"]:  # create them all first, so discovery happens once
+        if "topic" in message:
+            publisher(message["topic"], JointState if "names" in message else Float64)
+    watched = publishers[plan["wait_for"]]
+    deadline = time.monotonic() + MATCH_TIMEOUT_S
+    while watched.get_subscription_count() == 0:
+        if time.monotonic() > deadline:
+            sys.exit(f"no subscriber on {plan['wait_for']} after {MATCH_TIMEOUT_S} s")
+        time.sleep(0.02)
+    time.sleep(0.2)  # the other topics of the same subscriber match within this
+    for message in plan["messages"]:
+        if "sleep" in message:
+            time.sleep(message["sleep"])
+            continue
+        if "names" in message:
+            ros_message = JointState(name=message["names"], position=[float(p) for p in message["positions"]])
+        else:
+            ros_message = Float64(data=float(message["value"]))
+        publishers[message["topic"]].publish(ros_message)
+        time.sleep(GAP_S)
+    time.sleep(0.2)
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,260 @@
+"""The MIRROR mode end to end: real `joshua` processes, real rclpy publishers, DDS on loopback only.
+
+Each test starts `joshua` (the mirror, stopped with Ctrl-C = SIGINT once the publisher is done, or by
+its duration) and a publisher process (tests/publisher.py or `joshua mirror-replay`), then reads
+the mirror's JSON report. Traffic stays on this machine (ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST)
+in a random ROS domain per test run, so parallel runs do not see each other.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import os
+import random
+import signal
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from joshua_core.config import load_preset
+from joshua_core.errors import PluginNotFoundError
+from joshua_core.plugins import PluginHost, PluginInfo
+from joshua_mirror.ros import local_only_environment
+
+JOSHUA = Path(sys.executable).parent / "joshua"
+PUBLISHER = Path(__file__).with_name("publisher.py")
+DOMAIN_ID = random.randint(1, 100)  # one per test run
+OFFSETS = {
+    m.mujoco_actuator.removesuffix("_position"): m.offset
+    for m in load_preset("sim_mirror").message.simulation.mirror_topic_mappings.mappings
+}
+JOINTS = [f"joint_{i}" for i in range(1, 7)]
+FAST = ["--set", "simulation.mirror.display=NONE", "--set", "simulation.mirror.status_period=0.2"]
+
+
+@pytest.fixture
+def ros_env(tmp_path: Path) -> dict[str, str]:
+    return {**local_only_environment(DOMAIN_ID), "ROS_LOG_DIR": str(tmp_path / "ros_log")}
+
+
+def start_mirror(tmp_path: Path, env: dict[str, str], *overrides: str) -> subprocess.Popen[str]:
+    sets = [arg for override in overrides for arg in ("--set", override)]
+    command = [str(JOSHUA), "--preset", "sim_mirror", *FAST, *sets]
+    return subprocess.Popen(command, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def publish(env: dict[str, str], plan: dict[str, Any]) -> None:
+    result = subprocess.run(
+        [sys.executable, str(PUBLISHER), json.dumps(plan)], env=env, capture_output=True, text=True, timeout=60
+    )
+    assert result.returncode == 0, result.stderr
+
+
+def stop(mirror: subprocess.Popen[str], tmp_path: Path) -> tuple[dict[str, Any], str]:
+    """Ctrl-C the mirror; it must stop cleanly (exit 0) and leave its report."""
+    mirror.send_signal(signal.SIGINT)
+    out, err = mirror.communicate(timeout=30)
+    assert mirror.returncode == 0, err
+    assert "Traceback" not in err
+    report = json.loads((tmp_path / "joshua_output" / "mirror_report.json").read_text())
+    assert report["stopped_by"] == "Ctrl-C"
+    return report, err
+
+
+def motion(step: int) -> dict[str, float]:
+    """A known motion of the six joints (encoder values, inside every joint range after the offset)."""
+    return {
+        joint: 0.4 * math.sin(0.3 * step + index) + (0.6 if joint == "joint_6" else 0.1)
+        for index, joint in enumerate(JOINTS)
+    }
+
+
+def float64_plan(steps: range, topics: dict[str, str] | None = None) -> dict[str, Any]:
+    messages = [
+        {"topic": f"/encoder/{joint}", "value": value} for step in steps for joint, value in motion(step).items()
+    ]
+    return {"wait_for": "/encoder/joint_1", "messages": messages}
+
+
+def assert_mirrored(report: dict[str, Any], values: dict[str, float]) -> None:
+    """qpos == encoder value + offset (the offset is the config's float32, widened) within 1e-6."""
+    for joint, value in values.items():
+        entry = report["joints"][joint]
+        assert entry["last_value"] == value
+        assert abs(entry["final_qpos"] - (value + OFFSETS[joint])) < 1e-6, joint
+
+
+def test_sim_mirror_preset_runs_for_its_duration(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    display_installed = importlib.util.find_spec("joshua_modes") is not None
+    overrides = [] if display_installed else ["--set", "simulation.mirror.display=AUTO"]
+    result = subprocess.run(
+        [str(JOSHUA), "--preset", "sim_mirror", "--set", "simulation.duration=1", *FAST, *overrides],
+        cwd=tmp_path,
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 0, result.stderr
+    report = json.loads((tmp_path / "joshua_output" / "mirror_report.json").read_text())
+    assert report["stopped_by"] == "duration" and 1.0 <= report["wall_seconds"] < 3.0
+    assert all(entry["stale"] and entry["received"] == 0 for entry in report["joints"].values())
+    assert "stale, no valid value for 0.5 s: joint_1 (/encoder/joint_1)" in result.stderr
+    assert "[mirror" in result.stderr  # status lines
+    if not display_installed:
+        assert "pip install joshua-modes" in result.stderr
+
+
+def test_float64_motion_is_mirrored_exactly(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    mirror = start_mirror(tmp_path, ros_env)
+    publish(ros_env, float64_plan(range(40)))
+    report, _ = stop(mirror, tmp_path)
+    assert_mirrored(report, motion(39))
+    for entry in report["joints"].values():
+        assert entry["accepted"] == 40 and entry["received"] == 40
+        assert entry["final_ctrl"] == 0.0  # KINEMATIC: the actuators are not touched
+        assert entry["tracking_error"] is None
+    assert report["apply_latency_us"]["samples"] == 240
+
+
+def test_joint_state_motion_is_mirrored_exactly(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    mirror = start_mirror(tmp_path, ros_env, "simulation.mirror.message_type=JOINT_STATE")
+    messages = []
+    for step in range(30):
+        values = motion(step)
+        names = [*reversed(JOINTS), "gripper_camera_tilt"]  # any order; an unknown name is counted, not applied
+        messages.append({"topic": "/joint_states", "names": names, "positions": [*(values[n] for n in names[:6]), 9.0]})
+    messages.append({"topic": "/joint_states", "names": ["joint_1", "joint_2"], "positions": [0.1]})  # malformed
+    publish(ros_env, {"wait_for": "/joint_states", "messages": messages})
+    report, _ = stop(mirror, tmp_path)
+    assert_mirrored(report, motion(29))
+    assert all(entry["accepted"] == 30 for entry in report["joints"].values())
+    assert report["unknown"] == {"gripper_camera_tilt": 30}
+    assert report["malformed_messages"] == 1
+
+
+def test_bad_messages_are_counted_and_never_written(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    mirror = start_mirror(tmp_path, ros_env, "simulation.mirror.stale_timeout=0.3")
+    good = 0.25
+    bad = ["nan", "inf", "-inf", 5.0, -2.0]  # 5.0 and -2.0 (+ offset) lie outside joint_1's range of +-1.92
+    messages = [{"topic": "/encoder/joint_1", "value": good}, *({"topic": "/encoder/joint_1", "value": v} for v in bad)]
+    messages += [{"topic": "/encoder/joint_2", "value": 0.3}]
+    for _ in range(30):  # a topic next to the mapped ones that no mapping names
+        messages += [{"topic": "/encoder/joint_7", "value": 1.0}, {"sleep": 0.05}]
+    publish(ros_env, {"wait_for": "/encoder/joint_1", "messages": messages})
+    report, err = stop(mirror, tmp_path)
+    joint_1 = report["joints"]["joint_1"]
+    assert joint_1["received"] == 6 and joint_1["accepted"] == 1
+    assert joint_1["rejected_non_finite"] == 3 and joint_1["rejected_out_of_range"] == 2
+    assert joint_1["last_rejected_value"] == -2.0
+    assert_mirrored(report, {"joint_1": good, "joint_2": 0.3})
+    assert report["unknown"]["/encoder/joint_7"] > 0
+    joint_3 = report["joints"]["joint_3"]  # never published: stale, left where it was
+    assert joint_3["stale"] and joint_3["received"] == 0 and joint_3["final_qpos"] == 0.0
+    assert report["joints"]["joint_1"]["stale"]  # 1.5 s passed since its last good value
+    assert "rejected 5" in err  # the status line
+
+
+def test_publisher_loss_and_return_resumes_mirroring(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    mirror = start_mirror(tmp_path, ros_env, "simulation.mirror.stale_timeout=0.3")
+    publish(ros_env, float64_plan(range(10)))
+    publish(ros_env, float64_plan(range(100, 110)))  # a new publisher process, after >0.3 s of silence
+    report, err = stop(mirror, tmp_path)
+    assert_mirrored(report, motion(109))
+    for entry in report["joints"].values():
+        assert entry["accepted"] == 20
+        assert entry["stale_episodes"] >= 2  # before the first publisher, and between the two
+    assert err.count("stale, no valid value") >= 2
+
+
+def test_actuator_tracking_reports_sim_vs_real_error(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    mirror = start_mirror(tmp_path, ros_env, "simulation.mirror.apply=ACTUATOR")
+    hold = [{"topic": f"/encoder/{joint}", "value": value} for joint, value in motion(0).items()]
+    messages = []
+    for _ in range(50):  # hold one pose for ~1 s: the servos reach it up to their sag under gravity
+        messages += [*hold, {"sleep": 0.02}]
+    publish(ros_env, {"wait_for": "/encoder/joint_1", "messages": messages})
+    report, _ = stop(mirror, tmp_path)
+    assert report["apply"] == "ACTUATOR" and report["physics_steps"] > 500
+    for joint, value in motion(0).items():
+        entry = report["joints"][joint]
+        assert abs(entry["final_ctrl"] - (value + OFFSETS[joint])) < 1e-12
+        error = entry["tracking_error"]
+        assert error["samples"] == 49 and 0 <= error["rms"] <= error["max_abs"]
+        assert abs(entry["final_qpos"] - entry["final_ctrl"]) < 0.1, joint  # followed by physics, not written
+
+
+def test_replay_tool_drives_the_mirror_end_to_end(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    rows = [(0.02 * i, *(0.3 * math.sin(0.2 * i + k) for k in range(6))) for i in range(26)]
+    csv = tmp_path / "motion.csv"
+    csv.write_text(
+        "# a test motion\ntimestamp,"
+        + ",".join(JOINTS)
+        + "\n"
+        + "".join(",".join(f"{v:.6f}" for v in row) + "\n" for row in rows)
+    )
+    mirror = start_mirror(tmp_path, ros_env)
+    replay = subprocess.run(
+        [str(JOSHUA), "mirror-replay", str(csv), "--preset", "sim_mirror", "--rate", "50"],
+        cwd=tmp_path,
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert replay.returncode == 0, replay.stderr
+    report, _ = stop(mirror, tmp_path)
+    for joint, expected in zip(JOINTS, (float(f"{v:.6f}") for v in rows[-1][1:]), strict=True):
+        assert abs(report["joints"][joint]["final_qpos"] - expected) < 1e-6  # offsets inverted by the replay
+        assert report["joints"][joint]["accepted"] == 26
+
+
+def test_mapping_errors_list_the_model_actuators(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    result = subprocess.run(
+        [
+            str(JOSHUA),
+            "--preset",
+            "sim_mirror",
+            *FAST,
+            "--set",
+            "simulation.mirror_topic_mappings.mappings[0].mujoco_actuator=joint_1_pos",
+            "--set",
+            "simulation.mirror_topic_mappings.mappings[2].mujoco_actuator=joint_2_position",
+        ],
+        cwd=tmp_path,
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "mappings[0]: no actuator 'joint_1_pos' in the model. Did you mean: joint_1_position" in result.stderr
+    assert "Actuators: joint_1_position, joint_2_position, joint_3_position" in result.stderr
+    assert "actuator 'joint_2_position' is mapped 2 times" in result.stderr
+
+
+def test_without_the_plugin_the_cli_says_what_to_install(tmp_path: Path) -> None:
+    from joshua_core import builtin_plugin
+    from joshua_mujoco import plugin as mujoco_plugin
+
+    host = PluginHost(
+        [
+            (PluginInfo("core", "joshua-core", "0", "core"), builtin_plugin),
+            (PluginInfo("mujoco", "joshua-mujoco", "0", "mujoco"), mujoco_plugin),
+        ]
+    )
+    with pytest.raises(PluginNotFoundError, match=r"no mode named 'MIRROR' is installed.*pip install joshua-mirror"):
+        host.mode("MIRROR")
+    result = subprocess.run(
+        [str(JOSHUA), "--preset", "sim_mirror"],
+        cwd=tmp_path,
+        env={**os.environ, "JOSHUA_DISABLE_PLUGINS": "joshua-mirror"},
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 2 and "joshua-mirror, which is disabled" in result.stderr
