@@ -190,7 +190,7 @@ def test_actuator_tracking_reports_sim_vs_real_error(tmp_path: Path, ros_env: di
 
 
 def test_replay_tool_drives_the_mirror_end_to_end(tmp_path: Path, ros_env: dict[str, str]) -> None:
-    rows = [(0.02 * i, *(0.3 * math.sin(0.2 * i + k) for k in range(6))) for i in range(26)]
+    rows = [(0.02 * i, *motion(i).values()) for i in range(26)]
     csv = tmp_path / "motion.csv"
     csv.write_text(
         "# a test motion\ntimestamp,"
