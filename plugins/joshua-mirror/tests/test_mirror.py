@@ -258,3 +258,18 @@ def test_without_the_plugin_the_cli_says_what_to_install(tmp_path: Path) -> None
         text=True,
     )
     assert result.returncode == 2 and "joshua-mirror, which is disabled" in result.stderr
+
+
+def test_replay_reports_bad_csv_rows_and_missing_columns(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    bad_row = tmp_path / "bad.csv"
+    bad_row.write_text("# comment\ntimestamp," + ",".join(JOINTS) + "\n0.0,0,0,0,0,0,0\n0.1,0,0,x,0,0,0\n")
+    missing = tmp_path / "missing.csv"
+    missing.write_text("timestamp,joint_1,joint_2,joint_3,joint_4,joint_5,joint6\n0.0,0,0,0,0,0,0\n")
+    for csv, message in (
+        (bad_row, f"{bad_row}:4: not a number in '0.1,0,0,x,0,0,0'"),
+        (missing, "no column for the mapped joints joint_6 (did you mean joint6?)"),
+    ):
+        result = subprocess.run(
+            [str(JOSHUA), "mirror-replay", str(csv)], cwd=tmp_path, env=ros_env, capture_output=True, text=True
+        )
+        assert result.returncode == 2 and message in result.stderr and "Traceback" not in result.stderr
