@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
@@ -103,9 +104,13 @@ class _UnknownTopicWatcher:
                 and topic.rsplit("/", 1)[0] in self.namespaces
             ):
                 self.watched.add(topic)
-                self.ros.node.create_subscription(
-                    self.float64, topic, lambda _message, name=topic: self.mirror.count_unknown(name), sensor_qos(1)
-                )
+                self.ros.node.create_subscription(self.float64, topic, self._counter(topic), sensor_qos(1))
+
+    def _counter(self, topic: str) -> Callable[[Any], None]:
+        def count(_message: Any) -> None:
+            self.mirror.count_unknown(topic)
+
+        return count
 
 
 def _subscribe(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> _UnknownTopicWatcher | None:

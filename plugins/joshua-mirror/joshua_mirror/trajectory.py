@@ -39,7 +39,7 @@ def read_trajectory(path: Path) -> Trajectory:
     names = [name.strip() for name in next(csv.reader([header]))]
     if names[0] != "timestamp" or len(names) < 2:
         raise UsageError(f"{path}:{header_line}: the header must be 'timestamp,<joint names>', got '{header}'")
-    rows = []
+    rows: list[list[float]] = []
     for number, line in numbered[1:]:
         cells = next(csv.reader([line]))
         if len(cells) != len(names):
