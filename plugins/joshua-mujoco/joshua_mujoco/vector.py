@@ -34,6 +34,9 @@ from joshua_mujoco.engine import create_renderer  # noqa: E402
 DEFAULT_NUM_ENVS = 16
 # Bound per-environment fields of mujoco.batch, by the TermContext field that reads them.
 _DERIVED_FIELDS = ("xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext")
+# Fields that must describe the state after the step (kinematics and sensors recomputed at its end).
+# cfrc_ext is not among them: like Gymnasium, it is the contact wrench of the step's last substep.
+_CURRENT_FIELDS = frozenset({"xpos", "xquat", "site_xpos", "sensordata"})
 # A sensor that makes MuJoCo compute cfrc_ext (mj_rnePostConstraint) inside every step.
 _CONTACT_FORCE_SENSOR = "joshua_contact_forces"
 _MARKER_RGBA = np.array([0.1, 0.9, 0.2, 0.7], dtype=np.float32)
@@ -90,6 +93,8 @@ class BatchedSimulation:
         self.qvel = self.batch.bind("qvel")
         self.ctrl = self.batch.bind("ctrl")
         self.derived = {name: self.batch.bind(name) for name in _DERIVED_FIELDS if name in task.fields}
+        # Recompute positions and velocities after each step only when terms read derived fields.
+        self.stage = mujoco.mjtStage.mjSTAGE_VEL if _CURRENT_FIELDS & task.fields else mujoco.mjtStage.mjSTAGE_NONE
         self.prev_qpos = np.zeros_like(self.qpos)
         self.action = np.zeros((num_envs, task.action_size))
         self.prev_action = np.zeros_like(self.action)
@@ -162,7 +167,7 @@ class BatchedSimulation:
         self.ctrl[:] = self.task.action_to_ctrl(np, self.action)
         failed = np.zeros(self.num_envs, dtype=bool)
         try:
-            self.batch.step(nstep=self.task.frame_skip, stage=mujoco.mjtStage.mjSTAGE_VEL)
+            self.batch.step(nstep=self.task.frame_skip, stage=self.stage)
         except SimulationError as error:
             failed[error.ids] = True
         self.episode_step += 1
@@ -170,7 +175,11 @@ class BatchedSimulation:
         return failed
 
     def render(self, env_index: int, camera: str | int | None, width: int, height: int) -> NDArray[np.uint8]:
-        """An RGB image of one environment, with its 3-d commands (targets, goals) drawn as green spheres."""
+        """An RGB image of one environment, with its 3-d commands (targets, goals) drawn as green spheres.
+
+        A site of the world body named like a command (pick-and-place's `goal`) is moved to the
+        command's x, y, so that the model's own marker shows the sampled goal.
+        """
         if not 0 <= env_index < self.num_envs:
             raise IndexError(f"env_index {env_index} out of range for {self.num_envs} environments")
         renderers = self.__dict__.setdefault("_renderers", {})
@@ -178,6 +187,10 @@ class BatchedSimulation:
             model = self.batch.get_model(env_index)
             renderers[(width, height)] = (create_renderer(model, width, height), model)
         renderer, model = renderers[(width, height)]
+        for name, value in self.commands.items():
+            site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
+            if site >= 0 and model.site_bodyid[site] == 0 and value.shape[1] == 3:
+                model.site_pos[site, :2] = value[env_index, :2]
         data = self.batch.get_data(env_index)
         mujoco.mj_forward(model, data)
         if camera is None:
