@@ -284,3 +284,17 @@ def test_plugins_add_terms_and_tasks_through_the_hooks() -> None:
     ctx = TermContext(xp=np, dt=task.dt, qpos=np.array([[0.0, 0.0, 0.6] + [0.0] * (model.nq - 3)]))
     total, terms = task.rewards(ctx)
     assert terms == {"height_bonus": pytest.approx(np.array([0.6]))} and total == pytest.approx([0.6])
+
+
+def test_every_training_preset_names_a_task_that_builds_on_its_model(plugins: PluginHost) -> None:
+    from joshua_core.config import finalize, load_preset, preset_names
+
+    checked = []
+    for name in preset_names():
+        config = load_preset(name).message
+        if config.HasField("training"):
+            training = finalize(load_preset(name)).training
+            model = mujoco.MjModel.from_xml_path(training.model_path)
+            task = build_task(training.task, model, plugins, training.task_config)
+            checked.append(task.name)
+    assert set(checked) == set(BUILTIN_TASKS)
