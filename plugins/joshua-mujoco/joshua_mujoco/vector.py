@@ -254,15 +254,12 @@ class BatchedVectorEnv(VectorEnv):
         """Reset every environment (or those in options["reset_mask"]); `seed` restarts the random stream."""
         if seed is not None:
             self.simulation.seed(seed)
-        mask = (
-            np.ones(self.num_envs, dtype=bool)
-            if not options or "reset_mask" not in options
-            else np.asarray(options["reset_mask"], dtype=bool)
-        )
+        mask = np.ones(self.num_envs, dtype=bool)
+        if options and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=bool)
         ids = np.flatnonzero(mask)
-        observation = np.zeros((self.num_envs, self.task.observation_size), dtype=np.float32)
-        observation[ids] = self.simulation.reset(ids)
-        self._observation = observation
+        self.simulation.reset(ids)
+        observation = self.task.observe(self.simulation.context()).astype(np.float32)
         self._returns[ids] = 0.0
         for sums in self._term_sums.values():
             sums[ids] = 0.0
