@@ -8,9 +8,9 @@ on top of it, with same-step autoreset; `joshua_mujoco.envs` registers single en
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from joshua_mujoco.gl import choose_headless_gl
 
@@ -30,6 +30,8 @@ from joshua_core.plugins import PluginHost  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
 from joshua_core.tasks import NumpyRandom, Task, TermContext, build_task, load_task_spec  # noqa: E402
 from joshua_mujoco.engine import create_renderer  # noqa: E402
+
+_T = TypeVar("_T")
 
 DEFAULT_NUM_ENVS = 16
 # Bound per-environment fields of mujoco.batch, by the TermContext field that reads them.
@@ -53,24 +55,29 @@ def load_task_model(
     """
     spec = load_task_spec(task, plugins)
     path = resolve_data_path(model_path or spec.model_path)
-    try:
-        model_spec = mujoco.MjSpec.from_file(str(path))
-        model = model_spec.compile()
+    model_spec = _compiled(path, lambda: mujoco.MjSpec.from_file(str(path)))
+    model = _compiled(path, model_spec.compile)
+    built = build_task(spec, model, plugins, config)
+    if "cfrc_ext" in built.fields and model.nbody > 1:
+        model_spec.add_sensor(
+            name=_CONTACT_FORCE_SENSOR,
+            type=mujoco.mjtSensor.mjSENS_FRAMELINACC,
+            objtype=mujoco.mjtObj.mjOBJ_BODY,
+            objname=model.body(1).name,
+        )
+        model = _compiled(path, model_spec.compile)
         built = build_task(spec, model, plugins, config)
-        if "cfrc_ext" in built.fields and model.nbody > 1:
-            model_spec.add_sensor(
-                name=_CONTACT_FORCE_SENSOR,
-                type=mujoco.mjtSensor.mjSENS_FRAMELINACC,
-                objtype=mujoco.mjtObj.mjOBJ_BODY,
-                objname=model.body(1).name,
-            )
-            model = model_spec.compile()
-            built = build_task(spec, model, plugins, config)
-    except ValueError as error:  # MuJoCo's compile errors
-        raise ModelError(f"{path}: model does not compile: {error}") from None
     # A diverging simulation becomes non-finite and is terminated, instead of MuJoCo resetting it silently.
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
     return built, model
+
+
+def _compiled(path: Path, compile_step: Callable[[], _T]) -> _T:
+    """Run a MuJoCo parse or compile step, turning its errors into ModelError naming the file."""
+    try:
+        return compile_step()
+    except ValueError as error:
+        raise ModelError(f"{path}: model does not compile: {error}") from None
 
 
 class BatchedSimulation:
