@@ -24,7 +24,7 @@ _sym_db = _symbol_database.Default()
 
 
 
-DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x13joshua/config.proto\x12\x06joshua\"\xf7\x01\n\x0cJoshuaConfig\x12:\n\x0eoperation_mode\x18\x01 \x01(\x0e\x32\".joshua.JoshuaConfig.OperationMode\x12,\n\nsimulation\x18\x02 \x01(\x0b\x32\x18.joshua.SimulationConfig\x12(\n\x08training\x18\x03 \x01(\x0b\x32\x16.joshua.TrainingConfig\x12\x13\n\x0b\x64\x65scription\x18\x04 \x01(\t\x12\x0f\n\x07\x65xtends\x18\x05 \x01(\t\"-\n\rOperationMode\x12\x0e\n\nSIMULATION\x10\x00\x12\x0c\n\x08TRAINING\x10\x01\"\xed\x02\n\x10SimulationConfig\x12+\n\x04mode\x18\x01 \x01(\x0e\x32\x1d.joshua.SimulationConfig.Mode\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x17\n\x0ftrajectory_path\x18\x03 \x01(\t\x12:\n\x15mirror_topic_mappings\x18\x04 \x01(\x0b\x32\x1b.joshua.MirrorTopicMappings\x12\x14\n\x0crender_width\x18\x05 \x01(\x05\x12\x15\n\rrender_height\x18\x06 \x01(\x05\x12\x0f\n\x07\x62\x61\x63kend\x18\x07 \x01(\t\x12\x10\n\x08keyframe\x18\x08 \x01(\t\x12\x10\n\x08\x64uration\x18\t \x01(\x01\x12\x12\n\noutput_dir\x18\n \x01(\t\"M\n\x04Mode\x12\x0f\n\x0bINTERACTIVE\x10\x00\x12\x0b\n\x07PASSIVE\x10\x01\x12\n\n\x06MIRROR\x10\x02\x12\r\n\tOFFSCREEN\x10\x03\x12\x0c\n\x08HEADLESS\x10\x04\"=\n\x13MirrorTopicMappings\x12&\n\x08mappings\x18\x01 \x03(\x0b\x32\x14.joshua.TopicMapping\"J\n\x0cTopicMapping\x12\x11\n\tros_topic\x18\x01 \x01(\t\x12\x17\n\x0fmujoco_actuator\x18\x02 \x01(\t\x12\x0e\n\x06offset\x18\x03 \x01(\x02\"\x88\x03\n\x0eTrainingConfig\x12\x33\n\tframework\x18\x01 \x01(\x0e\x32 .joshua.TrainingConfig.Framework\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x10\n\x08num_envs\x18\x03 \x01(\x05\x12\x17\n\x0ftotal_timesteps\x18\x04 \x01(\x03\x12\x16\n\x0e\x63heckpoint_dir\x18\x05 \x01(\t\x12\x11\n\tnum_steps\x18\x06 \x01(\x05\x12\x12\n\nnum_epochs\x18\x07 \x01(\x05\x12\x16\n\x0eminibatch_size\x18\x08 \x01(\x05\x12\x15\n\rlearning_rate\x18\t \x01(\x02\x12\r\n\x05gamma\x18\n \x01(\x02\x12\x12\n\ngae_lambda\x18\x0b \x01(\x02\x12\x14\n\x0c\x63lip_epsilon\x18\x0c \x01(\x02\x12\x0c\n\x04task\x18\r \x01(\t\x12\x0f\n\x07\x62\x61\x63kend\x18\x0e \x01(\t\x12\x0f\n\x07trainer\x18\x0f \x01(\t\x12\x0c\n\x04seed\x18\x10 \x01(\x03\"\x1d\n\tFramework\x12\x07\n\x03MJX\x10\x00\x12\x07\n\x03SB3\x10\x01\x62\x06proto3')
+DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x13joshua/config.proto\x12\x06joshua\"\xf7\x01\n\x0cJoshuaConfig\x12:\n\x0eoperation_mode\x18\x01 \x01(\x0e\x32\".joshua.JoshuaConfig.OperationMode\x12,\n\nsimulation\x18\x02 \x01(\x0b\x32\x18.joshua.SimulationConfig\x12(\n\x08training\x18\x03 \x01(\x0b\x32\x16.joshua.TrainingConfig\x12\x13\n\x0b\x64\x65scription\x18\x04 \x01(\t\x12\x0f\n\x07\x65xtends\x18\x05 \x01(\t\"-\n\rOperationMode\x12\x0e\n\nSIMULATION\x10\x00\x12\x0c\n\x08TRAINING\x10\x01\"\xe8\x03\n\x10SimulationConfig\x12+\n\x04mode\x18\x01 \x01(\x0e\x32\x1d.joshua.SimulationConfig.Mode\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x17\n\x0ftrajectory_path\x18\x03 \x01(\t\x12:\n\x15mirror_topic_mappings\x18\x04 \x01(\x0b\x32\x1b.joshua.MirrorTopicMappings\x12\x14\n\x0crender_width\x18\x05 \x01(\x05\x12\x15\n\rrender_height\x18\x06 \x01(\x05\x12\x0f\n\x07\x62\x61\x63kend\x18\x07 \x01(\t\x12\x10\n\x08keyframe\x18\x08 \x01(\t\x12\x10\n\x08\x64uration\x18\t \x01(\x01\x12\x12\n\noutput_dir\x18\n \x01(\t\x12+\n\toffscreen\x18\x0b \x01(\x0b\x32\x18.joshua.OffscreenOptions\x12%\n\x06replay\x18\x0c \x01(\x0b\x32\x15.joshua.ReplayOptions\x12%\n\x06viewer\x18\r \x01(\x0b\x32\x15.joshua.ViewerOptions\"M\n\x04Mode\x12\x0f\n\x0bINTERACTIVE\x10\x00\x12\x0b\n\x07PASSIVE\x10\x01\x12\n\n\x06MIRROR\x10\x02\x12\r\n\tOFFSCREEN\x10\x03\x12\x0c\n\x08HEADLESS\x10\x04\"\xd4\x01\n\x10OffscreenOptions\x12\x0e\n\x06\x63\x61mera\x18\x01 \x01(\t\x12\x0b\n\x03\x66ps\x18\x02 \x01(\x01\x12/\n\x06output\x18\x03 \x01(\x0e\x32\x1f.joshua.OffscreenOptions.Output\x12\r\n\x05\x64\x65pth\x18\x04 \x01(\x08\x12\x14\n\x0csegmentation\x18\x05 \x01(\x08\x12\x14\n\x07shadows\x18\x06 \x01(\x08H\x00\x88\x01\x01\"+\n\x06Output\x12\x07\n\x03MP4\x10\x00\x12\x07\n\x03PNG\x10\x01\x12\x0f\n\x0bMP4_AND_PNG\x10\x02\x42\n\n\x08_shadows\"\xa1\x01\n\rReplayOptions\x12\r\n\x05speed\x18\x01 \x01(\x01\x12\x0c\n\x04loop\x18\x02 \x01(\x08\x12\x1b\n\x13\x61s_fast_as_possible\x18\x03 \x01(\x08\x12\x0e\n\x06strict\x18\x04 \x01(\x08\x12\x0f\n\x07tracked\x18\x05 \x01(\x08\x12\x16\n\x0evelocity_limit\x18\x06 \x01(\x01\x12\x1d\n\x15penetration_threshold\x18\x07 \x01(\x01\"\x89\x01\n\rViewerOptions\x12.\n\x07\x64isplay\x18\x01 \x01(\x0e\x32\x1d.joshua.ViewerOptions.Display\x12\x0e\n\x06\x63\x61mera\x18\x02 \x01(\t\x12\x0b\n\x03\x66ps\x18\x03 \x01(\x01\"+\n\x07\x44isplay\x12\x08\n\x04\x41UTO\x10\x00\x12\n\n\x06WINDOW\x10\x01\x12\n\n\x06RECORD\x10\x02\"=\n\x13MirrorTopicMappings\x12&\n\x08mappings\x18\x01 \x03(\x0b\x32\x14.joshua.TopicMapping\"J\n\x0cTopicMapping\x12\x11\n\tros_topic\x18\x01 \x01(\t\x12\x17\n\x0fmujoco_actuator\x18\x02 \x01(\t\x12\x0e\n\x06offset\x18\x03 \x01(\x02\"\x88\x03\n\x0eTrainingConfig\x12\x33\n\tframework\x18\x01 \x01(\x0e\x32 .joshua.TrainingConfig.Framework\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x10\n\x08num_envs\x18\x03 \x01(\x05\x12\x17\n\x0ftotal_timesteps\x18\x04 \x01(\x03\x12\x16\n\x0e\x63heckpoint_dir\x18\x05 \x01(\t\x12\x11\n\tnum_steps\x18\x06 \x01(\x05\x12\x12\n\nnum_epochs\x18\x07 \x01(\x05\x12\x16\n\x0eminibatch_size\x18\x08 \x01(\x05\x12\x15\n\rlearning_rate\x18\t \x01(\x02\x12\r\n\x05gamma\x18\n \x01(\x02\x12\x12\n\ngae_lambda\x18\x0b \x01(\x02\x12\x14\n\x0c\x63lip_epsilon\x18\x0c \x01(\x02\x12\x0c\n\x04task\x18\r \x01(\t\x12\x0f\n\x07\x62\x61\x63kend\x18\x0e \x01(\t\x12\x0f\n\x07trainer\x18\x0f \x01(\t\x12\x0c\n\x04seed\x18\x10 \x01(\x03\"\x1d\n\tFramework\x12\x07\n\x03MJX\x10\x00\x12\x07\n\x03SB3\x10\x01\x62\x06proto3')
 
 _globals = globals()
 _builder.BuildMessageAndEnumDescriptors(DESCRIPTOR, _globals)
@@ -36,15 +36,25 @@ if not _descriptor._USE_C_DESCRIPTORS:
   _globals['_JOSHUACONFIG_OPERATIONMODE']._serialized_start=234
   _globals['_JOSHUACONFIG_OPERATIONMODE']._serialized_end=279
   _globals['_SIMULATIONCONFIG']._serialized_start=282
-  _globals['_SIMULATIONCONFIG']._serialized_end=647
-  _globals['_SIMULATIONCONFIG_MODE']._serialized_start=570
-  _globals['_SIMULATIONCONFIG_MODE']._serialized_end=647
-  _globals['_MIRRORTOPICMAPPINGS']._serialized_start=649
-  _globals['_MIRRORTOPICMAPPINGS']._serialized_end=710
-  _globals['_TOPICMAPPING']._serialized_start=712
-  _globals['_TOPICMAPPING']._serialized_end=786
-  _globals['_TRAININGCONFIG']._serialized_start=789
-  _globals['_TRAININGCONFIG']._serialized_end=1181
-  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_start=1152
-  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_end=1181
+  _globals['_SIMULATIONCONFIG']._serialized_end=770
+  _globals['_SIMULATIONCONFIG_MODE']._serialized_start=693
+  _globals['_SIMULATIONCONFIG_MODE']._serialized_end=770
+  _globals['_OFFSCREENOPTIONS']._serialized_start=773
+  _globals['_OFFSCREENOPTIONS']._serialized_end=985
+  _globals['_OFFSCREENOPTIONS_OUTPUT']._serialized_start=930
+  _globals['_OFFSCREENOPTIONS_OUTPUT']._serialized_end=973
+  _globals['_REPLAYOPTIONS']._serialized_start=988
+  _globals['_REPLAYOPTIONS']._serialized_end=1149
+  _globals['_VIEWEROPTIONS']._serialized_start=1152
+  _globals['_VIEWEROPTIONS']._serialized_end=1289
+  _globals['_VIEWEROPTIONS_DISPLAY']._serialized_start=1246
+  _globals['_VIEWEROPTIONS_DISPLAY']._serialized_end=1289
+  _globals['_MIRRORTOPICMAPPINGS']._serialized_start=1291
+  _globals['_MIRRORTOPICMAPPINGS']._serialized_end=1352
+  _globals['_TOPICMAPPING']._serialized_start=1354
+  _globals['_TOPICMAPPING']._serialized_end=1428
+  _globals['_TRAININGCONFIG']._serialized_start=1431
+  _globals['_TRAININGCONFIG']._serialized_end=1823
+  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_start=1794
+  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_end=1823
 # @@protoc_insertion_point(module_scope)
