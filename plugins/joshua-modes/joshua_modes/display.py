@@ -11,6 +11,7 @@ import contextlib
 import ctypes
 import ctypes.util
 import os
+import signal
 import threading
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator
@@ -159,10 +160,24 @@ class ViewerDisplay(Display):
             self._handle.clear_texts()
 
     def close(self) -> Path | None:
-        self._handle.close()
-        for thread in self._threads:
-            thread.join(VIEWER_JOIN_TIMEOUT_S)
+        with _sigint_ignored():  # a second Ctrl-C must not cut the join short (GLFW would be torn down mid-frame)
+            self._handle.close()
+            for thread in self._threads:
+                thread.join(VIEWER_JOIN_TIMEOUT_S)
         return None
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """Ignore SIGINT inside the block (on the main thread; elsewhere signals cannot be handled anyway)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 class RecordingDisplay(Display):
