@@ -241,10 +241,21 @@ def _penetrations(
     lines: NDArray[np.int64],
     threshold: float,
 ) -> list[Issue]:
-    """Contacts deeper than `threshold` at each replayed row's pose, grouped per geom pair."""
+    """Geom pairs deeper than `threshold` into each other at each replayed row's pose, grouped per pair.
+
+    World pairs (table, floor) come from MuJoCo's collision detection. Pairs within one robot are
+    measured directly with mj_geomDistance, because models usually filter self-collisions out.
+    """
     data = mujoco.MjData(model)
     addresses = qpos_addresses(model, trajectory.joint_names)
+    first, second = _self_pairs(model)
+    reach = model.geom_rbound[first] + model.geom_rbound[second]
     depth: dict[tuple[int, int], NDArray[np.float64]] = {}
+
+    def record(pair: tuple[int, int], row: int, penetration: float) -> None:
+        pair_depths = depth.setdefault((min(pair), max(pair)), np.zeros(len(positions)))
+        pair_depths[row] = max(pair_depths[row], penetration)
+
     for row in range(len(positions)):
         data.qpos[:] = base_qpos
         data.qpos[addresses] = positions[row]
@@ -252,9 +263,12 @@ def _penetrations(
         mujoco.mj_collision(model, data)
         for contact in data.contact[: data.ncon]:
             if contact.dist < -threshold:
-                pair = (min(contact.geom1, contact.geom2), max(contact.geom1, contact.geom2))
-                pair_depths = depth.setdefault(pair, np.zeros(len(positions)))
-                pair_depths[row] = max(pair_depths[row], -contact.dist)
+                record((contact.geom1, contact.geom2), row, -contact.dist)
+        near = np.linalg.norm(data.geom_xpos[first] - data.geom_xpos[second], axis=1) < reach
+        for geom1, geom2 in zip(first[near], second[near], strict=True):
+            distance = mujoco.mj_geomDistance(model, data, geom1, geom2, 0.0, None)
+            if distance < -threshold:
+                record((int(geom1), int(geom2)), row, -distance)
     issues = []
     for (geom1, geom2), depths in depth.items():
         body1, body2 = model.geom_bodyid[geom1], model.geom_bodyid[geom2]
@@ -276,6 +290,25 @@ def _penetrations(
             ),
         )
     return issues
+
+
+def _self_pairs(model: mujoco.MjModel) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Pairs of collision geoms of one robot (same root body) on bodies that are neither equal nor
+    parent and child (touching at their joint is by design)."""
+    geoms = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]
+    pairs = []
+    for i, geom1 in enumerate(geoms):
+        for geom2 in geoms[i + 1 :]:
+            body1, body2 = model.geom_bodyid[geom1], model.geom_bodyid[geom2]
+            if (
+                body1 != body2
+                and model.body_rootid[body1] == model.body_rootid[body2] != 0
+                and model.body_parentid[body1] != body2
+                and model.body_parentid[body2] != body1
+            ):
+                pairs.append((geom1, geom2))
+    columns = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+    return columns[:, 0], columns[:, 1]
 
 
 def _geom_name(model: mujoco.MjModel, geom: int) -> str:
