@@ -23,8 +23,9 @@ SMALL = ("--set", "simulation.render_width=160", "--set", "simulation.render_hei
 
 
 def headless_env(**extra: str) -> dict[str, str]:
-    """The environment without any display, plus `extra`."""
-    env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    """This environment without a display and without the GL choice this test process made, plus `extra`."""
+    dropped = ("DISPLAY", "WAYLAND_DISPLAY", "MUJOCO_GL", "PYOPENGL_PLATFORM")
+    env = {key: value for key, value in os.environ.items() if key not in dropped}
     return {**env, **extra}
 
 
