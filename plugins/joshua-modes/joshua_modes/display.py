@@ -194,9 +194,10 @@ class RecordingDisplay(Display):
     def update(self, time: float) -> bool:
         if self._next_time is None or time < self._next_time - self._interval:  # first frame, or time went back
             self._next_time = time
-        if time >= self._next_time:
+        slack = 1e-6 * self._interval  # times computed as start + k/fps land a rounding error short
+        if time >= self._next_time - slack:
             frame = self._engine.render(self._camera)
-            while time >= self._next_time:  # one frame per interval passed keeps the video's timing
+            while time >= self._next_time - slack:  # one frame per interval passed keeps the video's timing
                 self._video.write(frame)
                 self._next_time += self._interval
         return True
