@@ -21,6 +21,7 @@ from joshua_core.config_pb2 import OffscreenOptions, SimulationConfig
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import Mode, RunContext
 from joshua_core.progress import progress_bar
+from joshua_core.resources import resolve_data_path
 from joshua_modes.display import camera_id
 from joshua_modes.replay import Replayer, model_joint_names
 from joshua_modes.trajectory import read_trajectory
@@ -98,10 +99,14 @@ def iter_offscreen_frames(
     shadows: bool = True,
 ) -> Iterator[NDArray[np.uint8]]:
     """Yield (height, width, 3) uint8 frames of the trajectory replayed kinematically (or `tracked`),
-    one per 1/fps of trajectory time. Rows with a bad timestamp or a non-finite value are skipped."""
+    one per 1/fps of trajectory time. Rows with a bad timestamp or a non-finite value are skipped.
+
+    Relative paths resolve like config paths: the working directory, then the shipped models folder.
+    """
     with MuJoCoEngine(model_path, render_width=width, render_height=height) as engine:
         engine.reset(keyframe)
-        trajectory = read_trajectory(trajectory_path, model_joint_names(engine.model))
+        path = resolve_data_path(trajectory_path, what="trajectory")
+        trajectory = read_trajectory(path, model_joint_names(engine.model))
         _, usable = validate(trajectory, engine.model, engine.data.qpos.copy())
         replayer = Replayer(engine, trajectory, usable, tracked=tracked)
         renderer = FrameRenderer(engine.model, width, height, camera=camera, shadows=shadows)

@@ -52,6 +52,7 @@ class VideoWriter:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         descriptor, name = tempfile.mkstemp(dir=self.path.parent, prefix=f".{self.path.stem}.", suffix=".tmp.mp4")
         os.close(descriptor)
+        os.chmod(name, 0o644)  # mkstemp makes it private; a finished video is an ordinary output file
         self._temporary = Path(name)
         writer = cv2.VideoWriter(str(self._temporary), cv2.VideoWriter_fourcc(*FOURCC), self.fps, size)
         if not writer.isOpened():
