@@ -17,7 +17,7 @@ import argparse
 import os
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import mujoco
@@ -43,39 +43,20 @@ def main() -> None:
 
     engine = MuJoCoEngine("so_arm100/scene.xml", render_width=args.width, render_height=args.height)
     engine.reset("home")
-    trajectory = read_trajectory(models_dir() / "trajectories" / "so_arm100_example.csv", model_joint_names(engine.model))
+    trajectory = read_trajectory(
+        models_dir() / "trajectories" / "so_arm100_example.csv", model_joint_names(engine.model)
+    )
     replayer = Replayer(engine, trajectory)
     times = frame_times(replayer.start_time, replayer.end_time, args.frames / replayer.duration)[: args.frames]
-    camera = 0
     print(
-        f"SO-ARM100 scene, {args.width}x{args.height}, camera '{engine.model.camera(camera).name}', "
+        f"SO-ARM100 scene, {args.width}x{args.height}, camera '{engine.model.camera(0).name}', "
         f"{len(times)} frames per run, best of {args.repeats}; MUJOCO_GL={os.environ.get('MUJOCO_GL', '(unset)')}"
     )
     with tempfile.TemporaryDirectory() as folder:
         for shadows in (True, False):
-            raw_renderer = create_renderer(engine.model, args.width, args.height)
-            frames = FrameRenderer(engine.model, args.width, args.height, shadows=shadows)
-            video_path = Path(folder) / "bench.mp4"
-
-            def raw() -> None:
-                for t in times:
-                    replayer.show(t)
-                    raw_renderer.update_scene(engine.data, camera=camera)
-                    raw_renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
-                    raw_renderer.render()
-
-            def wrapped() -> None:
-                for t in times:
-                    replayer.show(t)
-                    frames.rgb(engine.data)
-
-            def pipeline() -> None:
-                with VideoWriter(video_path, fps=30.0) as video:
-                    for t in times:
-                        replayer.show(t)
-                        video.write(frames.rgb(engine.data))
-
-            best = best_of({"raw": raw, "frames": wrapped, "pipeline": pipeline}, args.repeats)
+            loops, close = make_loops(engine, replayer, times, shadows, Path(folder) / "bench.mp4")
+            best = best_of(loops, args.repeats)
+            close()
             fps = {name: len(times) / seconds for name, seconds in best.items()}
             ratio = best["frames"] / best["raw"]
             verdict = "ok" if ratio <= TARGET_RATIO else "OVER TARGET"
@@ -84,9 +65,40 @@ def main() -> None:
                 f"{fps['frames']:7.1f} frames/s (ratio {ratio:.3f}, target <= {TARGET_RATIO}: {verdict}) | "
                 f"with replay + MP4 {fps['pipeline']:7.1f} frames/s"
             )
-            raw_renderer.close()
-            frames.close()
     engine.close()
+
+
+def make_loops(
+    engine: MuJoCoEngine, replayer: Replayer, times: Sequence[float], shadows: bool, video_path: Path
+) -> tuple[dict[str, Callable[[], None]], Callable[[], None]]:
+    """The three timed loops for one shadow setting, and a function that releases their renderers."""
+    width, height = engine.render_width, engine.render_height
+    raw_renderer = create_renderer(engine.model, width, height)
+    frames = FrameRenderer(engine.model, width, height, shadows=shadows)
+
+    def raw() -> None:
+        for t in times:
+            replayer.show(t)
+            raw_renderer.update_scene(engine.data, camera=0)
+            raw_renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
+            raw_renderer.render()
+
+    def wrapped() -> None:
+        for t in times:
+            replayer.show(t)
+            frames.rgb(engine.data)
+
+    def pipeline() -> None:
+        with VideoWriter(video_path, fps=30.0) as video:
+            for t in times:
+                replayer.show(t)
+                video.write(frames.rgb(engine.data))
+
+    def close() -> None:
+        raw_renderer.close()
+        frames.close()
+
+    return {"raw": raw, "frames": wrapped, "pipeline": pipeline}, close
 
 
 def best_of(loops: dict[str, Callable[[], None]], repeats: int) -> dict[str, float]:

@@ -27,7 +27,11 @@ VIDEO_NAME = "passive_replay"
 DEFAULT_FPS = 30.0
 WINDOW_PERIOD_S = 1.0 / 60.0  # how often the viewer is synced during a real-time replay
 
-VIEWER_CHOICE: dict[int, bool | None] = {ViewerOptions.AUTO: None, ViewerOptions.WINDOW: True, ViewerOptions.RECORD: False}
+VIEWER_CHOICE: dict[int, bool | None] = {
+    ViewerOptions.AUTO: None,
+    ViewerOptions.WINDOW: True,
+    ViewerOptions.RECORD: False,
+}
 
 
 class PassiveMode(Mode):
@@ -74,8 +78,10 @@ class PassiveMode(Mode):
                 camera=config.viewer.camera or None,
                 viewer=VIEWER_CHOICE[config.viewer.display],
             ) as display:
-                print(f"replaying {replayer.duration:.3f} s ({'tracked' if replay.tracked else 'kinematic'}): "
-                      f"{display.description}")
+                print(
+                    f"replaying {replayer.duration:.3f} s ({'tracked' if replay.tracked else 'kinematic'}): "
+                    f"{display.description}"
+                )
                 if isinstance(display, RecordingDisplay):
                     _record(replayer, display, speed, fps)
                 else:

@@ -73,9 +73,7 @@ class TrackingError:
     def summary(self) -> dict[str, dict[str, float]]:
         """{joint: {"rms": ..., "max": ...}} in the joints' units (rad or m)."""
         rms = np.sqrt(self.sum_squares / max(self.samples, 1))
-        return {
-            name: {"rms": float(rms[i]), "max": float(self.max_abs[i])} for i, name in enumerate(self.joint_names)
-        }
+        return {name: {"rms": float(rms[i]), "max": float(self.max_abs[i])} for i, name in enumerate(self.joint_names)}
 
 
 class Replayer:

@@ -72,12 +72,13 @@ class ValidationReport:
     def summary(self) -> str:
         """The report as a few readable lines."""
         head = (
-            f"trajectory {self.trajectory}: {self.rows} rows, {self.duration_s:.3f} s, "
-            f"joints {', '.join(self.joints)}"
+            f"trajectory {self.trajectory}: {self.rows} rows, {self.duration_s:.3f} s, joints {', '.join(self.joints)}"
         )
         if self.ok:
-            return f"{head}\n  OK: no problems (velocity limit {self.velocity_limit:g}, penetration threshold "\
+            return (
+                f"{head}\n  OK: no problems (velocity limit {self.velocity_limit:g}, penetration threshold "
                 f"{self.penetration_threshold * 1000:g} mm)"
+            )
         lines = [f"{head}\n  {len(self.issues)} problem(s); {self.replayed_rows} of {self.rows} rows replayable:"]
         lines += [f"  - {issue.message}" for issue in self.issues]
         return "\n".join(lines)

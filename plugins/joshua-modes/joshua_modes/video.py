@@ -43,7 +43,9 @@ class VideoWriter:
         if self._writer is None:
             self._open(size)
         elif size != self._size:
-            raise ValueError(f"frame {self.frames} is {size[0]}x{size[1]}, the video is {self._size[0]}x{self._size[1]}")
+            raise ValueError(
+                f"frame {self.frames} is {size[0]}x{size[1]}, the video is {self._size[0]}x{self._size[1]}"
+            )
         assert self._writer is not None
         self._writer.write(cv2.cvtColor(frame, cv2.COLOR_RGB2BGR))
         self.frames += 1

@@ -14,7 +14,7 @@ def test_sim_passive_headless_records_a_video_and_a_clean_report(run_joshua, tmp
     assert result.returncode == 0, result.stderr
     out = tmp_path / "joshua_output"
     assert "OK: no problems" in result.stdout
-    assert f"recording to joshua_output/passive_replay.mp4" in result.stdout
+    assert "recording to joshua_output/passive_replay.mp4" in result.stdout
     assert result.stdout.strip().endswith("video: joshua_output/passive_replay.mp4")
     frames, fps = read_video(out / "passive_replay.mp4")
     assert len(frames) == 62 and fps == pytest.approx(10.0)  # 6.1 s at 10 fps, both ends included
