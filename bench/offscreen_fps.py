@@ -17,10 +17,12 @@ import argparse
 import os
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 
 import mujoco
+import numpy as np
+from numpy.typing import NDArray
 
 from joshua_core.resources import models_dir
 from joshua_modes.offscreen import FrameRenderer, frame_times
@@ -69,7 +71,7 @@ def main() -> None:
 
 
 def make_loops(
-    engine: MuJoCoEngine, replayer: Replayer, times: Sequence[float], shadows: bool, video_path: Path
+    engine: MuJoCoEngine, replayer: Replayer, times: NDArray[np.float64], shadows: bool, video_path: Path
 ) -> tuple[dict[str, Callable[[], None]], Callable[[], None]]:
     """The three timed loops for one shadow setting, and a function that releases their renderers."""
     width, height = engine.render_width, engine.render_height

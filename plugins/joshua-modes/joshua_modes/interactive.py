@@ -53,7 +53,8 @@ def run_interactive(model_path: str | Path, *, keyframe: str | None = None, dura
     Returns when the window is closed, or after `duration` simulated seconds when it is positive.
     No usable display raises UsageError suggesting sim_offscreen, Xvfb or DISPLAY.
     """
-    with MuJoCoEngine(model_path) as engine:
+    engine = MuJoCoEngine(model_path)
+    with engine:
         simulate(engine, keyframe=keyframe, duration=duration)
 
 

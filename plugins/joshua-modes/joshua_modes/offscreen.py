@@ -103,7 +103,8 @@ def iter_offscreen_frames(
 
     Relative paths resolve like config paths: the working directory, then the shipped models folder.
     """
-    with MuJoCoEngine(model_path, render_width=width, render_height=height) as engine:
+    engine = MuJoCoEngine(model_path, render_width=width, render_height=height)
+    with engine:
         engine.reset(keyframe)
         path = resolve_data_path(trajectory_path, what="trajectory")
         trajectory = read_trajectory(path, model_joint_names(engine.model))

@@ -120,7 +120,7 @@ def validate(
     for row in np.flatnonzero(finite):
         t = trajectory.timestamps[row]
         if t > last_time:
-            last_time, last_row = t, row
+            last_time, last_row = t, int(row)
             continue
         usable[row] = False
         what = "repeats" if t == last_time else "is before"
@@ -210,7 +210,7 @@ def _runs(
     describe: Any,
 ) -> list[Issue]:
     """One Issue per run of consecutive flagged rows; `describe(where, worst_line, worst_value)` words it."""
-    issues = []
+    issues: list[Issue] = []
     indices = np.flatnonzero(flagged)
     if not indices.size:
         return issues

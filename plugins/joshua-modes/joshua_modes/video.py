@@ -43,6 +43,7 @@ class VideoWriter:
         if self._writer is None:
             self._open(size)
         elif size != self._size:
+            assert self._size is not None
             raise ValueError(
                 f"frame {self.frames} is {size[0]}x{size[1]}, the video is {self._size[0]}x{self._size[1]}"
             )
@@ -56,7 +57,7 @@ class VideoWriter:
         os.close(descriptor)
         os.chmod(name, 0o644)  # mkstemp makes it private; a finished video is an ordinary output file
         self._temporary = Path(name)
-        writer = cv2.VideoWriter(str(self._temporary), cv2.VideoWriter_fourcc(*FOURCC), self.fps, size)
+        writer = cv2.VideoWriter(str(self._temporary), cv2.VideoWriter.fourcc(*FOURCC), self.fps, size)
         if not writer.isOpened():
             self._temporary.unlink(missing_ok=True)
             raise JoshuaError(f"cannot write video {self.path}: OpenCV could not open an MP4 ({FOURCC}) writer")
