@@ -1,10 +1,10 @@
 """Headless rendering speed of the SO-ARM100 scene at 640x480, with and without shadows, in one run.
 
-For each shadow setting it times three loops over the same poses of the example trajectory:
+For each shadow setting it times three variants on the same poses of the example trajectory:
   raw       mujoco.Renderer.update_scene + render (the reference),
   frames    joshua_modes' FrameRenderer.rgb (what run_offscreen and OFFSCREEN use),
   pipeline  the kinematic replay step + FrameRenderer.rgb + MP4 encoding (VideoWriter).
-Each loop runs several times, interleaved; the fastest run counts. It prints frames/s, the ratio of
+The variants alternate frame by frame; per frame the fastest of several runs counts. It prints frames/s, the ratio of
 FrameRenderer to raw (target <= 1.05: the wrapper adds nothing measurable), and the GL platform.
 Without a GPU, EGL renders with Mesa's llvmpipe on the CPU, so the numbers scale with CPU cores.
 
@@ -56,8 +56,8 @@ def main() -> None:
     )
     with tempfile.TemporaryDirectory() as folder:
         for shadows in (True, False):
-            loops, close = make_loops(engine, replayer, times, shadows, Path(folder) / "bench.mp4")
-            best = best_of(loops, args.repeats)
+            variants, close = make_loops(engine, replayer, shadows, Path(folder) / "bench.mp4")
+            best = best_of(variants, times, args.repeats)
             close()
             fps = {name: len(times) / seconds for name, seconds in best.items()}
             ratio = best["frames"] / best["raw"]
@@ -71,49 +71,52 @@ def main() -> None:
 
 
 def make_loops(
-    engine: MuJoCoEngine, replayer: Replayer, times: NDArray[np.float64], shadows: bool, video_path: Path
-) -> tuple[dict[str, Callable[[], None]], Callable[[], None]]:
-    """The three timed loops for one shadow setting, and a function that releases their renderers."""
+    engine: MuJoCoEngine, replayer: Replayer, shadows: bool, video_path: Path
+) -> tuple[dict[str, Callable[[float], None]], Callable[[], None]]:
+    """One frame of each timed variant for one shadow setting, and a function that releases them."""
     width, height = engine.render_width, engine.render_height
     raw_renderer = create_renderer(engine.model, width, height)
     frames = FrameRenderer(engine.model, width, height, shadows=shadows)
+    video = VideoWriter(video_path, fps=30.0)
 
-    def raw() -> None:
-        for t in times:
-            replayer.show(t)
-            raw_renderer.update_scene(engine.data, camera=0)
-            raw_renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
-            raw_renderer.render()
+    def raw(t: float) -> None:
+        replayer.show(t)
+        raw_renderer.update_scene(engine.data, camera=0)
+        raw_renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
+        raw_renderer.render()
 
-    def wrapped() -> None:
-        for t in times:
-            replayer.show(t)
-            frames.rgb(engine.data)
+    def wrapped(t: float) -> None:
+        replayer.show(t)
+        frames.rgb(engine.data)
 
-    def pipeline() -> None:
-        with VideoWriter(video_path, fps=30.0) as video:
-            for t in times:
-                replayer.show(t)
-                video.write(frames.rgb(engine.data))
+    def pipeline(t: float) -> None:
+        replayer.show(t)
+        video.write(frames.rgb(engine.data))
 
     def close() -> None:
+        video.close()
         raw_renderer.close()
         frames.close()
 
     return {"raw": raw, "frames": wrapped, "pipeline": pipeline}, close
 
 
-def best_of(loops: dict[str, Callable[[], None]], repeats: int) -> dict[str, float]:
-    """Fastest of `repeats` interleaved runs of each loop, in seconds (after one warm-up run each)."""
-    for loop in loops.values():
-        loop()
-    best = {name: float("inf") for name in loops}
+def best_of(variants: dict[str, Callable[[float], None]], times: NDArray[np.float64], repeats: int) -> dict[str, float]:
+    """Seconds each variant takes for all `times`: per frame the fastest of `repeats` runs, summed.
+
+    The variants alternate frame by frame, so a load spike from other processes on the machine hits
+    them alike instead of one whole loop.
+    """
+    for variant in variants.values():  # warm-up: renderer buffers, codec
+        variant(float(times[0]))
+    fastest = {name: np.full(len(times), np.inf) for name in variants}
     for _ in range(repeats):
-        for name, loop in loops.items():
-            start = time.perf_counter()
-            loop()
-            best[name] = min(best[name], time.perf_counter() - start)
-    return best
+        for index, t in enumerate(times):
+            for name, variant in variants.items():
+                start = time.perf_counter()
+                variant(float(t))
+                fastest[name][index] = min(fastest[name][index], time.perf_counter() - start)
+    return {name: float(seconds.sum()) for name, seconds in fastest.items()}
 
 
 if __name__ == "__main__":
