@@ -1,14 +1,23 @@
 #!/usr/bin/env bash
 # Set up JOSHUA in ./.venv on Debian with Python 3.11.
-#   ./setup.sh          the runtime: joshua-core + the joshua-mujoco backend
+#   ./setup.sh          the runtime: joshua-core + the joshua-mujoco backend + joshua-modes (viewer, replay, offscreen)
 #   ./setup.sh --dev    also what the tests need: pytest, protoc (grpcio-tools), trimesh, MJX + JAX (CPU),
+#                       Xvfb, xwd and xdotool for the viewer tests,
 #                       the joshua-mirror plugin (rclpy + Fast DDS wheels, no ROS install),
 #                       Gymnasium's MuJoCo environments (the reference of bench/cpu_env_throughput.py)
 # Versions come from constraints.txt. pip's cache stays inside the clone (.cache/pip).
 set -euo pipefail
 cd "$(dirname "$0")"
 
-SYSTEM_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0)  # EGL: headless rendering without a display
+SYSTEM_PACKAGES=(
+  libegl1 libegl-mesa0 libgl1-mesa-dri libopengl0  # EGL: headless rendering without a display
+  libosmesa6                                       # OSMesa: the software fallback when EGL does not work
+  libgl1 libglx-mesa0                              # GLX (Mesa, llvmpipe without a GPU): the MuJoCo viewer's OpenGL
+  libx11-6 libx11-xcb1 libxcursor1 libxext6 libxi6 libxinerama1 libxrandr2 libxrender1 libxxf86vm1  # GLFW on X11
+)
+if [[ ${1:-} == --dev ]]; then
+  SYSTEM_PACKAGES+=(xvfb x11-apps xdotool)  # viewer tests: a virtual X server, xwd screenshots, closing the window
+fi
 missing=()
 for package in "${SYSTEM_PACKAGES[@]}"; do
   dpkg -s "$package" >/dev/null 2>&1 || missing+=("$package")
@@ -26,9 +35,9 @@ command -v "$PYTHON" >/dev/null || PYTHON=python3
 [[ -x .venv/bin/python ]] || "$PYTHON" -m venv .venv
 export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
 
-requirements=(-e . -e plugins/joshua-mujoco)
+requirements=(-e . -e plugins/joshua-mujoco -e plugins/joshua-modes)
 if [[ ${1:-} == --dev ]]; then
-  requirements=(-e ".[dev]" -e plugins/joshua-mujoco -e plugins/joshua-mirror mujoco-mjx jax "gymnasium[mujoco]")
+  requirements=(-e ".[dev]" -e plugins/joshua-mujoco -e plugins/joshua-modes -e plugins/joshua-mirror mujoco-mjx jax "gymnasium[mujoco]")
 fi
 echo "setup: installing ${requirements[*]} into .venv"
 .venv/bin/pip install -q -c constraints.txt "${requirements[@]}"

@@ -31,7 +31,7 @@ EPILOG = f"""\
 examples:
   joshua                                   run the embedded default (headless SO-ARM100 physics check)
   joshua --preset sim_offscreen            run a shipped preset
-  joshua --preset sim_passive --set simulation.trajectory_path=my_motion.csv
+  joshua --preset sim_passive --set simulation.trajectory_path=my_motion.csv --strict
   joshua --config my_run.pbtxt             run a text-format JoshuaConfig (it may `extends: "PRESET"`)
   joshua --preset ant_train_mjx --print-config
   joshua presets                           list the presets
@@ -61,6 +61,11 @@ def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.Argu
         action="append",
         default=[],
         help="override one field, e.g. simulation.render_width=1280 (repeatable)",
+    )
+    parser.add_argument(
+        "--strict",
+        action="store_true",
+        help="do not replay a trajectory that fails validation (same as --set simulation.replay.strict=true)",
     )
     parser.add_argument("--print-config", action="store_true", help="print the final config and exit")
     commands = parser.add_subparsers(dest="command", title="commands", metavar="COMMAND")
@@ -135,6 +140,8 @@ def load(args: argparse.Namespace) -> LoadedConfig:
         loaded = load_default()
     for assignment in args.overrides:
         apply_override(loaded.message, assignment)
+    if args.strict:
+        loaded.message.simulation.replay.strict = True
     return loaded
 
 

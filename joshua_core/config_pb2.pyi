@@ -28,7 +28,7 @@ class JoshuaConfig(_message.Message):
     def __init__(self, operation_mode: _Optional[_Union[JoshuaConfig.OperationMode, str]] = ..., simulation: _Optional[_Union[SimulationConfig, _Mapping]] = ..., training: _Optional[_Union[TrainingConfig, _Mapping]] = ..., description: _Optional[str] = ..., extends: _Optional[str] = ...) -> None: ...
 
 class SimulationConfig(_message.Message):
-    __slots__ = ("mode", "model_path", "trajectory_path", "mirror_topic_mappings", "render_width", "render_height", "backend", "keyframe", "duration", "output_dir", "mirror")
+    __slots__ = ("mode", "model_path", "trajectory_path", "mirror_topic_mappings", "render_width", "render_height", "backend", "keyframe", "duration", "output_dir", "offscreen", "replay", "viewer", "mirror")
     class Mode(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         INTERACTIVE: _ClassVar[SimulationConfig.Mode]
@@ -51,6 +51,9 @@ class SimulationConfig(_message.Message):
     KEYFRAME_FIELD_NUMBER: _ClassVar[int]
     DURATION_FIELD_NUMBER: _ClassVar[int]
     OUTPUT_DIR_FIELD_NUMBER: _ClassVar[int]
+    OFFSCREEN_FIELD_NUMBER: _ClassVar[int]
+    REPLAY_FIELD_NUMBER: _ClassVar[int]
+    VIEWER_FIELD_NUMBER: _ClassVar[int]
     MIRROR_FIELD_NUMBER: _ClassVar[int]
     mode: SimulationConfig.Mode
     model_path: str
@@ -62,8 +65,71 @@ class SimulationConfig(_message.Message):
     keyframe: str
     duration: float
     output_dir: str
+    offscreen: OffscreenOptions
+    replay: ReplayOptions
+    viewer: ViewerOptions
     mirror: MirrorOptions
-    def __init__(self, mode: _Optional[_Union[SimulationConfig.Mode, str]] = ..., model_path: _Optional[str] = ..., trajectory_path: _Optional[str] = ..., mirror_topic_mappings: _Optional[_Union[MirrorTopicMappings, _Mapping]] = ..., render_width: _Optional[int] = ..., render_height: _Optional[int] = ..., backend: _Optional[str] = ..., keyframe: _Optional[str] = ..., duration: _Optional[float] = ..., output_dir: _Optional[str] = ..., mirror: _Optional[_Union[MirrorOptions, _Mapping]] = ...) -> None: ...
+    def __init__(self, mode: _Optional[_Union[SimulationConfig.Mode, str]] = ..., model_path: _Optional[str] = ..., trajectory_path: _Optional[str] = ..., mirror_topic_mappings: _Optional[_Union[MirrorTopicMappings, _Mapping]] = ..., render_width: _Optional[int] = ..., render_height: _Optional[int] = ..., backend: _Optional[str] = ..., keyframe: _Optional[str] = ..., duration: _Optional[float] = ..., output_dir: _Optional[str] = ..., offscreen: _Optional[_Union[OffscreenOptions, _Mapping]] = ..., replay: _Optional[_Union[ReplayOptions, _Mapping]] = ..., viewer: _Optional[_Union[ViewerOptions, _Mapping]] = ..., mirror: _Optional[_Union[MirrorOptions, _Mapping]] = ...) -> None: ...
+
+class OffscreenOptions(_message.Message):
+    __slots__ = ("camera", "fps", "output", "depth", "segmentation", "shadows")
+    class Output(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        MP4: _ClassVar[OffscreenOptions.Output]
+        PNG: _ClassVar[OffscreenOptions.Output]
+        MP4_AND_PNG: _ClassVar[OffscreenOptions.Output]
+    MP4: OffscreenOptions.Output
+    PNG: OffscreenOptions.Output
+    MP4_AND_PNG: OffscreenOptions.Output
+    CAMERA_FIELD_NUMBER: _ClassVar[int]
+    FPS_FIELD_NUMBER: _ClassVar[int]
+    OUTPUT_FIELD_NUMBER: _ClassVar[int]
+    DEPTH_FIELD_NUMBER: _ClassVar[int]
+    SEGMENTATION_FIELD_NUMBER: _ClassVar[int]
+    SHADOWS_FIELD_NUMBER: _ClassVar[int]
+    camera: str
+    fps: float
+    output: OffscreenOptions.Output
+    depth: bool
+    segmentation: bool
+    shadows: bool
+    def __init__(self, camera: _Optional[str] = ..., fps: _Optional[float] = ..., output: _Optional[_Union[OffscreenOptions.Output, str]] = ..., depth: _Optional[bool] = ..., segmentation: _Optional[bool] = ..., shadows: _Optional[bool] = ...) -> None: ...
+
+class ReplayOptions(_message.Message):
+    __slots__ = ("speed", "loop", "as_fast_as_possible", "strict", "tracked", "velocity_limit", "penetration_threshold")
+    SPEED_FIELD_NUMBER: _ClassVar[int]
+    LOOP_FIELD_NUMBER: _ClassVar[int]
+    AS_FAST_AS_POSSIBLE_FIELD_NUMBER: _ClassVar[int]
+    STRICT_FIELD_NUMBER: _ClassVar[int]
+    TRACKED_FIELD_NUMBER: _ClassVar[int]
+    VELOCITY_LIMIT_FIELD_NUMBER: _ClassVar[int]
+    PENETRATION_THRESHOLD_FIELD_NUMBER: _ClassVar[int]
+    speed: float
+    loop: bool
+    as_fast_as_possible: bool
+    strict: bool
+    tracked: bool
+    velocity_limit: float
+    penetration_threshold: float
+    def __init__(self, speed: _Optional[float] = ..., loop: _Optional[bool] = ..., as_fast_as_possible: _Optional[bool] = ..., strict: _Optional[bool] = ..., tracked: _Optional[bool] = ..., velocity_limit: _Optional[float] = ..., penetration_threshold: _Optional[float] = ...) -> None: ...
+
+class ViewerOptions(_message.Message):
+    __slots__ = ("display", "camera", "fps")
+    class Display(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        AUTO: _ClassVar[ViewerOptions.Display]
+        WINDOW: _ClassVar[ViewerOptions.Display]
+        RECORD: _ClassVar[ViewerOptions.Display]
+    AUTO: ViewerOptions.Display
+    WINDOW: ViewerOptions.Display
+    RECORD: ViewerOptions.Display
+    DISPLAY_FIELD_NUMBER: _ClassVar[int]
+    CAMERA_FIELD_NUMBER: _ClassVar[int]
+    FPS_FIELD_NUMBER: _ClassVar[int]
+    display: ViewerOptions.Display
+    camera: str
+    fps: float
+    def __init__(self, display: _Optional[_Union[ViewerOptions.Display, str]] = ..., camera: _Optional[str] = ..., fps: _Optional[float] = ...) -> None: ...
 
 class MirrorOptions(_message.Message):
     __slots__ = ("apply", "message_type", "joint_state_topic", "joint_state_names", "stale_timeout", "status_period", "range_margin", "display", "display_fps", "camera", "node_name")

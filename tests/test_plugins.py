@@ -82,7 +82,7 @@ def test_entry_point_modules_import_no_physics_or_ml_stack() -> None:
     probe = (
         "import sys; from joshua_core.plugins import PluginHost, Kind; host = PluginHost.discover(); "
         "assert host.names(Kind.BACKEND), 'no backend'; "
-        "print(sorted(m for m in ('mujoco', 'jax', 'torch', 'pxr', 'rclpy') if m in sys.modules))"
+        "print(sorted(m for m in ('mujoco', 'jax', 'torch', 'pxr', 'rclpy', 'cv2') if m in sys.modules))"
     )
     result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
     assert result.stdout.strip() == "[]"

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from joshua_mujoco.gl import choose_headless_gl
+from joshua_mujoco.gl import choose_headless_gl, rendering_unavailable
 
 choose_headless_gl()  # must run before mujoco is imported: mujoco picks its GL platform at import
 
@@ -129,6 +129,20 @@ class MuJoCoEngine(Engine):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+    """A headless `mujoco.Renderer` of `width` x `height`, enlarging the model's offscreen buffer if needed.
+
+    A GL platform that cannot create a context raises `RenderingUnavailableError` naming what to install.
+    """
+    visual = model.vis.global_
+    visual.offwidth = max(visual.offwidth, width)
+    visual.offheight = max(visual.offheight, height)
+    try:
+        return mujoco.Renderer(model, height=height, width=width)
+    except Exception as error:  # GL platform failures surface as several exception types
+        raise rendering_unavailable(error) from error
 
 
 class MuJoCoBackend(Backend):

@@ -1,0 +1,114 @@
+"""INTERACTIVE mode: the MuJoCo viewer on a live simulation, the robot held at a keyframe by its actuators.
+
+The physics runs in real time on the calling thread; the viewer (mouse drag of bodies, contact and
+force visualisation, cameras, rendering options) renders on its own thread. Space pauses and resumes,
+Right arrow steps once while paused. Closing the window ends the run; Ctrl-C closes the window, joins
+the viewer's thread and re-raises KeyboardInterrupt (the CLI exits with status 130).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import mujoco
+
+from joshua_core.config_pb2 import SimulationConfig
+from joshua_core.errors import ConfigError
+from joshua_core.interfaces import Mode, RunContext
+from joshua_modes.display import ViewerDisplay
+from joshua_mujoco import MuJoCoEngine
+
+KEY_SPACE = 32  # GLFW key codes, as the viewer's key_callback reports them
+KEY_RIGHT = 262
+FRAME_PERIOD_S = 1.0 / 60.0
+MAX_CATCH_UP_S = 0.1  # after a stall, at most this much simulated time is run at once
+
+
+class _Controls:
+    """Pause and single-step requests from the viewer's key presses (called on the viewer's thread)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.paused = False
+        self._steps = 0
+
+    def on_key(self, key: int) -> None:
+        with self._lock:
+            if key == KEY_SPACE:
+                self.paused = not self.paused
+            elif key == KEY_RIGHT and self.paused:
+                self._steps += 1
+
+    def take_steps(self) -> int:
+        with self._lock:
+            steps, self._steps = self._steps, 0
+            return steps
+
+
+def run_interactive(model_path: str | Path, *, keyframe: str | None = None, duration: float = 0.0) -> None:
+    """Open the MuJoCo viewer on `model_path`, held at `keyframe` (None: the model's first keyframe, if any).
+
+    Returns when the window is closed, or after `duration` simulated seconds when it is positive.
+    No usable display raises UsageError suggesting sim_offscreen, Xvfb or DISPLAY.
+    """
+    engine = MuJoCoEngine(model_path)
+    with engine:
+        simulate(engine, keyframe=keyframe, duration=duration)
+
+
+def simulate(engine: MuJoCoEngine, *, keyframe: str | None, duration: float) -> None:
+    """Reset `engine` to the keyframe and run it in real time in the viewer until the window closes."""
+    name = keyframe if keyframe else (engine.model.key(0).name if engine.model.nkey else None)
+    try:
+        engine.reset(name)
+    except KeyError as error:
+        raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
+    controls = _Controls()
+    viewer = ViewerDisplay(engine, key_callback=controls.on_key)
+    held = f"held at keyframe '{name}' by its actuators" if name else "from its initial state"
+    print(
+        f"MuJoCo viewer: {engine.model.nbody - 1} bodies, {held}. Space: pause/resume, Right: step while paused; "
+        "close the window or press Ctrl-C to quit",
+        flush=True,
+    )
+    try:
+        _loop(engine, viewer, controls, duration)
+    finally:
+        viewer.close()
+
+
+def _loop(engine: MuJoCoEngine, viewer: ViewerDisplay, controls: _Controls, duration: float) -> None:
+    """Step the physics to keep up with the wall clock (not while paused) and sync the viewer each frame."""
+    model, data = engine.model, engine.data
+    last = time.perf_counter()
+    owed = 0.0  # simulated seconds the physics is behind the wall clock
+    was_paused = False
+    while duration <= 0 or data.time < duration:
+        now = time.perf_counter()
+        elapsed, last = min(now - last, MAX_CATCH_UP_S), now
+        with viewer.lock():
+            if controls.paused:
+                steps = controls.take_steps()
+            else:
+                owed += elapsed
+                steps = int(owed / model.opt.timestep)
+                owed -= steps * model.opt.timestep
+            if steps:
+                mujoco.mj_step(model, data, steps)
+        if controls.paused != was_paused:
+            was_paused = controls.paused
+            viewer.set_status("PAUSED (Space: resume, Right: step)" if was_paused else "")
+        if not viewer.update(data.time):
+            return
+        time.sleep(max(0.0, FRAME_PERIOD_S - (time.perf_counter() - now)))
+
+
+class InteractiveMode(Mode):
+    """The viewer on the config's model; `keyframe` empty means the model's first keyframe."""
+
+    def run(self, config: SimulationConfig, context: RunContext) -> None:
+        with context.create_engine(config) as engine:
+            assert isinstance(engine, MuJoCoEngine)
+            simulate(engine, keyframe=config.keyframe or None, duration=config.duration)

@@ -1,0 +1,263 @@
+"""OFFSCREEN mode and the seed API: render a trajectory replay (or the model at rest) without a display.
+
+`run_offscreen(...)` returns every frame as a list; `iter_offscreen_frames(...)` yields them one at a
+time so that a long run can be written to disk with bounded memory. The mode writes an MP4 and/or a PNG
+sequence (and optionally depth and segmentation images) to the output folder.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from joshua_core.config_pb2 import OffscreenOptions, SimulationConfig
+from joshua_core.errors import ConfigError, UsageError
+from joshua_core.interfaces import Mode, RunContext
+from joshua_core.progress import progress_bar
+from joshua_core.resources import resolve_data_path
+from joshua_modes.display import camera_id
+from joshua_modes.replay import Replayer, model_joint_names
+from joshua_modes.trajectory import read_trajectory
+from joshua_modes.validation import DEFAULT_PENETRATION_THRESHOLD, DEFAULT_VELOCITY_LIMIT, validate
+from joshua_modes.video import VideoWriter, write_png
+from joshua_mujoco import MuJoCoEngine
+from joshua_mujoco.engine import create_renderer
+
+DEFAULT_FPS = 30.0
+DEFAULT_DURATION_S = 5.0  # rendered when there is no trajectory: the model at its keyframe under physics
+VIDEO_NAME = "offscreen.mp4"
+REPORT_NAME = "offscreen_report.json"
+
+
+class FrameRenderer:
+    """Renders RGB, and on request depth and segmentation, of one camera; shadows can be switched off."""
+
+    def __init__(
+        self, model: mujoco.MjModel, width: int, height: int, *, camera: str | None = None, shadows: bool = True
+    ) -> None:
+        self.camera = camera_id(model, camera)
+        self.shadows = shadows
+        self._renderer = create_renderer(model, width, height)
+
+    def _update(self, data: mujoco.MjData) -> None:
+        self._renderer.update_scene(data, camera=self.camera)
+        self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = self.shadows
+
+    def rgb(self, data: mujoco.MjData) -> NDArray[np.uint8]:
+        """(H, W, 3) uint8 RGB image."""
+        self._update(data)
+        return self._renderer.render()
+
+    def depth_mm(self, data: mujoco.MjData) -> NDArray[np.uint16]:
+        """(H, W) uint16 depth in millimetres (65535: 65.5 m or farther)."""
+        self._renderer.enable_depth_rendering()
+        try:
+            self._update(data)
+            metres = self._renderer.render()
+        finally:
+            self._renderer.disable_depth_rendering()
+        return np.clip(np.rint(metres * 1000.0), 0, 65535).astype(np.uint16)
+
+    def segmentation(self, data: mujoco.MjData) -> NDArray[np.uint16]:
+        """(H, W) uint16 geom id + 1 of each pixel; 0 where no geom is seen."""
+        self._renderer.enable_segmentation_rendering()
+        try:
+            self._update(data)
+            ids = self._renderer.render()
+        finally:
+            self._renderer.disable_segmentation_rendering()
+        is_geom = ids[..., 1] == mujoco.mjtObj.mjOBJ_GEOM
+        return np.where(is_geom, ids[..., 0] + 1, 0).astype(np.uint16)
+
+    def close(self) -> None:
+        self._renderer.close()
+
+
+def frame_times(start: float, end: float, fps: float) -> NDArray[np.float64]:
+    """Times from `start` to `end` (inclusive, within a microsecond) one 1/fps apart."""
+    count = math.floor((end - start) * fps + 1e-6) + 1
+    return start + np.arange(count) / fps
+
+
+def iter_offscreen_frames(
+    model_path: str | Path,
+    trajectory_path: str | Path,
+    width: int = 640,
+    height: int = 480,
+    *,
+    camera: str | None = None,
+    fps: float = DEFAULT_FPS,
+    keyframe: str | None = None,
+    tracked: bool = False,
+    shadows: bool = True,
+) -> Iterator[NDArray[np.uint8]]:
+    """Yield (height, width, 3) uint8 frames of the trajectory replayed kinematically (or `tracked`),
+    one per 1/fps of trajectory time. Rows with a bad timestamp or a non-finite value are skipped.
+
+    Relative paths resolve like config paths: the working directory, then the shipped models folder.
+    """
+    engine = MuJoCoEngine(model_path, render_width=width, render_height=height)
+    with engine:
+        engine.reset(keyframe)
+        path = resolve_data_path(trajectory_path, what="trajectory")
+        trajectory = read_trajectory(path, model_joint_names(engine.model))
+        _, usable = validate(trajectory, engine.model, engine.data.qpos.copy())
+        replayer = Replayer(engine, trajectory, usable, tracked=tracked)
+        renderer = FrameRenderer(engine.model, width, height, camera=camera, shadows=shadows)
+        try:
+            for t in frame_times(replayer.start_time, replayer.end_time, fps):
+                replayer.show(t)
+                yield renderer.rgb(engine.data)
+        finally:
+            renderer.close()
+
+
+def run_offscreen(
+    model_path: str | Path,
+    trajectory_path: str | Path,
+    width: int = 640,
+    height: int = 480,
+    *,
+    camera: str | None = None,
+    fps: float = DEFAULT_FPS,
+) -> list[NDArray[np.uint8]]:
+    """All frames of the trajectory's kinematic replay as (height, width, 3) uint8 arrays (the seed's API).
+
+    For long trajectories prefer `iter_offscreen_frames`, which holds one frame at a time.
+    """
+    return list(iter_offscreen_frames(model_path, trajectory_path, width, height, camera=camera, fps=fps))
+
+
+@dataclass(frozen=True)
+class OffscreenOutputs:
+    """Where OFFSCREEN writes, inside the output folder."""
+
+    root: Path
+
+    @property
+    def video(self) -> Path:
+        return self.root / VIDEO_NAME
+
+    @property
+    def frames(self) -> Path:
+        return self.root / "offscreen_frames"
+
+    @property
+    def depth(self) -> Path:
+        return self.root / "offscreen_depth"
+
+    @property
+    def segmentation(self) -> Path:
+        return self.root / "offscreen_segmentation"
+
+
+class OffscreenMode(Mode):
+    """Renders the trajectory replay (or, without a trajectory, `duration` seconds of physics) to files."""
+
+    def run(self, config: SimulationConfig, context: RunContext) -> None:
+        options = config.offscreen
+        fps = options.fps or DEFAULT_FPS
+        if fps < 0:
+            raise ConfigError(f"simulation.offscreen.fps must be positive, got {fps:g}")
+        width, height = config.render_width or 640, config.render_height or 480
+        outputs = OffscreenOutputs(context.output_dir)
+        with context.create_engine(config) as engine:
+            assert isinstance(engine, MuJoCoEngine)
+            _reset(engine, config.keyframe)
+            renderer = FrameRenderer(
+                engine.model,
+                width,
+                height,
+                camera=options.camera or None,
+                shadows=options.shadows if options.HasField("shadows") else True,
+            )
+            try:
+                advance, times = self._timeline(config, engine, context.output_dir, fps)
+                written = self._render(options, renderer, engine, advance, times, fps, outputs)
+            finally:
+                renderer.close()
+        print(f"rendered {len(times)} frames of {width}x{height} at {fps:g} fps; wrote {', '.join(written)}")
+
+    @staticmethod
+    def _timeline(
+        config: SimulationConfig, engine: MuJoCoEngine, output_dir: Path, fps: float
+    ) -> tuple[Replayer | None, NDArray[np.float64]]:
+        """The replayer (None: plain physics) and the times of the frames."""
+        if not config.trajectory_path:
+            return None, frame_times(0.0, config.duration or DEFAULT_DURATION_S, fps)
+        trajectory = read_trajectory(config.trajectory_path, model_joint_names(engine.model))
+        replay = config.replay
+        report, usable = validate(
+            trajectory,
+            engine.model,
+            engine.data.qpos.copy(),
+            model_path=config.model_path,
+            velocity_limit=replay.velocity_limit or DEFAULT_VELOCITY_LIMIT,
+            penetration_threshold=replay.penetration_threshold or DEFAULT_PENETRATION_THRESHOLD,
+        )
+        report_path = output_dir / REPORT_NAME
+        report.write(report_path)
+        print(report.summary())
+        print(f"validation report: {report_path}")
+        if replay.strict and not report.ok:
+            raise UsageError(
+                f"the trajectory has {len(report.issues)} problem(s) (listed above, and in {report_path}); "
+                "nothing rendered because simulation.replay.strict is set"
+            )
+        replayer = Replayer(engine, trajectory, usable, tracked=replay.tracked)
+        return replayer, frame_times(replayer.start_time, replayer.end_time, fps)
+
+    @staticmethod
+    def _render(
+        options: OffscreenOptions,
+        renderer: FrameRenderer,
+        engine: MuJoCoEngine,
+        replayer: Replayer | None,
+        times: NDArray[np.float64],
+        fps: float,
+        outputs: OffscreenOutputs,
+    ) -> list[str]:
+        """Render every frame time to the requested files; returns what was written."""
+        want_video = options.output in (OffscreenOptions.MP4, OffscreenOptions.MP4_AND_PNG)
+        want_png = options.output in (OffscreenOptions.PNG, OffscreenOptions.MP4_AND_PNG)
+        with contextlib.ExitStack() as stack:
+            video = stack.enter_context(VideoWriter(outputs.video, fps)) if want_video else None
+            bar = stack.enter_context(progress_bar(len(times), description="offscreen", unit="frames"))
+            for index, t in enumerate(times):
+                if replayer is not None:
+                    replayer.show(t)
+                else:
+                    engine.step(max(0, round((t - engine.time) / engine.timestep)))
+                rgb = renderer.rgb(engine.data)
+                name = f"frame_{index:06d}.png"
+                if video is not None:
+                    video.write(rgb)
+                if want_png:
+                    write_png(outputs.frames / name, rgb)
+                if options.depth:
+                    write_png(outputs.depth / name, renderer.depth_mm(engine.data))
+                if options.segmentation:
+                    write_png(outputs.segmentation / name, renderer.segmentation(engine.data))
+                bar.update(1)
+        written = [str(outputs.video)] if want_video else []
+        written += [f"{folder}/" for folder, on in _folders(outputs, want_png, options) if on]
+        return written
+
+
+def _folders(outputs: OffscreenOutputs, want_png: bool, options: OffscreenOptions) -> list[tuple[Path, bool]]:
+    return [(outputs.frames, want_png), (outputs.depth, options.depth), (outputs.segmentation, options.segmentation)]
+
+
+def _reset(engine: MuJoCoEngine, keyframe: str) -> None:
+    """Reset to the config's keyframe; an unknown name is a ConfigError listing the model's keyframes."""
+    try:
+        engine.reset(keyframe or None)
+    except KeyError as error:
+        raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None

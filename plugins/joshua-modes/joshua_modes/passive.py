@@ -1,0 +1,136 @@
+"""PASSIVE mode: validate a trajectory CSV against the model, then replay it.
+
+The replay is shown in the MuJoCo viewer when a display is usable (real time x `replay.speed`, or as
+fast as possible, optionally looping), and recorded headless to `passive_replay.mp4` otherwise. The
+validation report is printed and written to `passive_report.json`; with `replay.strict` a trajectory
+with problems is not replayed (exit status 2). A tracked replay adds the per-joint tracking error.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from joshua_core.config_pb2 import SimulationConfig, ViewerOptions
+from joshua_core.errors import ConfigError, UsageError
+from joshua_core.interfaces import Mode, RunContext
+from joshua_core.progress import progress_bar
+from joshua_modes.display import Display, RecordingDisplay, open_display
+from joshua_modes.offscreen import frame_times
+from joshua_modes.replay import Replayer, model_joint_names
+from joshua_modes.trajectory import read_trajectory
+from joshua_modes.validation import DEFAULT_PENETRATION_THRESHOLD, DEFAULT_VELOCITY_LIMIT, ValidationReport, validate
+from joshua_mujoco import MuJoCoEngine
+
+REPORT_NAME = "passive_report.json"
+VIDEO_NAME = "passive_replay"
+DEFAULT_FPS = 30.0
+WINDOW_PERIOD_S = 1.0 / 60.0  # how often the viewer is synced during a real-time replay
+
+VIEWER_CHOICE: dict[int, bool | None] = {
+    ViewerOptions.AUTO: None,
+    ViewerOptions.WINDOW: True,
+    ViewerOptions.RECORD: False,
+}
+
+
+class PassiveMode(Mode):
+    """Validates and replays `trajectory_path` on the model."""
+
+    def run(self, config: SimulationConfig, context: RunContext) -> None:
+        if not config.trajectory_path:
+            raise ConfigError("PASSIVE mode replays a trajectory: set simulation.trajectory_path to a CSV file")
+        replay = config.replay
+        speed = replay.speed or 1.0
+        fps = config.viewer.fps or DEFAULT_FPS
+        if speed < 0 or fps < 0:
+            raise ConfigError("simulation.replay.speed and simulation.viewer.fps must be positive")
+        with context.create_engine(config) as engine:
+            assert isinstance(engine, MuJoCoEngine)
+            try:
+                engine.reset(config.keyframe or None)
+            except KeyError as error:
+                raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
+            trajectory = read_trajectory(config.trajectory_path, model_joint_names(engine.model))
+            report, usable = validate(
+                trajectory,
+                engine.model,
+                engine.data.qpos.copy(),
+                model_path=config.model_path,
+                velocity_limit=replay.velocity_limit or DEFAULT_VELOCITY_LIMIT,
+                penetration_threshold=replay.penetration_threshold or DEFAULT_PENETRATION_THRESHOLD,
+            )
+            report_path = context.output_dir / REPORT_NAME
+            report.write(report_path)
+            print(report.summary())
+            print(f"validation report: {report_path}")
+            if replay.strict and not report.ok:
+                raise UsageError(
+                    f"the trajectory has {len(report.issues)} problem(s) (listed above, and in {report_path}); "
+                    "not replayed because simulation.replay.strict is set (--strict)"
+                )
+            replayer = Replayer(engine, trajectory, usable, tracked=replay.tracked)
+            with open_display(
+                engine,
+                output_dir=context.output_dir,
+                name=VIDEO_NAME,
+                fps=fps,
+                camera=config.viewer.camera or None,
+                viewer=VIEWER_CHOICE[config.viewer.display],
+            ) as display:
+                print(
+                    f"replaying {replayer.duration:.3f} s ({'tracked' if replay.tracked else 'kinematic'}): "
+                    f"{display.description}"
+                )
+                if isinstance(display, RecordingDisplay):
+                    _record(replayer, display, speed, fps)
+                else:
+                    _show(replayer, display, speed, loop=replay.loop, as_fast_as_possible=replay.as_fast_as_possible)
+                video = display.close()
+        if replay.tracked:
+            _report_tracking(report, replayer, report_path)
+        if video is not None:
+            print(f"video: {video}")
+
+
+def _record(replayer: Replayer, display: RecordingDisplay, speed: float, fps: float) -> None:
+    """Headless: one frame per 1/fps of video, covering `speed`/fps of trajectory time each."""
+    times = frame_times(replayer.start_time, replayer.end_time, fps / speed)
+    with progress_bar(len(times), description="passive", unit="frames") as bar:
+        for t in times:
+            replayer.show(t)
+            display.update((t - replayer.start_time) / speed)
+            bar.update(1)
+
+
+def _show(replayer: Replayer, display: Display, speed: float, *, loop: bool, as_fast_as_possible: bool) -> None:
+    """In the viewer: at real time x `speed` (or every row at once), until the end or the window closes."""
+    while True:
+        replayer.restart()
+        if as_fast_as_possible:
+            for t in replayer.times:
+                replayer.show(float(t))
+                if not display.update(float(t) - replayer.start_time):
+                    return
+        else:
+            started = time.perf_counter()
+            while True:
+                elapsed = time.perf_counter() - started
+                t = min(replayer.start_time + elapsed * speed, replayer.end_time)
+                replayer.show(t)
+                if not display.update(elapsed):
+                    return
+                if t >= replayer.end_time:
+                    break
+                time.sleep(WINDOW_PERIOD_S)
+        if not loop:
+            return
+
+
+def _report_tracking(report: ValidationReport, replayer: Replayer, report_path: Path) -> None:
+    """Print the per-joint tracking error and add it to the JSON report."""
+    report.tracking_error = replayer.tracking.summary()
+    print("tracking error (simulated - commanded), RMS / max:")
+    for joint, error in report.tracking_error.items():
+        print(f"  {joint:<12} {error['rms']:.4f} / {error['max']:.4f}")
+    report.write(report_path)

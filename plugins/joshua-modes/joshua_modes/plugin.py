@@ -1,0 +1,25 @@
+"""Entry point of joshua-modes: registers the OFFSCREEN, PASSIVE and INTERACTIVE modes. Imports nothing heavy."""
+
+from __future__ import annotations
+
+from joshua_core import hookimpl
+from joshua_core.plugins import Registrar
+
+
+@hookimpl
+def joshua_register_modes(registry: Registrar) -> None:
+    registry.add(
+        "OFFSCREEN",
+        "joshua_modes.offscreen:OffscreenMode",
+        "headless rendering of a trajectory replay to MP4/PNG (depth, segmentation optional)",
+    )
+    registry.add(
+        "PASSIVE",
+        "joshua_modes.passive:PassiveMode",
+        "trajectory CSV validation and replay in the viewer, or to MP4 without a display",
+    )
+    registry.add(
+        "INTERACTIVE",
+        "joshua_modes.interactive:InteractiveMode",
+        "the MuJoCo viewer with the robot held at its keyframe by its actuators",
+    )

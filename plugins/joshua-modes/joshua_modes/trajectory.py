@@ -1,0 +1,121 @@
+"""Reading trajectory CSV files: `#` comments, a header with `timestamp` and joint columns, one row per sample.
+
+Columns are matched to the model's joints by name (any order, a subset allowed). Errors that make the
+file unreadable raise TrajectoryError with `file:line:`; values that are readable but wrong (NaN,
+timestamps going back, joints out of range) are left to `joshua_modes.validation`.
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from joshua_core.errors import UsageError
+
+TIME_COLUMN = "timestamp"
+
+
+class TrajectoryError(UsageError):
+    """A trajectory file cannot be read; the message starts with `file:line:`."""
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """The rows of a trajectory file; `lines[i]` is the file line (1-based) of row i, for messages."""
+
+    path: Path
+    joint_names: tuple[str, ...]
+    timestamps: NDArray[np.float64]  # (rows,)
+    positions: NDArray[np.float64]  # (rows, joints), in the order of joint_names
+    lines: NDArray[np.int64]  # (rows,)
+
+    @property
+    def rows(self) -> int:
+        return len(self.timestamps)
+
+
+def read_trajectory(path: str | Path, known_joints: Sequence[str] | None = None) -> Trajectory:
+    """Read a trajectory CSV. With `known_joints`, a column naming another joint is an error listing them."""
+    file = Path(path)
+    try:
+        text = file.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise TrajectoryError(f"{file}: trajectory file not found") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise TrajectoryError(f"{file}: cannot read the trajectory: {error}") from None
+    rows = [
+        (number, line)
+        for number, line in enumerate(text.splitlines(), start=1)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not rows:
+        last = len(text.splitlines())
+        raise TrajectoryError(
+            f"{file}:{max(last, 1)}: no header line: the file is empty or has only comments; expected a header "
+            f"such as '{TIME_COLUMN},joint_1,joint_2' and one row per sample"
+        )
+    header_line, header_text = rows[0]
+    columns = [name.strip() for name in next(csv.reader([header_text]))]
+    joints = _joint_columns(file, header_line, columns, known_joints)
+    if len(rows) == 1:
+        raise TrajectoryError(f"{file}:{header_line}: the header is not followed by any data row")
+    time_index = columns.index(TIME_COLUMN)
+    joint_indices = [columns.index(name) for name in joints]
+    values = np.empty((len(rows) - 1, len(columns)), dtype=np.float64)
+    lines = np.empty(len(rows) - 1, dtype=np.int64)
+    for row, (number, line) in enumerate(rows[1:]):
+        fields = next(csv.reader([line]))
+        if len(fields) != len(columns):
+            raise TrajectoryError(
+                f"{file}:{number}: row has {len(fields)} values, the header (line {header_line}) has "
+                f"{len(columns)} columns: {', '.join(columns)}"
+            )
+        for column, field in enumerate(fields):
+            try:
+                values[row, column] = float(field)
+            except ValueError:
+                raise TrajectoryError(
+                    f"{file}:{number}: column '{columns[column]}' has '{field.strip()}', which is not a number"
+                ) from None
+        lines[row] = number
+    return Trajectory(file, tuple(joints), values[:, time_index], values[:, joint_indices], lines)
+
+
+def _joint_columns(file: Path, line: int, columns: list[str], known_joints: Sequence[str] | None) -> list[str]:
+    """The joint columns of the header, in file order, after checking the header's names."""
+    where = f"{file}:{line}"
+    if TIME_COLUMN not in columns:
+        close = difflib.get_close_matches(TIME_COLUMN, columns, n=1, cutoff=0.5)
+        hint = f" ('{close[0]}' is close; rename it)" if close else ""
+        raise TrajectoryError(
+            f"{where}: the header has no '{TIME_COLUMN}' column{hint}; columns: {', '.join(columns) or 'none'}"
+        )
+    seen: set[str] = set()
+    for name in columns:
+        if not name:
+            raise TrajectoryError(f"{where}: the header has an empty column name")
+        if name in seen:
+            raise TrajectoryError(f"{where}: column '{name}' appears twice in the header")
+        seen.add(name)
+    joints = [name for name in columns if name != TIME_COLUMN]
+    if not joints:
+        raise TrajectoryError(f"{where}: the header names no joint column besides '{TIME_COLUMN}'")
+    if known_joints is not None:
+        unknown = [name for name in joints if name not in known_joints]
+        if unknown:
+            hints = []
+            for name in unknown:
+                close = difflib.get_close_matches(name, known_joints, n=2)
+                hints.append(f"'{name}'" + (f" (did you mean: {', '.join(close)}?)" if close else ""))
+            raise TrajectoryError(
+                f"{where}: {'column' if len(unknown) == 1 else 'columns'} {', '.join(hints)} "
+                f"{'is not a joint' if len(unknown) == 1 else 'are not joints'} of the model; "
+                f"its joints: {', '.join(known_joints)}"
+            )
+    return joints

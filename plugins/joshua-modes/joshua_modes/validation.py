@@ -1,0 +1,318 @@
+"""Checking a trajectory against a model before replaying it, with every problem tied to its file lines.
+
+Checks: timestamps that go back or repeat, NaN/inf values, joints outside their range, joint speeds
+(finite differences) above a limit, and contacts deeper than a threshold along the kinematic replay
+(self-penetration between parts of one robot, or penetration of the table and other world geometry).
+Runs of consecutive rows with the same problem are reported once, with their line range and worst value.
+Rows with a bad timestamp or a non-finite value are left out of the replay; the others are replayed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from joshua_core.atomic import atomic_write_json
+from joshua_modes.replay import qpos_addresses
+from joshua_modes.trajectory import Trajectory
+
+DEFAULT_VELOCITY_LIMIT = 10.0  # rad/s (or m/s for slide joints)
+DEFAULT_PENETRATION_THRESHOLD = 0.005  # m
+
+
+@dataclass(frozen=True)
+class Issue:
+    """One problem, over the rows `first_line`..`last_line` of the file (`rows` of them)."""
+
+    kind: str  # "timestamp", "non_finite", "joint_limit", "velocity", "self_penetration", "world_penetration"
+    subject: str  # the joint, or the two geoms in contact
+    first_line: int
+    last_line: int
+    rows: int
+    worst_line: int
+    worst_value: float
+    message: str
+
+
+@dataclass
+class ValidationReport:
+    """Every problem found in a trajectory, the rows kept for replay, and (after a tracked replay) its error."""
+
+    trajectory: str
+    model: str
+    joints: list[str]
+    rows: int
+    replayed_rows: int
+    duration_s: float
+    velocity_limit: float
+    penetration_threshold: float
+    issues: list[Issue] = field(default_factory=list)
+    tracking_error: dict[str, dict[str, float]] | None = None
+
+    @property
+    def ok(self) -> bool:
+        return not self.issues
+
+    def to_json(self) -> dict[str, Any]:
+        document = asdict(self)
+        document["ok"] = self.ok
+        document["issue_counts"] = {kind: sum(i.kind == kind for i in self.issues) for kind in _kinds(self.issues)}
+        return document
+
+    def write(self, path: Path) -> None:
+        atomic_write_json(path, self.to_json())
+
+    def summary(self) -> str:
+        """The report as a few readable lines."""
+        head = (
+            f"trajectory {self.trajectory}: {self.rows} rows, {self.duration_s:.3f} s, joints {', '.join(self.joints)}"
+        )
+        if self.ok:
+            return (
+                f"{head}\n  OK: no problems (velocity limit {self.velocity_limit:g}, penetration threshold "
+                f"{self.penetration_threshold * 1000:g} mm)"
+            )
+        lines = [f"{head}\n  {len(self.issues)} problem(s); {self.replayed_rows} of {self.rows} rows replayable:"]
+        lines += [f"  - {issue.message}" for issue in self.issues]
+        return "\n".join(lines)
+
+
+def _kinds(issues: Iterable[Issue]) -> list[str]:
+    return sorted({issue.kind for issue in issues})
+
+
+def validate(
+    trajectory: Trajectory,
+    model: mujoco.MjModel,
+    base_qpos: NDArray[np.float64],
+    *,
+    model_path: str = "",
+    velocity_limit: float = DEFAULT_VELOCITY_LIMIT,
+    penetration_threshold: float = DEFAULT_PENETRATION_THRESHOLD,
+) -> tuple[ValidationReport, NDArray[np.bool_]]:
+    """Check `trajectory` on `model` (joints it does not name stay at `base_qpos`); return the report and
+    the mask of rows that can be replayed."""
+    name = trajectory.path.name
+    lines = trajectory.lines
+    issues: list[Issue] = []
+
+    finite = np.isfinite(trajectory.timestamps) & np.all(np.isfinite(trajectory.positions), axis=1)
+    for row in np.flatnonzero(~finite):
+        bad = [
+            f"{joint}={trajectory.positions[row, j]}"
+            for j, joint in enumerate(trajectory.joint_names)
+            if not math.isfinite(trajectory.positions[row, j])
+        ]
+        if not math.isfinite(trajectory.timestamps[row]):
+            bad.insert(0, f"timestamp={trajectory.timestamps[row]}")
+        issues.append(_single("non_finite", "row", name, lines[row], float("nan"), f"{', '.join(bad)}; row skipped"))
+
+    usable = finite.copy()
+    last_time = -math.inf
+    last_row = -1
+    for row in np.flatnonzero(finite):
+        t = trajectory.timestamps[row]
+        if t > last_time:
+            last_time, last_row = t, int(row)
+            continue
+        usable[row] = False
+        what = "repeats" if t == last_time else "is before"
+        issues.append(
+            _single(
+                "timestamp",
+                "timestamp",
+                name,
+                lines[row],
+                float(t),
+                f"timestamp {t:g} {what} the previous one, {last_time:g} (line {lines[last_row]}); row skipped",
+            )
+        )
+
+    kept = np.flatnonzero(usable)
+    times, positions, kept_lines = trajectory.timestamps[kept], trajectory.positions[kept], lines[kept]
+    joint_ids = [model.joint(joint).id for joint in trajectory.joint_names]
+
+    for j, joint in enumerate(trajectory.joint_names):
+        joint_id = joint_ids[j]
+        if not model.jnt_limited[joint_id]:
+            continue
+        low, high = model.jnt_range[joint_id]
+        excess = np.maximum(low - positions[:, j], positions[:, j] - high)
+        issues += _runs(
+            "joint_limit",
+            joint,
+            name,
+            kept_lines,
+            excess > 1e-9,
+            positions[:, j],
+            np.abs(excess),
+            lambda where, worst, value, joint=joint, low=low, high=high: (
+                f"{where}: {joint} outside its range [{low:g}, {high:g}]: {value:.4g} at line {worst}"
+            ),
+        )
+
+    if len(kept) > 1:
+        speeds = np.abs(np.diff(positions, axis=0)) / np.diff(times)[:, None]
+        for j, joint in enumerate(trajectory.joint_names):
+            issues += _runs(
+                "velocity",
+                joint,
+                name,
+                kept_lines[1:],
+                speeds[:, j] > velocity_limit,
+                speeds[:, j],
+                speeds[:, j],
+                lambda where, worst, value, joint=joint: (
+                    f"{where}: {joint} moves at {value:.3g}/s (finite difference), above the limit "
+                    f"{velocity_limit:g}/s; fastest at line {worst}"
+                ),
+            )
+
+    issues += _penetrations(model, base_qpos, trajectory, positions, kept_lines, penetration_threshold)
+    issues.sort(key=lambda issue: (issue.first_line, issue.kind, issue.subject))
+    report = ValidationReport(
+        trajectory=str(trajectory.path),
+        model=model_path,
+        joints=list(trajectory.joint_names),
+        rows=trajectory.rows,
+        replayed_rows=int(usable.sum()),
+        duration_s=float(times[-1] - times[0]) if len(kept) else 0.0,
+        velocity_limit=velocity_limit,
+        penetration_threshold=penetration_threshold,
+        issues=issues,
+    )
+    return report, usable
+
+
+def _single(kind: str, subject: str, name: str, line: int, value: float, text: str) -> Issue:
+    return Issue(kind, subject, int(line), int(line), 1, int(line), value, f"{name}:{line}: {text}")
+
+
+def _where(name: str, first: int, last: int, rows: int) -> str:
+    return f"{name}:{first}" if first == last else f"{name}:{first}-{last} ({rows} rows)"
+
+
+def _runs(
+    kind: str,
+    subject: str,
+    name: str,
+    lines: NDArray[np.int64],
+    flagged: NDArray[np.bool_],
+    values: NDArray[np.float64],
+    severity: NDArray[np.float64],
+    describe: Any,
+) -> list[Issue]:
+    """One Issue per run of consecutive flagged rows; `describe(where, worst_line, worst_value)` words it."""
+    issues: list[Issue] = []
+    indices = np.flatnonzero(flagged)
+    if not indices.size:
+        return issues
+    breaks = np.flatnonzero(np.diff(indices) > 1)
+    for run in np.split(indices, breaks + 1):
+        worst = run[np.argmax(severity[run])]
+        first, last = int(lines[run[0]]), int(lines[run[-1]])
+        where = _where(name, first, last, len(run))
+        issues.append(
+            Issue(
+                kind,
+                subject,
+                first,
+                last,
+                len(run),
+                int(lines[worst]),
+                float(values[worst]),
+                describe(where, int(lines[worst]), float(values[worst])),
+            )
+        )
+    return issues
+
+
+def _penetrations(
+    model: mujoco.MjModel,
+    base_qpos: NDArray[np.float64],
+    trajectory: Trajectory,
+    positions: NDArray[np.float64],
+    lines: NDArray[np.int64],
+    threshold: float,
+) -> list[Issue]:
+    """Geom pairs deeper than `threshold` into each other at each replayed row's pose, grouped per pair.
+
+    World pairs (table, floor) come from MuJoCo's collision detection. Pairs within one robot are
+    measured directly with mj_geomDistance, because models usually filter self-collisions out.
+    """
+    data = mujoco.MjData(model)
+    addresses = qpos_addresses(model, trajectory.joint_names)
+    first, second = _self_pairs(model)
+    reach = model.geom_rbound[first] + model.geom_rbound[second]
+    depth: dict[tuple[int, int], NDArray[np.float64]] = {}
+
+    def record(pair: tuple[int, int], row: int, penetration: float) -> None:
+        pair_depths = depth.setdefault((min(pair), max(pair)), np.zeros(len(positions)))
+        pair_depths[row] = max(pair_depths[row], penetration)
+
+    for row in range(len(positions)):
+        data.qpos[:] = base_qpos
+        data.qpos[addresses] = positions[row]
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_collision(model, data)
+        for contact in data.contact[: data.ncon]:
+            if contact.dist < -threshold:
+                record((contact.geom1, contact.geom2), row, -contact.dist)
+        near = np.linalg.norm(data.geom_xpos[first] - data.geom_xpos[second], axis=1) < reach
+        for geom1, geom2 in zip(first[near], second[near], strict=True):
+            distance = mujoco.mj_geomDistance(model, data, geom1, geom2, 0.0, None)
+            if distance < -threshold:
+                record((int(geom1), int(geom2)), row, -distance)
+    issues = []
+    for (geom1, geom2), depths in depth.items():
+        body1, body2 = model.geom_bodyid[geom1], model.geom_bodyid[geom2]
+        world = model.body_rootid[body1] == 0 or model.body_rootid[body2] == 0
+        kind = "world_penetration" if world else "self_penetration"
+        label = "penetrates" if world else "self-penetration:"
+        subject = f"{_geom_name(model, geom1)} / {_geom_name(model, geom2)}"
+        issues += _runs(
+            kind,
+            subject,
+            trajectory.path.name,
+            lines,
+            depths > 0,
+            depths,
+            depths,
+            lambda where, worst, value, subject=subject, label=label: (
+                f"{where}: {label} {subject} {value * 1000:.1f} mm deep (threshold {threshold * 1000:g} mm), "
+                f"deepest at line {worst}"
+            ),
+        )
+    return issues
+
+
+def _self_pairs(model: mujoco.MjModel) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Pairs of collision geoms of one robot (same root body) on bodies that are neither equal nor
+    parent and child (touching at their joint is by design)."""
+    geoms = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]
+    pairs = []
+    for i, geom1 in enumerate(geoms):
+        for geom2 in geoms[i + 1 :]:
+            body1, body2 = model.geom_bodyid[geom1], model.geom_bodyid[geom2]
+            if (
+                body1 != body2
+                and model.body_rootid[body1] == model.body_rootid[body2] != 0
+                and model.body_parentid[body1] != body2
+                and model.body_parentid[body2] != body1
+            ):
+                pairs.append((geom1, geom2))
+    columns = np.array(pairs, dtype=np.int64).reshape(-1, 2)
+    return columns[:, 0], columns[:, 1]
+
+
+def _geom_name(model: mujoco.MjModel, geom: int) -> str:
+    """The geom's name, else 'geom N of body B'."""
+    name = model.geom(geom).name
+    return name or f"geom {geom} of body {model.body(model.geom_bodyid[geom]).name or model.geom_bodyid[geom]}"

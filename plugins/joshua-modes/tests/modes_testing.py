@@ -1,0 +1,84 @@
+"""Plain helpers of the joshua-modes tests: paths, small trajectories, video and screenshot decoding."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import struct
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from joshua_core.resources import models_dir
+
+JOSHUA_SCRIPT = Path(sys.executable).parent / "joshua"
+EXAMPLE_CSV = models_dir() / "trajectories" / "so_arm100_example.csv"
+SCENE = models_dir() / "so_arm100" / "scene.xml"
+HEADER = "timestamp,joint_1,joint_2,joint_3,joint_4,joint_5,joint_6"
+SMALL = ("--set", "simulation.render_width=160", "--set", "simulation.render_height=120")
+
+
+def headless_env(**extra: str) -> dict[str, str]:
+    """This environment without a display and without the GL choice this test process made, plus `extra`."""
+    dropped = ("DISPLAY", "WAYLAND_DISPLAY", "MUJOCO_GL", "PYOPENGL_PLATFORM")
+    env = {key: value for key, value in os.environ.items() if key not in dropped}
+    return {**env, **extra}
+
+
+def example_rows(seconds: float) -> list[str]:
+    """Data rows of the example trajectory up to `seconds`."""
+    rows = [line for line in EXAMPLE_CSV.read_text().splitlines() if line and line[0].isdigit()]
+    return [row for row in rows if float(row.split(",")[0]) <= seconds + 1e-9]
+
+
+def read_video(path: Path) -> tuple[list[NDArray[np.uint8]], float]:
+    """Every frame (BGR) of a video file and its frame rate, read back with OpenCV."""
+    capture = cv2.VideoCapture(str(path))
+    assert capture.isOpened(), f"OpenCV cannot open {path}"
+    fps = capture.get(cv2.CAP_PROP_FPS)
+    frames = []
+    while True:
+        ok, frame = capture.read()
+        if not ok:
+            break
+        frames.append(frame)
+    capture.release()
+    return frames, fps
+
+
+def distinct_colours(image: NDArray[np.uint8]) -> int:
+    return len(np.unique(image.reshape(-1, image.shape[-1]), axis=0))
+
+
+def orange_pixels(rgb: NDArray[np.uint8]) -> int:
+    """Pixels of the SO-ARM100's printed parts (material 'printed', orange), lit or shaded."""
+    r, g, b = (rgb[..., i].astype(int) for i in range(3))
+    return int(np.count_nonzero((r > 150) & (r - b > 100) & (g - b > 30) & (r - g > 20)))
+
+
+def screenshot(display: str) -> NDArray[np.uint8]:
+    """The whole X screen as (H, W, 3) RGB, taken with xwd (Debian x11-apps) and decoded here."""
+    xwd = shutil.which("xwd")
+    assert xwd, "xwd is not installed; ./setup.sh --dev installs it (Debian package x11-apps)"
+    dump = subprocess.run(
+        [xwd, "-root", "-silent", "-display", display], capture_output=True, check=True, timeout=30
+    ).stdout
+    return decode_xwd(dump)
+
+
+def decode_xwd(dump: bytes) -> NDArray[np.uint8]:
+    """Decode an X window dump of a 24/32-bit TrueColor screen (the format Xvfb -screen ...x24 gives)."""
+    header = struct.unpack(">25I", dump[:100])
+    header_size, width, height, byte_order, bytes_per_line, ncolors = (
+        header[0], header[4], header[5], header[7], header[12], header[19]
+    )  # fmt: skip
+    pixel_bytes = bytes_per_line // width
+    assert pixel_bytes == 4, f"expected 32-bit pixels, got {pixel_bytes * 8}"
+    start = header_size + 12 * ncolors
+    pixels = np.frombuffer(dump[start : start + bytes_per_line * height], np.uint8)
+    pixels = pixels.reshape(height, bytes_per_line)[:, : width * 4].reshape(height, width, 4)
+    return pixels[..., [2, 1, 0]] if byte_order == 0 else pixels[..., [1, 2, 3]]

@@ -1,0 +1,121 @@
+"""VideoWriter and open_display (the contract other mode plugins use): real MP4 files read back with OpenCV."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from modes_testing import SCENE, distinct_colours, orange_pixels, read_video
+
+from joshua_core.errors import JoshuaError, UsageError
+from joshua_modes.display import RecordingDisplay, open_display
+from joshua_modes.video import VideoWriter
+from joshua_mujoco import MuJoCoEngine
+
+
+def gradient(index: int, height: int = 48, width: int = 64) -> np.ndarray:
+    """A frame whose content changes with `index`: a bright square moving over a colour gradient."""
+    frame = np.zeros((height, width, 3), np.uint8)
+    frame[..., 0] = np.linspace(0, 255, width, dtype=np.uint8)[None, :]
+    frame[..., 2] = np.linspace(255, 0, height, dtype=np.uint8)[:, None]
+    frame[8:24, 4 * index : 4 * index + 16] = (255, 255, 0)
+    return frame
+
+
+def test_video_writer_round_trip(tmp_path: Path) -> None:
+    path = tmp_path / "clips" / "run.mp4"
+    with VideoWriter(path, fps=12.0) as video:
+        for index in range(10):
+            video.write(gradient(index))
+        assert not path.exists()  # still in its temporary file
+    frames, fps = read_video(path)
+    assert len(frames) == 10 and fps == pytest.approx(12.0)
+    assert frames[0].shape == (48, 64, 3)
+    for index, frame in enumerate(frames):  # lossy codec: close to what was written, in RGB order
+        assert np.abs(frame[..., ::-1].astype(int) - gradient(index)).mean() < 12
+    assert sorted(p.name for p in path.parent.iterdir()) == ["run.mp4"]  # no temporary file left
+
+
+def test_video_writer_rejects_bad_frames_and_empty_videos(tmp_path: Path) -> None:
+    video = VideoWriter(tmp_path / "a.mp4", fps=30)
+    with pytest.raises(ValueError, match=r"\(H, W, 3\) uint8 RGB"):
+        video.write(np.zeros((48, 64), np.uint8))
+    with pytest.raises(ValueError, match=r"\(H, W, 3\) uint8 RGB"):
+        video.write(np.zeros((48, 64, 3), np.float32))
+    video.write(gradient(0))
+    with pytest.raises(ValueError, match="frame 1 is 32x48, the video is 64x48"):
+        video.write(np.zeros((48, 32, 3), np.uint8))
+    assert video.close() == tmp_path / "a.mp4"
+    with pytest.raises(JoshuaError, match="no frames were written"):
+        VideoWriter(tmp_path / "b.mp4", fps=30).close()
+    with pytest.raises(ValueError, match="fps > 0"):
+        VideoWriter(tmp_path / "c.mp4", fps=0)
+
+
+def test_video_writer_keeps_what_was_recorded_when_the_run_fails(tmp_path: Path) -> None:
+    path = tmp_path / "partial.mp4"
+    with pytest.raises(RuntimeError, match="simulated failure"), VideoWriter(path, fps=30) as video:
+        for index in range(3):
+            video.write(gradient(index))
+        raise RuntimeError("simulated failure")
+    assert len(read_video(path)[0]) == 3
+
+
+@pytest.fixture
+def engine() -> MuJoCoEngine:
+    with MuJoCoEngine(SCENE, render_width=160, render_height=120) as engine:
+        engine.reset("home")
+        yield engine
+
+
+def test_open_display_records_one_frame_per_interval_without_a_display(
+    engine: MuJoCoEngine, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with open_display(engine, output_dir=tmp_path, name="sim_passive", fps=10.0, camera="side") as display:
+        assert isinstance(display, RecordingDisplay)
+        assert display.description == f"recording to {tmp_path / 'sim_passive.mp4'}"
+        for step in range(101):  # 1 s of sim time in 10 ms steps -> frames at 0.0, 0.1, ..., 1.0
+            engine.step(5)
+            assert display.update(step * 0.01) is True
+        video = display.close()
+    assert video == tmp_path / "sim_passive.mp4"
+    frames, fps = read_video(video)
+    assert len(frames) == 11 and fps == pytest.approx(10.0)
+    assert frames[0].shape == (120, 160, 3)
+    rgb = frames[-1][..., ::-1]
+    assert distinct_colours(rgb) > 200 and orange_pixels(rgb) > 50  # the arm is in the picture
+
+
+def test_recording_duplicates_frames_over_time_gaps_and_restarts_when_time_goes_back(
+    engine: MuJoCoEngine, tmp_path: Path
+) -> None:
+    display = RecordingDisplay(engine, tmp_path / "gaps.mp4", fps=10.0)
+    for time in (0.0, 0.05, 0.31):  # frames due at 0.0, then 0.1, 0.2, 0.3 all passed by 0.31
+        display.update(time)
+    assert display.frames == 4
+    display.update(0.0)  # a loop started again: a new frame at once
+    assert display.frames == 5
+    assert len(read_video(display.close())[0]) == 5
+
+
+def test_viewer_without_a_display_is_a_usage_error(engine: MuJoCoEngine, tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(UsageError) as error:
+        open_display(engine, output_dir=tmp_path, name="x", viewer=True)
+    message = str(error.value)
+    assert "DISPLAY is not set" in message and "sim_offscreen" in message and "Xvfb" in message
+    monkeypatch.setenv("DISPLAY", ":199")  # named, but no server there
+    with pytest.raises(UsageError, match="cannot connect to display ':199'"):
+        open_display(engine, output_dir=tmp_path, name="x", viewer=True)
+    auto = open_display(engine, output_dir=tmp_path, name="auto")  # auto: records instead
+    assert isinstance(auto, RecordingDisplay) and auto.close() is None  # nothing recorded, no file
+    assert not (tmp_path / "auto.mp4").exists()
+
+
+def test_unknown_camera_lists_the_cameras(engine: MuJoCoEngine, tmp_path: Path) -> None:
+    with pytest.raises(UsageError, match="no camera 'top' in the model; cameras: overview, side"):
+        open_display(engine, output_dir=tmp_path, name="x", camera="top", viewer=False)
