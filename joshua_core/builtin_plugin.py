@@ -13,3 +13,12 @@ def joshua_register_modes(registry: Registrar) -> None:
         "joshua_core.headless:HeadlessMode",
         "physics only, no rendering: steps the model, checks it stays finite, reports speed",
     )
+
+
+@hookimpl
+def joshua_register_commands(registry: Registrar) -> None:
+    registry.add(
+        "eval",
+        "joshua_core.evaluation:EvalCommand",
+        "roll out a trained policy: mean return, task metrics and an MP4 (joshua eval RUN_FOLDER)",
+    )

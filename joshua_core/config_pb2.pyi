@@ -124,7 +124,7 @@ class TrainingConfig(_message.Message):
     def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., sb3: _Optional[_Union[Sb3Options, _Mapping]] = ...) -> None: ...
 
 class Sb3Options(_message.Message):
-    __slots__ = ("algorithm", "run_name", "resume", "checkpoint_interval", "hidden_sizes", "disable_normalization", "entropy_coef")
+    __slots__ = ("algorithm", "run_name", "resume", "checkpoint_interval", "hidden_sizes", "disable_normalization", "entropy_coef", "trust_checkpoint")
     ALGORITHM_FIELD_NUMBER: _ClassVar[int]
     RUN_NAME_FIELD_NUMBER: _ClassVar[int]
     RESUME_FIELD_NUMBER: _ClassVar[int]
@@ -132,6 +132,7 @@ class Sb3Options(_message.Message):
     HIDDEN_SIZES_FIELD_NUMBER: _ClassVar[int]
     DISABLE_NORMALIZATION_FIELD_NUMBER: _ClassVar[int]
     ENTROPY_COEF_FIELD_NUMBER: _ClassVar[int]
+    TRUST_CHECKPOINT_FIELD_NUMBER: _ClassVar[int]
     algorithm: str
     run_name: str
     resume: bool
@@ -139,4 +140,5 @@ class Sb3Options(_message.Message):
     hidden_sizes: _containers.RepeatedScalarFieldContainer[int]
     disable_normalization: bool
     entropy_coef: float
-    def __init__(self, algorithm: _Optional[str] = ..., run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., disable_normalization: _Optional[bool] = ..., entropy_coef: _Optional[float] = ...) -> None: ...
+    trust_checkpoint: bool
+    def __init__(self, algorithm: _Optional[str] = ..., run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., disable_normalization: _Optional[bool] = ..., entropy_coef: _Optional[float] = ..., trust_checkpoint: _Optional[bool] = ...) -> None: ...
