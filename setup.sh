@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Set up JOSHUA in ./.venv on Debian with Python 3.11.
 #   ./setup.sh          the runtime: joshua-core + the joshua-mujoco backend
-#   ./setup.sh --dev    also what the tests need: pytest, protoc (grpcio-tools), trimesh, MJX + JAX (CPU)
+#   ./setup.sh --dev    also what the tests need: pytest, protoc (grpcio-tools), trimesh, MJX + JAX (CPU),
+#                       Gymnasium's MuJoCo environments (the reference of bench/cpu_env_throughput.py)
 # Versions come from constraints.txt. pip's cache stays inside the clone (.cache/pip).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -26,7 +27,7 @@ export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
 
 requirements=(-e . -e plugins/joshua-mujoco)
 if [[ ${1:-} == --dev ]]; then
-  requirements=(-e ".[dev]" -e plugins/joshua-mujoco mujoco-mjx jax)
+  requirements=(-e ".[dev]" -e plugins/joshua-mujoco mujoco-mjx jax "gymnasium[mujoco]")
 fi
 echo "setup: installing ${requirements[*]} into .venv"
 .venv/bin/pip install -q -c constraints.txt "${requirements[@]}"

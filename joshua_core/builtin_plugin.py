@@ -16,6 +16,22 @@ def joshua_register_modes(registry: Registrar) -> None:
 
 
 @hookimpl
+def joshua_register_tasks(registry: Registrar) -> None:
+    from joshua_core.tasks.builtin import BUILTIN_TASKS
+
+    for name, spec in BUILTIN_TASKS.items():
+        registry.add(name, spec, spec.summary)
+
+
+@hookimpl
+def joshua_register_terms(registry: Registrar) -> None:
+    from joshua_core.tasks.terms import BUILTIN_TERMS
+
+    for name, function in BUILTIN_TERMS.items():
+        registry.add(name, function, (function.__doc__ or "").strip().splitlines()[0])
+
+
+@hookimpl
 def joshua_register_commands(registry: Registrar) -> None:
     registry.add(
         "eval",

@@ -80,7 +80,7 @@ class TopicMapping(_message.Message):
     def __init__(self, ros_topic: _Optional[str] = ..., mujoco_actuator: _Optional[str] = ..., offset: _Optional[float] = ...) -> None: ...
 
 class TrainingConfig(_message.Message):
-    __slots__ = ("framework", "model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "sb3")
+    __slots__ = ("framework", "model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "task_config", "nthread", "sb3")
     class Framework(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         MJX: _ClassVar[TrainingConfig.Framework]
@@ -103,6 +103,8 @@ class TrainingConfig(_message.Message):
     BACKEND_FIELD_NUMBER: _ClassVar[int]
     TRAINER_FIELD_NUMBER: _ClassVar[int]
     SEED_FIELD_NUMBER: _ClassVar[int]
+    TASK_CONFIG_FIELD_NUMBER: _ClassVar[int]
+    NTHREAD_FIELD_NUMBER: _ClassVar[int]
     SB3_FIELD_NUMBER: _ClassVar[int]
     framework: TrainingConfig.Framework
     model_path: str
@@ -120,8 +122,10 @@ class TrainingConfig(_message.Message):
     backend: str
     trainer: str
     seed: int
+    task_config: TaskConfig
+    nthread: int
     sb3: Sb3Options
-    def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., sb3: _Optional[_Union[Sb3Options, _Mapping]] = ...) -> None: ...
+    def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., nthread: _Optional[int] = ..., sb3: _Optional[_Union[Sb3Options, _Mapping]] = ...) -> None: ...
 
 class Sb3Options(_message.Message):
     __slots__ = ("algorithm", "run_name", "resume", "checkpoint_interval", "hidden_sizes", "disable_normalization", "entropy_coef", "trust_checkpoint")
@@ -142,3 +146,48 @@ class Sb3Options(_message.Message):
     entropy_coef: float
     trust_checkpoint: bool
     def __init__(self, algorithm: _Optional[str] = ..., run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., disable_normalization: _Optional[bool] = ..., entropy_coef: _Optional[float] = ..., trust_checkpoint: _Optional[bool] = ...) -> None: ...
+
+class TaskConfig(_message.Message):
+    __slots__ = ("episode_length", "frame_skip", "terms")
+    EPISODE_LENGTH_FIELD_NUMBER: _ClassVar[int]
+    FRAME_SKIP_FIELD_NUMBER: _ClassVar[int]
+    TERMS_FIELD_NUMBER: _ClassVar[int]
+    episode_length: int
+    frame_skip: int
+    terms: _containers.RepeatedCompositeFieldContainer[TermOverride]
+    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ...) -> None: ...
+
+class TermOverride(_message.Message):
+    __slots__ = ("name", "weight", "params", "term", "kind")
+    class Kind(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        KIND_UNSPECIFIED: _ClassVar[TermOverride.Kind]
+        OBSERVATION: _ClassVar[TermOverride.Kind]
+        REWARD: _ClassVar[TermOverride.Kind]
+        TERMINATION: _ClassVar[TermOverride.Kind]
+        RESET: _ClassVar[TermOverride.Kind]
+        METRIC: _ClassVar[TermOverride.Kind]
+    KIND_UNSPECIFIED: TermOverride.Kind
+    OBSERVATION: TermOverride.Kind
+    REWARD: TermOverride.Kind
+    TERMINATION: TermOverride.Kind
+    RESET: TermOverride.Kind
+    METRIC: TermOverride.Kind
+    class ParamsEntry(_message.Message):
+        __slots__ = ("key", "value")
+        KEY_FIELD_NUMBER: _ClassVar[int]
+        VALUE_FIELD_NUMBER: _ClassVar[int]
+        key: str
+        value: str
+        def __init__(self, key: _Optional[str] = ..., value: _Optional[str] = ...) -> None: ...
+    NAME_FIELD_NUMBER: _ClassVar[int]
+    WEIGHT_FIELD_NUMBER: _ClassVar[int]
+    PARAMS_FIELD_NUMBER: _ClassVar[int]
+    TERM_FIELD_NUMBER: _ClassVar[int]
+    KIND_FIELD_NUMBER: _ClassVar[int]
+    name: str
+    weight: float
+    params: _containers.ScalarMap[str, str]
+    term: str
+    kind: TermOverride.Kind
+    def __init__(self, name: _Optional[str] = ..., weight: _Optional[float] = ..., params: _Optional[_Mapping[str, str]] = ..., term: _Optional[str] = ..., kind: _Optional[_Union[TermOverride.Kind, str]] = ...) -> None: ...

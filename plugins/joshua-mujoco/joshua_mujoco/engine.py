@@ -44,7 +44,7 @@ class MuJoCoEngine(Engine):
     ) -> None:
         if (model_path is None) == (xml is None):
             raise TypeError("MuJoCoEngine needs exactly one of model_path= or xml=")
-        self.model = _compile(model_path, xml, assets)
+        self.model = compile_model(model_path, xml=xml, assets=assets)
         self.data = mujoco.MjData(self.model)
         self.render_width = render_width
         self.render_height = render_height
@@ -122,17 +122,7 @@ class MuJoCoEngine(Engine):
         return renderer.render()
 
     def _create_renderer(self) -> mujoco.Renderer:
-        visual = self.model.vis.global_
-        visual.offwidth = max(visual.offwidth, self.render_width)
-        visual.offheight = max(visual.offheight, self.render_height)
-        try:
-            self._renderer = mujoco.Renderer(self.model, height=self.render_height, width=self.render_width)
-        except Exception as error:  # GL platform failures surface as several exception types
-            raise RuntimeError(
-                f"headless rendering failed ({type(error).__name__}: {error}). Set MUJOCO_GL=egl (or osmesa) "
-                "before importing mujoco, or import joshua_mujoco first; Debian packages for EGL: "
-                "libegl1 libgl1-mesa-dri libopengl0"
-            ) from error
+        self._renderer = create_renderer(self.model, self.render_width, self.render_height)
         return self._renderer
 
     def close(self) -> None:
@@ -148,8 +138,26 @@ class MuJoCoBackend(Backend):
         return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height)
 
 
-def _compile(model_path: str | Path | None, xml: str | None, assets: Mapping[str, bytes] | None) -> mujoco.MjModel:
-    """Compile the model, turning MuJoCo's errors into ModelError that names the file."""
+def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
+    """A headless renderer of `width` x `height` (the model's offscreen buffer is enlarged to fit)."""
+    visual = model.vis.global_
+    visual.offwidth = max(visual.offwidth, width)
+    visual.offheight = max(visual.offheight, height)
+    try:
+        return mujoco.Renderer(model, height=height, width=width)
+    except Exception as error:  # GL platform failures surface as several exception types
+        raise RuntimeError(
+            f"headless rendering failed ({type(error).__name__}: {error}). Set MUJOCO_GL=egl (or osmesa) "
+            "before importing mujoco, or import joshua_mujoco first; Debian packages for EGL: "
+            "libegl1 libgl1-mesa-dri libopengl0"
+        ) from error
+
+
+def compile_model(
+    model_path: str | Path | None, *, xml: str | None = None, assets: Mapping[str, bytes] | None = None
+) -> mujoco.MjModel:
+    """Compile a model file (relative paths also resolve against the shipped models) or XML string,
+    turning MuJoCo's errors into ModelError that names the file."""
     if model_path is not None:
         path = resolve_data_path(model_path)
         source = str(path)

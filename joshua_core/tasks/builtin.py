@@ -1,0 +1,143 @@
+"""The built-in tasks, composed from the built-in terms. docs/tasks.md describes each one."""
+
+from __future__ import annotations
+
+from joshua_core.tasks.spec import ActionSpec, TaskSpec, TermSpec
+
+_ANT_HEALTHY = {"joint": "root", "min_z": 0.2, "max_z": 1.0}
+
+ANT_LOCOMOTION = TaskSpec(
+    name="ant_locomotion",
+    summary="Ant quadruped runs forward: Gymnasium Ant-v5 observation, reward, termination and reset",
+    model_path="ant/ant.xml",
+    frame_skip=5,  # 5 x 0.01 s: dt = 0.05 s, as Ant-v5
+    episode_length=1000,
+    observations=(
+        TermSpec("qpos", params={"start": 2}),
+        TermSpec("qvel"),
+        TermSpec("contact_forces", params={"limit": 1.0}),
+    ),
+    rewards=(
+        TermSpec("forward_velocity", 1.0, {"joint": "root", "axis": 0}, name="forward"),
+        TermSpec("healthy", 1.0, _ANT_HEALTHY, name="healthy"),
+        TermSpec("action_l2", -0.5, name="ctrl_cost"),
+        TermSpec("contact_force_l2", -5e-4, {"limit": 1.0}, name="contact_cost"),
+    ),
+    terminations=(TermSpec("unhealthy", params=_ANT_HEALTHY),),
+    resets=(
+        TermSpec("reset_qpos_uniform", params={"scale": 0.1}),
+        TermSpec("reset_qvel_normal", params={"scale": 0.1}),
+    ),
+    metrics=(TermSpec("forward_velocity", params={"joint": "root", "axis": 0}, name="x_velocity"),),
+)
+
+_TRILEG_HEALTHY = {"joint": "root", "min_z": 0.1, "max_z": 0.5}
+
+TRILEG_LOCOMOTION = TaskSpec(
+    name="trileg_locomotion",
+    summary="Three-legged walker keeps its balance and walks forward (+x)",
+    model_path="trileg/trileg.xml",
+    frame_skip=5,  # 5 x 0.004 s: dt = 0.02 s
+    episode_length=1000,
+    observations=(
+        TermSpec("qpos", params={"start": 2}),
+        TermSpec("qvel"),
+        TermSpec("last_action"),
+    ),
+    rewards=(
+        TermSpec("forward_velocity", 1.0, {"joint": "root", "axis": 0}, name="forward"),
+        TermSpec("healthy", 0.5, _TRILEG_HEALTHY, name="healthy"),
+        TermSpec("body_upright", 0.5, {"body": "torso"}, name="upright"),
+        TermSpec("action_l2", -0.01, name="ctrl_cost"),
+        TermSpec("action_rate_l2", -0.01, name="action_rate"),
+    ),
+    terminations=(
+        TermSpec("unhealthy", params=_TRILEG_HEALTHY),
+        TermSpec("body_tilted", params={"body": "torso", "min_upright": 0.5}, name="tipped_over"),
+    ),
+    resets=(
+        TermSpec("reset_joints_uniform", params={"scale": 0.05}),
+        TermSpec("reset_qvel_normal", params={"scale": 0.05}),
+    ),
+    metrics=(TermSpec("forward_velocity", params={"joint": "root", "axis": 0}, name="x_velocity"),),
+    action=ActionSpec("offset", 0.6),
+)
+
+_REACH_TARGET = {"name": "target", "low": (0.15, -0.15, 0.05), "high": (0.3, 0.15, 0.25)}
+
+SO_ARM100_REACH = TaskSpec(
+    name="so_arm100_reach",
+    summary="SO-ARM100 moves its gripper site to a random target in front of it",
+    model_path="so_arm100/scene.xml",
+    frame_skip=10,  # 10 x 2 ms: dt = 0.02 s (50 Hz control)
+    episode_length=100,
+    keyframe="home",
+    commands={"target": 3},
+    observations=(
+        TermSpec("joint_pos"),
+        TermSpec("joint_vel"),
+        TermSpec("site_to_command", params={"site": "gripper", "name": "target"}, name="target_offset"),
+        TermSpec("command", params={"name": "target"}, name="target"),
+        TermSpec("last_action"),
+    ),
+    rewards=(
+        TermSpec("site_command_distance", -1.0, {"site": "gripper", "name": "target"}, name="distance"),
+        TermSpec("site_command_tanh", 0.5, {"site": "gripper", "name": "target", "std": 0.05}, name="near"),
+        TermSpec("action_rate_l2", -0.005, name="action_rate"),
+    ),
+    resets=(
+        TermSpec("reset_joints_uniform", params={"scale": 0.1}),
+        TermSpec("sample_command_uniform", params=_REACH_TARGET, name="target"),
+    ),
+    metrics=(TermSpec("site_command_distance", params={"site": "gripper", "name": "target"}, name="distance"),),
+    action=ActionSpec("offset", 1.0),
+)
+
+_CUBE_HALF = 0.015
+_GOAL = {"name": "goal", "low": (0.15, 0.05, _CUBE_HALF), "high": (0.25, 0.15, _CUBE_HALF)}
+
+SO_ARM100_PICK_PLACE = TaskSpec(
+    name="so_arm100_pick_place",
+    summary="SO-ARM100 picks up the cube and places it on a random goal on the table",
+    model_path="so_arm100/pick_place.xml",
+    frame_skip=10,
+    episode_length=400,
+    keyframe="home",
+    commands={"goal": 3},
+    observations=(
+        TermSpec("joint_pos", params={"joints": ("joint_1", "joint_2", "joint_3", "joint_4", "joint_5", "joint_6")}),
+        TermSpec("joint_vel", params={"joints": ("joint_1", "joint_2", "joint_3", "joint_4", "joint_5", "joint_6")}),
+        TermSpec("site_to_body", params={"site": "gripper", "body": "cube"}, name="cube_offset"),
+        TermSpec("body_to_command", params={"body": "cube", "name": "goal"}, name="goal_offset"),
+        TermSpec("body_pos", params={"body": "cube"}, name="cube_position"),
+        TermSpec("sensor", params={"sensor": "gripper_touch_fixed"}, name="touch_fixed"),
+        TermSpec("sensor", params={"sensor": "gripper_touch_moving"}, name="touch_moving"),
+        TermSpec("last_action"),
+    ),
+    rewards=(
+        TermSpec("site_body_tanh", 1.0, {"site": "gripper", "body": "cube", "std": 0.05}, name="reach"),
+        TermSpec(
+            "sensors_above",
+            0.5,
+            {"first": "gripper_touch_fixed", "second": "gripper_touch_moving", "threshold": 0.05},
+            name="grasp",
+        ),
+        TermSpec("body_height_above", 1.0, {"body": "cube", "height": 0.04}, name="lift"),
+        TermSpec("body_command_tanh", 2.0, {"body": "cube", "name": "goal", "std": 0.1}, name="place"),
+        TermSpec("body_command_within", 5.0, {"body": "cube", "name": "goal", "radius": 0.02}, name="at_goal"),
+        TermSpec("action_rate_l2", -0.005, name="action_rate"),
+    ),
+    terminations=(TermSpec("body_below", params={"body": "cube", "height": -0.05}, name="cube_dropped"),),
+    resets=(
+        TermSpec("reset_joints_uniform", params={"scale": 0.05, "joints": ("joint_1", "joint_2", "joint_3")}),
+        TermSpec("reset_free_joint_xy", params={"joint": "cube_joint", "low": (0.17, -0.12), "high": (0.25, -0.04)}),
+        TermSpec("sample_command_uniform", params=_GOAL, name="goal"),
+    ),
+    metrics=(
+        TermSpec("body_command_within", params={"body": "cube", "name": "goal", "radius": 0.02}, name="success"),
+        TermSpec("body_command_distance", params={"body": "cube", "name": "goal"}, name="distance"),
+    ),
+    action=ActionSpec("offset", 1.0),
+)
+
+BUILTIN_TASKS = {spec.name: spec for spec in (ANT_LOCOMOTION, TRILEG_LOCOMOTION, SO_ARM100_REACH, SO_ARM100_PICK_PLACE)}

@@ -1,0 +1,128 @@
+"""Model handles: term parameters that name model objects, resolved to indices when a task is built.
+
+A term declares such a parameter by its annotation, e.g. `def site_pos(ctx, site: Site)`. Configs
+and task specs give the name (`site="gripper"`); `resolve_handle` turns it into the handle, so
+the kernel indexes arrays with plain integers (static under `jax.jit`) and a wrong name fails
+at build time with the names the model has. The model is a `mujoco.MjModel` (used duck-typed:
+the core does not import mujoco).
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+# MuJoCo joint types (mjtJoint) and how many qpos / qvel entries each has.
+_FREE, _BALL = 0, 1
+_JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
+
+
+@dataclass(frozen=True)
+class Body:
+    """A body: `id` indexes xpos, xquat, cfrc_ext."""
+
+    name: str
+    id: int
+
+
+@dataclass(frozen=True)
+class Site:
+    """A site: `id` indexes site_xpos."""
+
+    name: str
+    id: int
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """A sensor: its readings are `sensordata[:, adr:adr + dim]`."""
+
+    name: str
+    adr: int
+    dim: int
+
+    @property
+    def index(self) -> slice:
+        return slice(self.adr, self.adr + self.dim)
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A joint: its coordinates are `qpos[:, qpos_adr:qpos_adr + qpos_size]`, velocities likewise from dof_adr."""
+
+    name: str
+    qpos_adr: int
+    qpos_size: int
+    dof_adr: int
+    dof_size: int
+
+
+@dataclass(frozen=True)
+class Joints:
+    """Several joints (an empty name list means every hinge and slide joint): integer index tuples."""
+
+    names: tuple[str, ...]
+    qpos_index: tuple[int, ...]
+    dof_index: tuple[int, ...]
+
+
+HANDLE_TYPES = (Body, Site, Sensor, Joint, Joints)
+
+
+def _names(model: Any, kind: str) -> list[str]:
+    count = {"body": model.nbody, "site": model.nsite, "sensor": model.nsensor, "joint": model.njnt}[kind]
+    return [getattr(model, kind)(i).name for i in range(count)]
+
+
+def _lookup(model: Any, kind: str, name: str) -> int:
+    """Index of the named object, or ValueError listing close names and all names."""
+    if not isinstance(name, str):
+        raise ValueError(f"expected a {kind} name, got {name!r}")
+    names = _names(model, kind)
+    if name in names:
+        return names.index(name)
+    close = difflib.get_close_matches(name, names, n=3)
+    hint = f" Did you mean: {', '.join(close)}?" if close else ""
+    listed = ", ".join(n for n in names if n) or "none"
+    raise ValueError(f"the model has no {kind} named '{name}'.{hint} Its {kind}s: {listed}")
+
+
+def _joint(model: Any, index: int) -> Joint:
+    qpos_size, dof_size = _JOINT_SIZES[int(model.jnt_type[index])]
+    return Joint(
+        model.joint(index).name, int(model.jnt_qposadr[index]), qpos_size, int(model.jnt_dofadr[index]), dof_size
+    )
+
+
+def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
+    """The handle of `handle_type` for `value` (a name, or for Joints a list of names); ValueError if unknown."""
+    if handle_type is Body:
+        return Body(value, _lookup(model, "body", value))
+    if handle_type is Site:
+        return Site(value, _lookup(model, "site", value))
+    if handle_type is Sensor:
+        index = _lookup(model, "sensor", value)
+        return Sensor(value, int(model.sensor_adr[index]), int(model.sensor_dim[index]))
+    if handle_type is Joint:
+        return _joint(model, _lookup(model, "joint", value))
+    if handle_type is Joints:
+        names = _joint_names(model, value)
+        joints = [_joint(model, _lookup(model, "joint", name)) for name in names]
+        return Joints(
+            tuple(names),
+            tuple(j.qpos_adr + k for j in joints for k in range(j.qpos_size)),
+            tuple(j.dof_adr + k for j in joints for k in range(j.dof_size)),
+        )
+    raise TypeError(f"not a model handle type: {handle_type!r}")
+
+
+def _joint_names(model: Any, value: Any) -> list[str]:
+    if isinstance(value, str):
+        return [value]
+    if not isinstance(value, Sequence):
+        raise ValueError(f"expected a list of joint names, got {value!r}")
+    if len(value) == 0:
+        return [model.joint(i).name for i in range(model.njnt) if int(model.jnt_type[i]) not in (_FREE, _BALL)]
+    return list(value)

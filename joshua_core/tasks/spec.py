@@ -1,0 +1,141 @@
+"""Task specifications: which terms a task composes, with weights and parameters, as plain data.
+
+A `TaskSpec` names its terms (registered through `joshua_register_terms`) by kind; plugins
+register specs through `joshua_register_tasks`. `with_config` lays a `TaskConfig` from the
+training config over a spec: change a term's weight (0 disables it) or parameters, or add a
+registered term the task does not have.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from joshua_core.errors import ConfigError
+
+
+class TermKind(enum.Enum):
+    """Where a term is used in a task, and what it returns."""
+
+    OBSERVATION = "observation"  # (N,) or (N, k) values, concatenated into the observation
+    REWARD = "reward"  # (N,) values, weighted and summed into the reward
+    TERMINATION = "termination"  # (N,) bool, any true ends the episode (terminated)
+    RESET = "reset"  # a new TermContext with randomised state, applied in order at reset
+    METRIC = "metric"  # (N,) values reported in infos["metrics"], not part of the reward
+
+
+@dataclass(frozen=True)
+class TermSpec:
+    """One use of a registered term in a task: `term` is the registered name, `name` the name in the task."""
+
+    term: str
+    weight: float = 1.0
+    params: Mapping[str, Any] = field(default_factory=dict)
+    name: str = ""
+
+    @property
+    def key(self) -> str:
+        """The name this use is reported and overridden under (`name`, else the term's name)."""
+        return self.name or self.term
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    """How a policy action in [-1, 1] becomes actuator controls.
+
+    - "ctrl_range": mapped affinely onto each actuator's ctrlrange (motors: ctrl = action).
+    - "offset": ctrl = initial ctrl (the keyframe's) + scale * action, clipped to ctrlrange
+      (position servos: the action moves the targets around the home pose).
+    """
+
+    mode: str = "ctrl_range"
+    scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    """A task: terms by kind, the model it is written for, and the episode structure."""
+
+    name: str
+    summary: str
+    model_path: str
+    frame_skip: int
+    episode_length: int
+    observations: tuple[TermSpec, ...] = ()
+    rewards: tuple[TermSpec, ...] = ()
+    terminations: tuple[TermSpec, ...] = ()
+    resets: tuple[TermSpec, ...] = ()
+    metrics: tuple[TermSpec, ...] = ()
+    commands: Mapping[str, int] = field(default_factory=dict)  # per-env task variables and their sizes
+    keyframe: str = ""  # initial state; empty: the model's defaults
+    action: ActionSpec = ActionSpec()
+
+    def terms(self, kind: TermKind) -> tuple[TermSpec, ...]:
+        return getattr(self, _FIELD_OF_KIND[kind])
+
+
+_FIELD_OF_KIND = {
+    TermKind.OBSERVATION: "observations",
+    TermKind.REWARD: "rewards",
+    TermKind.TERMINATION: "terminations",
+    TermKind.RESET: "resets",
+    TermKind.METRIC: "metrics",
+}
+
+
+def parse_param(text: str) -> Any:
+    """A term parameter from config text: JSON (numbers, lists, true/false, "quoted"), else the bare string."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError:
+        return text
+    return tuple(value) if isinstance(value, list) else value
+
+
+def with_config(spec: TaskSpec, config: Any) -> TaskSpec:
+    """`spec` with a `joshua.TaskConfig` message laid over it (episode length, frame skip, term overrides)."""
+    changes: dict[str, Any] = {}
+    if config.episode_length < 0 or config.frame_skip < 0:
+        raise ConfigError(f"task '{spec.name}': episode_length and frame_skip must not be negative")
+    if config.episode_length:
+        changes["episode_length"] = config.episode_length
+    if config.frame_skip:
+        changes["frame_skip"] = config.frame_skip
+    term_lists = {kind: list(spec.terms(kind)) for kind in TermKind}
+    for override in config.terms:
+        _apply_override(spec, term_lists, override)
+    for kind, terms in term_lists.items():
+        changes[_FIELD_OF_KIND[kind]] = tuple(terms)
+    return dataclasses.replace(spec, **changes)
+
+
+def _apply_override(spec: TaskSpec, term_lists: dict[TermKind, list[TermSpec]], override: Any) -> None:
+    """Change the term named `override.name`, or add it when `override.term` and `override.kind` say what."""
+    params = {key: parse_param(value) for key, value in override.params.items()}
+    matches = [
+        (kind, i) for kind, terms in term_lists.items() for i, term in enumerate(terms) if term.key == override.name
+    ]
+    if matches:
+        kind, index = matches[0]
+        term = term_lists[kind][index]
+        if override.term and override.term != term.term:
+            raise ConfigError(
+                f"task '{spec.name}': term '{override.name}' is '{term.term}'; to add another term, give it a new name"
+            )
+        weight = override.weight if override.HasField("weight") else term.weight
+        term_lists[kind][index] = dataclasses.replace(term, weight=weight, params={**term.params, **params})
+        return
+    kind_name = type(override).Kind.Name(override.kind) if override.kind else ""
+    if not override.term or not kind_name:
+        known = ", ".join(term.key for terms in term_lists.values() for term in terms)
+        raise ConfigError(
+            f"task '{spec.name}' has no term '{override.name}' (its terms: {known}); to add a term, "
+            "also give `term` (a registered term) and `kind` (OBSERVATION, REWARD, TERMINATION, RESET or METRIC)"
+        )
+    kind = TermKind[kind_name]
+    weight = override.weight if override.HasField("weight") else 1.0
+    term_lists[kind].append(TermSpec(override.term, weight, params, override.name))

@@ -1,0 +1,332 @@
+"""Building a task: terms looked up by name, parameters checked and model names resolved, once.
+
+`build_task` turns a `TaskSpec` (or a registered task's name) and a compiled model into a `Task`.
+Every check happens here, with errors that name the task and the term: unknown terms (with close
+matches), unknown or missing parameters, parameters of the wrong type, model names that do not
+exist, and terms whose output has the wrong shape (each term is evaluated once on a probe state).
+The `Task` then only evaluates: its methods are pure functions of a `TermContext`, the same on
+numpy and inside `jax.jit`.
+"""
+
+from __future__ import annotations
+
+import inspect
+import typing
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from numbers import Number
+from typing import Any
+
+import numpy as np
+
+from joshua_core.errors import ConfigError, PluginLoadError, UsageError
+from joshua_core.plugins import Kind, PluginHost
+from joshua_core.tasks.context import STATE_FIELDS, NumpyRandom, TermContext
+from joshua_core.tasks.handles import HANDLE_TYPES, resolve_handle
+from joshua_core.tasks.spec import TaskSpec, TermKind, TermSpec, with_config
+
+_PROBE_ENVS = 2
+
+
+@dataclass(frozen=True)
+class BoundTerm:
+    """A term of a built task: the function with its checked, resolved parameters."""
+
+    name: str
+    kind: TermKind
+    function: Callable[..., Any]
+    weight: float
+    params: Mapping[str, Any]
+
+    def __call__(self, ctx: TermContext) -> Any:
+        return self.function(ctx, **self.params)
+
+
+class Task:
+    """A built task: evaluates observations, rewards, terminations, metrics and resets of N environments.
+
+    Backends step the physics and build a `TermContext` with the fields in `fields`; everything
+    else here is array code in `ctx.xp`.
+    """
+
+    def __init__(self, spec: TaskSpec, model: Any, terms: dict[TermKind, tuple[BoundTerm, ...]]) -> None:
+        self.spec = spec
+        self.name = spec.name
+        self.frame_skip = spec.frame_skip
+        self.episode_length = spec.episode_length
+        self.dt = float(model.opt.timestep) * spec.frame_skip
+        self.observation_terms = terms[TermKind.OBSERVATION]
+        self.reward_terms = terms[TermKind.REWARD]
+        self.termination_terms = terms[TermKind.TERMINATION]
+        self.reset_terms = terms[TermKind.RESET]
+        self.metric_terms = terms[TermKind.METRIC]
+        self.commands = dict(spec.commands)
+        self.keyframe_id = _keyframe_id(spec, model)
+        self.action_size = int(model.nu)
+        self.initial_qpos, self.initial_qvel, self.initial_ctrl = _initial_state(model, self.keyframe_id)
+        self.ctrl_low, self.ctrl_high, self.ctrl_offset, self.ctrl_scale = _action_mapping(
+            spec, model, self.initial_ctrl
+        )
+        self.observation_size = 0
+        self.fields: frozenset[str] = frozenset()
+
+    # --- evaluation (pure functions of the context) ---
+
+    def observe(self, ctx: TermContext) -> Any:
+        """The observation, (N, observation_size): every observation term flattened and concatenated."""
+        parts = [term(ctx).reshape(ctx.num_envs, -1) for term in self.observation_terms]
+        return ctx.xp.concatenate(parts, axis=1)
+
+    def rewards(self, ctx: TermContext) -> tuple[Any, dict[str, Any]]:
+        """The total reward (N,) and each reward term's weighted value by name."""
+        weighted = {term.name: term.weight * term(ctx) for term in self.reward_terms}
+        total = sum(weighted.values()) if weighted else ctx.xp.zeros(ctx.num_envs)
+        return total, weighted
+
+    def terminated(self, ctx: TermContext) -> Any:
+        """(N,) bool: whether any termination term fired."""
+        done = ctx.xp.zeros(ctx.num_envs, dtype=bool)
+        for term in self.termination_terms:
+            done = done | term(ctx).astype(bool)
+        return done
+
+    def metrics(self, ctx: TermContext) -> dict[str, Any]:
+        """Each metric term's (N,) value by name."""
+        return {term.name: term(ctx) for term in self.metric_terms}
+
+    def reset(self, ctx: TermContext) -> TermContext:
+        """Apply the reset terms in order to a context holding the initial state; return the randomised one.
+
+        `ctx` needs qpos and qvel (usually `initial_qpos`/`initial_qvel` per env), `commands` (any
+        values of the right shapes) and `random`.
+        """
+        for term in self.reset_terms:
+            ctx = term(ctx)
+        return ctx
+
+    def action_to_ctrl(self, xp: Any, action: Any) -> Any:
+        """Actuator controls for actions, (N, nu): clipped to [-1, 1], mapped (see ActionSpec), clipped to ctrlrange."""
+        ctrl = self.ctrl_offset + self.ctrl_scale * xp.clip(action, -1.0, 1.0)
+        return xp.clip(ctrl, self.ctrl_low, self.ctrl_high)
+
+    def reset_context(self, xp: Any, num_envs: int, random: Any) -> TermContext:
+        """A context with `num_envs` copies of the initial state and zero commands, ready for `reset`."""
+        return TermContext(
+            xp=xp,
+            dt=self.dt,
+            qpos=xp.asarray(np.tile(self.initial_qpos, (num_envs, 1))),
+            qvel=xp.asarray(np.tile(self.initial_qvel, (num_envs, 1))),
+            commands={name: xp.zeros((num_envs, size)) for name, size in self.commands.items()},
+            random=random,
+        )
+
+
+def load_task_spec(name: str, plugins: PluginHost) -> TaskSpec:
+    """The TaskSpec registered as `name` (a TaskSpec, or a function with no arguments returning one)."""
+    component = plugins.component(Kind.TASK, name)
+    target = component.load()
+    spec = target() if callable(target) and not isinstance(target, TaskSpec) else target
+    if not isinstance(spec, TaskSpec):
+        raise PluginLoadError(
+            f"task '{name}' from plugin '{component.plugin.name}' ({component.plugin.distribution}) is {spec!r}, "
+            "not a joshua_core.tasks.TaskSpec"
+        )
+    return spec
+
+
+def build_task(task: TaskSpec | str, model: Any, plugins: PluginHost, config: Any = None) -> Task:
+    """Build a task for a compiled model (mujoco.MjModel); `config` is an optional `joshua.TaskConfig`.
+
+    Raises ConfigError naming the task and term for any bad term, parameter or model name.
+    """
+    spec = load_task_spec(task, plugins) if isinstance(task, str) else task
+    if config is not None:
+        spec = with_config(spec, config)
+    if spec.frame_skip < 1 or spec.episode_length < 1:
+        raise ConfigError(f"task '{spec.name}': frame_skip and episode_length must be at least 1")
+    terms = {
+        kind: tuple(_bind(spec, kind, term, model, plugins) for term in spec.terms(kind) if term.weight != 0)
+        for kind in TermKind
+    }
+    built = Task(spec, model, terms)
+    built.observation_size, built.fields = _probe(built, model)
+    return built
+
+
+def _bind(spec: TaskSpec, kind: TermKind, term: TermSpec, model: Any, plugins: PluginHost) -> BoundTerm:
+    where = f"task '{spec.name}': {kind.value} term '{term.key}'"
+    try:
+        function = plugins.component(Kind.TERM, term.term).load()
+    except UsageError as error:
+        raise ConfigError(f"{where}: {error}") from None
+    if not callable(function):
+        raise PluginLoadError(f"{where}: the registered term '{term.term}' is {function!r}, not a function")
+    return BoundTerm(term.key, kind, function, float(term.weight), _check_params(where, term, function, model))
+
+
+def _check_params(where: str, term: TermSpec, function: Callable[..., Any], model: Any) -> dict[str, Any]:
+    """The term's parameters: given ones checked against the signature, defaults added, model names resolved."""
+    parameters = list(inspect.signature(function).parameters.values())[1:]  # the first is ctx
+    accepted = {p.name: p for p in parameters if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+    listing = ", ".join(accepted) or "none"
+    unknown = sorted(set(term.params) - set(accepted))
+    if unknown:
+        raise ConfigError(
+            f"{where} ({term.term}) has no parameter {', '.join(map(repr, unknown))}; its parameters: {listing}"
+        )
+    hints = _type_hints(function)
+    resolved: dict[str, Any] = {}
+    for name, parameter in accepted.items():
+        if name in term.params:
+            value = term.params[name]
+        elif parameter.default is not parameter.empty:
+            value = parameter.default
+        else:
+            raise ConfigError(f"{where} ({term.term}) needs parameter '{name}'; its parameters: {listing}")
+        resolved[name] = _coerce(f"{where}, parameter '{name}'", value, parameter.default, hints.get(name), model)
+    return resolved
+
+
+def _type_hints(function: Callable[..., Any]) -> dict[str, Any]:
+    try:
+        return typing.get_type_hints(function)
+    except Exception:  # unresolvable annotations (e.g. names only imported for type checking): use none
+        return {}
+
+
+def _coerce(where: str, value: Any, default: Any, hint: Any, model: Any) -> Any:
+    """Resolve model names for handle parameters and check a value against its default's type."""
+    if hint in HANDLE_TYPES:
+        try:
+            return resolve_handle(model, hint, value)
+        except ValueError as error:
+            raise ConfigError(f"{where}: {error}") from None
+    if isinstance(value, list):
+        value = tuple(value)
+    if default is inspect.Parameter.empty or default is None:
+        return value
+    if isinstance(default, bool) or isinstance(value, bool):
+        if not isinstance(value, bool) or not isinstance(default, bool):
+            raise ConfigError(f"{where}: expected {type(default).__name__}, got {value!r}")
+        return value
+    if isinstance(default, Number):
+        if not isinstance(value, Number):
+            raise ConfigError(f"{where}: expected a number, got {value!r}")
+        return float(value) if isinstance(default, float) else value
+    if isinstance(default, tuple) and not isinstance(value, tuple):
+        raise ConfigError(f"{where}: expected a list like {list(default)}, got {value!r}")
+    if isinstance(default, str) and not isinstance(value, str):
+        raise ConfigError(f"{where}: expected a name, got {value!r}")
+    return value
+
+
+def _keyframe_id(spec: TaskSpec, model: Any) -> int:
+    if not spec.keyframe:
+        return -1
+    names = [model.key(i).name for i in range(model.nkey)]
+    if spec.keyframe not in names:
+        raise ConfigError(
+            f"task '{spec.name}' starts from keyframe '{spec.keyframe}', which the model does not have; "
+            f"its keyframes: {', '.join(names) or 'none'}"
+        )
+    return names.index(spec.keyframe)
+
+
+def _initial_state(model: Any, keyframe_id: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """qpos, qvel and ctrl of the keyframe, or of the model's defaults when there is none."""
+    if keyframe_id < 0:
+        return np.array(model.qpos0, dtype=np.float64), np.zeros(model.nv), np.zeros(model.nu)
+    return (
+        np.array(model.key_qpos[keyframe_id], dtype=np.float64),
+        np.array(model.key_qvel[keyframe_id], dtype=np.float64),
+        np.array(model.key_ctrl[keyframe_id], dtype=np.float64),
+    )
+
+
+def _action_mapping(spec: TaskSpec, model: Any, initial_ctrl: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(ctrl_low, ctrl_high, offset, scale) with ctrl = clip(offset + scale * action, low, high)."""
+    limited = np.asarray(model.actuator_ctrllimited, dtype=bool)
+    ranges = np.asarray(model.actuator_ctrlrange, dtype=np.float64).reshape(-1, 2)
+    low = np.where(limited, ranges[:, 0], -np.inf)
+    high = np.where(limited, ranges[:, 1], np.inf)
+    if spec.action.mode == "ctrl_range":
+        offset = np.where(limited, (ranges[:, 0] + ranges[:, 1]) / 2, 0.0)
+        scale = np.where(limited, (ranges[:, 1] - ranges[:, 0]) / 2, 1.0) * spec.action.scale
+    elif spec.action.mode == "offset":
+        offset, scale = initial_ctrl.copy(), np.full(model.nu, float(spec.action.scale))
+    else:
+        raise ConfigError(f"task '{spec.name}': unknown action mode '{spec.action.mode}' (use ctrl_range or offset)")
+    return low, high, offset, scale
+
+
+def _probe(task: Task, model: Any) -> tuple[int, frozenset[str]]:
+    """Evaluate every term once on a neutral state: check output shapes, measure the observation, and
+    record which state fields the terms read (backends then compute only those)."""
+    read: set[str] = set()
+
+    class ProbeContext(TermContext):
+        def __getattribute__(self, name: str) -> Any:
+            if name in STATE_FIELDS:
+                read.add(name)
+            return object.__getattribute__(self, name)
+
+    n = _PROBE_ENVS
+    identity = np.tile([1.0, 0.0, 0.0, 0.0], (n, model.nbody, 1))
+    ctx = ProbeContext(
+        xp=np,
+        dt=task.dt,
+        qpos=np.tile(task.initial_qpos, (n, 1)),
+        qvel=np.zeros((n, model.nv)),
+        prev_qpos=np.tile(task.initial_qpos, (n, 1)),
+        xpos=np.zeros((n, model.nbody, 3)),
+        xquat=identity,
+        site_xpos=np.zeros((n, model.nsite, 3)),
+        sensordata=np.zeros((n, model.nsensordata)),
+        cfrc_ext=np.zeros((n, model.nbody, 6)),
+        action=np.zeros((n, model.nu)),
+        prev_action=np.zeros((n, model.nu)),
+        episode_step=np.zeros(n, dtype=np.int64),
+        commands={name: np.zeros((n, size)) for name, size in task.commands.items()},
+        random=NumpyRandom(np.random.default_rng(0)),
+    )
+    observation_size = 0
+    with np.errstate(all="ignore"):
+        for term in task.observation_terms:
+            value = _evaluate(task, term, ctx)
+            if value.ndim < 1 or value.shape[0] != n:
+                raise ConfigError(_shape_message(task, term, value, "(N,) or (N, k)"))
+            observation_size += int(np.prod(value.shape[1:], dtype=np.int64))
+        for term in task.reward_terms + task.termination_terms + task.metric_terms:
+            value = _evaluate(task, term, ctx)
+            if value.shape != (n,):
+                raise ConfigError(_shape_message(task, term, value, "(N,)"))
+        reset_ctx = ctx
+        for term in task.reset_terms:
+            reset_ctx = _evaluate(task, term, reset_ctx)
+            if not isinstance(reset_ctx, TermContext):
+                raise ConfigError(
+                    f"task '{task.name}': reset term '{term.name}' returned {type(reset_ctx).__name__}; "
+                    "a reset term returns the context with its changes, e.g. ctx.replace(qpos=...)"
+                )
+            for name in ("qpos", "qvel"):
+                if np.shape(getattr(reset_ctx, name)) != np.shape(getattr(ctx, name)):
+                    raise ConfigError(f"task '{task.name}': reset term '{term.name}' changed the shape of {name}")
+    return observation_size, frozenset(read)
+
+
+def _evaluate(task: Task, term: BoundTerm, ctx: TermContext) -> Any:
+    try:
+        value = term(ctx)
+    except Exception as error:  # a term can fail in any way on bad parameters; name it
+        raise ConfigError(
+            f"task '{task.name}': {term.kind.value} term '{term.name}' ({term.function.__name__}) failed: "
+            f"{type(error).__name__}: {error}"
+        ) from error
+    return value if isinstance(value, TermContext) else np.asarray(value)
+
+
+def _shape_message(task: Task, term: BoundTerm, value: Any, expected: str) -> str:
+    return (
+        f"task '{task.name}': {term.kind.value} term '{term.name}' ({term.function.__name__}) returned shape "
+        f"{np.shape(value)}; expected {expected} with N = number of environments"
+    )

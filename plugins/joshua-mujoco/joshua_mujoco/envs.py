@@ -1,0 +1,109 @@
+"""Single Gymnasium environments for the registered tasks, and their registration with Gymnasium.
+
+Importing this module registers `joshua/AntLocomotion-v0`, `joshua/TrilegLocomotion-v0`,
+`joshua/SoArm100Reach-v0` and `joshua/SoArm100PickPlace-v0`, each with a vector entry point
+(`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")` gives a BatchedVectorEnv).
+Without importing it first, `gymnasium.make("joshua_mujoco.envs:joshua/AntLocomotion-v0")` does
+the same.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+import numpy as np
+from numpy.typing import NDArray
+
+from joshua_core.plugins import PluginHost
+from joshua_mujoco.vector import (
+    BatchedSimulation,
+    BatchedVectorEnv,
+    load_task_model,
+    make_vector_env,
+    task_config_from_options,
+)
+
+# Gymnasium ids of the built-in tasks.
+ENV_IDS = {
+    "joshua/AntLocomotion-v0": "ant_locomotion",
+    "joshua/TrilegLocomotion-v0": "trileg_locomotion",
+    "joshua/SoArm100Reach-v0": "so_arm100_reach",
+    "joshua/SoArm100PickPlace-v0": "so_arm100_pick_place",
+}
+
+
+class TaskEnv(gymnasium.Env):
+    """One environment of a task (a batch of one simulation); episodes end by termination or truncation
+    at the task's episode length, and the caller resets."""
+
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"]}
+
+    def __init__(
+        self,
+        task: str,
+        *,
+        model_path: str | None = None,
+        render_mode: str | None = None,
+        plugins: PluginHost | None = None,
+        **task_options: Any,
+    ) -> None:
+        built, model = load_task_model(
+            task, model_path, plugins or PluginHost.discover(), task_config_from_options(task_options)
+        )
+        self.simulation = BatchedSimulation(built, model, 1, nthread=1)
+        self.task = built
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, "render_fps": round(1.0 / built.dt)}
+        self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (built.observation_size,), np.float32)
+        self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (built.action_size,), np.float32)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float32], dict[str, Any]]:
+        super().reset(seed=seed)
+        if seed is not None:
+            self.simulation.seed(seed)
+        observation = self.simulation.reset(np.zeros(1, dtype=np.intp))
+        return observation[0].astype(np.float32), {}
+
+    def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
+        simulation, task = self.simulation, self.task
+        failed = bool(simulation.step(np.asarray(action).reshape(1, -1))[0])
+        ctx = simulation.context()
+        reward, terms = task.rewards(ctx)
+        terminated = bool(task.terminated(ctx)[0]) or failed
+        truncated = not terminated and int(simulation.episode_step[0]) >= task.episode_length
+        info = {
+            "reward_terms": {name: float(value[0]) for name, value in terms.items()},
+            "metrics": {name: float(value[0]) for name, value in task.metrics(ctx).items()},
+        }
+        observation = task.observe(ctx)[0].astype(np.float32)
+        return observation, 0.0 if failed else float(reward[0]), terminated, truncated, info
+
+    def render(self) -> NDArray[np.uint8] | None:
+        return self.simulation.render(0, None, 640, 480) if self.render_mode == "rgb_array" else None
+
+    def close(self) -> None:
+        self.simulation.close()
+
+
+def make_vector(task: str, num_envs: int = 1, **kwargs: Any) -> BatchedVectorEnv:
+    """Gymnasium's vector entry point: make_vector_env with Gymnasium's keyword arguments."""
+    kwargs.pop("vectorization_mode", None)
+    return make_vector_env(task, num_envs, **kwargs)
+
+
+def register_envs() -> None:
+    """Register the built-in tasks with Gymnasium (idempotent)."""
+    for env_id, task in ENV_IDS.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(
+                env_id,
+                entry_point="joshua_mujoco.envs:TaskEnv",
+                vector_entry_point="joshua_mujoco.envs:make_vector",
+                kwargs={"task": task},
+            )
+
+
+register_envs()

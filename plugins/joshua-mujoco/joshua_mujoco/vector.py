@@ -1,0 +1,365 @@
+"""Batched CPU environments: any JOSHUA task on N MuJoCo simulations stepped by `mujoco.batch`.
+
+`BatchedSimulation` holds the N simulations and evaluates the task's terms with numpy over the
+whole batch (no per-environment Python loop). `BatchedVectorEnv` is the Gymnasium `VectorEnv`
+on top of it, with same-step autoreset; `joshua_mujoco.envs` registers single environments.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from joshua_mujoco.gl import choose_headless_gl
+
+choose_headless_gl()  # before mujoco is imported, so that render_frame works without a display
+
+import gymnasium  # noqa: E402
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+from gymnasium.vector import AutoresetMode, VectorEnv  # noqa: E402
+from gymnasium.vector.utils import batch_space  # noqa: E402
+from mujoco.batch import Batch, SimulationError  # noqa: E402
+from numpy.typing import NDArray  # noqa: E402
+
+from joshua_core.config_pb2 import TaskConfig, TrainingConfig  # noqa: E402
+from joshua_core.errors import ConfigError, ModelError  # noqa: E402
+from joshua_core.plugins import PluginHost  # noqa: E402
+from joshua_core.resources import resolve_data_path  # noqa: E402
+from joshua_core.tasks import NumpyRandom, Task, TermContext, build_task, load_task_spec  # noqa: E402
+from joshua_mujoco.engine import create_renderer  # noqa: E402
+
+DEFAULT_NUM_ENVS = 16
+# Bound per-environment fields of mujoco.batch, by the TermContext field that reads them.
+_DERIVED_FIELDS = ("xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext")
+# A sensor that makes MuJoCo compute cfrc_ext (mj_rnePostConstraint) inside every step.
+_CONTACT_FORCE_SENSOR = "joshua_contact_forces"
+_MARKER_RGBA = np.array([0.1, 0.9, 0.2, 0.7], dtype=np.float32)
+_MARKER_RADIUS = 0.02
+
+
+def load_task_model(
+    task: str, model_path: str | Path | None, plugins: PluginHost, config: TaskConfig | None
+) -> tuple[Task, mujoco.MjModel]:
+    """The built task and its compiled model (the task's own model when `model_path` is None).
+
+    If the task reads contact forces, a sensor is added that makes every step compute them, as
+    Gymnasium's mujoco environments do by calling mj_rnePostConstraint after each step.
+    """
+    spec = load_task_spec(task, plugins)
+    path = resolve_data_path(model_path or spec.model_path)
+    try:
+        model_spec = mujoco.MjSpec.from_file(str(path))
+        model = model_spec.compile()
+        built = build_task(spec, model, plugins, config)
+        if "cfrc_ext" in built.fields and model.nbody > 1:
+            model_spec.add_sensor(
+                name=_CONTACT_FORCE_SENSOR,
+                type=mujoco.mjtSensor.mjSENS_FRAMELINACC,
+                objtype=mujoco.mjtObj.mjOBJ_BODY,
+                objname=model.body(1).name,
+            )
+            model = model_spec.compile()
+            built = build_task(spec, model, plugins, config)
+    except ValueError as error:  # MuJoCo's compile errors
+        raise ModelError(f"{path}: model does not compile: {error}") from None
+    # A diverging simulation becomes non-finite and is terminated, instead of MuJoCo resetting it silently.
+    model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    return built, model
+
+
+class BatchedSimulation:
+    """N simulations of one task: reset some, step all, evaluate the task's terms on the batch.
+
+    Holds the per-environment state the terms read besides MuJoCo's (actions, previous qpos,
+    episode step, commands) in numpy arrays with the environments on the leading axis.
+    """
+
+    def __init__(
+        self, task: Task, model: mujoco.MjModel, num_envs: int, *, seed: int = 0, nthread: int | None = None
+    ) -> None:
+        if num_envs < 1:
+            raise ValueError(f"num_envs must be at least 1, got {num_envs}")
+        self.task = task
+        self.model = model
+        self.num_envs = num_envs
+        self.batch = Batch(model, nsim=num_envs, nthread=nthread or 0)
+        self.qpos = self.batch.bind("qpos")
+        self.qvel = self.batch.bind("qvel")
+        self.ctrl = self.batch.bind("ctrl")
+        self.derived = {name: self.batch.bind(name) for name in _DERIVED_FIELDS if name in task.fields}
+        self.prev_qpos = np.zeros_like(self.qpos)
+        self.action = np.zeros((num_envs, task.action_size))
+        self.prev_action = np.zeros_like(self.action)
+        self.episode_step = np.zeros(num_envs, dtype=np.int64)
+        self.commands = {name: np.zeros((num_envs, size)) for name, size in task.commands.items()}
+        self.seed(seed)
+
+    def seed(self, seed: int | Sequence[int] | None) -> None:
+        """Restart the random stream of reset terms."""
+        self.random = NumpyRandom(np.random.default_rng(seed))
+
+    def context(self) -> TermContext:
+        """The whole batch as a TermContext (live views: valid until the next step or reset)."""
+        return TermContext(
+            xp=np,
+            dt=self.task.dt,
+            qpos=self.qpos,
+            qvel=self.qvel,
+            prev_qpos=self.prev_qpos,
+            action=self.action,
+            prev_action=self.prev_action,
+            episode_step=self.episode_step,
+            commands=self.commands,
+            **self.derived,
+        )
+
+    def subset_context(self, ids: NDArray[np.intp]) -> TermContext:
+        """The environments `ids` as a TermContext of copies."""
+        ctx = self.context()
+        arrays = {
+            name: getattr(ctx, name)[ids]
+            for name in ("qpos", "qvel", "prev_qpos", "action", "prev_action", "episode_step", *self.derived)
+        }
+        return ctx.replace(commands={name: value[ids] for name, value in self.commands.items()}, **arrays)
+
+    def reset(self, ids: NDArray[np.intp]) -> NDArray[np.float64]:
+        """Reset the environments `ids` (initial state, then the task's reset terms); return their observations."""
+        task = self.task
+        self.batch.reset(ids, keyframe=task.keyframe_id, stage=mujoco.mjtStage.mjSTAGE_NONE)
+        state = task.reset(task.reset_context(np, len(ids), self.random))
+        self.qpos[ids] = state.qpos
+        self.qvel[ids] = state.qvel
+        self.ctrl[ids] = task.initial_ctrl
+        for name, value in self.commands.items():
+            value[ids] = state.commands[name]
+        self.batch.forward(ids)
+        self.prev_qpos[ids] = self.qpos[ids]
+        self.action[ids] = 0.0
+        self.prev_action[ids] = 0.0
+        self.episode_step[ids] = 0
+        return task.observe(self.subset_context(ids))
+
+    def step(self, actions: Any) -> NDArray[np.bool_]:
+        """Apply actions (clipped to [-1, 1]) and advance every environment by frame_skip physics steps.
+
+        Returns which environments failed (a MuJoCo error, or a non-finite state).
+        """
+        action = np.asarray(actions, dtype=np.float64)
+        if action.size != self.action.size:
+            raise ValueError(
+                f"step expects actions of shape ({self.num_envs}, {self.task.action_size}), got {np.shape(actions)}"
+            )
+        action = action.reshape(self.action.shape)
+        if not np.isfinite(action).all():
+            bad = np.flatnonzero(~np.isfinite(action).all(axis=1))
+            raise ValueError(f"actions contain NaN or infinity for environments {bad.tolist()[:10]}")
+        self.prev_action[:] = self.action
+        np.clip(action, -1.0, 1.0, out=self.action)
+        self.prev_qpos[:] = self.qpos
+        self.ctrl[:] = self.task.action_to_ctrl(np, self.action)
+        failed = np.zeros(self.num_envs, dtype=bool)
+        try:
+            self.batch.step(nstep=self.task.frame_skip, stage=mujoco.mjtStage.mjSTAGE_VEL)
+        except SimulationError as error:
+            failed[error.ids] = True
+        self.episode_step += 1
+        failed |= ~(np.isfinite(self.qpos).all(axis=1) & np.isfinite(self.qvel).all(axis=1))
+        return failed
+
+    def render(self, env_index: int, camera: str | int | None, width: int, height: int) -> NDArray[np.uint8]:
+        """An RGB image of one environment, with its 3-d commands (targets, goals) drawn as green spheres."""
+        if not 0 <= env_index < self.num_envs:
+            raise IndexError(f"env_index {env_index} out of range for {self.num_envs} environments")
+        renderers = self.__dict__.setdefault("_renderers", {})
+        if (width, height) not in renderers:
+            model = self.batch.get_model(env_index)
+            renderers[(width, height)] = (create_renderer(model, width, height), model)
+        renderer, model = renderers[(width, height)]
+        data = self.batch.get_data(env_index)
+        mujoco.mj_forward(model, data)
+        if camera is None:
+            camera = 0 if model.ncam else -1
+        renderer.update_scene(data, camera=camera)
+        scene = renderer.scene
+        for value in self.commands.values():
+            if value.shape[1] == 3 and scene.ngeom < scene.maxgeom:
+                mujoco.mjv_initGeom(
+                    scene.geoms[scene.ngeom],
+                    mujoco.mjtGeom.mjGEOM_SPHERE,
+                    np.array([_MARKER_RADIUS, 0.0, 0.0]),
+                    value[env_index],
+                    np.eye(3).flatten(),
+                    _MARKER_RGBA,
+                )
+                scene.ngeom += 1
+        return renderer.render()
+
+    def close(self) -> None:
+        for renderer, _ in self.__dict__.pop("_renderers", {}).values():
+            renderer.close()
+
+
+class BatchedVectorEnv(VectorEnv):
+    """A Gymnasium VectorEnv over `mujoco.batch`, running any registered task.
+
+    - Spaces: float32 Boxes; actions in [-1, 1] (values outside are clipped).
+    - Autoreset: same step. For an environment that finished, step() returns the first
+      observation of its next episode; the last one is in infos["final_obs"] (num_envs x obs_dim,
+      rows valid where infos["_final_obs"]).
+    - infos["reward_terms"]: each reward term's weighted value of this step, (num_envs,) arrays.
+    - infos["metrics"]: the task's metrics (e.g. "distance", "success") of this step.
+    - infos["episode"]: on the step an episode ends, "r" (return), "l" (length) and
+      "reward/<term>" (sum of that term over the episode), valid where infos["_episode"].
+    """
+
+    metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": ["rgb_array"]}
+
+    def __init__(self, simulation: BatchedSimulation, render_mode: str | None = None) -> None:
+        self.simulation = simulation
+        self.task = simulation.task
+        self.num_envs = simulation.num_envs
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, "render_fps": round(1.0 / self.task.dt)}
+        self.single_observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (self.task.observation_size,), np.float32)
+        self.single_action_space = gymnasium.spaces.Box(-1.0, 1.0, (self.task.action_size,), np.float32)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._returns = np.zeros(self.num_envs)
+        self._term_sums = {term.name: np.zeros(self.num_envs) for term in self.task.reward_terms}
+
+    @property
+    def nthread(self) -> int:
+        """Threads stepping the simulations."""
+        return int(self.simulation.batch.nthread)
+
+    def reset(
+        self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[NDArray[np.float32], dict[str, Any]]:
+        """Reset every environment (or those in options["reset_mask"]); `seed` restarts the random stream."""
+        if seed is not None:
+            self.simulation.seed(seed)
+        mask = (
+            np.ones(self.num_envs, dtype=bool)
+            if not options or "reset_mask" not in options
+            else np.asarray(options["reset_mask"], dtype=bool)
+        )
+        ids = np.flatnonzero(mask)
+        observation = np.zeros((self.num_envs, self.task.observation_size), dtype=np.float32)
+        observation[ids] = self.simulation.reset(ids)
+        self._observation = observation
+        self._returns[ids] = 0.0
+        for sums in self._term_sums.values():
+            sums[ids] = 0.0
+        return observation, {}
+
+    def step(
+        self, actions: Any
+    ) -> tuple[NDArray[np.float32], NDArray[np.float64], NDArray[np.bool_], NDArray[np.bool_], dict[str, Any]]:
+        simulation, task = self.simulation, self.task
+        failed = simulation.step(actions)
+        ctx = simulation.context()
+        observation = task.observe(ctx).astype(np.float32)
+        reward, reward_terms = task.rewards(ctx)
+        reward = np.where(failed, 0.0, reward)
+        terminated = task.terminated(ctx) | failed
+        truncated = (simulation.episode_step >= task.episode_length) & ~terminated
+        infos: dict[str, Any] = {
+            "reward_terms": {name: np.asarray(value, dtype=np.float64) for name, value in reward_terms.items()},
+            "metrics": {name: np.asarray(value, dtype=np.float64) for name, value in task.metrics(ctx).items()},
+        }
+        self._returns += reward
+        for name, value in reward_terms.items():
+            self._term_sums[name] += value
+        done = terminated | truncated
+        if done.any():
+            ids = np.flatnonzero(done)
+            infos["final_obs"] = np.where(done[:, None], observation, 0.0).astype(np.float32)
+            infos["_final_obs"] = done
+            episode = {"r": np.where(done, self._returns, 0.0), "l": np.where(done, simulation.episode_step, 0)}
+            for name, sums in self._term_sums.items():
+                episode[f"reward/{name}"] = np.where(done, sums, 0.0)
+                sums[ids] = 0.0
+            infos["episode"], infos["_episode"] = episode, done
+            self._returns[ids] = 0.0
+            observation[ids] = simulation.reset(ids)
+        return observation, reward, terminated, truncated, infos
+
+    def render_frame(
+        self, env_index: int = 0, camera: str | None = None, width: int = 640, height: int = 480
+    ) -> NDArray[np.uint8]:
+        """(height, width, 3) uint8 image of one environment; `camera` by name (default: the model's first)."""
+        return self.simulation.render(env_index, camera, width, height)
+
+    def render(self) -> tuple[NDArray[np.uint8], ...] | None:
+        if self.render_mode != "rgb_array":
+            return None
+        return tuple(self.render_frame(i) for i in range(self.num_envs))
+
+    def close_extras(self, **kwargs: Any) -> None:
+        self.simulation.close()
+
+
+def task_config_from_options(options: Mapping[str, Any]) -> TaskConfig | None:
+    """A TaskConfig from keyword options: task_config (a TaskConfig), episode_length, frame_skip, and
+    terms={name: {"weight": w, "params": {...}}}."""
+    allowed = {"task_config", "episode_length", "frame_skip", "terms"}
+    unknown = sorted(set(options) - allowed)
+    if unknown:
+        raise TypeError(f"unknown task options {unknown}; accepted: {', '.join(sorted(allowed))}")
+    if not options:
+        return None
+    config = TaskConfig()
+    if options.get("task_config") is not None:
+        config.CopyFrom(options["task_config"])
+    config.episode_length = options.get("episode_length") or config.episode_length
+    config.frame_skip = options.get("frame_skip") or config.frame_skip
+    for name, change in (options.get("terms") or {}).items():
+        override = config.terms.add(name=name)
+        if "weight" in change:
+            override.weight = float(change["weight"])
+        for key, value in (change.get("params") or {}).items():
+            override.params[key] = json.dumps(list(value) if isinstance(value, tuple) else value)
+    return config
+
+
+def make_vector_env(
+    task: str,
+    num_envs: int,
+    *,
+    seed: int = 0,
+    model_path: str | None = None,
+    nthread: int | None = None,
+    plugins: PluginHost | None = None,
+    render_mode: str | None = None,
+    **task_options: Any,
+) -> BatchedVectorEnv:
+    """A BatchedVectorEnv of `num_envs` copies of the registered `task`, reset with `seed`.
+
+    `model_path` replaces the task's model; `nthread` threads step the simulations (default:
+    one per core); `plugins` supplies tasks and terms (default: every installed plugin);
+    task_options are episode_length, frame_skip, terms={name: {"weight": .., "params": {..}}} or
+    task_config (a joshua.TaskConfig).
+    """
+    host = plugins or PluginHost.discover()
+    built, model = load_task_model(task, model_path, host, task_config_from_options(task_options))
+    env = BatchedVectorEnv(BatchedSimulation(built, model, num_envs, seed=seed, nthread=nthread), render_mode)
+    env.reset(seed=seed)
+    return env
+
+
+def vector_env_from_config(training: TrainingConfig, plugins: PluginHost) -> BatchedVectorEnv:
+    """The vector env a training config describes: task, model_path, num_envs, seed, nthread, task_config."""
+    if not training.task:
+        raise ConfigError('training.task is empty; name a task, e.g. task: "so_arm100_reach" (see `joshua plugins`)')
+    return make_vector_env(
+        training.task,
+        training.num_envs or DEFAULT_NUM_ENVS,
+        seed=int(training.seed),
+        model_path=training.model_path or None,
+        nthread=training.nthread or None,
+        plugins=plugins,
+        task_config=training.task_config if training.HasField("task_config") else None,
+    )

@@ -1,0 +1,286 @@
+"""The task layer: every built-in term gives the same values on numpy and inside jax.jit, and tasks
+built from config report bad terms and parameters by name."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+import pytest
+from google.protobuf import text_format
+
+from joshua_core import hookimpl
+from joshua_core.config_pb2 import TaskConfig
+from joshua_core.errors import ConfigError
+from joshua_core.plugins import PluginHost, PluginInfo, Registrar
+from joshua_core.resources import resolve_data_path
+from joshua_core.tasks import BoundTerm, Task, TaskSpec, TermContext, TermKind, TermSpec, build_task, load_task_spec
+from joshua_core.tasks.builtin import BUILTIN_TASKS
+from joshua_core.tasks.terms import BUILTIN_TERMS
+
+NUM_ENVS = 4
+# Built-in terms no built-in task uses, with parameters for the SO-ARM100 scene.
+EXTRA_TERMS = TaskSpec(
+    name="extra_terms",
+    summary="terms the built-in tasks do not use",
+    model_path="so_arm100/scene.xml",
+    frame_skip=1,
+    episode_length=10,
+    observations=(TermSpec("site_pos", params={"site": "gripper"}),),
+    rewards=(TermSpec("joint_vel_l2", -1.0),),
+)
+
+
+@pytest.fixture(scope="module")
+def plugins() -> PluginHost:
+    return PluginHost.discover()
+
+
+def compile_model(spec: TaskSpec) -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_path(str(resolve_data_path(spec.model_path)))
+
+
+def random_states(task: Task, model: mujoco.MjModel, seed: int) -> TermContext:
+    """NUM_ENVS varied, physically reached states of the task's model, as a numpy TermContext."""
+    rng = np.random.default_rng(seed)
+    data = mujoco.MjData(model)
+    fields: dict[str, list[np.ndarray]] = {name: [] for name in ("qpos", "qvel", "prev_qpos", "xpos", "xquat")}
+    fields.update(site_xpos=[], sensordata=[], cfrc_ext=[])
+    for _ in range(NUM_ENVS):
+        mujoco.mj_resetData(model, data)
+        if task.keyframe_id >= 0:
+            mujoco.mj_resetDataKeyframe(model, data, task.keyframe_id)
+        data.qvel[:] = rng.normal(0.0, 0.3, model.nv)
+        data.ctrl[:] = task.action_to_ctrl(np, rng.uniform(-1, 1, model.nu))
+        mujoco.mj_step(model, data, int(rng.integers(5, 40)))
+        fields["prev_qpos"].append(data.qpos.copy())
+        mujoco.mj_step(model, data, task.frame_skip)
+        mujoco.mj_rnePostConstraint(model, data)
+        for name in fields:
+            if name != "prev_qpos":
+                fields[name].append(np.array(getattr(data, name)))
+    arrays = {name: np.stack(values) for name, values in fields.items()}
+    commands = {name: rng.uniform(-0.3, 0.3, (NUM_ENVS, size)) for name, size in task.commands.items()}
+    # Push some environments over the thresholds, so that flags and terminations take both values:
+    arrays["qpos"][0, 2] = 5.0  # a free joint's height far out of range
+    arrays["xquat"][0, :] = [0.0, 1.0, 0.0, 0.0]  # bodies upside down
+    arrays["xpos"][1, :, 2] = 0.1  # bodies lifted
+    arrays["xpos"][2, :, 2] = -0.1  # bodies dropped
+    arrays["sensordata"][1, :] = 1.0  # touch pads pressed
+    for value in commands.values():
+        value[1] = arrays["xpos"][1, -1, : value.shape[1]]  # the last body (the cube) at its goal
+    return TermContext(
+        xp=np,
+        dt=task.dt,
+        action=rng.uniform(-1, 1, (NUM_ENVS, model.nu)),
+        prev_action=rng.uniform(-1, 1, (NUM_ENVS, model.nu)),
+        episode_step=rng.integers(0, 100, NUM_ENVS),
+        commands=commands,
+        **arrays,
+    )
+
+
+class RecordingRandom:
+    """A numpy random source that remembers its draws, so that a ReplayRandom can give JAX the same."""
+
+    def __init__(self, seed: int) -> None:
+        self.generator = np.random.default_rng(seed)
+        self.draws: list[np.ndarray] = []
+
+    def uniform(self, shape: tuple[int, ...], low: Any = 0.0, high: Any = 1.0) -> np.ndarray:
+        self.draws.append(self.generator.uniform(low, high, size=shape))
+        return self.draws[-1]
+
+    def normal(self, shape: tuple[int, ...]) -> np.ndarray:
+        self.draws.append(self.generator.standard_normal(shape))
+        return self.draws[-1]
+
+
+class ReplayRandom:
+    def __init__(self, draws: list[np.ndarray]) -> None:
+        self.draws = list(draws)
+
+    def uniform(self, shape: tuple[int, ...], low: Any = 0.0, high: Any = 1.0) -> Any:
+        return self._next(shape)
+
+    def normal(self, shape: tuple[int, ...]) -> Any:
+        return self._next(shape)
+
+    def _next(self, shape: tuple[int, ...]) -> Any:
+        draw = self.draws.pop(0)
+        assert draw.shape == tuple(shape)
+        return jnp.asarray(draw)
+
+
+ARRAY_FIELDS = ("qpos", "qvel", "prev_qpos", "xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext", "action")
+ARRAY_FIELDS += ("prev_action", "episode_step")
+
+
+def on_jax(term: BoundTerm, ctx: TermContext, random: ReplayRandom | None) -> Any:
+    """The term evaluated inside jax.jit on the same state (float32, JAX's default)."""
+    arrays = {name: jnp.asarray(getattr(ctx, name)) for name in ARRAY_FIELDS}
+    commands = {name: jnp.asarray(value) for name, value in ctx.commands.items()}
+
+    @jax.jit
+    def evaluate(arrays: dict[str, Any], commands: dict[str, Any]) -> Any:
+        result = term(TermContext(xp=jnp, dt=ctx.dt, commands=commands, random=random, **arrays))
+        if isinstance(result, TermContext):
+            return {"qpos": result.qpos, "qvel": result.qvel, **result.commands}
+        return result
+
+    return evaluate(arrays, commands)
+
+
+def all_bound_terms(plugins: PluginHost) -> list[tuple[Task, mujoco.MjModel, BoundTerm]]:
+    found = []
+    for spec in (*BUILTIN_TASKS.values(), EXTRA_TERMS):
+        model = compile_model(spec)
+        task = build_task(spec, model, plugins)
+        for kind in TermKind:
+            terms = {
+                TermKind.OBSERVATION: task.observation_terms,
+                TermKind.REWARD: task.reward_terms,
+                TermKind.TERMINATION: task.termination_terms,
+                TermKind.RESET: task.reset_terms,
+                TermKind.METRIC: task.metric_terms,
+            }[kind]
+            found += [(task, model, term) for term in terms]
+    return found
+
+
+def test_the_parity_cases_cover_every_builtin_term(plugins: PluginHost) -> None:
+    used = {term.function.__name__ for _, _, term in all_bound_terms(plugins)}
+    assert used == set(BUILTIN_TERMS)
+
+
+def test_every_builtin_term_gives_the_same_values_on_numpy_and_in_jax_jit(plugins: PluginHost) -> None:
+    checked = 0
+    for task, model, term in all_bound_terms(plugins):
+        ctx = random_states(task, model, seed=checked)
+        label = f"{task.name}/{term.kind.value}/{term.name}"
+        if term.kind is TermKind.RESET:
+            recording = RecordingRandom(seed=checked)
+            expected_ctx = term(ctx.replace(random=recording))
+            expected = {"qpos": expected_ctx.qpos, "qvel": expected_ctx.qvel, **expected_ctx.commands}
+            actual = on_jax(term, ctx, ReplayRandom(recording.draws))
+            assert recording.draws, label
+            for name, value in expected.items():
+                np.testing.assert_allclose(np.asarray(actual[name]), value, rtol=1e-5, atol=1e-5, err_msg=label)
+        else:
+            expected = np.asarray(term(ctx))
+            actual = np.asarray(on_jax(term, ctx, None))
+            assert actual.shape == expected.shape, label
+            if expected.dtype == bool:
+                assert expected.any() and not expected.all(), f"{label} takes one value on the test states"
+                np.testing.assert_array_equal(actual, expected, err_msg=label)
+            else:
+                assert np.ptp(expected) > 0, f"{label} is constant on the test states: they test too little"
+                np.testing.assert_allclose(actual, expected, rtol=1e-5, atol=1e-5, err_msg=label)
+        checked += 1
+    assert checked >= len(BUILTIN_TERMS)
+
+
+def test_every_builtin_task_builds_and_reads_only_what_it_needs(plugins: PluginHost) -> None:
+    sizes = {}
+    for name, spec in BUILTIN_TASKS.items():
+        task = build_task(load_task_spec(name, plugins), compile_model(spec), plugins)
+        sizes[name] = task.observation_size
+        assert {"qpos", "action"} <= task.fields
+    assert sizes["ant_locomotion"] == 105  # Gymnasium Ant-v5: 13 qpos + 14 qvel + 13 bodies x 6 forces
+    ant = build_task(BUILTIN_TASKS["ant_locomotion"], compile_model(BUILTIN_TASKS["ant_locomotion"]), plugins)
+    assert "cfrc_ext" in ant.fields and "site_xpos" not in ant.fields
+
+
+def task_config(text: str) -> TaskConfig:
+    return text_format.Parse(text, TaskConfig())
+
+
+def build_reach(plugins: PluginHost, config_text: str) -> Task:
+    spec = BUILTIN_TASKS["so_arm100_reach"]
+    return build_task("so_arm100_reach", compile_model(spec), plugins, task_config(config_text))
+
+
+def test_unknown_term_parameter_is_an_error_naming_the_term_and_its_parameters(plugins: PluginHost) -> None:
+    with pytest.raises(ConfigError) as error:
+        build_reach(plugins, 'terms { name: "near" params { key: "sigma" value: "0.1" } }')
+    message = str(error.value)
+    assert "term 'near'" in message and "'sigma'" in message and "site, name, std" in message
+
+
+def test_parameter_of_the_wrong_type_is_an_error_naming_the_parameter(plugins: PluginHost) -> None:
+    with pytest.raises(ConfigError, match=r"term 'near', parameter 'std': expected a number, got 'wide'"):
+        build_reach(plugins, 'terms { name: "near" params { key: "std" value: "wide" } }')
+
+
+def test_unknown_model_name_suggests_the_close_one(plugins: PluginHost) -> None:
+    with pytest.raises(ConfigError) as error:
+        build_reach(plugins, 'terms { name: "distance" params { key: "site" value: "griper" } }')
+    assert "term 'distance', parameter 'site'" in str(error.value) and "Did you mean: gripper" in str(error.value)
+
+
+def test_unknown_term_and_unknown_override_are_errors(plugins: PluginHost) -> None:
+    with pytest.raises(ConfigError, match=r"reward term 'speed'.*no term named 'forward_velocty'.*Did you mean"):
+        build_reach(plugins, 'terms { name: "speed" term: "forward_velocty" kind: REWARD }')
+    with pytest.raises(ConfigError, match=r"has no term 'nearr' \(its terms: .*near"):
+        build_reach(plugins, 'terms { name: "nearr" weight: 2 }')
+
+
+def test_config_changes_weights_and_params_adds_terms_and_zero_disables(plugins: PluginHost) -> None:
+    task = build_reach(
+        plugins,
+        'episode_length: 7 terms { name: "near" weight: 0 } '
+        'terms { name: "distance" weight: -2 params { key: "site" value: "wrist" } } '
+        'terms { name: "slow" term: "joint_vel_l2" kind: REWARD weight: -0.1 }',
+    )
+    weights = {term.name: term.weight for term in task.reward_terms}
+    assert weights == {"distance": -2.0, "action_rate": -0.005, "slow": -0.1}
+    assert task.reward_terms[0].params["site"].name == "wrist" and task.episode_length == 7
+
+
+def test_term_returning_the_wrong_shape_is_reported(plugins: PluginHost) -> None:
+    spec = dataclasses.replace(
+        BUILTIN_TASKS["so_arm100_reach"], rewards=(TermSpec("site_pos", params={"site": "gripper"}, name="where"),)
+    )
+    with pytest.raises(ConfigError, match=r"reward term 'where' \(site_pos\) returned shape \(2, 3\); expected \(N,\)"):
+        build_task(spec, compile_model(spec), plugins)
+
+
+def test_plugins_add_terms_and_tasks_through_the_hooks() -> None:
+    def height_bonus(ctx: TermContext, scale: float = 1.0) -> Any:
+        """Torso height."""
+        return scale * ctx.qpos[:, 2]
+
+    class TallAntPlugin:
+        @hookimpl
+        def joshua_register_terms(self, registry: Registrar) -> None:
+            registry.add("height_bonus", height_bonus, "torso height")
+
+        @hookimpl
+        def joshua_register_tasks(self, registry: Registrar) -> None:
+            registry.add(
+                "tall_ant",
+                lambda: dataclasses.replace(
+                    BUILTIN_TASKS["ant_locomotion"],
+                    name="tall_ant",
+                    rewards=(TermSpec("height_bonus", 2.0, {"scale": 0.5}),),
+                ),
+                "test",
+            )
+
+    from joshua_core import builtin_plugin
+
+    host = PluginHost(
+        [
+            (PluginInfo("core", "joshua-core", "0", "builtin"), builtin_plugin),
+            (PluginInfo("tall", "joshua-tall", "0", "test"), TallAntPlugin()),
+        ]
+    )
+    model = compile_model(BUILTIN_TASKS["ant_locomotion"])
+    task = build_task("tall_ant", model, host)
+    ctx = TermContext(xp=np, dt=task.dt, qpos=np.array([[0.0, 0.0, 0.6] + [0.0] * (model.nq - 3)]))
+    total, terms = task.rewards(ctx)
+    assert terms == {"height_bonus": pytest.approx(np.array([0.6]))} and total == pytest.approx([0.6])
