@@ -236,6 +236,7 @@ class Sb3Trainer(Trainer):
                 with_buffer=True,
             )
             model.set_random_seed(settings.seed + model.num_timesteps)  # not the same noise as the first leg
+            print(f"sb3: resuming {run_dir} from {resume_from.name} ({model.num_timesteps} steps)")
         else:
             normalizer = VecNormalize(vec_env, gamma=settings.gamma) if settings.normalize else None
             model = ALGORITHM_CLASSES[settings.algorithm](
@@ -243,7 +244,7 @@ class Sb3Trainer(Trainer):
             )
         run = RunWriter(run_dir, training, settings, normalizer)
         if resume_from is None:
-            run_dir.mkdir(parents=True)
+            run_dir.mkdir(parents=True, exist_ok=True)  # exists when resuming a run killed before its first checkpoint
             atomic_write_json(run_dir / CONFIG_FILE, run.config_document())
         else:
             previous = json.loads((run_dir / METRICS_FILE).read_text()) if (run_dir / METRICS_FILE).is_file() else {}
