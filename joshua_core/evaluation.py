@@ -20,7 +20,9 @@ if TYPE_CHECKING:
     from joshua_core.plugins import PluginHost
 
 RUN_CONFIG_FILE = "config.json"
-VIDEO_HINT = "no video written: pip install joshua-modes gives one (from a source checkout: pip install -e plugins/joshua-modes)"
+VIDEO_HINT = (
+    "no video written: pip install joshua-modes gives one (from a source checkout: pip install -e plugins/joshua-modes)"
+)
 
 
 def read_run_config(run_dir: Path) -> dict[str, Any]:
@@ -35,7 +37,7 @@ def read_run_config(run_dir: Path) -> dict[str, Any]:
     except (UnicodeDecodeError, json.JSONDecodeError) as error:
         raise UsageError(f"{path}: not valid JSON: {error}") from None
     if not isinstance(document, dict) or not isinstance(document.get("trainer"), str):
-        raise UsageError(f"{path}: has no \"trainer\" entry naming the trainer that wrote the run")
+        raise UsageError(f'{path}: has no "trainer" entry naming the trainer that wrote the run')
     return document
 
 

@@ -130,11 +130,12 @@ def test_checkpoints_this_user_did_not_write_are_refused(trained: tuple[Path, Pa
     foreign = joshua("eval", str(checkpoint), "--no-video", cwd=tmp_path, key=key)
     assert foreign.returncode == 2 and "has no manifest.json" in foreign.stderr
 
-    trusted = joshua("eval", str(checkpoint), "--no-video", "--episodes", "2", "--trust-checkpoint", cwd=tmp_path, key=key)
+    trust = ("--no-video", "--episodes", "2", "--trust-checkpoint")
+    trusted = joshua("eval", str(checkpoint), *trust, cwd=tmp_path, key=key)
     assert "mean_return" in evaluation(trusted)  # the extra zip member does not hurt SB3
 
     (checkpoint / MODEL_FILE).write_bytes(b"not a zip file")
-    corrupt = joshua("eval", str(checkpoint), "--no-video", "--trust-checkpoint", cwd=tmp_path, key=key)
+    corrupt = joshua("eval", str(checkpoint), *trust, cwd=tmp_path, key=key)
     assert corrupt.returncode == 1 and "cannot load checkpoint" in corrupt.stderr and "Traceback" not in corrupt.stderr
 
 
