@@ -62,7 +62,8 @@ def joshua_register_tasks(registry: Registrar) -> None:
     """Register tasks (environments built from terms): `registry.add(name, target, summary)`.
 
     Called by PluginHost when it is built. `name` is what `TrainingConfig.task` names
-    (e.g. "ant_locomotion"); `target` is the task's class or factory, or its path.
+    (e.g. "ant_locomotion"); `target` is a `joshua_core.tasks.TaskSpec`, a function without
+    arguments that returns one, or its path. See docs/tasks.md.
     """
 
 
@@ -71,8 +72,9 @@ def joshua_register_terms(registry: Registrar) -> None:
     """Register task terms: `registry.add(name, target, summary)`.
 
     Called by PluginHost when it is built. `target` is a term function
-    `quantity_kernel(ctx, **params)` (see `joshua_core.interfaces.Term`) or its path; tasks and
-    configs refer to it by `name`.
+    `quantity_kernel(ctx, **params)` of a `joshua_core.tasks.TermContext` (see
+    `joshua_core.interfaces.Term` and docs/tasks.md) or its path; tasks and configs refer to it
+    by `name`.
     """
 
 

@@ -284,3 +284,47 @@ def test_plugins_add_terms_and_tasks_through_the_hooks() -> None:
     ctx = TermContext(xp=np, dt=task.dt, qpos=np.array([[0.0, 0.0, 0.6] + [0.0] * (model.nq - 3)]))
     total, terms = task.rewards(ctx)
     assert terms == {"height_bonus": pytest.approx(np.array([0.6]))} and total == pytest.approx([0.6])
+
+
+def test_every_training_preset_names_a_task_that_builds_on_its_model(plugins: PluginHost) -> None:
+    from joshua_core.config import finalize, load_preset, preset_names
+
+    checked = []
+    for name in preset_names():
+        config = load_preset(name).message
+        if config.HasField("training"):
+            training = finalize(load_preset(name)).training
+            model = mujoco.MjModel.from_xml_path(training.model_path)
+            task = build_task(training.task, model, plugins, training.task_config)
+            checked.append(task.name)
+    assert set(checked) == set(BUILTIN_TASKS)
+
+
+def test_whole_tasks_run_inside_jax_jit_with_a_jax_random_key(plugins: PluginHost) -> None:
+    from joshua_core.tasks import JaxRandom
+
+    for spec in BUILTIN_TASKS.values():
+        model = compile_model(spec)
+        task = build_task(spec, model, plugins)
+        ctx = random_states(task, model, seed=5)
+        arrays = {name: jnp.asarray(getattr(ctx, name)) for name in ARRAY_FIELDS}
+        commands = {name: jnp.asarray(value) for name, value in ctx.commands.items()}
+
+        @jax.jit
+        def evaluate(arrays: dict[str, Any], commands: dict[str, Any], key: Any, task: Task = task) -> Any:
+            state = TermContext(xp=jnp, dt=task.dt, commands=commands, **arrays)
+            reset = task.reset(task.reset_context(jnp, NUM_ENVS, JaxRandom(key)))
+            total, terms = task.rewards(state)
+            ctrl = task.action_to_ctrl(jnp, state.action)
+            return task.observe(state), total, task.terminated(state), task.metrics(state), reset.qpos, ctrl
+
+        observation, total, terminated, metrics, qpos, ctrl = evaluate(arrays, commands, jax.random.PRNGKey(0))
+        np.testing.assert_allclose(observation, task.observe(ctx), rtol=1e-5, atol=1e-5, err_msg=task.name)
+        np.testing.assert_allclose(total, task.rewards(ctx)[0], rtol=1e-5, atol=1e-5, err_msg=task.name)
+        np.testing.assert_array_equal(terminated, task.terminated(ctx))
+        np.testing.assert_allclose(ctrl, task.action_to_ctrl(np, ctx.action), rtol=1e-5, atol=1e-6)
+        for name, value in task.metrics(ctx).items():
+            np.testing.assert_allclose(metrics[name], value, rtol=1e-5, atol=1e-5)
+        # the reset differs per environment (independent draws) and stays near the initial state
+        assert qpos.shape == (NUM_ENVS, model.nq) and not np.allclose(qpos[0], qpos[1])
+        assert np.abs(np.asarray(qpos) - task.initial_qpos).max() < 0.5

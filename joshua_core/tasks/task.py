@@ -14,7 +14,7 @@ import inspect
 import typing
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from numbers import Number
+from numbers import Real
 from typing import Any
 
 import numpy as np
@@ -209,8 +209,8 @@ def _coerce(where: str, value: Any, default: Any, hint: Any, model: Any) -> Any:
         if not isinstance(value, bool) or not isinstance(default, bool):
             raise ConfigError(f"{where}: expected {type(default).__name__}, got {value!r}")
         return value
-    if isinstance(default, Number):
-        if not isinstance(value, Number):
+    if isinstance(default, Real):
+        if not isinstance(value, Real):
             raise ConfigError(f"{where}: expected a number, got {value!r}")
         return float(value) if isinstance(default, float) else value
     if isinstance(default, tuple) and not isinstance(value, tuple):

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from joshua_core.tasks.context import TermContext, set_columns
+from joshua_core.tasks.context import RandomSource, TermContext, set_columns
 from joshua_core.tasks.handles import Body, Joint, Joints, Sensor, Site
 
 # --- helpers shared by several terms ----------------------------------------------------------
@@ -31,6 +31,13 @@ def _upright(ctx: TermContext, body: Body) -> Any:
     """World z component of the body's z axis, from its quaternion (1 upright, -1 upside down)."""
     quat = ctx.xquat[:, body.id]
     return 1.0 - 2.0 * (quat[:, 1] ** 2 + quat[:, 2] ** 2)
+
+
+def _random(ctx: TermContext) -> RandomSource:
+    """The context's random source; reset terms run only where the backend provides one."""
+    if ctx.random is None:
+        raise ValueError("a reset term needs ctx.random (a RandomSource), which backends set while resetting")
+    return ctx.random
 
 
 def _joint_height_in_range(ctx: TermContext, joint: Joint, min_z: float, max_z: float) -> Any:
@@ -216,18 +223,18 @@ def body_tilted(ctx: TermContext, body: Body, min_upright: float) -> Any:
 
 def reset_qpos_uniform(ctx: TermContext, scale: float = 0.1) -> TermContext:
     """Add uniform noise in [-scale, scale] to every generalized position (Gymnasium's Ant reset)."""
-    return ctx.replace(qpos=ctx.qpos + ctx.random.uniform(ctx.qpos.shape, -scale, scale))
+    return ctx.replace(qpos=ctx.qpos + _random(ctx).uniform(ctx.qpos.shape, -scale, scale))
 
 
 def reset_qvel_normal(ctx: TermContext, scale: float = 0.1) -> TermContext:
     """Add `scale` times standard normal noise to every generalized velocity (Gymnasium's Ant reset)."""
-    return ctx.replace(qvel=ctx.qvel + scale * ctx.random.normal(ctx.qvel.shape))
+    return ctx.replace(qvel=ctx.qvel + scale * _random(ctx).normal(ctx.qvel.shape))
 
 
 def reset_joints_uniform(ctx: TermContext, joints: Joints = (), scale: float = 0.1) -> TermContext:  # type: ignore[assignment]
     """Add uniform noise in [-scale, scale] to the named joints' positions (empty: hinge and slide joints)."""
     columns = np.asarray(joints.qpos_index)
-    noise = ctx.random.uniform((ctx.num_envs, len(columns)), -scale, scale)
+    noise = _random(ctx).uniform((ctx.num_envs, len(columns)), -scale, scale)
     return ctx.replace(qpos=set_columns(ctx.qpos, columns, ctx.qpos[:, columns] + noise))
 
 
@@ -236,13 +243,13 @@ def reset_free_joint_xy(
 ) -> TermContext:
     """Place a free joint (an object) at a uniform x, y in [low, high]; height and orientation unchanged."""
     columns = np.arange(joint.qpos_adr, joint.qpos_adr + 2)
-    position = ctx.random.uniform((ctx.num_envs, 2), np.asarray(low), np.asarray(high))
+    position = _random(ctx).uniform((ctx.num_envs, 2), np.asarray(low), np.asarray(high))
     return ctx.replace(qpos=set_columns(ctx.qpos, columns, position))
 
 
 def sample_command_uniform(ctx: TermContext, name: str, low: Sequence[float], high: Sequence[float]) -> TermContext:
     """Sample the command `name` uniformly in the box [low, high] (one value per component)."""
-    value = ctx.random.uniform((ctx.num_envs, len(low)), np.asarray(low), np.asarray(high))
+    value = _random(ctx).uniform((ctx.num_envs, len(low)), np.asarray(low), np.asarray(high))
     return ctx.replace(commands={**ctx.commands, name: value})
 
 

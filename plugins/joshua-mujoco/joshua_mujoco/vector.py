@@ -8,9 +8,9 @@ on top of it, with same-step autoreset; `joshua_mujoco.envs` registers single en
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from joshua_mujoco.gl import choose_headless_gl
 
@@ -31,9 +31,14 @@ from joshua_core.resources import resolve_data_path  # noqa: E402
 from joshua_core.tasks import NumpyRandom, Task, TermContext, build_task, load_task_spec  # noqa: E402
 from joshua_mujoco.engine import create_renderer  # noqa: E402
 
+_T = TypeVar("_T")
+
 DEFAULT_NUM_ENVS = 16
 # Bound per-environment fields of mujoco.batch, by the TermContext field that reads them.
 _DERIVED_FIELDS = ("xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext")
+# Fields that must describe the state after the step (kinematics and sensors recomputed at its end).
+# cfrc_ext is not among them: like Gymnasium, it is the contact wrench of the step's last substep.
+_CURRENT_FIELDS = frozenset({"xpos", "xquat", "site_xpos", "sensordata"})
 # A sensor that makes MuJoCo compute cfrc_ext (mj_rnePostConstraint) inside every step.
 _CONTACT_FORCE_SENSOR = "joshua_contact_forces"
 _MARKER_RGBA = np.array([0.1, 0.9, 0.2, 0.7], dtype=np.float32)
@@ -50,24 +55,29 @@ def load_task_model(
     """
     spec = load_task_spec(task, plugins)
     path = resolve_data_path(model_path or spec.model_path)
-    try:
-        model_spec = mujoco.MjSpec.from_file(str(path))
-        model = model_spec.compile()
+    model_spec = _compiled(path, lambda: mujoco.MjSpec.from_file(str(path)))
+    model = _compiled(path, model_spec.compile)
+    built = build_task(spec, model, plugins, config)
+    if "cfrc_ext" in built.fields and model.nbody > 1:
+        model_spec.add_sensor(
+            name=_CONTACT_FORCE_SENSOR,
+            type=mujoco.mjtSensor.mjSENS_FRAMELINACC,
+            objtype=mujoco.mjtObj.mjOBJ_BODY,
+            objname=model.body(1).name,
+        )
+        model = _compiled(path, model_spec.compile)
         built = build_task(spec, model, plugins, config)
-        if "cfrc_ext" in built.fields and model.nbody > 1:
-            model_spec.add_sensor(
-                name=_CONTACT_FORCE_SENSOR,
-                type=mujoco.mjtSensor.mjSENS_FRAMELINACC,
-                objtype=mujoco.mjtObj.mjOBJ_BODY,
-                objname=model.body(1).name,
-            )
-            model = model_spec.compile()
-            built = build_task(spec, model, plugins, config)
-    except ValueError as error:  # MuJoCo's compile errors
-        raise ModelError(f"{path}: model does not compile: {error}") from None
     # A diverging simulation becomes non-finite and is terminated, instead of MuJoCo resetting it silently.
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
     return built, model
+
+
+def _compiled(path: Path, compile_step: Callable[[], _T]) -> _T:
+    """Run a MuJoCo parse or compile step, turning its errors into ModelError naming the file."""
+    try:
+        return compile_step()
+    except ValueError as error:
+        raise ModelError(f"{path}: model does not compile: {error}") from None
 
 
 class BatchedSimulation:
@@ -90,6 +100,8 @@ class BatchedSimulation:
         self.qvel = self.batch.bind("qvel")
         self.ctrl = self.batch.bind("ctrl")
         self.derived = {name: self.batch.bind(name) for name in _DERIVED_FIELDS if name in task.fields}
+        # Recompute positions and velocities after each step only when terms read derived fields.
+        self.stage = mujoco.mjtStage.mjSTAGE_VEL if _CURRENT_FIELDS & task.fields else mujoco.mjtStage.mjSTAGE_NONE
         self.prev_qpos = np.zeros_like(self.qpos)
         self.action = np.zeros((num_envs, task.action_size))
         self.prev_action = np.zeros_like(self.action)
@@ -162,7 +174,7 @@ class BatchedSimulation:
         self.ctrl[:] = self.task.action_to_ctrl(np, self.action)
         failed = np.zeros(self.num_envs, dtype=bool)
         try:
-            self.batch.step(nstep=self.task.frame_skip, stage=mujoco.mjtStage.mjSTAGE_VEL)
+            self.batch.step(nstep=self.task.frame_skip, stage=self.stage)
         except SimulationError as error:
             failed[error.ids] = True
         self.episode_step += 1
@@ -170,7 +182,11 @@ class BatchedSimulation:
         return failed
 
     def render(self, env_index: int, camera: str | int | None, width: int, height: int) -> NDArray[np.uint8]:
-        """An RGB image of one environment, with its 3-d commands (targets, goals) drawn as green spheres."""
+        """An RGB image of one environment, with its 3-d commands (targets, goals) drawn as green spheres.
+
+        A site of the world body named like a command (pick-and-place's `goal`) is moved to the
+        command's x, y, so that the model's own marker shows the sampled goal.
+        """
         if not 0 <= env_index < self.num_envs:
             raise IndexError(f"env_index {env_index} out of range for {self.num_envs} environments")
         renderers = self.__dict__.setdefault("_renderers", {})
@@ -178,6 +194,10 @@ class BatchedSimulation:
             model = self.batch.get_model(env_index)
             renderers[(width, height)] = (create_renderer(model, width, height), model)
         renderer, model = renderers[(width, height)]
+        for name, value in self.commands.items():
+            site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
+            if site >= 0 and model.site_bodyid[site] == 0 and value.shape[1] == 3:
+                model.site_pos[site, :2] = value[env_index, :2]
         data = self.batch.get_data(env_index)
         mujoco.mj_forward(model, data)
         if camera is None:
@@ -241,15 +261,12 @@ class BatchedVectorEnv(VectorEnv):
         """Reset every environment (or those in options["reset_mask"]); `seed` restarts the random stream."""
         if seed is not None:
             self.simulation.seed(seed)
-        mask = (
-            np.ones(self.num_envs, dtype=bool)
-            if not options or "reset_mask" not in options
-            else np.asarray(options["reset_mask"], dtype=bool)
-        )
+        mask = np.ones(self.num_envs, dtype=bool)
+        if options and "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"], dtype=bool)
         ids = np.flatnonzero(mask)
-        observation = np.zeros((self.num_envs, self.task.observation_size), dtype=np.float32)
-        observation[ids] = self.simulation.reset(ids)
-        self._observation = observation
+        self.simulation.reset(ids)
+        observation = self.task.observe(self.simulation.context()).astype(np.float32)
         self._returns[ids] = 0.0
         for sums in self._term_sums.values():
             sums[ids] = 0.0

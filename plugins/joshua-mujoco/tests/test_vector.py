@@ -159,3 +159,11 @@ def test_vector_env_from_training_config(plugins: PluginHost) -> None:
     assert [term.name for term in env.task.reward_terms] == ["distance", "action_rate"]
     with pytest.raises(ConfigError, match="training.task is empty"):
         vector_env_from_config(TrainingConfig(model_path="so_arm100/scene.xml"), plugins)
+
+
+def test_reset_mask_resets_only_the_chosen_environments(plugins: PluginHost) -> None:
+    env = make_vector_env("so_arm100_reach", 2, seed=0, plugins=plugins)
+    moved, *_ = env.step(np.full((2, 6), 0.8))
+    observation, _ = env.reset(options={"reset_mask": np.array([False, True])})
+    np.testing.assert_array_equal(observation[0], moved[0])
+    assert env.simulation.episode_step.tolist() == [1, 0] and not np.allclose(observation[1], moved[1])
