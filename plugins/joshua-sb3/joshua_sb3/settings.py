@@ -14,6 +14,7 @@ ON_POLICY_ONLY = ("gae_lambda", "clip_epsilon")  # PPO fields SAC and TD3 have n
 DEFAULT_NUM_ENVS = 16
 DEFAULT_TOTAL_TIMESTEPS = 1_000_000
 DEFAULT_HIDDEN_SIZES = (256, 256)
+DEFAULT_REPLAY_BUFFER_SIZE = 1_000_000  # SB3's default, transitions of all environments together
 CHECKPOINTS_PER_RUN = 10  # default checkpoint_interval: a tenth of total_timesteps
 
 
@@ -88,7 +89,9 @@ class Settings:
                 "clip_range": self.clip_epsilon,
                 "ent_coef": self.entropy_coef,
             }
-        return common | {"train_freq": self.num_steps, "gradient_steps": self.num_epochs}
+        # A replay buffer larger than the run is preallocated (and checkpointed) memory that is never used.
+        buffer_size = min(DEFAULT_REPLAY_BUFFER_SIZE, self.total_timesteps)
+        return common | {"train_freq": self.num_steps, "gradient_steps": self.num_epochs, "buffer_size": buffer_size}
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -189,3 +189,24 @@ def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
     history = json.loads((run_dir / "metrics.json").read_text())["history"]
     steps = [record["step"] for record in history]
     assert steps == sorted(steps) and steps[0] <= killed_at < steps[-1]
+
+
+def test_sac_keeps_its_replay_buffer_in_the_newest_checkpoint_and_resumes(tmp_path: Path) -> None:
+    key = tmp_path / "checkpoint.key"
+    settings = [
+        "--preset", PRESET, "--set", "training.sb3.algorithm=SAC", "--set", "training.num_envs=4",
+        "--set", "training.minibatch_size=64", "--set", "training.sb3.checkpoint_interval=200",
+        "--set", "training.checkpoint_dir=runs", "--set", "training.sb3.run_name=sac",
+        "--set", "training.gae_lambda=0", "--set", "training.clip_epsilon=0",
+    ]  # fmt: skip
+    first = joshua(*settings, "--set", "training.total_timesteps=400", cwd=tmp_path, key=key)
+    assert first.returncode == 0, first.stderr
+    folders = checkpoint_folders(tmp_path / "runs" / "sac")
+    assert [folder.name for folder in folders][-1] == "step_000000000400" and len(folders) == 3
+    assert [(folder / "replay_buffer.pkl").exists() for folder in folders] == [False, False, True]
+    resumed = joshua(
+        *settings, "--set", "training.total_timesteps=600", "--set", "training.sb3.resume=true", cwd=tmp_path, key=key
+    )
+    assert resumed.returncode == 0, resumed.stderr
+    assert "from step_000000000400 (400 steps)" in resumed.stdout
+    assert checkpoint_folders(tmp_path / "runs" / "sac")[-1].name == "step_000000000600"
