@@ -5,6 +5,7 @@ The run folder layout and the checkpoint trust rules are in `joshua_sb3.run_fold
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
 from datetime import datetime
@@ -328,20 +329,21 @@ def _roll_out(
     observations = vec_env.reset()
     finished: dict[int, dict[str, Any]] = {}
     fps = float(environments.metadata.get("render_fps", 30))
-    writer = open_video_writer(video_path, fps) if video_path is not None else None
-    recording = writer is not None
-    if recording:
-        writer.write(environments.render_frame(0))
-    while len(finished) < episodes:
-        actions, _ = model.predict(observations, deterministic=True)
-        observations, _, dones, infos = vec_env.step(actions)
-        for index in np.flatnonzero(dones):
-            finished.setdefault(int(index), infos[index]["episode"])
-        if recording:
-            if 0 in finished:
+    with contextlib.ExitStack() as stack:  # the video is closed (finished) however the rollout ends
+        writer = open_video_writer(video_path, fps) if video_path is not None else None
+        if writer is not None:
+            stack.enter_context(writer)
+            writer.write(environments.render_frame(0))
+        recording = writer is not None
+        while len(finished) < episodes:
+            actions, _ = model.predict(observations, deterministic=True)
+            observations, _, dones, infos = vec_env.step(actions)
+            for index in np.flatnonzero(dones):
+                finished.setdefault(int(index), infos[index]["episode"])
+            if recording and 0 in finished:  # environment 0 already shows its next episode: stop before it
                 print(f"video: {writer.close()}")
                 recording = False
-            else:
+            elif recording:
                 writer.write(environments.render_frame(0))
     results = {
         "mean_return": float(np.mean([episode["r"] for episode in finished.values()])),

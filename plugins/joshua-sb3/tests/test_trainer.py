@@ -7,6 +7,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -22,6 +23,7 @@ from joshua_sb3.run_folder import KEY_ENV_VAR, MANIFEST_FILE, MODEL_FILE, checkp
 
 JOSHUA = Path(sys.executable).parent / "joshua"
 PRESET = "so_arm100_reach_sb3"
+RESULT_LINE = re.compile(r"^(?P<name>[a-z_]+): (?P<value>[-+.\deE]+|nan|inf)$")
 LEARNING_STEPS = 24_000  # ~12 s on 2 idle cores; the preset's 300k steps reach about 5 mm
 
 
@@ -40,8 +42,8 @@ def joshua(*args: str, cwd: Path, key: Path, timeout: float = 300) -> subprocess
 def evaluation(process: subprocess.CompletedProcess[str]) -> dict[str, float]:
     """The `name: value` lines `joshua eval` prints."""
     assert process.returncode == 0, process.stderr
-    pairs = (line.split(": ", 1) for line in process.stdout.splitlines() if ": " in line)
-    return {name: float(value) for name, value in pairs if name.replace("_", "").isalpha()}
+    pairs = (RESULT_LINE.match(line) for line in process.stdout.splitlines())
+    return {match["name"]: float(match["value"]) for match in pairs if match}
 
 
 @pytest.fixture(scope="module")
