@@ -13,7 +13,6 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-import gymnasium
 import numpy as np
 from google.protobuf import json_format
 from stable_baselines3 import PPO, SAC, TD3
@@ -29,6 +28,7 @@ from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.evaluation import open_video_writer, read_run_config
 from joshua_core.interfaces import RunContext, Trainer
 from joshua_core.progress import progress_bar
+from joshua_mujoco.vector import BatchedVectorEnv, vector_env_from_config
 from joshua_sb3.run_folder import (
     CONFIG_FILE,
     METRICS_FILE,
@@ -53,10 +53,8 @@ TRAIN_TRUST_HINT = "--set training.sb3.trust_checkpoint=true"
 EVAL_TRUST_HINT = "joshua eval RUN --trust-checkpoint"
 
 
-def make_vec_env(training: TrainingConfig, context: RunContext) -> tuple[gymnasium.vector.VectorEnv, VecEnv]:
+def make_vec_env(training: TrainingConfig, context: RunContext) -> tuple[BatchedVectorEnv, VecEnv]:
     """The task's batched environment, and the SB3 view of it (without normalisation)."""
-    from joshua_mujoco.vector import vector_env_from_config
-
     if training.backend and training.backend != "mujoco":
         raise ConfigError(f"trainer sb3 runs on the CPU backend 'mujoco', not '{training.backend}'")
     environments = vector_env_from_config(training, context.plugins)
@@ -200,7 +198,7 @@ def _newest_run(root: Path) -> Path:
 
 
 def _load_model(
-    checkpoint: Path, algorithm: str, vec_env: VecEnv | None, *, trust: bool, trust_hint: str, with_buffer: bool
+    checkpoint: Path, algorithm: str, vec_env: VecEnv, *, trust: bool, trust_hint: str, with_buffer: bool
 ) -> tuple[BaseAlgorithm, VecNormalize | None]:
     """Load a checkpoint's model (and normalisation statistics) after checking it may be unpickled."""
     has_normalizer = (checkpoint / NORMALIZATION_FILE).is_file()
@@ -321,7 +319,7 @@ class Sb3Trainer(Trainer):
 def _roll_out(
     model: BaseAlgorithm,
     vec_env: VecEnv,
-    environments: gymnasium.vector.VectorEnv,
+    environments: BatchedVectorEnv,
     episodes: int,
     video_path: Path | None,
 ) -> dict[str, float]:
@@ -334,16 +332,15 @@ def _roll_out(
         if writer is not None:
             stack.enter_context(writer)
             writer.write(environments.render_frame(0))
-        recording = writer is not None
         while len(finished) < episodes:
-            actions, _ = model.predict(observations, deterministic=True)
+            actions, _ = model.predict(observations, deterministic=True)  # type: ignore[arg-type]
             observations, _, dones, infos = vec_env.step(actions)
             for index in np.flatnonzero(dones):
                 finished.setdefault(int(index), infos[index]["episode"])
-            if recording and 0 in finished:  # environment 0 already shows its next episode: stop before it
+            if writer is not None and 0 in finished:  # environment 0 already shows its next episode: stop
                 print(f"video: {writer.close()}")
-                recording = False
-            elif recording:
+                writer = None
+            elif writer is not None:
                 writer.write(environments.render_frame(0))
     results = {
         "mean_return": float(np.mean([episode["r"] for episode in finished.values()])),
