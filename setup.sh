@@ -4,7 +4,8 @@
 #   ./setup.sh --dev    also what the tests need: pytest, protoc (grpcio-tools), trimesh, MJX + JAX (CPU),
 #                       Xvfb, xwd and xdotool for the viewer tests,
 #                       the joshua-mirror plugin (rclpy + Fast DDS wheels, no ROS install),
-#                       Gymnasium's MuJoCo environments (the reference of bench/cpu_env_throughput.py)
+#                       Gymnasium's MuJoCo environments (the reference of bench/cpu_env_throughput.py),
+#                       the stable-baselines3 trainer (joshua-sb3, with torch's CPU wheel)
 # Versions come from constraints.txt. pip's cache stays inside the clone (.cache/pip).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -37,7 +38,10 @@ export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
 
 requirements=(-e . -e plugins/joshua-mujoco -e plugins/joshua-modes)
 if [[ ${1:-} == --dev ]]; then
-  requirements=(-e ".[dev]" -e plugins/joshua-mujoco -e plugins/joshua-modes -e plugins/joshua-mirror mujoco-mjx jax "gymnasium[mujoco]")
+  requirements=(-e ".[dev]" -e plugins/joshua-mujoco -e plugins/joshua-modes -e plugins/joshua-mirror mujoco-mjx jax "gymnasium[mujoco]" -e plugins/joshua-sb3)
+  # torch first, pinned to its CPU wheel: then stable-baselines3 finds it installed and pulls no CUDA packages
+  echo "setup: installing torch (CPU) into .venv"
+  .venv/bin/pip install -q -c constraints.txt torch
 fi
 echo "setup: installing ${requirements[*]} into .venv"
 .venv/bin/pip install -q -c constraints.txt "${requirements[@]}"

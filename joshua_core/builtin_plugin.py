@@ -29,3 +29,12 @@ def joshua_register_terms(registry: Registrar) -> None:
 
     for name, function in BUILTIN_TERMS.items():
         registry.add(name, function, (function.__doc__ or "").strip().splitlines()[0])
+
+
+@hookimpl
+def joshua_register_commands(registry: Registrar) -> None:
+    registry.add(
+        "eval",
+        "joshua_core.evaluation:EvalCommand",
+        "roll out a trained policy: mean return, task metrics and an MP4 (joshua eval RUN_FOLDER)",
+    )

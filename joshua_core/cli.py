@@ -36,6 +36,7 @@ examples:
   joshua --preset ant_train_mjx --print-config
   joshua presets                           list the presets
   joshua plugins                           list installed plugins and what they provide
+  joshua eval RUN_FOLDER                   roll out a trained policy: mean return, metrics, MP4
 
 Relative model and trajectory paths resolve against the config file's folder, the working
 directory, then the models shipped with JOSHUA. {DISABLE_ENV_VAR}=a,b skips plugins by name.

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from joshua_core.errors import UsageError
+
 if TYPE_CHECKING:
     import argparse
 
@@ -118,6 +120,25 @@ class Trainer(ABC):
     @abstractmethod
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
         """Train until `config.total_timesteps`; return the folder of the last checkpoint."""
+
+    def evaluate(
+        self,
+        run_dir: Path,
+        *,
+        episodes: int,
+        seed: int,
+        video_path: Path | None,
+        context: RunContext,
+        trust_checkpoint: bool = False,
+    ) -> dict[str, float]:
+        """Roll out the policy saved in `run_dir` (a run folder: its last checkpoint; or one checkpoint folder).
+
+        Returns `mean_return` and the task's metrics averaged over `episodes` episodes (environments seeded
+        from `seed`), and writes an MP4 of one episode to `video_path` when given (see
+        `joshua_core.evaluation.open_video_writer`). `trust_checkpoint` allows loading files this machine's user
+        did not write (for formats that can run code on load). `joshua eval RUN` calls this.
+        """
+        raise UsageError(f"trainer {type(self).__name__} cannot evaluate a run: it does not implement evaluate()")
 
 
 class Command(ABC):

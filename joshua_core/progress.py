@@ -9,11 +9,13 @@ from tqdm import tqdm
 BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar:20}| {n:.1f}/{total:.1f} {unit} [{elapsed}<{remaining}, {rate_fmt}]"
 
 
-def progress_bar(total: float, *, description: str, unit: str) -> tqdm:
-    """A progress bar over `total` units; when stderr is not a terminal it prints a line every 5 s."""
+def progress_bar(total: float, *, description: str, unit: str, initial: float = 0) -> tqdm:
+    """A progress bar over `total` units, starting at `initial` (e.g. a resumed run: the rate counts only new
+    units); when stderr is not a terminal it prints a line every 5 s."""
     interactive = sys.stderr.isatty()
     return tqdm(
         total=total,
+        initial=initial,
         desc=description,
         unit=unit,
         file=sys.stderr,

@@ -1,0 +1,89 @@
+"""`joshua eval RUN`: roll out a trained policy with the trainer that wrote the run folder.
+
+A run folder (or one checkpoint folder inside it) holds a `config.json` whose `trainer` key names
+the trainer plugin that wrote it; the command loads that trainer and calls `Trainer.evaluate`, so
+every trainer (sb3, ppo, a third party's) plugs into the same command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from joshua_core.errors import UsageError
+from joshua_core.interfaces import Command, RunContext
+
+if TYPE_CHECKING:
+    from joshua_core.plugins import PluginHost
+
+RUN_CONFIG_FILE = "config.json"
+VIDEO_HINT = (
+    "no video written: pip install joshua-modes gives one (from a source checkout: pip install -e plugins/joshua-modes)"
+)
+
+
+def read_run_config(run_dir: Path) -> dict[str, Any]:
+    """The `config.json` of a run or checkpoint folder; a folder without one is a UsageError."""
+    path = run_dir / RUN_CONFIG_FILE
+    if not run_dir.is_dir():
+        raise UsageError(f"run folder '{run_dir}' does not exist")
+    if not path.is_file():
+        raise UsageError(f"'{run_dir}' is not a run folder: it has no {RUN_CONFIG_FILE} (training runs write one)")
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise UsageError(f"{path}: not valid JSON: {error}") from None
+    if not isinstance(document, dict) or not isinstance(document.get("trainer"), str):
+        raise UsageError(f'{path}: has no "trainer" entry naming the trainer that wrote the run')
+    return document
+
+
+def open_video_writer(path: Path, fps: float) -> Any | None:
+    """A `joshua_modes.video.VideoWriter` for `path`, or None (with a hint on stderr) when joshua-modes is missing."""
+    try:
+        from joshua_modes.video import VideoWriter
+    except ModuleNotFoundError as error:
+        if error.name not in ("joshua_modes", "joshua_modes.video"):
+            raise
+        print(f"joshua: {VIDEO_HINT}", file=sys.stderr)
+        return None
+    return VideoWriter(path, fps)
+
+
+class EvalCommand(Command):
+    """`joshua eval RUN`: mean return and task metrics of a trained policy, and an MP4 of one episode."""
+
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("run", type=Path, help="run folder (its last checkpoint) or one checkpoint folder")
+        parser.add_argument("--episodes", type=int, default=16, help="episodes to average over (default 16)")
+        parser.add_argument("--seed", type=int, default=0, help="seed of the evaluation environments (default 0)")
+        video = parser.add_mutually_exclusive_group()
+        video.add_argument("--video", type=Path, help="MP4 to write (default: RUN/eval.mp4)")
+        video.add_argument("--no-video", action="store_true", help="do not render a video")
+        parser.add_argument(
+            "--trust-checkpoint",
+            action="store_true",
+            help="load a run folder written by someone else (its files may run code when loaded: trust it first)",
+        )
+
+    def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        if args.episodes < 1:
+            raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
+        run_dir: Path = args.run
+        trainer_name = read_run_config(run_dir)["trainer"]
+        trainer = plugins.trainer(trainer_name)
+        video_path = None if args.no_video else args.video or run_dir / "eval.mp4"
+        results = trainer.evaluate(
+            run_dir,
+            episodes=args.episodes,
+            seed=args.seed,
+            video_path=video_path,
+            context=RunContext(plugins, run_dir),
+            trust_checkpoint=args.trust_checkpoint,
+        )
+        for name, value in results.items():
+            print(f"{name}: {value:.6g}")
+        return 0

@@ -1,0 +1,15 @@
+"""Entry point of joshua-sb3: registers the `sb3` trainer. Imports nothing heavy."""
+
+from __future__ import annotations
+
+from joshua_core import hookimpl
+from joshua_core.plugins import Registrar
+
+
+@hookimpl
+def joshua_register_trainers(registry: Registrar) -> None:
+    registry.add(
+        "sb3",
+        "joshua_sb3.trainer:Sb3Trainer",
+        "stable-baselines3 PPO (SAC, TD3) on the CPU vectorized MuJoCo environments",
+    )

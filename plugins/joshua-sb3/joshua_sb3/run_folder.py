@@ -1,0 +1,189 @@
+"""Run folders: where an SB3 run keeps its checkpoints, and how a checkpoint proves it was written here.
+
+    <checkpoint_dir>/<run>/
+        config.json                      trainer "sb3", algorithm, task, the TrainingConfig, versions
+        metrics.json                     logged scalars per iteration, steps/s, wall time
+        tensorboard/                     TensorBoard event files
+        checkpoints/step_<N>/            one folder per checkpoint, written atomically
+            model.zip                    SB3 model with optimizer state (unpickled on load)
+            vecnormalize.pkl             observation/reward normalisation statistics (unpickled on load)
+            replay_buffer.pkl            SAC/TD3 only, newest checkpoint only (unpickled on load)
+            config.json, metrics.json    copies, so one checkpoint folder stands on its own
+            manifest.json                SHA-256 of every file, signed with this user's checkpoint key
+
+SB3 checkpoints unpickle on load, so loading one from an untrusted source runs its code. A
+checkpoint is loaded only when its manifest carries a valid HMAC-SHA256 made with the key in
+`~/.config/joshua/checkpoint.key` (created on first use, readable by its owner only; the
+environment variable JOSHUA_CHECKPOINT_KEY_FILE points elsewhere) and every file it loads has the
+hash the manifest lists. Anything else (a folder copied from another machine, a changed file, a
+folder not written by joshua-sb3) is refused unless the user explicitly trusts it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+import os
+import re
+import secrets
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from joshua_core.atomic import atomic_directory, atomic_write_json
+from joshua_core.errors import UsageError
+
+CHECKPOINTS = "checkpoints"
+CONFIG_FILE = "config.json"
+METRICS_FILE = "metrics.json"
+MANIFEST_FILE = "manifest.json"
+MODEL_FILE = "model.zip"
+NORMALIZATION_FILE = "vecnormalize.pkl"
+REPLAY_BUFFER_FILE = "replay_buffer.pkl"
+MANIFEST_FORMAT = "joshua-sb3-checkpoint/1"
+KEY_ENV_VAR = "JOSHUA_CHECKPOINT_KEY_FILE"
+KEY_BYTES = 32
+STEP_FOLDER = re.compile(r"^step_(\d+)$")
+
+
+class UntrustedCheckpointError(UsageError):
+    """A checkpoint that this machine's user did not write (or that changed since) was not loaded."""
+
+
+def key_path() -> Path:
+    """Where this user's checkpoint signing key lives."""
+    if os.environ.get(KEY_ENV_VAR):
+        return Path(os.environ[KEY_ENV_VAR]).expanduser()
+    config_home = Path(os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config")
+    return config_home / "joshua" / "checkpoint.key"
+
+
+def signing_key(*, create: bool) -> bytes | None:
+    """This user's secret key; created (mode 0600) when `create` and missing, else None when missing."""
+    path = key_path()
+    if not path.exists() and create:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        except FileExistsError:  # another run created it meanwhile
+            pass
+        else:
+            with os.fdopen(descriptor, "wb") as handle:
+                handle.write(secrets.token_bytes(KEY_BYTES))
+    if not path.exists():
+        return None
+    key = path.read_bytes()
+    if len(key) < KEY_BYTES:
+        raise UsageError(f"checkpoint key {path} is shorter than {KEY_BYTES} bytes; delete it to make a new one")
+    return key
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _signature(key: bytes, manifest: dict[str, Any]) -> str:
+    unsigned = {name: value for name, value in manifest.items() if name != "signature"}
+    return hmac.new(key, json.dumps(unsigned, sort_keys=True).encode(), hashlib.sha256).hexdigest()
+
+
+def checkpoint_folders(run_dir: Path) -> list[Path]:
+    """The run's checkpoint folders, oldest (fewest steps) first."""
+    folder = run_dir / CHECKPOINTS
+    if not folder.is_dir():
+        return []
+    found = [(int(match[1]), path) for path in folder.iterdir() if (match := STEP_FOLDER.match(path.name))]
+    return [path for _, path in sorted(found)]
+
+
+def checkpoint_step(checkpoint: Path) -> int:
+    match = STEP_FOLDER.match(checkpoint.name)
+    if match is None:
+        raise UsageError(f"'{checkpoint}' is not a checkpoint folder (step_<N>)")
+    return int(match[1])
+
+
+def resolve_checkpoint(path: Path) -> Path:
+    """`path` if it is a checkpoint folder, else the newest checkpoint of the run folder `path`."""
+    if (path / MANIFEST_FILE).is_file() or STEP_FOLDER.match(path.name):
+        return path
+    folders = checkpoint_folders(path)
+    if not folders:
+        raise UsageError(f"run folder '{path}' has no checkpoint yet (no {CHECKPOINTS}/step_<N> folder)")
+    return folders[-1]
+
+
+def write_checkpoint(
+    run_dir: Path, step: int, save: Callable[[Path], None], documents: dict[str, Any], *, keep_replay_buffer: bool
+) -> Path:
+    """Write checkpoint `step` atomically: `save(folder)` writes the model files, `documents` the JSON files.
+
+    Every file is hashed into a signed manifest. Older checkpoints lose their replay buffer unless
+    `keep_replay_buffer` (it is large, and only the newest one is needed to resume).
+    """
+    key = signing_key(create=True)
+    assert key is not None
+    target = run_dir / CHECKPOINTS / f"step_{step:012d}"
+    with atomic_directory(target) as folder:
+        save(folder)
+        for name, document in documents.items():
+            (folder / name).write_text(json.dumps(document, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+        files = {path.name: _sha256(path) for path in sorted(folder.iterdir())}
+        manifest: dict[str, Any] = {"format": MANIFEST_FORMAT, "step": step, "files": files}
+        manifest["signature"] = _signature(key, manifest)
+        (folder / MANIFEST_FILE).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    if not keep_replay_buffer:
+        for older in checkpoint_folders(run_dir)[:-1]:
+            (older / REPLAY_BUFFER_FILE).unlink(missing_ok=True)
+    for leftover in (run_dir / CHECKPOINTS).glob(".step_*"):  # from a run killed while writing
+        shutil.rmtree(leftover, ignore_errors=True)
+    return target
+
+
+def verify_checkpoint(checkpoint: Path, names: list[str], *, trust: bool, trust_hint: str) -> None:
+    """Refuse to go on unless the files `names` of `checkpoint` were written by this user and are unchanged."""
+    missing = [name for name in names if not (checkpoint / name).is_file()]
+    if missing:
+        raise UsageError(f"checkpoint '{checkpoint}' is incomplete: missing {', '.join(missing)}")
+    if trust:
+        return
+    reason = _untrusted_reason(checkpoint, names)
+    if reason:
+        raise UntrustedCheckpointError(
+            f"refusing to load checkpoint '{checkpoint}': {reason}. Its {' and '.join(names)} run code when "
+            f"loaded (pickle), so only checkpoints written by this user on this machine are loaded. "
+            f"If you trust where it came from: {trust_hint}"
+        )
+
+
+def _untrusted_reason(checkpoint: Path, names: list[str]) -> str | None:
+    """Why the checkpoint cannot be trusted, or None when its signature and file hashes check out."""
+    manifest_path = checkpoint / MANIFEST_FILE
+    if not manifest_path.is_file():
+        return f"it has no {MANIFEST_FILE}, so joshua-sb3 did not write it"
+    try:
+        manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError):
+        return f"its {MANIFEST_FILE} is not valid JSON"
+    if not isinstance(manifest, dict) or manifest.get("format") != MANIFEST_FORMAT:
+        return f"its {MANIFEST_FILE} is not a {MANIFEST_FORMAT} manifest"
+    key = signing_key(create=False)
+    if key is None:
+        return f"this machine has no checkpoint key ({key_path()}), so it was written elsewhere"
+    if not hmac.compare_digest(str(manifest.get("signature", "")), _signature(key, manifest)):
+        return f"its signature does not match this user's checkpoint key ({key_path()}): it was written elsewhere"
+    for name in names:
+        if manifest.get("files", {}).get(name) != _sha256(checkpoint / name):
+            return f"{name} changed after it was written"
+    return None
+
+
+def update_run_metrics(run_dir: Path, metrics: dict[str, Any]) -> None:
+    """Rewrite the run's metrics.json (atomically)."""
+    atomic_write_json(run_dir / METRICS_FILE, metrics)

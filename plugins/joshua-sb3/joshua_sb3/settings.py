@@ -1,0 +1,97 @@
+"""The SB3 trainer's settings: a TrainingConfig with every zero replaced by the trainer's default."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.errors import ConfigError
+
+ALGORITHMS = ("PPO", "SAC", "TD3")
+ON_POLICY_ONLY = ("gae_lambda", "clip_epsilon")  # PPO fields SAC and TD3 have no use for
+DEFAULT_NUM_ENVS = 16
+DEFAULT_TOTAL_TIMESTEPS = 1_000_000
+DEFAULT_HIDDEN_SIZES = (256, 256)
+DEFAULT_REPLAY_BUFFER_SIZE = 1_000_000  # SB3's default, transitions of all environments together
+CHECKPOINTS_PER_RUN = 10  # default checkpoint_interval: a tenth of total_timesteps
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Resolved hyper-parameters; `num_steps` and `num_epochs` mean per-env rollout length and epochs for PPO,
+    steps between updates (train_freq) and gradient steps per update for SAC/TD3."""
+
+    algorithm: str
+    num_envs: int
+    total_timesteps: int
+    checkpoint_interval: int
+    num_steps: int
+    num_epochs: int
+    minibatch_size: int
+    learning_rate: float
+    gamma: float
+    gae_lambda: float
+    clip_epsilon: float
+    entropy_coef: float
+    hidden_sizes: tuple[int, ...]
+    normalize: bool
+    seed: int
+
+    @classmethod
+    def from_config(cls, config: TrainingConfig) -> Settings:
+        algorithm = (config.sb3.algorithm or "PPO").upper()
+        if algorithm not in ALGORITHMS:
+            raise ConfigError(f"training.sb3.algorithm '{config.sb3.algorithm}' is unknown; choose one of {ALGORITHMS}")
+        on_policy = algorithm == "PPO"
+        if not on_policy:
+            ignored = [name for name in ON_POLICY_ONLY if getattr(config, name)]
+            if ignored:
+                names = ", ".join(f"training.{name}" for name in ignored)
+                print(f"joshua: warning: {algorithm} ignores {names} (PPO settings)", file=sys.stderr)
+        if any(size <= 0 for size in config.sb3.hidden_sizes):
+            raise ConfigError(f"training.sb3.hidden_sizes must be positive, got {list(config.sb3.hidden_sizes)}")
+        if config.sb3.checkpoint_interval < 0:
+            raise ConfigError("training.sb3.checkpoint_interval must not be negative")
+        total_timesteps = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
+        return cls(
+            algorithm=algorithm,
+            num_envs=config.num_envs or DEFAULT_NUM_ENVS,
+            total_timesteps=total_timesteps,
+            checkpoint_interval=config.sb3.checkpoint_interval or max(1, total_timesteps // CHECKPOINTS_PER_RUN),
+            num_steps=config.num_steps or (64 if on_policy else 1),
+            num_epochs=config.num_epochs or (10 if on_policy else 1),
+            minibatch_size=config.minibatch_size or 256,
+            learning_rate=config.learning_rate or 3e-4,
+            gamma=config.gamma or 0.99,
+            gae_lambda=config.gae_lambda or 0.95,
+            clip_epsilon=config.clip_epsilon or 0.2,
+            entropy_coef=config.sb3.entropy_coef,
+            hidden_sizes=tuple(config.sb3.hidden_sizes) or DEFAULT_HIDDEN_SIZES,
+            normalize=not config.sb3.disable_normalization,
+            seed=int(config.seed),
+        )
+
+    def algorithm_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments of the SB3 algorithm's constructor (besides policy, env, seed, device)."""
+        common: dict[str, Any] = {
+            "learning_rate": self.learning_rate,
+            "gamma": self.gamma,
+            "batch_size": self.minibatch_size,
+            "policy_kwargs": {"net_arch": list(self.hidden_sizes)},
+        }
+        if self.algorithm == "PPO":
+            return common | {
+                "n_steps": self.num_steps,
+                "n_epochs": self.num_epochs,
+                "gae_lambda": self.gae_lambda,
+                "clip_range": self.clip_epsilon,
+                "ent_coef": self.entropy_coef,
+            }
+        # A replay buffer larger than the run is preallocated (and checkpointed) memory that is never used.
+        buffer_size = min(DEFAULT_REPLAY_BUFFER_SIZE, self.total_timesteps)
+        return common | {"train_freq": self.num_steps, "gradient_steps": self.num_epochs, "buffer_size": buffer_size}
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)

@@ -1,0 +1,351 @@
+"""Trainer `sb3`: stable-baselines3 PPO, SAC or TD3 on the batched MuJoCo environments of a task.
+
+The run folder layout and the checkpoint trust rules are in `joshua_sb3.run_folder`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import time
+from datetime import datetime
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from google.protobuf import json_format
+from stable_baselines3 import PPO, SAC, TD3
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import KVWriter, Logger, TensorBoardOutputFormat
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+from stable_baselines3.common.vec_env import VecEnv, VecNormalize
+
+from joshua_core.atomic import atomic_write_json
+from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.errors import ConfigError, JoshuaError, UsageError
+from joshua_core.evaluation import open_video_writer, read_run_config
+from joshua_core.interfaces import RunContext, Trainer
+from joshua_core.progress import progress_bar
+from joshua_mujoco.vector import BatchedVectorEnv, vector_env_from_config
+from joshua_sb3.run_folder import (
+    CONFIG_FILE,
+    METRICS_FILE,
+    MODEL_FILE,
+    NORMALIZATION_FILE,
+    REPLAY_BUFFER_FILE,
+    checkpoint_folders,
+    checkpoint_step,
+    resolve_checkpoint,
+    update_run_metrics,
+    verify_checkpoint,
+    write_checkpoint,
+)
+from joshua_sb3.settings import Settings
+from joshua_sb3.vec_env import METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv
+
+TRAINER_NAME = "sb3"
+RUN_FORMAT = "joshua-sb3-run/1"
+ALGORITHM_CLASSES: dict[str, type[BaseAlgorithm]] = {"PPO": PPO, "SAC": SAC, "TD3": TD3}
+DEVICE = "cpu"  # small MLP policies: the CPU beats a GPU round trip per environment step
+TRAIN_TRUST_HINT = "--set training.sb3.trust_checkpoint=true"
+EVAL_TRUST_HINT = "joshua eval RUN --trust-checkpoint"
+
+
+def make_vec_env(training: TrainingConfig, context: RunContext) -> tuple[BatchedVectorEnv, VecEnv]:
+    """The task's batched environment, and the SB3 view of it (without normalisation)."""
+    if training.backend and training.backend != "mujoco":
+        raise ConfigError(f"trainer sb3 runs on the CPU backend 'mujoco', not '{training.backend}'")
+    environments = vector_env_from_config(training, context.plugins)
+    return environments, SameStepVecEnv(environments)
+
+
+class MetricsHistory(KVWriter):
+    """Keeps every record SB3's logger dumps (one per iteration), for metrics.json and the progress bar."""
+
+    def __init__(self, records: list[dict[str, Any]]) -> None:
+        self.records = records
+
+    def write(self, key_values: dict[str, Any], key_excluded: dict[str, Any], step: int = 0) -> None:
+        record: dict[str, Any] = {"step": int(step)}
+        for name, value in key_values.items():
+            if isinstance(value, int | float | np.number):
+                record[name] = float(value)
+        self.records.append(record)
+
+
+class TrainingMonitor(BaseCallback):
+    """Progress bar, per-term reward and task-metric logging, and periodic checkpoints."""
+
+    def __init__(self, run: RunWriter, bar: Any, next_checkpoint: int) -> None:
+        super().__init__()
+        self.run = run
+        self.bar = bar
+        self.next_checkpoint = next_checkpoint
+
+    def _on_step(self) -> bool:
+        self.bar.update(min(self.model.num_timesteps, self.bar.total) - self.bar.n)  # SB3 may overshoot the total
+        return True
+
+    def _on_rollout_start(self) -> None:
+        # Here the previous rollout has been learned from: a consistent point to save.
+        if self.model.num_timesteps >= self.next_checkpoint:
+            self.run.save_checkpoint(self.model)
+            while self.next_checkpoint <= self.model.num_timesteps:
+                self.next_checkpoint += self.run.settings.checkpoint_interval
+
+    def _on_rollout_end(self) -> None:
+        episodes = list(self.model.ep_info_buffer or [])
+        if not episodes:
+            return
+        for key, prefix in ((REWARD_TERMS_KEY, "reward"), (METRICS_KEY, "metrics")):
+            for name in episodes[-1].get(key, {}):
+                values = [episode[key][name] for episode in episodes if name in episode.get(key, {})]
+                self.logger.record(f"{prefix}/{name}", float(np.mean(values)))
+        mean_return = float(np.mean([episode["r"] for episode in episodes]))
+        self.bar.set_description_str(f"sb3 {self.run.settings.algorithm} return {mean_return:.3g}", refresh=False)
+
+
+class RunWriter:
+    """One run folder being trained: its settings, environments and the history of logged metrics."""
+
+    def __init__(self, run_dir: Path, config: TrainingConfig, settings: Settings, normalizer: VecNormalize | None):
+        self.run_dir = run_dir
+        self.config = config
+        self.settings = settings
+        self.normalizer = normalizer
+        self.records: list[dict[str, Any]] = []
+        self.started = time.perf_counter()
+        self.start_step = 0
+
+    def config_document(self) -> dict[str, Any]:
+        return {
+            "trainer": TRAINER_NAME,
+            "format": RUN_FORMAT,
+            "algorithm": self.settings.algorithm,
+            "task": self.config.task,
+            "settings": self.settings.as_dict(),
+            "training": json_format.MessageToDict(self.config, preserving_proto_field_name=True),
+            "versions": {name: _version(name) for name in ("joshua-sb3", "stable-baselines3", "torch", "mujoco")},
+        }
+
+    def metrics_document(self, step: int) -> dict[str, Any]:
+        elapsed = time.perf_counter() - self.started
+        return {
+            "num_timesteps": step,
+            "wall_seconds": round(elapsed, 3),
+            "steps_per_second": round((step - self.start_step) / elapsed, 1) if elapsed > 0 else 0.0,
+            "history": [record for record in self.records if record["step"] <= step],
+        }
+
+    def save_checkpoint(self, model: BaseAlgorithm) -> Path:
+        step = int(model.num_timesteps)
+
+        def save(folder: Path) -> None:
+            model.save(folder / MODEL_FILE)
+            if self.normalizer is not None:
+                self.normalizer.save(str(folder / NORMALIZATION_FILE))
+            if isinstance(model, OffPolicyAlgorithm):
+                model.save_replay_buffer(folder / REPLAY_BUFFER_FILE)
+
+        metrics = self.metrics_document(step)
+        documents = {CONFIG_FILE: self.config_document(), METRICS_FILE: metrics}
+        checkpoint = write_checkpoint(self.run_dir, step, save, documents, keep_replay_buffer=False)
+        update_run_metrics(self.run_dir, metrics)
+        return checkpoint
+
+
+def _version(distribution: str) -> str:
+    try:
+        return metadata.version(distribution)
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def _run_dir(config: TrainingConfig, context: RunContext, settings: Settings) -> tuple[Path, Path | None]:
+    """The run folder to write, and the checkpoint to resume from (None for a new run)."""
+    root = context.output_dir
+    options = config.sb3
+    if options.resume:
+        run_dir = root / options.run_name if options.run_name else _newest_run(root)
+        if not (run_dir / CONFIG_FILE).is_file():
+            raise ConfigError(f"training.sb3.resume: there is no run '{run_dir.name}' in {root} to resume")
+        saved = read_run_config(run_dir)
+        for key, value in (("trainer", TRAINER_NAME), ("algorithm", settings.algorithm), ("task", config.task)):
+            if saved.get(key) != value:
+                raise ConfigError(
+                    f"training.sb3.resume: run {run_dir} was trained with {key} '{saved.get(key)}', "
+                    f"this config asks for '{value}'"
+                )
+        folders = checkpoint_folders(run_dir)
+        return run_dir, folders[-1] if folders else None
+    name = options.run_name or f"{config.task}_{settings.algorithm.lower()}_{datetime.now():%Y%m%d-%H%M%S}"
+    run_dir = root / name
+    if run_dir.exists():
+        raise ConfigError(
+            f"run folder {run_dir} exists; continue it with --set training.sb3.resume=true, "
+            "or choose another training.sb3.run_name"
+        )
+    return run_dir, None
+
+
+def _newest_run(root: Path) -> Path:
+    runs = [path.parent for path in root.glob(f"*/{CONFIG_FILE}")]
+    if not runs:
+        raise ConfigError(f"training.sb3.resume: {root} has no run folder to resume")
+    return max(runs, key=lambda path: (path / CONFIG_FILE).stat().st_mtime)
+
+
+def _load_model(
+    checkpoint: Path, algorithm: str, vec_env: VecEnv, *, trust: bool, trust_hint: str, with_buffer: bool
+) -> tuple[BaseAlgorithm, VecNormalize | None]:
+    """Load a checkpoint's model (and normalisation statistics) after checking it may be unpickled."""
+    has_normalizer = (checkpoint / NORMALIZATION_FILE).is_file()
+    has_buffer = with_buffer and (checkpoint / REPLAY_BUFFER_FILE).is_file()
+    names = [MODEL_FILE] + [NORMALIZATION_FILE] * has_normalizer + [REPLAY_BUFFER_FILE] * has_buffer
+    verify_checkpoint(checkpoint, names, trust=trust, trust_hint=trust_hint)
+    try:
+        normalizer = VecNormalize.load(str(checkpoint / NORMALIZATION_FILE), vec_env) if has_normalizer else None
+        model = ALGORITHM_CLASSES[algorithm].load(checkpoint / MODEL_FILE, env=normalizer or vec_env, device=DEVICE)
+        if has_buffer and isinstance(model, OffPolicyAlgorithm):
+            model.load_replay_buffer(checkpoint / REPLAY_BUFFER_FILE)
+    except Exception as error:  # a corrupt or foreign file can fail in any way inside SB3 or pickle
+        raise JoshuaError(f"cannot load checkpoint '{checkpoint}': {type(error).__name__}: {error}") from error
+    return model, normalizer
+
+
+class Sb3Trainer(Trainer):
+    """stable-baselines3 on the CPU vectorized environments; see the plugin README."""
+
+    def train(self, config: TrainingConfig, context: RunContext) -> Path:
+        settings = Settings.from_config(config)
+        run_dir, resume_from = _run_dir(config, context, settings)
+        training = TrainingConfig()
+        training.CopyFrom(config)
+        training.num_envs = settings.num_envs
+        environments, vec_env = make_vec_env(training, context)
+        if resume_from is not None:
+            model, normalizer = _load_model(
+                resume_from,
+                settings.algorithm,
+                vec_env,
+                trust=config.sb3.trust_checkpoint,
+                trust_hint=TRAIN_TRUST_HINT,
+                with_buffer=True,
+            )
+            model.set_random_seed(settings.seed + model.num_timesteps)  # not the same noise as the first leg
+            print(f"sb3: resuming {run_dir} from {resume_from.name} ({model.num_timesteps} steps)")
+        else:
+            normalizer = VecNormalize(vec_env, gamma=settings.gamma) if settings.normalize else None
+            model = ALGORITHM_CLASSES[settings.algorithm](
+                "MlpPolicy", normalizer or vec_env, seed=settings.seed, device=DEVICE, **settings.algorithm_kwargs()
+            )
+        run = RunWriter(run_dir, training, settings, normalizer)
+        if resume_from is None:
+            run_dir.mkdir(parents=True, exist_ok=True)  # exists when resuming a run killed before its first checkpoint
+            atomic_write_json(run_dir / CONFIG_FILE, run.config_document())
+        else:
+            previous = json.loads((run_dir / METRICS_FILE).read_text()) if (run_dir / METRICS_FILE).is_file() else {}
+            run.records = [r for r in previous.get("history", []) if r["step"] <= model.num_timesteps]
+        run.start_step = int(model.num_timesteps)
+        model.set_logger(
+            Logger(str(run_dir), [TensorBoardOutputFormat(str(run_dir / "tensorboard")), MetricsHistory(run.records)])
+        )
+        remaining = settings.total_timesteps - model.num_timesteps
+        bar = progress_bar(
+            settings.total_timesteps, description=f"sb3 {settings.algorithm}", unit="steps", initial=run.start_step
+        )
+        try:
+            if resume_from is None:
+                run.save_checkpoint(model)  # step 0: the untrained policy, to compare against
+            if remaining > 0:
+                next_checkpoint = run.start_step + settings.checkpoint_interval
+                model.learn(
+                    remaining,
+                    callback=TrainingMonitor(run, bar, next_checkpoint),
+                    reset_num_timesteps=False,
+                    progress_bar=False,
+                )
+                checkpoint = run.save_checkpoint(model)
+            else:
+                checkpoint = resolve_checkpoint(run_dir)
+        finally:
+            bar.close()
+            environments.close()
+        print(f"sb3: {model.num_timesteps} steps; checkpoint {checkpoint}")
+        return checkpoint
+
+    def evaluate(
+        self,
+        run_dir: Path,
+        *,
+        episodes: int,
+        seed: int,
+        video_path: Path | None,
+        context: RunContext,
+        trust_checkpoint: bool = False,
+    ) -> dict[str, float]:
+        checkpoint = resolve_checkpoint(run_dir)
+        saved = read_run_config(checkpoint)
+        if saved.get("format") != RUN_FORMAT:
+            raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
+        training = TrainingConfig()
+        try:
+            json_format.ParseDict(saved["training"], training)
+        except (KeyError, json_format.ParseError) as error:
+            raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
+        training.num_envs = episodes
+        training.seed = seed
+        environments, vec_env = make_vec_env(training, context)
+        try:
+            model, normalizer = _load_model(
+                checkpoint,
+                saved["algorithm"],
+                vec_env,
+                trust=trust_checkpoint,
+                trust_hint=EVAL_TRUST_HINT,
+                with_buffer=False,
+            )
+            if normalizer is not None:
+                normalizer.training = False
+                normalizer.norm_reward = False
+            print(f"sb3: evaluating {checkpoint} ({checkpoint_step(checkpoint)} steps) over {episodes} episodes")
+            return _roll_out(model, normalizer or vec_env, environments, episodes, video_path)
+        finally:
+            environments.close()
+
+
+def _roll_out(
+    model: BaseAlgorithm,
+    vec_env: VecEnv,
+    environments: BatchedVectorEnv,
+    episodes: int,
+    video_path: Path | None,
+) -> dict[str, float]:
+    """Run one episode in each of the `episodes` environments with the deterministic policy; record env 0."""
+    observations = vec_env.reset()
+    finished: dict[int, dict[str, Any]] = {}
+    fps = float(environments.metadata.get("render_fps", 30))
+    with contextlib.ExitStack() as stack:  # the video is closed (finished) however the rollout ends
+        writer = open_video_writer(video_path, fps) if video_path is not None else None
+        if writer is not None:
+            stack.enter_context(writer)
+            writer.write(environments.render_frame(0))
+        while len(finished) < episodes:
+            actions, _ = model.predict(observations, deterministic=True)  # type: ignore[arg-type]
+            observations, _, dones, infos = vec_env.step(actions)
+            for index in np.flatnonzero(dones):
+                finished.setdefault(int(index), infos[index]["episode"])
+            if writer is not None and 0 in finished:  # environment 0 already shows its next episode: stop
+                print(f"video: {writer.close()}")
+                writer = None
+            elif writer is not None:
+                writer.write(environments.render_frame(0))
+    results = {
+        "mean_return": float(np.mean([episode["r"] for episode in finished.values()])),
+        "mean_length": float(np.mean([episode["l"] for episode in finished.values()])),
+    }
+    for name in finished[0][METRICS_KEY]:
+        results[f"final_{name}"] = float(np.mean([episode[METRICS_KEY][name] for episode in finished.values()]))
+    return results

@@ -1,0 +1,75 @@
+"""`joshua eval RUN`: finds the trainer that wrote a run folder; clear errors for everything else."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import pytest
+
+from joshua_core import hookimpl
+from joshua_core.errors import PluginNotFoundError, UsageError
+from joshua_core.evaluation import EvalCommand
+from joshua_core.interfaces import Trainer
+from joshua_core.plugins import PluginHost, PluginInfo
+
+
+class TrainOnlyTrainer(Trainer):
+    """A trainer that cannot evaluate (it keeps Trainer's default evaluate)."""
+
+    def train(self, config, context):  # type: ignore[no-untyped-def]
+        raise AssertionError("not called")
+
+
+class TrainOnlyPlugin:
+    @hookimpl
+    def joshua_register_trainers(self, registry):  # type: ignore[no-untyped-def]
+        registry.add("train_only", TrainOnlyTrainer, "test")
+
+
+def run_eval(run_dir: Path) -> int:
+    command = EvalCommand()
+    parser = argparse.ArgumentParser()
+    command.add_arguments(parser)
+    host = PluginHost([(PluginInfo("train_only", "joshua-train-only", "0.1", "test"), TrainOnlyPlugin())])
+    return command.run(parser.parse_args([str(run_dir), "--no-video"]), host)
+
+
+def write_config(run_dir: Path, document: object) -> None:
+    run_dir.mkdir()
+    (run_dir / "config.json").write_text(json.dumps(document))
+
+
+def test_missing_folder_and_folder_without_config(tmp_path: Path) -> None:
+    with pytest.raises(UsageError, match="does not exist"):
+        run_eval(tmp_path / "nope")
+    with pytest.raises(UsageError, match="is not a run folder: it has no config.json"):
+        run_eval(tmp_path)
+
+
+def test_config_without_trainer(tmp_path: Path) -> None:
+    write_config(tmp_path / "run", {"task": "so_arm100_reach"})
+    with pytest.raises(UsageError, match='has no "trainer" entry'):
+        run_eval(tmp_path / "run")
+
+
+def test_trainer_not_installed_names_the_distribution(tmp_path: Path) -> None:
+    write_config(tmp_path / "run", {"trainer": "ppo"})
+    with pytest.raises(PluginNotFoundError, match="pip install joshua-ppo"):
+        run_eval(tmp_path / "run")
+
+
+def test_trainer_without_evaluate(tmp_path: Path) -> None:
+    write_config(tmp_path / "run", {"trainer": "train_only"})
+    with pytest.raises(UsageError, match="trainer TrainOnlyTrainer cannot evaluate a run"):
+        run_eval(tmp_path / "run")
+
+
+def test_cli_prints_one_line(run_joshua, tmp_path: Path) -> None:
+    result = run_joshua("eval", str(tmp_path))
+    assert result.returncode == 2
+    assert (
+        result.stderr.strip()
+        == f"joshua: error: '{tmp_path}' is not a run folder: it has no config.json (training runs write one)"
+    )
