@@ -52,17 +52,7 @@ def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.Argu
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"joshua {__version__}")
-    source = parser.add_mutually_exclusive_group()
-    source.add_argument("--preset", metavar="NAME", help="run a shipped preset (see `joshua presets`)")
-    source.add_argument("--config", metavar="FILE", type=Path, help="run a text-format .pbtxt config")
-    parser.add_argument(
-        "--set",
-        dest="overrides",
-        metavar="PATH=VALUE",
-        action="append",
-        default=[],
-        help="override one field, e.g. simulation.render_width=1280 (repeatable)",
-    )
+    add_config_arguments(parser, verb="run")
     parser.add_argument(
         "--strict",
         action="store_true",
@@ -75,6 +65,21 @@ def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.Argu
     for name, summary in (plugin_commands or {}).items():  # their own arguments are parsed by the plugin
         commands.add_parser(name, help=summary, add_help=False)
     return parser
+
+
+def add_config_arguments(parser: argparse.ArgumentParser, *, verb: str) -> None:
+    """Declare --preset/--config/--set, the way every command that reads a config takes it."""
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument("--preset", metavar="NAME", help=f"{verb} a shipped preset (see `joshua presets`)")
+    source.add_argument("--config", metavar="FILE", type=Path, help=f"{verb} a text-format .pbtxt config")
+    parser.add_argument(
+        "--set",
+        dest="overrides",
+        metavar="PATH=VALUE",
+        action="append",
+        default=[],
+        help="override one field, e.g. simulation.render_width=1280 (repeatable)",
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -132,7 +137,7 @@ def run_plugin_command(host: PluginHost, name: str, argv: list[str]) -> int:
 
 
 def load(args: argparse.Namespace) -> LoadedConfig:
-    """The config the arguments describe, with the --set overrides applied."""
+    """The config that the arguments of `add_config_arguments` describe, with the --set overrides applied."""
     if args.preset:
         loaded = load_preset(args.preset)
     elif args.config:
@@ -141,13 +146,13 @@ def load(args: argparse.Namespace) -> LoadedConfig:
         loaded = load_default()
     for assignment in args.overrides:
         apply_override(loaded.message, assignment)
-    if args.strict:
-        loaded.message.simulation.replay.strict = True
     return loaded
 
 
 def run(args: argparse.Namespace, host: PluginHost) -> int:
     loaded = load(args)
+    if args.strict:
+        loaded.message.simulation.replay.strict = True
     if args.print_config:
         print(text_format.MessageToString(finalize(loaded)), end="")
         return 0

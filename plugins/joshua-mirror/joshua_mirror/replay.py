@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from joshua_core.cli import load
+from joshua_core.cli import add_config_arguments, load
 from joshua_core.config import finalize
 from joshua_core.config_pb2 import MirrorOptions, SimulationConfig
 from joshua_core.errors import ConfigError, UsageError
@@ -24,10 +24,10 @@ from joshua_core.interfaces import Command
 from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
+from joshua_core.trajectory import Trajectory, read_trajectory
 from joshua_mirror.joints import MirroredJoint, resolve_joints
 from joshua_mirror.mode import DEFAULT_JOINT_STATE_TOPIC
 from joshua_mirror.ros import RosSession, message_types
-from joshua_mirror.trajectory import Trajectory, read_trajectory
 
 DEFAULT_PRESET = "sim_mirror"
 DEFAULT_RATE_HZ = 100.0
@@ -41,19 +41,7 @@ class MirrorReplayCommand(Command):
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         parser.add_argument("csv", type=Path, help="trajectory CSV: '#' comments, header 'timestamp,<joint names>'")
-        source = parser.add_mutually_exclusive_group()
-        source.add_argument(
-            "--preset", metavar="NAME", help=f"MIRROR preset with the topics and offsets ({DEFAULT_PRESET})"
-        )
-        source.add_argument("--config", metavar="FILE", type=Path, help="MIRROR config file instead of a preset")
-        parser.add_argument(
-            "--set",
-            dest="overrides",
-            metavar="PATH=VALUE",
-            action="append",
-            default=[],
-            help="override one config field, as for `joshua --set` (repeatable)",
-        )
+        add_config_arguments(parser, verb=f"read the topics and offsets (default: preset {DEFAULT_PRESET}) from")
         parser.add_argument(
             "--rate",
             type=float,
@@ -89,11 +77,12 @@ class MirrorReplayCommand(Command):
             config.mirror.message_type = MirrorOptions.JOINT_STATE
         joints = _joints_of(config)
         trajectory = read_trajectory(resolve_data_path(args.csv, what="trajectory"))
+        trajectory.require_playable()
         columns = _columns(trajectory, joints, args.csv)
-        times = np.arange(trajectory.times[0], trajectory.times[-1] + 1e-9, 1.0 / args.rate)
+        times = np.arange(trajectory.timestamps[0], trajectory.timestamps[-1] + 1e-9, 1.0 / args.rate)
         encoder_values = np.stack(
             [
-                np.interp(times, trajectory.times, trajectory.values[:, column]) - joint.offset
+                np.interp(times, trajectory.timestamps, trajectory.positions[:, column]) - joint.offset
                 for joint, column in zip(joints, columns, strict=True)
             ],
             axis=1,
@@ -120,16 +109,16 @@ def _joints_of(config: SimulationConfig) -> list[MirroredJoint]:
 
 def _columns(trajectory: Trajectory, joints: list[MirroredJoint], csv: Path) -> list[int]:
     """The CSV column of each mapped joint (by the name of the MuJoCo joint it drives)."""
-    missing = [joint.joint for joint in joints if joint.joint not in trajectory.names]
+    missing = [joint.joint for joint in joints if joint.joint not in trajectory.joint_names]
     if missing:
         hints = []
         for name in missing:
-            close = difflib.get_close_matches(name, trajectory.names, n=1)
+            close = difflib.get_close_matches(name, trajectory.joint_names, n=1)
             hints.append(f"{name} (did you mean {close[0]}?)" if close else name)
         raise UsageError(
-            f"{csv}: no column for the mapped joints {', '.join(hints)}; columns: {', '.join(trajectory.names)}"
+            f"{csv}: no column for the mapped joints {', '.join(hints)}; columns: {', '.join(trajectory.joint_names)}"
         )
-    return [trajectory.names.index(joint.joint) for joint in joints]
+    return [trajectory.joint_names.index(joint.joint) for joint in joints]
 
 
 class _EncoderPublisher:

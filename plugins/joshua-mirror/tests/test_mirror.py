@@ -263,10 +263,13 @@ def test_without_the_plugin_the_cli_says_what_to_install(tmp_path: Path) -> None
 def test_replay_reports_bad_csv_rows_and_missing_columns(tmp_path: Path, ros_env: dict[str, str]) -> None:
     bad_row = tmp_path / "bad.csv"
     bad_row.write_text("# comment\ntimestamp," + ",".join(JOINTS) + "\n0.0,0,0,0,0,0,0\n0.1,0,0,x,0,0,0\n")
+    reversed_time = tmp_path / "reversed.csv"
+    reversed_time.write_text("timestamp," + ",".join(JOINTS) + "\n0.1,0,0,0,0,0,0\n0.0,0,0,0,0,0,0\n")
     missing = tmp_path / "missing.csv"
     missing.write_text("timestamp,joint_1,joint_2,joint_3,joint_4,joint_5,joint6\n0.0,0,0,0,0,0,0\n")
     for csv, message in (
-        (bad_row, f"{bad_row}:4: not a number in '0.1,0,0,x,0,0,0'"),
+        (bad_row, f"{bad_row}:4: column 'joint_3' has 'x', which is not a number"),
+        (reversed_time, f"{reversed_time}:3: timestamp 0 does not increase (previous 0.1)"),
         (missing, "no column for the mapped joints joint_6 (did you mean joint6?)"),
     ):
         result = subprocess.run(

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.errors import UsageError
-from joshua_modes.trajectory import Trajectory
+from joshua_core.trajectory import Trajectory
 from joshua_mujoco import MuJoCoEngine
 
 SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from joshua_core.atomic import atomic_write_json
 from joshua_modes.replay import qpos_addresses
-from joshua_modes.trajectory import Trajectory
+from joshua_core.trajectory import Trajectory
 
 DEFAULT_VELOCITY_LIMIT = 10.0  # rad/s (or m/s for slide joints)
 DEFAULT_PENETRATION_THRESHOLD = 0.005  # m

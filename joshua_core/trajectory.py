@@ -39,6 +39,24 @@ class Trajectory:
     def rows(self) -> int:
         return len(self.timestamps)
 
+    def require_playable(self) -> None:
+        """Raise TrajectoryError at the first row with a NaN/inf value or a timestamp that does not increase.
+
+        For consumers that stream the samples as they are (e.g. publishing them); the replay modes report
+        every problem instead, through `joshua_modes.validation`.
+        """
+        finite = np.isfinite(self.timestamps) & np.isfinite(self.positions).all(axis=1)
+        increasing = np.concatenate(([True], np.diff(self.timestamps) > 0))
+        bad = np.flatnonzero(~(finite & increasing))
+        if bad.size:
+            row = bad[0]
+            problem = (
+                "NaN or infinite value"
+                if not finite[row]
+                else f"timestamp {self.timestamps[row]:g} does not increase (previous {self.timestamps[row - 1]:g})"
+            )
+            raise TrajectoryError(f"{self.path}:{self.lines[row]}: {problem}")
+
 
 def read_trajectory(path: str | Path, known_joints: Sequence[str] | None = None) -> Trajectory:
     """Read a trajectory CSV. With `known_joints`, a column naming another joint is an error listing them."""
