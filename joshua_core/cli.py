@@ -23,7 +23,7 @@ from joshua_core.config import (
 from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig
 from joshua_core.errors import JoshuaError, PluginNotFoundError
 from joshua_core.interfaces import RunContext
-from joshua_core.plugins import DISABLE_ENV_VAR, Kind, PluginHost
+from joshua_core.plugins import DISABLE_ENV_VAR, KNOWN_PROVIDERS, Kind, PluginHost
 
 DEFAULT_OUTPUT_DIR = "joshua_output"
 
@@ -86,6 +86,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `joshua` script; returns the exit status."""
     host = PluginHost.discover()
     plugin_commands = {name: host.component(Kind.COMMAND, name).summary for name in host.names(Kind.COMMAND)}
+    for kind, name in KNOWN_PROVIDERS:  # listed, so that using one says what to install
+        if kind is Kind.COMMAND and name not in plugin_commands:
+            plugin_commands[name] = f"(not installed: {KNOWN_PROVIDERS[kind, name]})"
     parser = build_parser(plugin_commands)
     args, command_argv = parser.parse_known_args(argv)
     if command_argv and args.command not in plugin_commands:

@@ -57,6 +57,7 @@ KNOWN_PROVIDERS: dict[tuple[Kind, str], str] = {
     (Kind.MODE, "MIRROR"): "joshua-mirror",
     (Kind.TRAINER, "ppo"): "joshua-ppo",
     (Kind.TRAINER, "sb3"): "joshua-sb3",
+    (Kind.COMMAND, "mirror-replay"): "joshua-mirror",
 }
 
 

@@ -6,7 +6,7 @@ import sys
 
 from tqdm import tqdm
 
-BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar:20}| {n:.1f}/{total:.1f} {unit} [{elapsed}<{remaining}, {rate_fmt}]"
+BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar:20}| {n_fmt}/{total_fmt} {unit} [{elapsed}<{remaining}, {rate_fmt}]"
 
 
 def progress_bar(total: float, *, description: str, unit: str, initial: float = 0) -> tqdm:

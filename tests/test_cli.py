@@ -105,3 +105,10 @@ def test_missing_plugin_is_reported_before_missing_files(run_joshua) -> None:
     )  # fmt: skip
     assert result.returncode == 2
     assert "joshua-modes" in result.stderr and "absent.csv" not in result.stderr
+
+
+def test_known_command_of_a_missing_plugin_says_what_to_install(run_joshua) -> None:
+    result = run_joshua("mirror-replay", "motion.csv", env={"JOSHUA_DISABLE_PLUGINS": "joshua-mirror"})
+    assert result.returncode == 2
+    assert "no command named 'mirror-replay' is installed. It comes from joshua-mirror" in result.stderr
+    assert "Traceback" not in result.stderr

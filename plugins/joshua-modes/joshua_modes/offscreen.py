@@ -22,9 +22,9 @@ from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import Mode, RunContext
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
+from joshua_core.trajectory import read_trajectory
 from joshua_modes.display import camera_id
 from joshua_modes.replay import Replayer, model_joint_names
-from joshua_core.trajectory import read_trajectory
 from joshua_modes.validation import DEFAULT_PENETRATION_THRESHOLD, DEFAULT_VELOCITY_LIMIT, validate
 from joshua_modes.video import VideoWriter, write_png
 from joshua_mujoco import MuJoCoEngine

@@ -15,10 +15,10 @@ from joshua_core.config_pb2 import SimulationConfig, ViewerOptions
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import Mode, RunContext
 from joshua_core.progress import progress_bar
+from joshua_core.trajectory import read_trajectory
 from joshua_modes.display import Display, RecordingDisplay, open_display
 from joshua_modes.offscreen import frame_times
 from joshua_modes.replay import Replayer, model_joint_names
-from joshua_core.trajectory import read_trajectory
 from joshua_modes.validation import DEFAULT_PENETRATION_THRESHOLD, DEFAULT_VELOCITY_LIMIT, ValidationReport, validate
 from joshua_mujoco import MuJoCoEngine
 

@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.atomic import atomic_write_json
-from joshua_modes.replay import qpos_addresses
 from joshua_core.trajectory import Trajectory
+from joshua_modes.replay import qpos_addresses
 
 DEFAULT_VELOCITY_LIMIT = 10.0  # rad/s (or m/s for slide joints)
 DEFAULT_PENETRATION_THRESHOLD = 0.005  # m

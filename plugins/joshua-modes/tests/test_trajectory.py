@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from modes_testing import HEADER, SCENE, SMALL, example_rows
 
-from joshua_modes.replay import model_joint_names
 from joshua_core.trajectory import TrajectoryError, read_trajectory
+from joshua_modes.replay import model_joint_names
 from joshua_modes.validation import validate
 from joshua_mujoco import MuJoCoEngine
 

@@ -152,21 +152,6 @@ class MuJoCoBackend(Backend):
         return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height)
 
 
-def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
-    """A headless renderer of `width` x `height` (the model's offscreen buffer is enlarged to fit)."""
-    visual = model.vis.global_
-    visual.offwidth = max(visual.offwidth, width)
-    visual.offheight = max(visual.offheight, height)
-    try:
-        return mujoco.Renderer(model, height=height, width=width)
-    except Exception as error:  # GL platform failures surface as several exception types
-        raise RuntimeError(
-            f"headless rendering failed ({type(error).__name__}: {error}). Set MUJOCO_GL=egl (or osmesa) "
-            "before importing mujoco, or import joshua_mujoco first; Debian packages for EGL: "
-            "libegl1 libgl1-mesa-dri libopengl0"
-        ) from error
-
-
 def compile_model(
     model_path: str | Path | None, *, xml: str | None = None, assets: Mapping[str, bytes] | None = None
 ) -> mujoco.MjModel:

@@ -85,7 +85,7 @@ class TrainingMonitor(BaseCallback):
         self.next_checkpoint = next_checkpoint
 
     def _on_step(self) -> bool:
-        self.bar.update(min(self.model.num_timesteps, self.bar.total) - self.bar.n)  # SB3 may overshoot the total
+        self.bar.update(self.model.num_timesteps - self.bar.n)
         return True
 
     def _on_rollout_start(self) -> None:

@@ -1,0 +1,15 @@
+"""The progress bar survives the counts long jobs really produce."""
+
+from __future__ import annotations
+
+import pytest
+
+from joshua_core.progress import progress_bar
+
+
+def test_bar_that_overshoots_its_total_still_prints_the_count(capsys: pytest.CaptureFixture[str]) -> None:
+    bar = progress_bar(1000, description="train", unit="steps", initial=200)
+    bar.update(1024 - 200)  # a trainer's last batch can end past the total
+    bar.close()
+    last_line = capsys.readouterr().err.replace("\r", "\n").strip().splitlines()[-1]
+    assert last_line.startswith("train:") and "1024/" in last_line
