@@ -18,14 +18,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.config_pb2 import OffscreenOptions, SimulationConfig
-from joshua_core.errors import ConfigError, UsageError
+from joshua_core.errors import ConfigError
 from joshua_core.interfaces import Mode, RunContext
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
 from joshua_core.trajectory import read_trajectory
 from joshua_modes.display import camera_id
 from joshua_modes.replay import Replayer, model_joint_names
-from joshua_modes.validation import DEFAULT_PENETRATION_THRESHOLD, DEFAULT_VELOCITY_LIMIT, validate
+from joshua_modes.validation import validate, validated_replayer
 from joshua_modes.video import VideoWriter, write_png
 from joshua_mujoco import MuJoCoEngine
 from joshua_mujoco.engine import create_renderer
@@ -192,26 +192,9 @@ class OffscreenMode(Mode):
         """The replayer (None: plain physics) and the times of the frames."""
         if not config.trajectory_path:
             return None, frame_times(0.0, config.duration or DEFAULT_DURATION_S, fps)
-        trajectory = read_trajectory(config.trajectory_path, model_joint_names(engine.model))
-        replay = config.replay
-        report, usable = validate(
-            trajectory,
-            engine.model,
-            engine.data.qpos.copy(),
-            model_path=config.model_path,
-            velocity_limit=replay.velocity_limit or DEFAULT_VELOCITY_LIMIT,
-            penetration_threshold=replay.penetration_threshold or DEFAULT_PENETRATION_THRESHOLD,
+        replayer, _ = validated_replayer(
+            config, engine, output_dir / REPORT_NAME, refusal="nothing rendered because simulation.replay.strict is set"
         )
-        report_path = output_dir / REPORT_NAME
-        report.write(report_path)
-        print(report.summary())
-        print(f"validation report: {report_path}")
-        if replay.strict and not report.ok:
-            raise UsageError(
-                f"the trajectory has {len(report.issues)} problem(s) (listed above, and in {report_path}); "
-                "nothing rendered because simulation.replay.strict is set"
-            )
-        replayer = Replayer(engine, trajectory, usable, tracked=replay.tracked)
         return replayer, frame_times(replayer.start_time, replayer.end_time, fps)
 
     @staticmethod

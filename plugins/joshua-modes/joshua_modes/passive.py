@@ -12,14 +12,13 @@ import time
 from pathlib import Path
 
 from joshua_core.config_pb2 import SimulationConfig, ViewerOptions
-from joshua_core.errors import ConfigError, UsageError
+from joshua_core.errors import ConfigError
 from joshua_core.interfaces import Mode, RunContext
 from joshua_core.progress import progress_bar
-from joshua_core.trajectory import read_trajectory
 from joshua_modes.display import Display, RecordingDisplay, open_display
 from joshua_modes.offscreen import frame_times
-from joshua_modes.replay import Replayer, model_joint_names
-from joshua_modes.validation import DEFAULT_PENETRATION_THRESHOLD, DEFAULT_VELOCITY_LIMIT, ValidationReport, validate
+from joshua_modes.replay import Replayer
+from joshua_modes.validation import ValidationReport, validated_replayer
 from joshua_mujoco import MuJoCoEngine
 
 REPORT_NAME = "passive_report.json"
@@ -51,25 +50,10 @@ class PassiveMode(Mode):
                 engine.reset(config.keyframe or None)
             except KeyError as error:
                 raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
-            trajectory = read_trajectory(config.trajectory_path, model_joint_names(engine.model))
-            report, usable = validate(
-                trajectory,
-                engine.model,
-                engine.data.qpos.copy(),
-                model_path=config.model_path,
-                velocity_limit=replay.velocity_limit or DEFAULT_VELOCITY_LIMIT,
-                penetration_threshold=replay.penetration_threshold or DEFAULT_PENETRATION_THRESHOLD,
-            )
             report_path = context.output_dir / REPORT_NAME
-            report.write(report_path)
-            print(report.summary())
-            print(f"validation report: {report_path}")
-            if replay.strict and not report.ok:
-                raise UsageError(
-                    f"the trajectory has {len(report.issues)} problem(s) (listed above, and in {report_path}); "
-                    "not replayed because simulation.replay.strict is set (--strict)"
-                )
-            replayer = Replayer(engine, trajectory, usable, tracked=replay.tracked)
+            replayer, report = validated_replayer(
+                config, engine, report_path, refusal="not replayed because simulation.replay.strict is set (--strict)"
+            )
             with open_display(
                 engine,
                 output_dir=context.output_dir,

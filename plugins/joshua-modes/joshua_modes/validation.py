@@ -20,8 +20,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.atomic import atomic_write_json
-from joshua_core.trajectory import Trajectory
-from joshua_modes.replay import qpos_addresses
+from joshua_core.config_pb2 import SimulationConfig
+from joshua_core.errors import UsageError
+from joshua_core.trajectory import Trajectory, read_trajectory
+from joshua_modes.replay import Replayer, model_joint_names, qpos_addresses
+from joshua_mujoco import MuJoCoEngine
 
 DEFAULT_VELOCITY_LIMIT = 10.0  # rad/s (or m/s for slide joints)
 DEFAULT_PENETRATION_THRESHOLD = 0.005  # m
@@ -316,3 +319,29 @@ def _geom_name(model: mujoco.MjModel, geom: int) -> str:
     """The geom's name, else 'geom N of body B'."""
     name = model.geom(geom).name
     return name or f"geom {geom} of body {model.body(model.geom_bodyid[geom]).name or model.geom_bodyid[geom]}"
+
+
+def validated_replayer(
+    config: SimulationConfig, engine: MuJoCoEngine, report_path: Path, *, refusal: str
+) -> tuple[Replayer, ValidationReport]:
+    """Read and validate `config.trajectory_path` against the engine's model, print the report and write it
+    as JSON; return the replayer of its usable rows. With `replay.strict` and any problem, raise UsageError
+    ending in `refusal` (what was not done) instead."""
+    trajectory = read_trajectory(config.trajectory_path, model_joint_names(engine.model))
+    replay = config.replay
+    report, usable = validate(
+        trajectory,
+        engine.model,
+        engine.data.qpos.copy(),
+        model_path=config.model_path,
+        velocity_limit=replay.velocity_limit or DEFAULT_VELOCITY_LIMIT,
+        penetration_threshold=replay.penetration_threshold or DEFAULT_PENETRATION_THRESHOLD,
+    )
+    report.write(report_path)
+    print(report.summary())
+    print(f"validation report: {report_path}")
+    if replay.strict and not report.ok:
+        raise UsageError(
+            f"the trajectory has {len(report.issues)} problem(s) (listed above, and in {report_path}); {refusal}"
+        )
+    return Replayer(engine, trajectory, usable, tracked=replay.tracked), report
