@@ -276,3 +276,19 @@ def test_replay_reports_bad_csv_rows_and_missing_columns(tmp_path: Path, ros_env
             [str(JOSHUA), "mirror-replay", str(csv)], cwd=tmp_path, env=ros_env, capture_output=True, text=True
         )
         assert result.returncode == 2 and message in result.stderr and "Traceback" not in result.stderr
+
+
+def test_headless_display_records_the_mirrored_motion(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    """With joshua-modes installed and no display, the mirror records what it shows to an MP4."""
+    import cv2
+
+    small = ("simulation.mirror.display=RECORD", "simulation.render_width=160", "simulation.render_height=120")
+    mirror = start_mirror(tmp_path, {k: v for k, v in ros_env.items() if k != "DISPLAY"}, *small)
+    publish(ros_env, float64_plan(range(0, 30, 6)))
+    stop(mirror, tmp_path)
+    video = cv2.VideoCapture(str(tmp_path / "joshua_output" / "mirror.mp4"))
+    frames = []
+    while (frame := video.read()[1]) is not None:
+        frames.append(frame.astype(int))
+    assert len(frames) >= 10 and frames[0].shape == (120, 160, 3)
+    assert max(float(abs(frame - frames[0]).mean()) for frame in frames) > 1.0  # the arm moved on screen
