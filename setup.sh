@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Set up JOSHUA in ./.venv on Debian with Python 3.11.
-#   ./setup.sh          the runtime: joshua-core + the joshua-mujoco backend + joshua-modes (viewer, replay, offscreen)
-#   ./setup.sh --dev    also what the tests need: pytest, protoc (grpcio-tools), trimesh, MJX + JAX (CPU),
-#                       Xvfb, xwd and xdotool for the viewer tests,
-#                       the joshua-mirror plugin (rclpy + Fast DDS wheels, no ROS install),
+#   ./setup.sh          the runtime: joshua-core, the joshua-mujoco backend, joshua-modes (viewer, replay, offscreen)
+#   ./setup.sh --all    every plugin: also joshua-mirror (rclpy + Fast DDS wheels, no ROS install) and
+#                       joshua-sb3 (stable-baselines3 with torch's CPU wheel)
+#   ./setup.sh --dev    --all and what the tests need: pytest, protoc (grpcio-tools), trimesh, MJX + JAX (CPU),
 #                       Gymnasium's MuJoCo environments (the reference of bench/cpu_env_throughput.py),
-#                       the stable-baselines3 trainer (joshua-sb3, with torch's CPU wheel)
+#                       Xvfb, xwd and xdotool for the viewer tests
 # Versions come from constraints.txt. pip's cache stays inside the clone (.cache/pip).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -16,7 +16,12 @@ SYSTEM_PACKAGES=(
   libgl1 libglx-mesa0                              # GLX (Mesa, llvmpipe without a GPU): the MuJoCo viewer's OpenGL
   libx11-6 libx11-xcb1 libxcursor1 libxext6 libxi6 libxinerama1 libxrandr2 libxrender1 libxxf86vm1  # GLFW on X11
 )
-if [[ ${1:-} == --dev ]]; then
+option=${1:-}
+if [[ -n $option && $option != --all && $option != --dev ]]; then
+  echo "usage: ./setup.sh [--all | --dev]" >&2
+  exit 2
+fi
+if [[ $option == --dev ]]; then
   SYSTEM_PACKAGES+=(xvfb x11-apps xdotool)  # viewer tests: a virtual X server, xwd screenshots, closing the window
 fi
 missing=()
@@ -37,11 +42,14 @@ command -v "$PYTHON" >/dev/null || PYTHON=python3
 export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
 
 requirements=(-e . -e plugins/joshua-mujoco -e plugins/joshua-modes)
-if [[ ${1:-} == --dev ]]; then
-  requirements=(-e ".[dev]" -e plugins/joshua-mujoco -e plugins/joshua-modes -e plugins/joshua-mirror mujoco-mjx jax "gymnasium[mujoco]" -e plugins/joshua-sb3)
+if [[ -n $option ]]; then
+  requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3)
   # torch first, pinned to its CPU wheel: then stable-baselines3 finds it installed and pulls no CUDA packages
   echo "setup: installing torch (CPU) into .venv"
   .venv/bin/pip install -q -c constraints.txt torch
+fi
+if [[ $option == --dev ]]; then
+  requirements=(-e ".[dev]" "${requirements[@]:2}" mujoco-mjx jax "gymnasium[mujoco]")
 fi
 echo "setup: installing ${requirements[*]} into .venv"
 .venv/bin/pip install -q -c constraints.txt "${requirements[@]}"
