@@ -49,7 +49,7 @@ if [[ -n $option ]]; then
   .venv/bin/pip install -q -c constraints.txt torch
 fi
 if [[ $option == --dev ]]; then
-  requirements=(-e ".[dev]" "${requirements[@]:2}" mujoco-mjx jax "gymnasium[mujoco]")
+  requirements=(-e ".[dev,plots]" "${requirements[@]:2}" mujoco-mjx jax "gymnasium[mujoco]")
 fi
 echo "setup: installing ${requirements[*]} into .venv"
 .venv/bin/pip install -q -c constraints.txt "${requirements[@]}"

@@ -33,11 +33,13 @@ from pathlib import Path
 from typing import Any
 
 from joshua_core.atomic import atomic_directory, atomic_write_json
+from joshua_core.curves import write_training_curves
 from joshua_core.errors import UsageError
 
 CHECKPOINTS = "checkpoints"
 CONFIG_FILE = "config.json"
 METRICS_FILE = "metrics.json"
+CURVES_FILE = "training_curves.png"
 MANIFEST_FILE = "manifest.json"
 MODEL_FILE = "model.zip"
 NORMALIZATION_FILE = "vecnormalize.pkl"
@@ -184,6 +186,10 @@ def _untrusted_reason(checkpoint: Path, names: list[str]) -> str | None:
     return None
 
 
-def update_run_metrics(run_dir: Path, metrics: dict[str, Any]) -> None:
-    """Rewrite the run's metrics.json (atomically)."""
+def update_run_metrics(run_dir: Path, metrics: dict[str, Any], *, title: str) -> None:
+    """Rewrite the run's metrics.json and its training-curve PNG (atomically)."""
     atomic_write_json(run_dir / METRICS_FILE, metrics)
+    series = ["rollout/ep_rew_mean"] + sorted(
+        {name for record in metrics["history"] for name in record if name.startswith("metrics/")}
+    )
+    write_training_curves(metrics["history"], run_dir / CURVES_FILE, title=title, series=series)

@@ -152,7 +152,7 @@ class RunWriter:
         metrics = self.metrics_document(step)
         documents = {CONFIG_FILE: self.config_document(), METRICS_FILE: metrics}
         checkpoint = write_checkpoint(self.run_dir, step, save, documents, keep_replay_buffer=False)
-        update_run_metrics(self.run_dir, metrics)
+        update_run_metrics(self.run_dir, metrics, title=f"{self.config.task}: sb3 {self.settings.algorithm}")
         return checkpoint
 
 

@@ -16,6 +16,8 @@ import time
 import zipfile
 from pathlib import Path
 
+import matplotlib.image
+import numpy as np
 import pytest
 import torch
 
@@ -84,6 +86,8 @@ def test_run_folder_layout(trained: tuple[Path, Path]) -> None:
     for name in ("rollout/ep_rew_mean", "reward/distance", "reward/near", "reward/action_rate", "metrics/distance"):
         assert name in logged, sorted(logged)
     assert list((run_dir / "tensorboard").glob("events.out.tfevents.*"))
+    curves = matplotlib.image.imread(run_dir / "training_curves.png")  # return and distance panels
+    assert curves.shape[0] > 400 and len(np.unique(curves.reshape(-1, curves.shape[-1]), axis=0)) > 10
     steps = [int(folder.name.removeprefix("step_")) for folder in checkpoint_folders(run_dir)]
     assert steps[0] == 0 and steps[-1] == LEARNING_STEPS and steps == sorted(set(steps)) and len(steps) >= 5
     newest = checkpoint_folders(run_dir)[-1]
