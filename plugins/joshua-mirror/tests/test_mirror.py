@@ -16,6 +16,7 @@ import random
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -284,7 +285,12 @@ def test_headless_display_records_the_mirrored_motion(tmp_path: Path, ros_env: d
 
     small = ("simulation.mirror.display=RECORD", "simulation.render_width=160", "simulation.render_height=120")
     mirror = start_mirror(tmp_path, {k: v for k, v in ros_env.items() if k != "DISPLAY"}, *small)
+    assert mirror.stderr is not None
+    deadline = time.monotonic() + 30  # status lines every 0.2 s keep readline from blocking for long
+    while "display: recording to" not in (line := mirror.stderr.readline()):  # the first frame shows the start pose
+        assert line and time.monotonic() < deadline, "the mirror's display did not come up"
     publish(ros_env, float64_plan(range(0, 30, 6)))
+    time.sleep(0.5)  # frames of the final pose
     stop(mirror, tmp_path)
     video = cv2.VideoCapture(str(tmp_path / "joshua_output" / "mirror.mp4"))
     frames = []
