@@ -14,7 +14,8 @@ def test_wheels_work_from_any_directory(tmp_path: Path) -> None:
     wheels, site, elsewhere = tmp_path / "wheels", tmp_path / "site", tmp_path / "elsewhere"
     elsewhere.mkdir()
     pip = [sys.executable, "-m", "pip", "--disable-pip-version-check", "-q"]
-    sources = [str(REPO_ROOT), str(REPO_ROOT / "plugins" / "joshua-mujoco")]
+    plugins = sorted(path.parent for path in (REPO_ROOT / "plugins").glob("*/pyproject.toml"))
+    sources = [str(REPO_ROOT), *map(str, plugins)]
     subprocess.run([*pip, "wheel", "--no-deps", "--no-build-isolation", "-w", str(wheels), *sources], check=True)
     subprocess.run([*pip, "install", "--no-deps", "--target", str(site), *map(str, wheels.glob("*.whl"))], check=True)
     env = {**os.environ, "PYTHONPATH": str(site)}
@@ -44,3 +45,7 @@ def test_wheels_work_from_any_directory(tmp_path: Path) -> None:
     run = joshua("--set", "simulation.duration=0.2")
     assert run.returncode == 0, run.stderr
     assert (elsewhere / "joshua_output" / "headless_summary.json").is_file()
+    listing = joshua("plugins").stdout
+    for plugin in plugins:
+        assert f"({plugin.name} 0.1.0)  " in listing, listing  # every plugin's wheel registers its entry point
+    assert "BROKEN" not in listing and "conflict" not in listing
