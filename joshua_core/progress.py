@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from typing import TextIO
 
 from tqdm import tqdm
 
@@ -18,9 +19,25 @@ def progress_bar(total: float, *, description: str, unit: str, initial: float = 
         initial=initial,
         desc=description,
         unit=unit,
-        file=sys.stderr,
+        file=sys.stderr if interactive else _Lines(sys.stderr),
         dynamic_ncols=interactive,
         mininterval=0.2 if interactive else 5.0,
         ascii=not interactive,
         bar_format=BAR_FORMAT,
     )
+
+
+class _Lines:
+    """The stream tqdm writes to when stderr is a log, not a terminal: each refresh becomes a line of its own
+    instead of overwriting the last one with a carriage return."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+
+    def write(self, text: str) -> None:
+        for line in text.replace("\r", "\n").split("\n"):
+            if line.strip():
+                self.stream.write(line.rstrip() + "\n")
+
+    def flush(self) -> None:
+        self.stream.flush()
