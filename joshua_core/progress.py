@@ -14,7 +14,7 @@ def progress_bar(total: float, *, description: str, unit: str, initial: float = 
     """A progress bar over `total` units, starting at `initial` (e.g. a resumed run: the rate counts only new
     units); when stderr is not a terminal it prints a line every 5 s."""
     interactive = sys.stderr.isatty()
-    return tqdm(
+    return _Bar(
         total=total,
         initial=initial,
         desc=description,
@@ -25,6 +25,16 @@ def progress_bar(total: float, *, description: str, unit: str, initial: float = 
         ascii=not interactive,
         bar_format=BAR_FORMAT,
     )
+
+
+class _Bar(tqdm):
+    """A tqdm bar whose total grows when the work overshoots it (a trainer's last batch can end past the
+    requested steps), so the last line reads 100% with the true count."""
+
+    def update(self, n: float | None = 1) -> bool | None:
+        if self.total is not None and n is not None and self.n + n > self.total:
+            self.total = self.n + n
+        return super().update(n)
 
 
 class _Lines:
