@@ -15,7 +15,7 @@ import numpy as np
 
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import SimulationConfig
-from joshua_core.errors import ConfigError, JoshuaError
+from joshua_core.errors import JoshuaError
 from joshua_core.interfaces import Engine, Mode, RunContext
 from joshua_core.progress import progress_bar
 
@@ -28,10 +28,6 @@ class HeadlessMode(Mode):
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         with context.create_engine(config) as engine:
-            try:
-                engine.reset(config.keyframe or None)
-            except KeyError as error:
-                raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
             summary = simulate(engine, config.duration or DEFAULT_DURATION_S)
         summary["model_path"] = config.model_path
         summary["keyframe"] = config.keyframe

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, Protocol, Self
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from joshua_core.errors import UsageError
+from joshua_core.errors import ConfigError, UsageError
 
 if TYPE_CHECKING:
     import argparse
@@ -97,13 +97,20 @@ class RunContext:
     output_dir: Path
 
     def create_engine(self, simulation: SimulationConfig) -> Engine:
-        """Engine for a finalized simulation config, from the backend it names."""
+        """Engine for a finalized simulation config, from the backend it names, reset to the config's keyframe
+        (the model's initial state when none is named); an unknown keyframe is a ConfigError listing them."""
         backend = self.plugins.backend(simulation.backend)
-        return backend.create_engine(
+        engine = backend.create_engine(
             Path(simulation.model_path),
             render_width=simulation.render_width or 640,
             render_height=simulation.render_height or 480,
         )
+        try:
+            engine.reset(simulation.keyframe or None)
+        except KeyError as error:
+            engine.close()
+            raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
+        return engine
 
 
 class Mode(ABC):

@@ -47,10 +47,6 @@ class MirrorMode(Mode):
             ros = stack.enter_context(RosSession(options.node_name or DEFAULT_NODE_NAME))
             engine = stack.enter_context(context.create_engine(config))
             _check_mujoco(engine)
-            try:
-                engine.reset(config.keyframe or None)
-            except KeyError as error:
-                raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
             joints = resolve_joints(engine.model, config.mirror_topic_mappings.mappings, options)
             mirror = Mirror(
                 engine.model,

@@ -170,7 +170,6 @@ class OffscreenMode(Mode):
         outputs = OffscreenOutputs(context.output_dir)
         with context.create_engine(config) as engine:
             assert isinstance(engine, MuJoCoEngine)
-            _reset(engine, config.keyframe)
             renderer = FrameRenderer(
                 engine.model,
                 width,
@@ -236,11 +235,3 @@ class OffscreenMode(Mode):
 
 def _folders(outputs: OffscreenOutputs, want_png: bool, options: OffscreenOptions) -> list[tuple[Path, bool]]:
     return [(outputs.frames, want_png), (outputs.depth, options.depth), (outputs.segmentation, options.segmentation)]
-
-
-def _reset(engine: MuJoCoEngine, keyframe: str) -> None:
-    """Reset to the config's keyframe; an unknown name is a ConfigError listing the model's keyframes."""
-    try:
-        engine.reset(keyframe or None)
-    except KeyError as error:
-        raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None

@@ -46,10 +46,6 @@ class PassiveMode(Mode):
             raise ConfigError("simulation.replay.speed and simulation.viewer.fps must be positive")
         with context.create_engine(config) as engine:
             assert isinstance(engine, MuJoCoEngine)
-            try:
-                engine.reset(config.keyframe or None)
-            except KeyError as error:
-                raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
             report_path = context.output_dir / REPORT_NAME
             replayer, report = validated_replayer(
                 config, engine, report_path, refusal="not replayed because simulation.replay.strict is set (--strict)"
