@@ -18,11 +18,10 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import TracebackType
 
-import mujoco
-
 from joshua_core.errors import UsageError
 from joshua_modes.video import VideoWriter
 from joshua_mujoco import MuJoCoEngine
+from joshua_mujoco.engine import camera_id
 from joshua_mujoco.gl import has_display
 
 VIEWER_JOIN_TIMEOUT_S = 10.0
@@ -103,17 +102,6 @@ def open_display(
             raise no_display_error("the MuJoCo viewer")
         return ViewerDisplay(engine, camera=camera)
     return RecordingDisplay(engine, Path(output_dir) / f"{name}.mp4", fps=fps, camera=camera)
-
-
-def camera_id(model: mujoco.MjModel, camera: str | None) -> int:
-    """Id of the named camera; None: the model's first camera, or -1 (the free camera) if it has none."""
-    if not camera:
-        return 0 if model.ncam else -1
-    found = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
-    if found < 0:
-        names = [model.camera(i).name for i in range(model.ncam)]
-        raise UsageError(f"no camera '{camera}' in the model; cameras: {', '.join(names) or 'none'}")
-    return found
 
 
 class ViewerDisplay(Display):

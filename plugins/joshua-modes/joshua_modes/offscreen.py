@@ -23,12 +23,11 @@ from joshua_core.interfaces import Mode, RunContext
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
 from joshua_core.trajectory import read_trajectory
-from joshua_modes.display import camera_id
 from joshua_modes.replay import Replayer, model_joint_names
 from joshua_modes.validation import validate, validated_replayer
 from joshua_modes.video import VideoWriter, write_png
 from joshua_mujoco import MuJoCoEngine
-from joshua_mujoco.engine import create_renderer
+from joshua_mujoco.engine import camera_id, create_renderer
 
 DEFAULT_FPS = 30.0
 DEFAULT_DURATION_S = 5.0  # rendered when there is no trajectory: the model at its keyframe under physics

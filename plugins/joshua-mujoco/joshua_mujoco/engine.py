@@ -13,7 +13,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from numpy.typing import ArrayLike, NDArray  # noqa: E402
 
-from joshua_core.errors import ModelError  # noqa: E402
+from joshua_core.errors import ModelError, UsageError  # noqa: E402
 from joshua_core.interfaces import Backend, Engine  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
 
@@ -116,7 +116,7 @@ class MuJoCoEngine(Engine):
         """(H, W, 3) uint8 image of the current state from `camera` (default: the model's first camera,
         else the free camera)."""
         if camera is None:
-            camera = 0 if self.model.ncam else -1
+            camera = camera_id(self.model, None)
         renderer = self._renderer or self._create_renderer()
         renderer.update_scene(self.data, camera=camera)
         return renderer.render()
@@ -129,6 +129,17 @@ class MuJoCoEngine(Engine):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+def camera_id(model: mujoco.MjModel, camera: str | None) -> int:
+    """Id of the named camera; None: the model's first camera, or -1 (the free camera) if it has none."""
+    if not camera:
+        return 0 if model.ncam else -1
+    found = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
+    if found < 0:
+        names = [model.camera(i).name for i in range(model.ncam)]
+        raise UsageError(f"no camera '{camera}' in the model; cameras: {', '.join(names) or 'none'}")
+    return found
 
 
 def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:

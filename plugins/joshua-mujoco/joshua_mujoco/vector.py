@@ -29,7 +29,7 @@ from joshua_core.errors import ConfigError, ModelError  # noqa: E402
 from joshua_core.plugins import PluginHost  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
 from joshua_core.tasks import NumpyRandom, Task, TermContext, build_task, load_task_spec  # noqa: E402
-from joshua_mujoco.engine import create_renderer  # noqa: E402
+from joshua_mujoco.engine import camera_id, create_renderer  # noqa: E402
 
 _T = TypeVar("_T")
 
@@ -201,7 +201,7 @@ class BatchedSimulation:
         data = self.batch.get_data(env_index)
         mujoco.mj_forward(model, data)
         if camera is None:
-            camera = 0 if model.ncam else -1
+            camera = camera_id(model, None)
         renderer.update_scene(data, camera=camera)
         scene = renderer.scene
         for value in self.commands.values():
