@@ -1,0 +1,66 @@
+"""The `mjx` backend: models checked for MJX, and `MjxEngine`, one simulation stepped by MJX.
+
+`MjxEngine` is a `MuJoCoEngine` whose physics runs through `mujoco.mjx` (jit-compiled on the
+default JAX device); the host `MjData` is refreshed after every `step()`, so reading state,
+sensors and rendering work exactly as with the `mujoco` backend. It is the way to check a model's
+MJX behaviour against the CPU one; training uses the batched `joshua_mjx.env.MjxEnv` instead.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import jax
+import mujoco
+from mujoco import mjx
+
+from joshua_core.errors import ModelError
+from joshua_core.interfaces import Backend
+from joshua_core.resources import resolve_data_path
+from joshua_mujoco.engine import MuJoCoEngine
+
+MJX_SUFFIX = "_mjx"
+
+
+def mjx_variant(model_path: str | Path) -> Path:
+    """The model file to simulate under MJX: `NAME_mjx.xml` beside `NAME.xml` when it exists (the
+    MJX-compatible scene variant), else the file itself."""
+    path = resolve_data_path(model_path)
+    variant = path.with_name(f"{path.stem}{MJX_SUFFIX}{path.suffix}")
+    return variant if not path.stem.endswith(MJX_SUFFIX) and variant.is_file() else path
+
+
+def put_model(model: mujoco.MjModel, source: str | Path) -> mjx.Model:
+    """`mjx.put_model`, turning an MJX-unsupported feature into a ModelError that names the file and the fix."""
+    try:
+        return mjx.put_model(model)
+    except NotImplementedError as error:
+        raise ModelError(
+            f"{source}: the model uses something MJX does not support ({error}); use its MJX variant "
+            f"(e.g. models/so_arm100/scene{MJX_SUFFIX}.xml) or MJX-supported geoms and options"
+        ) from None
+
+
+class MjxEngine(MuJoCoEngine):
+    """One simulation whose `step()` runs MJX's physics (on the default JAX device)."""
+
+    def __init__(self, model_path: str | Path, *, render_width: int = 640, render_height: int = 480) -> None:
+        super().__init__(model_path, render_width=render_width, render_height=render_height)
+        self.mjx_model = put_model(self.model, model_path)
+        self._step_n = jax.jit(self._physics_steps)
+
+    def _physics_steps(self, data: mjx.Data, n: Any) -> mjx.Data:
+        return jax.lax.fori_loop(0, n, lambda _, state: mjx.step(self.mjx_model, state), data)
+
+    def step(self, n: int = 1) -> None:
+        """`n` MJX steps from the current host state; the host `data` then holds the result."""
+        stepped = self._step_n(mjx.put_data(self.model, self.data), n)
+        mjx.get_data_into(self.data, self.model, stepped)
+
+
+class MjxBackend(Backend):
+    """The `mjx` backend: an `MjxEngine` per model (the batched environments are in joshua_mjx.env)."""
+
+    def create_engine(self, model_path: Path, *, render_width: int = 640, render_height: int = 480) -> MjxEngine:
+        return MjxEngine(model_path, render_width=render_width, render_height=render_height)

@@ -1,0 +1,297 @@
+"""Batched, functional JOSHUA task environments on MJX: `reset(key) -> state`, `step(state, action) -> state`.
+
+Both are pure JAX functions of N environments at once: jit them, `lax.scan` over them, or call them
+inside `jax.shard_map` on each device's slice of the environments (`step` takes its batch size from
+the state). The task's terms run on `jax.numpy` through the same `TermContext` the CPU backend fills
+with numpy, so rewards and observations match the `mujoco` backend's.
+
+- Autoreset: an environment whose episode ended (terminated or truncated) starts a new one within
+  the same `step`, from fresh randomised reset terms; `state.final_observation` keeps the last
+  observation of the ended episode (for bootstrapping truncated episodes), `state.episode` its
+  return, length, per-term reward sums and final metrics.
+- A simulation whose state becomes non-finite is terminated with zero reward, never propagated.
+- `MjxEnv.sharding` spreads the environments over every visible device (`jax.sharding`);
+  `reset` returns a state laid out that way.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+from jax.sharding import Mesh, NamedSharding, PartitionSpec
+from mujoco import mjx
+
+from joshua_core.errors import ConfigError
+from joshua_core.plugins import PluginHost
+from joshua_core.resources import resolve_data_path
+from joshua_core.tasks import Task, TermContext, build_task, load_task_spec
+from joshua_mjx.engine import mjx_variant, put_model
+from joshua_mujoco.engine import compile_model
+
+ENV_AXIS = "envs"  # name of the device-mesh axis the environments are spread over
+# Context fields that must describe the state after the step: kinematics are recomputed at its end.
+_KINEMATIC_FIELDS = frozenset({"xpos", "xquat", "site_xpos"})
+
+
+class Episode(NamedTuple):
+    """Statistics of the episodes that ended on this step; entries are valid where `done`."""
+
+    done: jax.Array  # (N,) bool
+    return_: jax.Array  # (N,) undiscounted return
+    length: jax.Array  # (N,) steps
+    reward_terms: dict[str, jax.Array]  # per reward term, the weighted sum over the episode
+    metrics: dict[str, jax.Array]  # the task's metrics on the episode's last step
+
+
+class EnvState(NamedTuple):
+    """N environments after a reset or a step; every array has the environments on its leading axis."""
+
+    data: mjx.Data
+    observation: jax.Array  # (N, obs) float32: what the policy sees next (a new episode's first one after autoreset)
+    reward: jax.Array  # (N,) float32 reward of the last step
+    terminated: jax.Array  # (N,) bool: the last step ended the episode (task termination or a non-finite state)
+    truncated: jax.Array  # (N,) bool: the last step reached the episode length
+    final_observation: jax.Array  # (N, obs) the last step's observation before any autoreset
+    action: jax.Array  # (N, nu) the last clipped action (zero after a reset)
+    episode_step: jax.Array  # (N,) int32 steps taken in the current episode
+    commands: dict[str, jax.Array]  # task commands (targets, goals) of the current episode
+    running_return: jax.Array  # (N,) return of the current episode so far
+    running_terms: dict[str, jax.Array]  # per reward term, the current episode's weighted sum so far
+    reward_terms: dict[str, jax.Array]  # per reward term, its weighted value on the last step
+    episode: Episode
+    key: jax.Array  # (N, 2) uint32 random keys of the reset terms, one per environment
+
+
+class MjxEnv:
+    """A task on `num_envs` MJX simulations; see the module docstring."""
+
+    def __init__(self, task: Task, model: mujoco.MjModel, num_envs: int, *, source: str | Path = "<model>") -> None:
+        if num_envs < 1:
+            raise ConfigError(f"num_envs must be at least 1, got {num_envs}")
+        devices = jax.devices()
+        if num_envs % len(devices):
+            raise ConfigError(
+                f"num_envs {num_envs} must be a multiple of the {len(devices)} devices it is spread over "
+                f"({', '.join(str(device) for device in devices)})"
+            )
+        self.task = task
+        self.model = model
+        self.num_envs = num_envs
+        self.mjx_model = put_model(model, source)
+        self.mesh = Mesh(np.array(devices), (ENV_AXIS,))
+        self.sharding = NamedSharding(self.mesh, PartitionSpec(ENV_AXIS))
+        self.replicated = NamedSharding(self.mesh, PartitionSpec())
+        self.observation_size = task.observation_size
+        self.action_size = task.action_size
+        self._contact_forces = "cfrc_ext" in task.fields
+        self._kinematics_after_step = bool(_KINEMATIC_FIELDS & task.fields)
+        initial = mujoco.MjData(model)
+        if task.keyframe_id >= 0:
+            mujoco.mj_resetDataKeyframe(model, initial, task.keyframe_id)
+        self._initial_data = mjx.put_data(model, initial)
+        self.reset = jax.jit(self._reset, out_shardings=self.sharding)
+        self.step = jax.jit(self._step)
+
+    # --- the functional API -------------------------------------------------------------------
+
+    def _reset(self, key: jax.Array) -> EnvState:
+        """Every environment at the start of a fresh episode (reset terms drawn from `key`)."""
+        keys = jax.random.split(key, self.num_envs)
+        keys, draw = _split_each(keys)
+        data, commands = self._fresh_episodes(draw, self.num_envs)
+        n = self.num_envs
+        zeros = jnp.zeros(n, jnp.float32)
+        action = jnp.zeros((n, self.action_size), jnp.float32)
+        episode_step = jnp.zeros(n, jnp.int32)
+        observation = self._observe(data, data.qpos, action, action, episode_step, commands)
+        term_zeros = {term.name: zeros for term in self.task.reward_terms}
+        return EnvState(
+            data=data,
+            observation=observation,
+            reward=zeros,
+            terminated=jnp.zeros(n, bool),
+            truncated=jnp.zeros(n, bool),
+            final_observation=observation,
+            action=action,
+            episode_step=episode_step,
+            commands=commands,
+            running_return=zeros,
+            running_terms=term_zeros,
+            reward_terms=term_zeros,
+            episode=Episode(
+                done=jnp.zeros(n, bool),
+                return_=zeros,
+                length=episode_step,
+                reward_terms=term_zeros,
+                metrics={term.name: zeros for term in self.task.metric_terms},
+            ),
+            key=keys,
+        )
+
+    def _step(self, state: EnvState, action: jax.Array) -> EnvState:
+        """Apply `action` (N, nu; clipped to [-1, 1]), advance frame_skip physics steps, evaluate the task,
+        and start a new episode wherever one ended."""
+        task, n = self.task, state.observation.shape[0]
+        action = jnp.clip(action.astype(jnp.float32), -1.0, 1.0)
+        data = state.data.replace(ctrl=task.action_to_ctrl(jnp, action).astype(state.data.ctrl.dtype))
+        data = jax.lax.fori_loop(0, task.frame_skip, lambda _, d: jax.vmap(mjx.step, (None, 0))(self.mjx_model, d), data)
+        if self._kinematics_after_step:
+            data = jax.vmap(mjx.kinematics, (None, 0))(self.mjx_model, data)
+        if self._contact_forces:
+            data = jax.vmap(mjx.rne_postconstraint, (None, 0))(self.mjx_model, data)
+        episode_step = state.episode_step + 1
+        ctx = self._context(data, state.data.qpos, action, state.action, episode_step, state.commands)
+        finite = jnp.isfinite(data.qpos).all(axis=1) & jnp.isfinite(data.qvel).all(axis=1)
+        total, weighted = task.rewards(ctx)
+        reward = jnp.where(finite, total, 0.0).astype(jnp.float32)
+        reward_terms = {name: jnp.where(finite, value, 0.0).astype(jnp.float32) for name, value in weighted.items()}
+        terminated = task.terminated(ctx) | ~finite
+        truncated = (episode_step >= task.episode_length) & ~terminated
+        done = terminated | truncated
+        final_observation = jnp.nan_to_num(task.observe(ctx).astype(jnp.float32), posinf=0.0, neginf=0.0)
+        running_return = state.running_return + reward
+        running_terms = {name: state.running_terms[name] + value for name, value in reward_terms.items()}
+        episode = Episode(
+            done=done,
+            return_=running_return,
+            length=episode_step,
+            reward_terms=running_terms,
+            metrics={name: value.astype(jnp.float32) for name, value in task.metrics(ctx).items()},
+        )
+
+        # Autoreset: fresh episodes are computed only on steps where some environment needs one.
+        keys, draw = _split_each(state.key)
+        fresh_data, fresh_commands = jax.lax.cond(
+            done.any(), lambda: self._fresh_episodes(draw, n), lambda: (data, state.commands)
+        )
+        data = _where_env(done, fresh_data, data)
+        commands = _where_env(done, fresh_commands, state.commands)
+        action = jnp.where(done[:, None], 0.0, action)
+        previous_action = jnp.where(done[:, None], 0.0, state.action)
+        episode_step = jnp.where(done, 0, episode_step)
+        previous_qpos = jnp.where(done[:, None], data.qpos, state.data.qpos)
+        observation = self._observe(data, previous_qpos, action, previous_action, episode_step, commands)
+        return EnvState(
+            data=data,
+            observation=observation,
+            reward=reward,
+            terminated=terminated,
+            truncated=truncated,
+            final_observation=final_observation,
+            action=action,
+            episode_step=episode_step,
+            commands=commands,
+            running_return=jnp.where(done, 0.0, running_return),
+            running_terms={name: jnp.where(done, 0.0, value) for name, value in running_terms.items()},
+            reward_terms=reward_terms,
+            episode=episode,
+            key=keys,
+        )
+
+    # --- pieces -------------------------------------------------------------------------------
+
+    def _fresh_episodes(self, keys: jax.Array, n: int) -> tuple[mjx.Data, dict[str, jax.Array]]:
+        """n new episodes: the task's initial state with its reset terms applied, forward kinematics done."""
+        task = self.task
+        ctx = task.reset(task.reset_context(jnp, n, _PerEnvRandom(keys)))
+        data = jax.tree.map(lambda leaf: jnp.broadcast_to(leaf, (n, *jnp.shape(leaf))), self._initial_data)
+        dtype = data.qpos.dtype
+        data = data.replace(
+            qpos=ctx.qpos.astype(dtype),
+            qvel=ctx.qvel.astype(dtype),
+            ctrl=jnp.broadcast_to(jnp.asarray(task.initial_ctrl, dtype), data.ctrl.shape),
+        )
+        data = jax.vmap(mjx.forward, (None, 0))(self.mjx_model, data)
+        if self._contact_forces:
+            data = jax.vmap(mjx.rne_postconstraint, (None, 0))(self.mjx_model, data)
+        return data, {name: value.astype(jnp.float32) for name, value in ctx.commands.items()}
+
+    def _context(
+        self,
+        data: mjx.Data,
+        previous_qpos: jax.Array,
+        action: jax.Array,
+        previous_action: jax.Array,
+        episode_step: jax.Array,
+        commands: dict[str, jax.Array],
+    ) -> TermContext:
+        fields = self.task.fields
+        derived = {name: getattr(data, name) for name in ("xpos", "xquat", "site_xpos", "sensordata") if name in fields}
+        if self._contact_forces:
+            derived["cfrc_ext"] = data._impl.cfrc_ext  # MJX keeps backend-specific fields in `_impl`
+        return TermContext(
+            xp=jnp,
+            dt=self.task.dt,
+            qpos=data.qpos,
+            qvel=data.qvel,
+            prev_qpos=previous_qpos,
+            action=action,
+            prev_action=previous_action,
+            episode_step=episode_step,
+            commands=commands,
+            **derived,
+        )
+
+    def _observe(self, data: mjx.Data, *context: Any) -> jax.Array:
+        observation = self.task.observe(self._context(data, *context)).astype(jnp.float32)
+        return jnp.nan_to_num(observation, posinf=0.0, neginf=0.0)
+
+
+class _PerEnvRandom:
+    """A RandomSource with one key per environment (not one for the batch), so that each device draws
+    for its own slice of the environments and an environment's draws do not depend on the batch size."""
+
+    def __init__(self, keys: jax.Array) -> None:
+        self.keys = keys
+
+    def _draw(self, shape: tuple[int, ...], sample: Any) -> jax.Array:
+        self.keys, subkeys = _split_each(self.keys)
+        return jax.vmap(lambda key: sample(key, shape[1:]))(subkeys)
+
+    def uniform(self, shape: tuple[int, ...], low: Any = 0.0, high: Any = 1.0) -> jax.Array:
+        unit = self._draw(shape, lambda key, s: jax.random.uniform(key, s))
+        return low + (jnp.asarray(high) - low) * unit
+
+    def normal(self, shape: tuple[int, ...]) -> jax.Array:
+        return self._draw(shape, lambda key, s: jax.random.normal(key, s))
+
+
+def _split_each(keys: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Split every environment's key: (the keys to keep, fresh subkeys to draw from)."""
+    pairs = jax.vmap(jax.random.split)(keys)
+    return pairs[:, 0], pairs[:, 1]
+
+
+def _where_env(mask: jax.Array, new: Any, old: Any) -> Any:
+    """`new` where `mask` (N,) is set, else `old`, leaf by leaf along the leading environment axis."""
+
+    def pick(a: jax.Array, b: jax.Array) -> jax.Array:
+        return jnp.where(mask.reshape(mask.shape + (1,) * (jnp.ndim(a) - 1)), a, b)
+
+    return jax.tree.map(pick, new, old)
+
+
+def make_mjx_env(
+    task: str,
+    num_envs: int,
+    *,
+    model_path: str | Path | None = None,
+    plugins: PluginHost | None = None,
+    task_config: Any = None,
+) -> MjxEnv:
+    """An MjxEnv of `num_envs` copies of the registered `task`.
+
+    `model_path` replaces the task's model; without it the task's model is used, or rather its MJX
+    variant (`scene_mjx.xml` beside `scene.xml`) when there is one. `task_config` is a `joshua.TaskConfig`.
+    """
+    host = plugins or PluginHost.discover()
+    spec = load_task_spec(task, host)
+    path = resolve_data_path(model_path) if model_path else mjx_variant(spec.model_path)
+    model = compile_model(path)
+    built = build_task(spec, model, host, task_config)
+    return MjxEnv(built, model, num_envs, source=path)

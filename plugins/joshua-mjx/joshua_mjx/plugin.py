@@ -1,0 +1,13 @@
+"""Entry point of joshua-mjx: registers the `mjx` backend. Imports nothing heavy (no jax, no mujoco)."""
+
+from __future__ import annotations
+
+from joshua_core import hookimpl
+from joshua_core.plugins import Registrar
+
+
+@hookimpl
+def joshua_register_backends(registry: Registrar) -> None:
+    registry.add(
+        "mjx", "joshua_mjx.engine:MjxBackend", "MuJoCo XLA (JAX): batched task environments on every GPU, or the CPU"
+    )
