@@ -205,7 +205,7 @@ class TopicMapping(_message.Message):
     def __init__(self, ros_topic: _Optional[str] = ..., mujoco_actuator: _Optional[str] = ..., offset: _Optional[float] = ...) -> None: ...
 
 class TrainingConfig(_message.Message):
-    __slots__ = ("framework", "model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "task_config", "nthread", "sb3")
+    __slots__ = ("framework", "model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "task_config", "nthread", "sb3", "ppo")
     class Framework(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         MJX: _ClassVar[TrainingConfig.Framework]
@@ -231,6 +231,7 @@ class TrainingConfig(_message.Message):
     TASK_CONFIG_FIELD_NUMBER: _ClassVar[int]
     NTHREAD_FIELD_NUMBER: _ClassVar[int]
     SB3_FIELD_NUMBER: _ClassVar[int]
+    PPO_FIELD_NUMBER: _ClassVar[int]
     framework: TrainingConfig.Framework
     model_path: str
     num_envs: int
@@ -250,7 +251,48 @@ class TrainingConfig(_message.Message):
     task_config: TaskConfig
     nthread: int
     sb3: Sb3Options
-    def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., nthread: _Optional[int] = ..., sb3: _Optional[_Union[Sb3Options, _Mapping]] = ...) -> None: ...
+    ppo: PpoOptions
+    def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., nthread: _Optional[int] = ..., sb3: _Optional[_Union[Sb3Options, _Mapping]] = ..., ppo: _Optional[_Union[PpoOptions, _Mapping]] = ...) -> None: ...
+
+class PpoOptions(_message.Message):
+    __slots__ = ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "entropy_coef", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "disable_observation_normalization", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs")
+    class Viewer(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        AUTO: _ClassVar[PpoOptions.Viewer]
+        OFF: _ClassVar[PpoOptions.Viewer]
+        ON: _ClassVar[PpoOptions.Viewer]
+    AUTO: PpoOptions.Viewer
+    OFF: PpoOptions.Viewer
+    ON: PpoOptions.Viewer
+    RUN_NAME_FIELD_NUMBER: _ClassVar[int]
+    RESUME_FIELD_NUMBER: _ClassVar[int]
+    CHECKPOINT_INTERVAL_FIELD_NUMBER: _ClassVar[int]
+    HIDDEN_SIZES_FIELD_NUMBER: _ClassVar[int]
+    ENTROPY_COEF_FIELD_NUMBER: _ClassVar[int]
+    REWARD_SCALING_FIELD_NUMBER: _ClassVar[int]
+    UNROLLS_PER_ITERATION_FIELD_NUMBER: _ClassVar[int]
+    MAX_GRAD_NORM_FIELD_NUMBER: _ClassVar[int]
+    DISABLE_OBSERVATION_NORMALIZATION_FIELD_NUMBER: _ClassVar[int]
+    VALUE_COEF_FIELD_NUMBER: _ClassVar[int]
+    VIDEO_INTERVAL_FIELD_NUMBER: _ClassVar[int]
+    VIDEO_STEPS_FIELD_NUMBER: _ClassVar[int]
+    VIEWER_FIELD_NUMBER: _ClassVar[int]
+    VIEWER_ENVS_FIELD_NUMBER: _ClassVar[int]
+    run_name: str
+    resume: bool
+    checkpoint_interval: int
+    hidden_sizes: _containers.RepeatedScalarFieldContainer[int]
+    entropy_coef: float
+    reward_scaling: float
+    unrolls_per_iteration: int
+    max_grad_norm: float
+    disable_observation_normalization: bool
+    value_coef: float
+    video_interval: int
+    video_steps: int
+    viewer: PpoOptions.Viewer
+    viewer_envs: int
+    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., entropy_coef: _Optional[float] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., disable_observation_normalization: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ...) -> None: ...
 
 class Sb3Options(_message.Message):
     __slots__ = ("algorithm", "run_name", "resume", "checkpoint_interval", "hidden_sizes", "disable_normalization", "entropy_coef", "trust_checkpoint")

@@ -1,0 +1,11 @@
+"""Entry point of joshua-ppo: registers the `ppo` trainer. Imports nothing heavy (no jax, flax or mujoco)."""
+
+from __future__ import annotations
+
+from joshua_core import hookimpl
+from joshua_core.plugins import Registrar
+
+
+@hookimpl
+def joshua_register_trainers(registry: Registrar) -> None:
+    registry.add("ppo", "joshua_ppo.trainer:PpoTrainer", "PPO in JAX/Flax on MJX: thousands of environments per GPU")

@@ -1,0 +1,468 @@
+"""PPO in JAX/Flax/Optax on a functional batched environment (`joshua_mjx.env.MjxEnv`).
+
+One training iteration (collect `unrolls_per_iteration` unrolls of `num_steps` steps in every
+environment, update the observation normaliser, compute GAE, then `num_epochs` passes of
+minibatch gradient steps) is a single compiled function: no Python runs per environment step.
+It runs under `jax.shard_map` over the environment's device mesh: each device steps its slice of
+the environments and learns from its slice of every minibatch, and the gradients, normaliser
+statistics and logged metrics are averaged across devices, so N GPUs act as one N times larger.
+
+`train_ppo` is the whole algorithm: settings in four groups, a seed, and callbacks for progress
+and checkpoints. The trainer plugin (`joshua_ppo.trainer`) adds configs, run folders and monitoring.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optax
+from jax.sharding import PartitionSpec
+
+from joshua_core.errors import ConfigError, JoshuaError
+from joshua_mjx.env import ENV_AXIS, EnvState, MjxEnv
+from joshua_ppo.networks import ActorCritic, gaussian_entropy, gaussian_log_prob
+
+OBSERVATION_CLIP = 10.0  # normalised observations are clipped to +-this
+
+
+@dataclass(frozen=True)
+class RolloutSettings:
+    """How much experience one iteration collects: num_envs x num_steps x unrolls_per_iteration transitions."""
+
+    num_envs: int = 2048
+    num_steps: int = 10  # unroll length: steps per environment between bootstraps
+    unrolls_per_iteration: int = 1
+
+
+@dataclass(frozen=True)
+class OptimizationSettings:
+    """The PPO update."""
+
+    num_epochs: int = 4
+    minibatch_size: int = 256  # transitions per gradient step (all devices together)
+    learning_rate: float = 3e-4
+    clip_epsilon: float = 0.2
+    entropy_coef: float = 0.0
+    value_coef: float = 0.5
+    max_grad_norm: float | None = 1.0
+
+
+@dataclass(frozen=True)
+class ReturnSettings:
+    """Returns and advantages."""
+
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    reward_scaling: float = 1.0  # rewards are multiplied by this for learning; reported returns are unscaled
+
+
+@dataclass(frozen=True)
+class NetworkSettings:
+    """The actor-critic network and its input."""
+
+    hidden_sizes: tuple[int, ...] = (256, 256)
+    normalize_observations: bool = True
+
+
+class RunningStatistics(NamedTuple):
+    """Running mean and variance of observations (Chan et al.'s parallel update)."""
+
+    count: jax.Array
+    mean: jax.Array
+    variance: jax.Array
+
+
+class TrainingState(NamedTuple):
+    """Everything one iteration changes: parameters, optimiser, normaliser, environments, random key."""
+
+    params: Any
+    opt_state: Any
+    normalizer: RunningStatistics
+    env_state: EnvState
+    key: jax.Array
+
+
+class Progress(NamedTuple):
+    """Counters that live outside the compiled iteration (and in checkpoints)."""
+
+    iteration: int
+    env_steps: int
+
+
+@dataclass
+class IterationReport:
+    """What one iteration did: counters, timing, and its metrics as Python floats.
+
+    metrics: `mean_return` and `mean_length` of the episodes that ended in this iteration
+    (`episodes` of them; NaN when none), `reward/<term>` episode sums, `metrics/<name>` on the
+    episodes' last steps, and the losses (`loss`, `policy_loss`, `value_loss`, `entropy`,
+    `approx_kl`, `clip_fraction`).
+    """
+
+    iteration: int
+    env_steps: int
+    total_steps: int
+    iteration_seconds: float
+    steps_per_second: float
+    wall_seconds: float
+    compile_seconds: float
+    metrics: dict[str, float] = field(default_factory=dict)
+
+
+class TrainingDiverged(JoshuaError):
+    """A loss or parameter became NaN or infinite; training stopped before writing anything from that state."""
+
+
+ProgressCallback = Callable[[IterationReport, TrainingState], None]
+CheckpointCallback = Callable[[TrainingState, Progress, IterationReport | None], None]
+
+
+def check_settings(rollout: RolloutSettings, optimization: OptimizationSettings, devices: int) -> int:
+    """Validate the batch arithmetic; returns the number of minibatches per epoch."""
+    for name, value in (
+        ("num_envs", rollout.num_envs),
+        ("num_steps", rollout.num_steps),
+        ("unrolls_per_iteration", rollout.unrolls_per_iteration),
+        ("num_epochs", optimization.num_epochs),
+        ("minibatch_size", optimization.minibatch_size),
+    ):
+        if value < 1:
+            raise ConfigError(f"PPO setting {name} must be at least 1, got {value}")
+    batch = rollout.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
+    if batch % optimization.minibatch_size:
+        raise ConfigError(
+            f"minibatch_size {optimization.minibatch_size} must divide the iteration's "
+            f"num_envs x num_steps x unrolls_per_iteration = {batch} transitions"
+        )
+    if optimization.minibatch_size % devices:
+        raise ConfigError(f"minibatch_size {optimization.minibatch_size} must be a multiple of the {devices} devices")
+    return batch // optimization.minibatch_size
+
+
+def make_network(env: MjxEnv, network: NetworkSettings) -> ActorCritic:
+    return ActorCritic(action_dim=env.action_size, hidden_sizes=tuple(network.hidden_sizes))
+
+
+def make_optimizer(optimization: OptimizationSettings) -> optax.GradientTransformation:
+    adam = optax.adam(optimization.learning_rate)
+    if optimization.max_grad_norm is None:
+        return adam
+    return optax.chain(optax.clip_by_global_norm(optimization.max_grad_norm), adam)
+
+
+def normalize(stats: RunningStatistics, observation: jax.Array, enabled: bool) -> jax.Array:
+    """Observations scaled by the running statistics and clipped (unchanged when normalisation is off)."""
+    if not enabled:
+        return observation
+    scaled = (observation - stats.mean) / jnp.sqrt(stats.variance + 1e-8)
+    return jnp.clip(scaled, -OBSERVATION_CLIP, OBSERVATION_CLIP)
+
+
+def init_state(
+    env: MjxEnv, *, seed: int, network: NetworkSettings, optimization: OptimizationSettings
+) -> TrainingState:
+    """Fresh parameters, optimiser and normaliser, and freshly reset environments."""
+    key = jax.random.PRNGKey(seed)
+    key, init_key, reset_key = jax.random.split(key, 3)
+    params = make_network(env, network).init(init_key, jnp.zeros((1, env.observation_size)))["params"]
+    size = env.observation_size
+    normalizer = RunningStatistics(jnp.zeros((), jnp.float32), jnp.zeros(size), jnp.ones(size))
+    state = TrainingState(params, make_optimizer(optimization).init(params), normalizer, env.reset(reset_key), key)
+    return jax.device_put(state, _state_shardings(env, state))
+
+
+def _state_shardings(env: MjxEnv, state: TrainingState) -> TrainingState:
+    replicated = lambda tree: jax.tree.map(lambda _: env.replicated, tree)  # noqa: E731
+    return TrainingState(
+        params=replicated(state.params),
+        opt_state=replicated(state.opt_state),
+        normalizer=replicated(state.normalizer),
+        env_state=jax.tree.map(lambda _: env.sharding, state.env_state),
+        key=env.replicated,
+    )
+
+
+class _Transition(NamedTuple):
+    observation: jax.Array
+    action: jax.Array
+    log_prob: jax.Array
+    value: jax.Array
+    reward: jax.Array
+    terminated: jax.Array
+    truncated: jax.Array
+    final_value: jax.Array
+
+
+class _Sample(NamedTuple):
+    observation: jax.Array
+    action: jax.Array
+    log_prob: jax.Array
+    advantage: jax.Array
+    target: jax.Array
+
+
+def make_iteration(
+    env: MjxEnv,
+    *,
+    rollout: RolloutSettings,
+    optimization: OptimizationSettings,
+    returns: ReturnSettings,
+    network: NetworkSettings,
+) -> Callable[[TrainingState], tuple[TrainingState, dict[str, jax.Array]]]:
+    """The compiled training iteration: state -> (next state, metrics as scalars)."""
+    devices = env.mesh.size
+    num_minibatches = check_settings(rollout, optimization, devices)
+    local_minibatch = optimization.minibatch_size // devices
+    net = make_network(env, network)
+    optimizer = make_optimizer(optimization)
+    normalizing = network.normalize_observations
+    reward_terms = [term.name for term in env.task.reward_terms]
+    metric_terms = [term.name for term in env.task.metric_terms]
+
+    def apply(params: Any, stats: RunningStatistics, observation: jax.Array) -> tuple[jax.Array, ...]:
+        return net.apply({"params": params}, normalize(stats, observation, normalizing))
+
+    def env_step(
+        carry: tuple[EnvState, Any, RunningStatistics], key: jax.Array
+    ) -> tuple[tuple[EnvState, Any, RunningStatistics], tuple[_Transition, dict[str, jax.Array]]]:
+        env_state, params, stats = carry
+        mean, log_std, value = apply(params, stats, env_state.observation)
+        action = mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape)
+        next_state = env.step(env_state, action)
+        _, _, final_value = apply(params, stats, next_state.final_observation)
+        transition = _Transition(
+            observation=env_state.observation,
+            action=action,
+            log_prob=gaussian_log_prob(action, mean, log_std),
+            value=value,
+            reward=next_state.reward * returns.reward_scaling,
+            terminated=next_state.terminated,
+            truncated=next_state.truncated,
+            final_value=final_value,
+        )
+        return (next_state, params, stats), (transition, _episode_sums(next_state, reward_terms, metric_terms))
+
+    def advantages(transitions: _Transition, last_value: jax.Array) -> tuple[jax.Array, jax.Array]:
+        """GAE over one unroll (time-major); the trace is cut where an episode ended."""
+        next_values = jnp.concatenate([transitions.value[1:], last_value[None]], axis=0)
+        bootstrap = jnp.where(
+            transitions.truncated, transitions.final_value, jnp.where(transitions.terminated, 0.0, next_values)
+        )
+        deltas = transitions.reward + returns.gamma * bootstrap - transitions.value
+        continues = 1.0 - (transitions.terminated | transitions.truncated).astype(jnp.float32)
+
+        def backward(carry: jax.Array, step: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
+            delta, cont = step
+            advantage = delta + returns.gamma * returns.gae_lambda * cont * carry
+            return advantage, advantage
+
+        _, advantage = jax.lax.scan(backward, jnp.zeros_like(last_value), (deltas, continues), reverse=True)
+        return advantage, advantage + transitions.value
+
+    def unroll(
+        carry: tuple[EnvState, Any, RunningStatistics], key: jax.Array
+    ) -> tuple[tuple[EnvState, Any, RunningStatistics], tuple[_Sample, dict[str, jax.Array]]]:
+        carry, (transitions, sums) = jax.lax.scan(env_step, carry, jax.random.split(key, rollout.num_steps))
+        env_state, params, stats = carry
+        _, _, last_value = apply(params, stats, env_state.observation)
+        advantage, target = advantages(transitions, last_value)
+        sample = _Sample(transitions.observation, transitions.action, transitions.log_prob, advantage, target)
+        return carry, (sample, jax.tree.map(lambda x: x.sum(axis=0), sums))
+
+    def loss_fn(params: Any, stats: RunningStatistics, batch: _Sample) -> tuple[jax.Array, dict[str, jax.Array]]:
+        mean, log_std, value = apply(params, stats, batch.observation)
+        log_prob = gaussian_log_prob(batch.action, mean, log_std)
+        log_ratio = log_prob - batch.log_prob
+        ratio = jnp.exp(log_ratio)
+        advantage = (batch.advantage - batch.advantage.mean()) / (batch.advantage.std() + 1e-8)
+        clipped = jnp.clip(ratio, 1.0 - optimization.clip_epsilon, 1.0 + optimization.clip_epsilon)
+        policy_loss = -jnp.minimum(ratio * advantage, clipped * advantage).mean()
+        value_loss = 0.5 * jnp.square(value - batch.target).mean()
+        entropy = gaussian_entropy(log_std).mean()
+        loss = policy_loss + optimization.value_coef * value_loss - optimization.entropy_coef * entropy
+        return loss, {
+            "loss": loss,
+            "policy_loss": policy_loss,
+            "value_loss": value_loss,
+            "entropy": entropy,
+            "approx_kl": ((ratio - 1.0) - log_ratio).mean(),
+            "clip_fraction": (jnp.abs(ratio - 1.0) > optimization.clip_epsilon).mean(),
+        }
+
+    def gradient_step(
+        carry: tuple[Any, Any, RunningStatistics], batch: _Sample
+    ) -> tuple[tuple[Any, Any, RunningStatistics], dict[str, jax.Array]]:
+        params, opt_state, stats = carry
+        grads, losses = jax.grad(loss_fn, has_aux=True)(params, stats, batch)
+        grads = jax.lax.pmean(grads, ENV_AXIS)
+        updates, opt_state = optimizer.update(grads, opt_state, params)
+        return (optax.apply_updates(params, updates), opt_state, stats), losses
+
+    def epoch(
+        carry: tuple[Any, Any, RunningStatistics], key: jax.Array, samples: _Sample
+    ) -> tuple[tuple[Any, Any, RunningStatistics], dict[str, jax.Array]]:
+        order = jax.random.permutation(key, samples.advantage.shape[0])
+        minibatches = jax.tree.map(
+            lambda x: x[order].reshape(num_minibatches, local_minibatch, *x.shape[1:]), samples
+        )
+        return jax.lax.scan(gradient_step, carry, minibatches)
+
+    def local_iteration(
+        params: Any, opt_state: Any, stats: RunningStatistics, env_state: EnvState, key: jax.Array
+    ) -> tuple[Any, Any, RunningStatistics, EnvState, dict[str, jax.Array]]:
+        key = jax.random.fold_in(key, jax.lax.axis_index(ENV_AXIS))
+        rollout_key, epoch_key = jax.random.split(key)
+        (env_state, _, _), (samples, sums) = jax.lax.scan(
+            unroll, (env_state, params, stats), jax.random.split(rollout_key, rollout.unrolls_per_iteration)
+        )
+        samples = jax.tree.map(lambda x: x.reshape(-1, *x.shape[3:]), samples)  # (unrolls * steps * envs, ...)
+        if normalizing:
+            stats = _update_statistics(stats, samples.observation)
+        (params, opt_state, _), losses = jax.lax.scan(
+            lambda carry, key: epoch(carry, key, samples),
+            (params, opt_state, stats),
+            jax.random.split(epoch_key, optimization.num_epochs),
+        )
+        metrics = _episode_metrics(jax.tree.map(lambda x: jax.lax.psum(x.sum(), ENV_AXIS), sums))
+        metrics |= {name: jax.lax.pmean(value.mean(), ENV_AXIS) for name, value in losses.items()}
+        leaves = jax.tree.leaves(params)
+        metrics["params_finite"] = jnp.all(jnp.stack([jnp.isfinite(leaf).all() for leaf in leaves]))
+        return params, opt_state, stats, env_state, metrics
+
+    sharded = jax.shard_map(
+        local_iteration,
+        mesh=env.mesh,
+        in_specs=(PartitionSpec(), PartitionSpec(), PartitionSpec(), PartitionSpec(ENV_AXIS), PartitionSpec()),
+        out_specs=(PartitionSpec(), PartitionSpec(), PartitionSpec(), PartitionSpec(ENV_AXIS), PartitionSpec()),
+        check_vma=False,
+    )
+
+    def iteration(state: TrainingState) -> tuple[TrainingState, dict[str, jax.Array]]:
+        key, iteration_key = jax.random.split(state.key)
+        params, opt_state, stats, env_state, metrics = sharded(
+            state.params, state.opt_state, state.normalizer, state.env_state, iteration_key
+        )
+        return TrainingState(params, opt_state, stats, env_state, key), metrics
+
+    return jax.jit(iteration, donate_argnums=0)
+
+
+def _episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[str]) -> dict[str, jax.Array]:
+    """Per-environment sums of the statistics of the episodes that ended on this step."""
+    episode = state.episode
+    done = episode.done.astype(jnp.float32)
+    sums = {"episodes": done, "return": episode.return_ * done, "length": episode.length * done}
+    sums |= {f"reward/{name}": episode.reward_terms[name] * done for name in reward_terms}
+    sums |= {f"metrics/{name}": episode.metrics[name] * done for name in metric_terms}
+    return sums
+
+
+def _episode_metrics(sums: dict[str, jax.Array]) -> dict[str, jax.Array]:
+    """Means over the ended episodes (NaN when none ended)."""
+    count = sums.pop("episodes")
+    means = {name: value / count for name, value in sums.items()}
+    means["mean_return"], means["mean_length"] = means.pop("return"), means.pop("length")
+    return {"episodes": count, **means}
+
+
+def _update_statistics(stats: RunningStatistics, observations: jax.Array) -> RunningStatistics:
+    """Merge this iteration's observations (from every device) into the running statistics."""
+    batch_count = jax.lax.psum(jnp.asarray(observations.shape[0], jnp.float32), ENV_AXIS)
+    batch_mean = jax.lax.psum(observations.sum(axis=0), ENV_AXIS) / batch_count
+    batch_variance = jax.lax.psum(jnp.square(observations - batch_mean).sum(axis=0), ENV_AXIS) / batch_count
+    total = stats.count + batch_count
+    delta = batch_mean - stats.mean
+    mean = stats.mean + delta * batch_count / total
+    m2 = stats.variance * stats.count + batch_variance * batch_count + jnp.square(delta) * stats.count * batch_count / total
+    return RunningStatistics(total, mean, m2 / total)
+
+
+def train_ppo(
+    env: MjxEnv,
+    *,
+    rollout: RolloutSettings,
+    optimization: OptimizationSettings,
+    returns: ReturnSettings,
+    network: NetworkSettings,
+    total_timesteps: int,
+    seed: int = 0,
+    checkpoint_interval: int = 0,
+    resume: tuple[TrainingState, Progress] | None = None,
+    on_progress: ProgressCallback | None = None,
+    on_checkpoint: CheckpointCallback | None = None,
+) -> tuple[TrainingState, Progress]:
+    """Train until `total_timesteps` environment steps (rounded up to whole iterations).
+
+    `on_progress` gets a report after every iteration; `on_checkpoint` gets the state every
+    `checkpoint_interval` environment steps (0: never), before the first iteration of a new run
+    (the untrained policy) and at the end. `resume` continues from a saved state and its counters.
+    Raises TrainingDiverged, without calling `on_checkpoint`, when a loss or parameter stops being finite.
+    """
+    if resume is not None and resume[0].env_state.observation.shape[0] != env.num_envs:
+        raise ConfigError(f"the saved state has {resume[0].env_state.observation.shape[0]} environments, not {env.num_envs}")
+    state, progress = resume or (init_state(env, seed=seed, network=network, optimization=optimization), Progress(0, 0))
+    iteration = make_iteration(env, rollout=rollout, optimization=optimization, returns=returns, network=network)
+    steps_per_iteration = rollout.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
+    iterations = max(0, math.ceil((total_timesteps - progress.env_steps) / steps_per_iteration))
+    total_steps = progress.env_steps + iterations * steps_per_iteration
+    started = time.perf_counter()
+    compiled = iteration.lower(state).compile()
+    compile_seconds = time.perf_counter() - started
+    if resume is None and on_checkpoint is not None:
+        on_checkpoint(state, progress, None)
+    next_checkpoint = progress.env_steps + checkpoint_interval if checkpoint_interval > 0 else None
+    report: IterationReport | None = None
+    for _ in range(iterations):
+        iteration_started = time.perf_counter()
+        candidate, metrics = compiled(state)
+        values = {name: float(value) for name, value in jax.device_get(metrics).items()}
+        finite = values.pop("params_finite") == 1.0
+        bad = [name for name in ("loss", "policy_loss", "value_loss") if not math.isfinite(values[name])]
+        if bad or not finite:
+            what = f"{', '.join(bad)} became {values[bad[0]]}" if bad else "the network parameters became non-finite"
+            raise TrainingDiverged(
+                f"training diverged in iteration {progress.iteration + 1} ({progress.env_steps} steps done): {what}; "
+                "the last checkpoint written before it is kept. Lower training.learning_rate, set "
+                "training.ppo.max_grad_norm, or check the task's rewards and observations for huge values"
+            )
+        state = candidate
+        elapsed = time.perf_counter() - iteration_started
+        progress = Progress(progress.iteration + 1, progress.env_steps + steps_per_iteration)
+        report = IterationReport(
+            iteration=progress.iteration,
+            env_steps=progress.env_steps,
+            total_steps=total_steps,
+            iteration_seconds=elapsed,
+            steps_per_second=steps_per_iteration / elapsed,
+            wall_seconds=time.perf_counter() - started,
+            compile_seconds=compile_seconds,
+            metrics=values,
+        )
+        if on_progress is not None:
+            on_progress(report, state)
+        due = next_checkpoint is not None and progress.env_steps >= next_checkpoint
+        if on_checkpoint is not None and (due or progress.env_steps >= total_steps):
+            on_checkpoint(state, progress, report)
+            while next_checkpoint is not None and next_checkpoint <= progress.env_steps:
+                next_checkpoint += checkpoint_interval
+    return state, progress
+
+
+def policy_actions(
+    net: ActorCritic, params: Any, stats: RunningStatistics, observation: jax.Array, normalizing: bool
+) -> jax.Array:
+    """The deterministic policy's actions (the Gaussian's mean)."""
+    mean, _, _ = net.apply({"params": params}, normalize(stats, observation, normalizing))
+    return mean
+
+
+def as_numpy(tree: Any) -> Any:
+    """A pytree's arrays as numpy arrays on the host."""
+    return jax.tree.map(np.asarray, jax.device_get(tree))
