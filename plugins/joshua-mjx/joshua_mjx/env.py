@@ -81,6 +81,7 @@ class MjxEnv:
             )
         self.task = task
         self.model = model
+        self.source = Path(source)
         self.num_envs = num_envs
         self.mjx_model = put_model(model, source)
         self.mesh = Mesh(np.array(devices), (ENV_AXIS,))

@@ -17,12 +17,16 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import TracebackType
+from typing import TYPE_CHECKING
 
 from joshua_core.errors import UsageError
 from joshua_modes.video import VideoWriter
 from joshua_mujoco import MuJoCoEngine
 from joshua_mujoco.engine import camera_id
 from joshua_mujoco.gl import has_display
+
+if TYPE_CHECKING:
+    import mujoco
 
 VIEWER_JOIN_TIMEOUT_S = 10.0
 
@@ -133,6 +137,11 @@ class ViewerDisplay(Display):
         """Hold the viewer's lock (while changing the state from another thread than the caller's loop)."""
         with self._handle.lock():
             yield
+
+    @property
+    def user_scene(self) -> mujoco.MjvScene:
+        """The viewer's extra scene: geoms added here (under `lock()`) are drawn with the model's."""
+        return self._handle.user_scn
 
     def update(self, time: float) -> bool:
         if not self._handle.is_running():

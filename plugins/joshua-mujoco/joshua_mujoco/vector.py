@@ -182,11 +182,7 @@ class BatchedSimulation:
         return failed
 
     def render(self, env_index: int, camera: str | int | None, width: int, height: int) -> NDArray[np.uint8]:
-        """An RGB image of one environment, with its 3-d commands (targets, goals) drawn as green spheres.
-
-        A site of the world body named like a command (pick-and-place's `goal`) is moved to the
-        command's x, y, so that the model's own marker shows the sampled goal.
-        """
+        """An RGB image of one environment, with its 3-d commands (targets, goals) drawn (see render_with_commands)."""
         if not 0 <= env_index < self.num_envs:
             raise IndexError(f"env_index {env_index} out of range for {self.num_envs} environments")
         renderers = self.__dict__.setdefault("_renderers", {})
@@ -194,32 +190,48 @@ class BatchedSimulation:
             model = self.batch.get_model(env_index)
             renderers[(width, height)] = (create_renderer(model, width, height), model)
         renderer, model = renderers[(width, height)]
-        for name, value in self.commands.items():
-            site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
-            if site >= 0 and model.site_bodyid[site] == 0 and value.shape[1] == 3:
-                model.site_pos[site, :2] = value[env_index, :2]
         data = self.batch.get_data(env_index)
         mujoco.mj_forward(model, data)
         if camera is None:
             camera = camera_id(model, None)
-        renderer.update_scene(data, camera=camera)
-        scene = renderer.scene
-        for value in self.commands.values():
-            if value.shape[1] == 3 and scene.ngeom < scene.maxgeom:
-                mujoco.mjv_initGeom(
-                    scene.geoms[scene.ngeom],
-                    mujoco.mjtGeom.mjGEOM_SPHERE,
-                    np.array([_MARKER_RADIUS, 0.0, 0.0]),
-                    value[env_index],
-                    np.eye(3).flatten(),
-                    _MARKER_RGBA,
-                )
-                scene.ngeom += 1
-        return renderer.render()
+        commands = {name: value[env_index] for name, value in self.commands.items()}
+        return render_with_commands(renderer, model, data, camera, commands)
 
     def close(self) -> None:
         for renderer, _ in self.__dict__.pop("_renderers", {}).values():
             renderer.close()
+
+
+def render_with_commands(
+    renderer: mujoco.Renderer,
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    camera: int,
+    commands: Mapping[str, NDArray[np.float64]],
+) -> NDArray[np.uint8]:
+    """Render `data` (kinematics computed) with one environment's 3-d commands (targets, goals) as green spheres.
+
+    A site of the world body named like a command (pick-and-place's `goal`) is moved to the command's
+    x, y, so that the model's own marker shows the sampled goal.
+    """
+    for name, value in commands.items():
+        site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
+        if site >= 0 and model.site_bodyid[site] == 0 and np.shape(value) == (3,):
+            model.site_pos[site, :2] = value[:2]
+    renderer.update_scene(data, camera=camera)
+    scene = renderer.scene
+    for value in commands.values():
+        if np.shape(value) == (3,) and scene.ngeom < scene.maxgeom:
+            mujoco.mjv_initGeom(
+                scene.geoms[scene.ngeom],
+                mujoco.mjtGeom.mjGEOM_SPHERE,
+                np.array([_MARKER_RADIUS, 0.0, 0.0]),
+                np.asarray(value, dtype=np.float64),
+                np.eye(3).flatten(),
+                _MARKER_RGBA,
+            )
+            scene.ngeom += 1
+    return renderer.render()
 
 
 class BatchedVectorEnv(VectorEnv):

@@ -1,0 +1,62 @@
+"""`train_mjx(model_path=..., config={...})`: the product description's Python entry point to GPU training."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from google.protobuf import json_format
+
+from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.errors import ConfigError
+from joshua_core.interfaces import RunContext
+from joshua_core.plugins import Kind, PluginHost
+from joshua_core.resources import resolve_data_path
+from joshua_core.tasks import load_task_spec
+from joshua_mjx.engine import MJX_SUFFIX
+from joshua_ppo.trainer import PpoTrainer
+
+DEFAULT_CHECKPOINT_DIR = "checkpoints"
+
+
+def train_mjx(
+    model_path: str | Path,
+    config: Mapping[str, Any] | None = None,
+    *,
+    task: str | None = None,
+    checkpoint_dir: str | Path | None = None,
+    plugins: PluginHost | None = None,
+) -> Path:
+    """Train PPO on MJX and return the last checkpoint folder.
+
+    `config` holds TrainingConfig fields by name (num_envs, num_steps, num_epochs, minibatch_size,
+    learning_rate, gamma, gae_lambda, clip_epsilon, total_timesteps, seed, task, checkpoint_dir, and
+    `ppo`: {...} for PpoOptions); unknown names are a ConfigError. The task defaults to the registered
+    task whose model is `model_path` (its `_mjx` variant counts too), e.g. ant/ant.xml -> ant_locomotion.
+    """
+    training = TrainingConfig()
+    try:
+        json_format.ParseDict(dict(config or {}), training)
+    except json_format.ParseError as error:
+        raise ConfigError(f"train_mjx config: {error}") from None
+    host = plugins or PluginHost.discover()
+    training.model_path = str(resolve_data_path(model_path))
+    training.task = task or training.task or _task_for_model(Path(training.model_path), host)
+    root = Path(checkpoint_dir or training.checkpoint_dir or DEFAULT_CHECKPOINT_DIR)
+    training.checkpoint_dir = str(root)
+    return PpoTrainer().train(training, RunContext(host, root))
+
+
+def _task_for_model(model_path: Path, plugins: PluginHost) -> str:
+    """The registered task whose model file is `model_path` or the file it is the MJX variant of."""
+    stem = model_path.stem.removesuffix(MJX_SUFFIX)
+    matches = []
+    for name in plugins.names(Kind.TASK):
+        spec_path = resolve_data_path(load_task_spec(name, plugins).model_path)
+        if spec_path.parent == model_path.parent and spec_path.stem == stem:
+            matches.append(name)
+    if len(matches) != 1:
+        found = f"tasks {', '.join(matches)} use it" if matches else "no registered task uses it"
+        raise ConfigError(f"train_mjx: {found}; name one with task=... (see `joshua plugins`)")
+    return matches[0]

@@ -1,0 +1,121 @@
+"""Rolling out a trained policy on MJX: evaluation statistics, and videos and viewer frames rendered by MuJoCo.
+
+The rollout is one compiled `lax.scan` of the deterministic policy over whole episodes; what is
+drawn afterwards (env 0's poses, its commands) comes back to the host once, and is rendered on the
+CPU with `mujoco.Renderer` into an MP4 through joshua-modes' writer (skipped, with a hint, when
+joshua-modes is not installed).
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import jax
+import mujoco
+import numpy as np
+
+from joshua_core.evaluation import open_video_writer
+from joshua_mjx.env import MjxEnv
+from joshua_mujoco.engine import camera_id, create_renderer
+from joshua_mujoco.vector import render_with_commands
+from joshua_ppo.networks import ActorCritic
+from joshua_ppo.ppo import RunningStatistics, policy_actions
+
+VIDEO_WIDTH, VIDEO_HEIGHT = 640, 480
+
+
+@dataclass
+class Rollout:
+    """One deterministic rollout: env 0's poses and commands, and every environment's first episode."""
+
+    qpos: np.ndarray  # (frames, nq) env 0, from the reset state up to its first episode's last step
+    commands: dict[str, np.ndarray]  # (frames, k) env 0's commands, per frame
+    returns: np.ndarray  # (N,) each environment's first episode's return
+    lengths: np.ndarray  # (N,)
+    metrics: dict[str, np.ndarray]  # (N,) each metric on the first episode's last step
+
+
+def make_rollout(
+    env: MjxEnv, net: ActorCritic, normalizing: bool, steps: int
+) -> Any:
+    """A compiled function (params, normalizer, key) -> per-step arrays of a `steps`-long rollout."""
+
+    def run(params: Any, stats: RunningStatistics, key: jax.Array) -> dict[str, Any]:
+        state = env.reset(key)
+
+        def step(state: Any, _: None) -> tuple[Any, dict[str, Any]]:
+            action = policy_actions(net, params, stats, state.observation, normalizing)
+            next_state = env.step(state, action)
+            episode = next_state.episode
+            record = {
+                "qpos": next_state.data.qpos[0],
+                "commands": {name: value[0] for name, value in next_state.commands.items()},
+                "done": episode.done,
+                "return": episode.return_,
+                "length": episode.length,
+                "metrics": episode.metrics,
+            }
+            return next_state, record
+
+        _, records = jax.lax.scan(step, state, None, length=steps)
+        first = {"qpos": state.data.qpos[0], "commands": {name: value[0] for name, value in state.commands.items()}}
+        return {"first": first, "steps": records}
+
+    return jax.jit(run)
+
+
+def collect(raw: dict[str, Any], envs: int | None = None) -> Rollout:
+    """Host-side summary of a rollout's arrays: env 0's frames until its first episode ended, and the first
+    episode's statistics of each environment (of the first `envs` of them when given)."""
+    raw = jax.device_get(raw)
+    steps = raw["steps"]
+    done = np.asarray(steps["done"])[:, :envs]  # (T, N)
+    if not done.any(axis=0).all():
+        raise RuntimeError("rollout ended before every environment finished an episode")
+    first_end = done.argmax(axis=0)  # (N,) step index of each environment's first episode end
+    envs = np.arange(done.shape[1])
+    end0 = int(first_end[0])
+    # The state after the last step of env 0's episode is already the next episode's reset: leave it out.
+    qpos = np.concatenate([np.asarray(raw["first"]["qpos"])[None], np.asarray(steps["qpos"])[:end0]])
+    commands = {
+        name: np.concatenate([np.asarray(value)[None], np.asarray(steps["commands"][name])[:end0]])
+        for name, value in raw["first"]["commands"].items()
+    }
+    return Rollout(
+        qpos=qpos,
+        commands=commands,
+        returns=np.asarray(steps["return"])[first_end, envs],
+        lengths=np.asarray(steps["length"])[first_end, envs],
+        metrics={name: np.asarray(value)[first_end, envs] for name, value in steps["metrics"].items()},
+    )
+
+
+def render_video(model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None = None) -> Path | None:
+    """Render env 0's episode to an MP4 (None when joshua-modes, the video writer, is not installed)."""
+    writer = open_video_writer(path, fps)
+    if writer is None:
+        return None
+    model = copy.deepcopy(model)  # drawing commands moves marker sites of the model it draws
+    data = mujoco.MjData(model)
+    renderer = create_renderer(model, VIDEO_WIDTH, VIDEO_HEIGHT)
+    camera_index = camera_id(model, camera)
+    try:
+        with writer:
+            for index, qpos in enumerate(rollout.qpos):
+                data.qpos[:] = qpos
+                mujoco.mj_forward(model, data)
+                commands = {name: value[index] for name, value in rollout.commands.items()}
+                writer.write(render_with_commands(renderer, model, data, camera_index, commands))
+            return writer.close()
+    finally:
+        renderer.close()
+
+
+def mean_results(rollout: Rollout) -> dict[str, float]:
+    """`mean_return`, `mean_length` and `final_<metric>` averaged over the environments' first episodes."""
+    results = {"mean_return": float(np.mean(rollout.returns)), "mean_length": float(np.mean(rollout.lengths))}
+    results |= {f"final_{name}": float(np.mean(values)) for name, values in rollout.metrics.items()}
+    return results
