@@ -70,10 +70,18 @@ class EnvState(NamedTuple):
 class MjxEnv:
     """A task on `num_envs` MJX simulations; see the module docstring."""
 
-    def __init__(self, task: Task, model: mujoco.MjModel, num_envs: int, *, source: str | Path = "<model>") -> None:
+    def __init__(
+        self,
+        task: Task,
+        model: mujoco.MjModel,
+        num_envs: int,
+        *,
+        source: str | Path = "<model>",
+        devices: list[jax.Device] | None = None,
+    ) -> None:
         if num_envs < 1:
             raise ConfigError(f"num_envs must be at least 1, got {num_envs}")
-        devices = jax.devices()
+        devices = devices or jax.devices()
         if num_envs % len(devices):
             raise ConfigError(
                 f"num_envs {num_envs} must be a multiple of the {len(devices)} devices it is spread over "
@@ -284,15 +292,17 @@ def make_mjx_env(
     model_path: str | Path | None = None,
     plugins: PluginHost | None = None,
     task_config: Any = None,
+    devices: list[jax.Device] | None = None,
 ) -> MjxEnv:
     """An MjxEnv of `num_envs` copies of the registered `task`.
 
     `model_path` replaces the task's model; without it the task's model is used, or rather its MJX
-    variant (`scene_mjx.xml` beside `scene.xml`) when there is one. `task_config` is a `joshua.TaskConfig`.
+    variant (`scene_mjx.xml` beside `scene.xml`) when there is one. `task_config` is a `joshua.TaskConfig`;
+    the environments are spread over `devices` (default: every visible device).
     """
     host = plugins or PluginHost.discover()
     spec = load_task_spec(task, host)
     path = resolve_data_path(model_path) if model_path else mjx_variant(spec.model_path)
     model = compile_model(path)
     built = build_task(spec, model, host, task_config)
-    return MjxEnv(built, model, num_envs, source=path)
+    return MjxEnv(built, model, num_envs, source=path, devices=devices)

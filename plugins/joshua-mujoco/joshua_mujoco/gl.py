@@ -113,6 +113,6 @@ def _swap_context_class(platform: str) -> None:
             from mujoco.egl import GLContext
         else:
             from mujoco.osmesa import GLContext
-    except ImportError:  # rendering will fail with rendering_unavailable's message
+    except (ImportError, AttributeError):  # PyOpenGL without the library; rendering fails with rendering_unavailable
         return
     gl_context.GLContext = GLContext

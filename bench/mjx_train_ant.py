@@ -1,0 +1,129 @@
+"""Time-to-return of PPO on MJX for Ant, and training throughput against raw MJX physics, in one run.
+
+    python bench/mjx_train_ant.py                       # tuned preset until mean return 6000 (GPU)
+    python bench/mjx_train_ant.py --preset ant_train_mjx --max-seconds 300
+    python bench/mjx_train_ant.py --scaling --iterations 20   # throughput on 1 device vs all devices
+
+Reports: compile seconds, wall seconds to the target return (compile included, and without it),
+training env steps/s, the raw physics rate of `vmap(mjx.step)` on the same batch measured in the
+same run, and their ratio (training env steps/s x frame_skip / raw physics steps/s). Anchor: Brax
+PPO trains Ant for 50 M steps in 2 min 36 s plus 33 s compile; goal: return >= 6000 in <= 3 min on
+one H200, training throughput >= 50 % of raw physics, and >= 1.8x on 2 GPUs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import jax
+import jax.numpy as jnp
+from mujoco import mjx
+
+from joshua_core.config import finalize, load_preset
+from joshua_core.plugins import PluginHost
+from joshua_mjx.env import MjxEnv, make_mjx_env
+from joshua_ppo.ppo import IterationReport, TrainingState, train_ppo
+from joshua_ppo.trainer import PpoSettings
+
+
+class TargetReached(Exception):
+    """Stops training once the target return is reached."""
+
+
+def raw_physics_rate(env: MjxEnv, steps: int = 50) -> float:
+    """Physics steps/s of `vmap(mjx.step)` on env's batch, sharded the same way (after compilation)."""
+    state = env.reset(jax.random.PRNGKey(0))
+
+    @jax.jit
+    def run(data: mjx.Data) -> mjx.Data:
+        return jax.lax.fori_loop(0, steps, lambda _, d: jax.vmap(mjx.step, (None, 0))(env.mjx_model, d), data)
+
+    data = jax.block_until_ready(run(state.data))
+    best = 0.0
+    for _ in range(3):
+        started = time.perf_counter()
+        data = jax.block_until_ready(run(data))
+        best = max(best, steps * env.num_envs / (time.perf_counter() - started))
+    return best
+
+
+def train(settings: PpoSettings, env: MjxEnv, target: float, max_seconds: float, iterations: int | None) -> dict:
+    started = time.perf_counter()
+    log: list[dict] = []
+
+    def on_progress(report: IterationReport, state: TrainingState) -> None:
+        metrics = report.metrics
+        log.append({"step": report.env_steps, "wall": report.wall_seconds, "sps": report.steps_per_second,
+                    "return": metrics["mean_return"], "episodes": metrics["episodes"],
+                    "compile": report.compile_seconds})
+        if report.iteration % 10 == 0 or metrics["mean_return"] >= target:
+            print(f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {report.wall_seconds:7.1f} s  "
+                  f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}", flush=True)
+        if metrics["episodes"] > 0 and metrics["mean_return"] >= target:
+            raise TargetReached
+        if report.wall_seconds > max_seconds or (iterations is not None and report.iteration >= iterations):
+            raise TargetReached
+
+    total = settings.total_timesteps
+    try:
+        train_ppo(env, rollout=settings.rollout, optimization=settings.optimization, returns=settings.returns,
+                  network=settings.network, total_timesteps=total, seed=settings.seed, on_progress=on_progress)
+    except TargetReached:
+        pass
+    wall = time.perf_counter() - started
+    compile_seconds = log[0]["compile"] if log else float("nan")
+    steady = [entry["sps"] for entry in log[1:]] or [entry["sps"] for entry in log]
+    reached = [entry for entry in log if entry["episodes"] > 0 and entry["return"] >= target]
+    return {
+        "wall_seconds": wall,
+        "compile_seconds": compile_seconds,
+        "train_steps_per_second": sorted(steady)[len(steady) // 2],
+        "env_steps": log[-1]["step"] if log else 0,
+        "final_return": next((e["return"] for e in reversed(log) if e["episodes"] > 0), float("nan")),
+        "reached_target_at_seconds": reached[0]["wall"] if reached else None,
+        "reached_target_without_compile_seconds": reached[0]["wall"] - compile_seconds if reached else None,
+        "reached_target_at_steps": reached[0]["step"] if reached else None,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--preset", default="ant_train_mjx_tuned")
+    parser.add_argument("--target", type=float, default=6000.0)
+    parser.add_argument("--max-seconds", type=float, default=420.0)
+    parser.add_argument("--num-envs", type=int, help="override the preset's num_envs")
+    parser.add_argument("--iterations", type=int, help="stop after this many iterations")
+    parser.add_argument("--scaling", action="store_true", help="compare throughput on 1 device and on all devices")
+    parser.add_argument("--json", help="write the results here")
+    args = parser.parse_args()
+
+    config = finalize(load_preset(args.preset)).training
+    if args.num_envs:
+        config.num_envs = args.num_envs
+    settings = PpoSettings.from_config(config)
+    plugins = PluginHost.discover()
+    device_sets = [jax.devices()[:1], jax.devices()] if args.scaling else [jax.devices()]
+    print(f"devices: {jax.devices()}  preset {args.preset}: {settings.rollout} {settings.optimization}")
+    results = []
+    for devices in device_sets:
+        env = make_mjx_env(config.task, settings.rollout.num_envs, model_path=config.model_path,
+                           plugins=plugins, devices=devices)
+        raw = raw_physics_rate(env)
+        print(f"{len(devices)} device(s): raw physics {raw:,.0f} steps/s ({raw / env.task.frame_skip:,.0f} env steps/s)")
+        outcome = train(settings, env, args.target, args.max_seconds, args.iterations)
+        fraction = outcome["train_steps_per_second"] * env.task.frame_skip / raw
+        outcome |= {"devices": len(devices), "raw_physics_steps_per_second": raw, "fraction_of_raw_physics": fraction}
+        print(json.dumps(outcome, indent=1))
+        results.append(outcome)
+    if args.scaling:
+        ratio = results[1]["train_steps_per_second"] / results[0]["train_steps_per_second"]
+        print(f"throughput {len(jax.devices())} devices / 1 device: {ratio:.2f}x (goal >= 1.8x on 2 GPUs)")
+    if args.json:
+        with open(args.json, "w") as handle:
+            json.dump(results, handle, indent=1)
+
+
+if __name__ == "__main__":
+    main()
