@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Set up JOSHUA in ./.venv on Debian with Python 3.11.
 #   ./setup.sh          the runtime: joshua-core, the joshua-mujoco backend, joshua-modes (viewer, replay, offscreen)
-#   ./setup.sh --all    every plugin: also joshua-mirror (rclpy + Fast DDS wheels, no ROS install) and
-#                       joshua-sb3 (stable-baselines3 with torch's CPU wheel)
-#   ./setup.sh --dev    --all and what the tests need: pytest, protoc (grpcio-tools), trimesh, MJX + JAX (CPU),
+#   ./setup.sh --all    every plugin: also joshua-mirror (rclpy + Fast DDS wheels, no ROS install),
+#                       joshua-sb3 (stable-baselines3 with torch's CPU wheel), joshua-mjx and joshua-ppo
+#                       (MJX, JAX, Flax, Optax; JAX for the CPU: on a GPU machine add pip install "jax[cuda13]")
+#   ./setup.sh --dev    --all and what the tests need: pytest, protoc (grpcio-tools), trimesh,
 #                       Gymnasium's MuJoCo environments (the reference of bench/cpu_env_throughput.py),
 #                       Xvfb, xwd and xdotool for the viewer tests
 # Versions come from constraints.txt. pip's cache stays inside the clone (.cache/pip).
@@ -43,13 +44,13 @@ export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
 
 requirements=(-e . -e plugins/joshua-mujoco -e plugins/joshua-modes)
 if [[ -n $option ]]; then
-  requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3)
+  requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e plugins/joshua-mjx -e plugins/joshua-ppo)
   # torch first, pinned to its CPU wheel: then stable-baselines3 finds it installed and pulls no CUDA packages
   echo "setup: installing torch (CPU) into .venv"
   .venv/bin/pip install -q -c constraints.txt torch
 fi
 if [[ $option == --dev ]]; then
-  requirements=(-e ".[dev,plots]" "${requirements[@]:2}" mujoco-mjx jax "gymnasium[mujoco]")
+  requirements=(-e ".[dev,plots]" "${requirements[@]:2}" "gymnasium[mujoco]")
 fi
 echo "setup: installing ${requirements[*]} into .venv"
 .venv/bin/pip install -q -c constraints.txt "${requirements[@]}"
