@@ -175,18 +175,12 @@ def init_state(
     size = env.observation_size
     normalizer = RunningStatistics(jnp.zeros((), jnp.float32), jnp.zeros(size), jnp.ones(size))
     state = TrainingState(params, make_optimizer(optimization).init(params), normalizer, env.reset(reset_key), key)
-    return jax.device_put(state, _state_shardings(env, state))
+    return jax.device_put(state, _state_shardings(env))
 
 
-def _state_shardings(env: MjxEnv, state: TrainingState) -> TrainingState:
-    replicated = lambda tree: jax.tree.map(lambda _: env.replicated, tree)  # noqa: E731
-    return TrainingState(
-        params=replicated(state.params),
-        opt_state=replicated(state.opt_state),
-        normalizer=replicated(state.normalizer),
-        env_state=jax.tree.map(lambda _: env.sharding, state.env_state),
-        key=env.replicated,
-    )
+def _state_shardings(env: MjxEnv) -> TrainingState:
+    """Where a training state lives (a prefix of its tree): environments split over devices, the rest replicated."""
+    return TrainingState(env.replicated, env.replicated, env.replicated, env.sharding, env.replicated)
 
 
 class _Transition(NamedTuple):
@@ -351,7 +345,9 @@ def make_iteration(
         )
         return TrainingState(params, opt_state, stats, env_state, key), metrics
 
-    return jax.jit(iteration, donate_argnums=0)
+    # explicit output shardings: XLA would otherwise replicate the empty per-env arrays (act, plugin_state)
+    # and the next call would no longer match the compiled input shardings
+    return jax.jit(iteration, donate_argnums=0, out_shardings=(_state_shardings(env), env.replicated))
 
 
 def _episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[str]) -> dict[str, jax.Array]:

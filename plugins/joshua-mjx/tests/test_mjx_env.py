@@ -1,0 +1,149 @@
+"""The MJX backend on the CPU: the batched env matches the MuJoCo backend, resets per environment, shards over
+devices, and the `mjx` engine tracks the CPU engine."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from joshua_core.errors import ConfigError
+from joshua_mjx.engine import MjxEngine
+from joshua_mjx.env import make_mjx_env
+from joshua_mujoco import MuJoCoEngine
+from joshua_mujoco.vector import make_vector_env, task_config_from_options
+
+NO_RESET_NOISE = {"reset_qpos_uniform": {"weight": 0}, "reset_qvel_normal": {"weight": 0}}
+
+
+@pytest.fixture(scope="module")
+def ant_env():  # type: ignore[no-untyped-def]
+    config = task_config_from_options({"terms": NO_RESET_NOISE, "episode_length": 6})
+    return make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", task_config=config)
+
+
+def test_mjx_env_matches_the_mujoco_backend_step_for_step(ant_env) -> None:  # type: ignore[no-untyped-def]
+    cpu = make_vector_env("ant_locomotion", 4, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=6, nthread=1)
+    cpu_observation, _ = cpu.reset(seed=0)
+    state = ant_env.reset(jax.random.PRNGKey(0))
+    np.testing.assert_allclose(np.asarray(state.observation), cpu_observation, atol=1e-5)
+    # random actions while the Ant drops to the floor: float32 MJX against float64 MuJoCo agree closely
+    for action in np.random.default_rng(0).uniform(-1, 1, (3, 4, 8)):
+        cpu_observation, cpu_reward, _, _, _ = cpu.step(action)
+        state = ant_env.step(state, jnp.asarray(action))
+        np.testing.assert_allclose(np.asarray(state.observation)[:, :27], cpu_observation[:, :27], atol=1e-3)
+        np.testing.assert_allclose(np.asarray(state.reward), cpu_reward, atol=1e-4)
+    cpu.close()
+
+
+def test_mjx_contacts_hold_the_ant_up_like_mujoco() -> None:
+    """Standing on its legs through 30 steps of contact; random actions on the floor would diverge chaotically."""
+    config = task_config_from_options({"terms": NO_RESET_NOISE, "episode_length": 50})
+    env = make_mjx_env("ant_locomotion", 2, model_path="ant/ant.xml", task_config=config)
+    cpu = make_vector_env("ant_locomotion", 2, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=50, nthread=1)
+    cpu.reset(seed=0)
+    state = env.reset(jax.random.PRNGKey(0))
+    posture = np.tile([0.0, 0.5, 0.0, -0.5, 0.0, -0.5, 0.0, 0.5], (2, 1))
+    for _ in range(30):
+        cpu_observation, cpu_reward, _, _, _ = cpu.step(posture)
+        state = env.step(state, jnp.asarray(posture))
+    torso_height = np.asarray(state.observation)[:, 0]
+    assert 0.3 < torso_height.min()  # standing, not fallen through the floor
+    np.testing.assert_allclose(torso_height, cpu_observation[:, 0], atol=1e-4)
+    np.testing.assert_allclose(np.asarray(state.reward), cpu_reward, atol=5e-3)
+    cpu.close()
+
+
+def test_autoreset_ends_episodes_at_the_length_and_reports_them(ant_env) -> None:  # type: ignore[no-untyped-def]
+    state = ant_env.reset(jax.random.PRNGKey(1))
+    action = jnp.full((4, 8), 0.5)
+    returns = np.zeros(4)
+    for step in range(1, 7):
+        state = ant_env.step(state, action)
+        returns += np.asarray(state.reward)
+        if step < 6:
+            assert not np.asarray(state.episode.done).any() and (np.asarray(state.episode_step) == step).all()
+    assert np.asarray(state.truncated).all() and np.asarray(state.episode.done).all()
+    np.testing.assert_allclose(np.asarray(state.episode.return_), returns, rtol=1e-5)
+    assert (np.asarray(state.episode.length) == 6).all() and (np.asarray(state.episode_step) == 0).all()
+    assert not np.allclose(np.asarray(state.final_observation), np.asarray(state.observation))
+    np.testing.assert_allclose(np.asarray(state.data.qpos), np.tile(ant_env.task.initial_qpos, (4, 1)), atol=1e-6)
+
+
+def test_reset_terms_draw_per_environment_and_repeat_with_the_key() -> None:
+    env = make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml")
+    first, again, other = (env.reset(jax.random.PRNGKey(seed)) for seed in (0, 0, 1))
+    qpos = np.asarray(first.data.qpos)
+    assert len({tuple(row) for row in qpos.round(6)}) == 4  # every environment its own start
+    np.testing.assert_array_equal(qpos, np.asarray(again.data.qpos))
+    assert not np.allclose(qpos, np.asarray(other.data.qpos))
+    with pytest.raises(ConfigError, match="num_envs must be at least 1"):
+        make_mjx_env("ant_locomotion", 0, model_path="ant/ant.xml")
+
+
+def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> None:
+    script = textwrap.dedent(
+        """
+        import jax, jax.numpy as jnp, numpy as np
+        from joshua_core.errors import ConfigError
+        from joshua_mjx.env import make_mjx_env
+        from joshua_ppo.ppo import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings, train_ppo
+        assert len(jax.devices()) == 2
+        results = []
+        for devices in (jax.devices()[:1], jax.devices()):
+            env = make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", devices=devices)
+            state = env.reset(jax.random.PRNGKey(3))
+            for _ in range(3):
+                state = env.step(state, jnp.full((4, 8), 0.3))
+            results.append(np.asarray(state.data.qpos))
+            print("devices", len(state.data.qpos.sharding.device_set))
+        print("max difference", float(np.abs(results[0] - results[1]).max()))
+        reports = []
+        train_ppo(env, rollout=RolloutSettings(4, 5, 1), optimization=OptimizationSettings(num_epochs=1, minibatch_size=10),
+                  returns=ReturnSettings(), network=NetworkSettings(hidden_sizes=(16,)), total_timesteps=40,
+                  on_progress=lambda report, state: reports.append(report))
+        print("losses finite", all(np.isfinite(r.metrics["loss"]) for r in reports), len(reports))
+        try:
+            make_mjx_env("ant_locomotion", 3, model_path="ant/ant.xml")
+        except ConfigError as error:
+            print("error:", error)
+        """
+    )
+    env = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2", "JAX_PLATFORMS": "cpu"}
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    lines = done.stdout.splitlines()
+    assert "devices 1" in lines and "devices 2" in lines, done.stdout
+    difference = float(next(line for line in lines if line.startswith("max difference")).split()[-1])
+    assert difference < 1e-5, done.stdout
+    assert "losses finite True 2" in lines, done.stdout
+    assert any("num_envs 3 must be a multiple of the 2 devices" in line for line in lines), done.stdout
+
+
+def test_the_mjx_engine_tracks_the_mujoco_engine() -> None:
+    engines = MjxEngine("so_arm100/scene_mjx.xml"), MuJoCoEngine("so_arm100/scene_mjx.xml")
+    for engine in engines:
+        engine.reset("home")
+        engine.set_ctrl([0.0, -0.5, 0.3, 0.0, 0.2, 0.0])
+        engine.step(200)
+    mjx_engine, cpu_engine = engines
+    assert mjx_engine.time == pytest.approx(0.4)
+    np.testing.assert_allclose(mjx_engine.get_qpos(), cpu_engine.get_qpos(), atol=1e-5)
+    assert mjx_engine.render().std() > 5  # rendering works as on the mujoco backend
+
+
+def test_plugin_entry_points_import_nothing_heavy() -> None:
+    script = (
+        "import sys, joshua_mjx.plugin, joshua_ppo.plugin, joshua_ppo; "
+        "print(sorted(m for m in ('jax', 'flax', 'optax', 'mujoco') if m in sys.modules))"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60, check=True)
+    assert done.stdout.strip() == "[]"
+    listing = subprocess.run([sys.executable, "-m", "joshua_core.cli", "plugins"], capture_output=True, text=True, timeout=60)
+    assert "backend  mjx" in listing.stdout and "trainer  ppo" in listing.stdout, listing.stdout
