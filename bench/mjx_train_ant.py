@@ -3,6 +3,7 @@
     python bench/mjx_train_ant.py                       # tuned preset until mean return 6000 (GPU)
     python bench/mjx_train_ant.py --preset ant_train_mjx --max-seconds 300
     python bench/mjx_train_ant.py --scaling --iterations 20   # throughput on 1 device vs all devices
+    python bench/mjx_train_ant.py --set training.ppo.reward_scaling=1   # a variant of the preset
 
 Reports: compile seconds, wall seconds to the target return (compile included, and without it),
 training env steps/s, the raw physics rate of `vmap(mjx.step)` on the same batch measured in the
@@ -18,10 +19,9 @@ import json
 import time
 
 import jax
-import jax.numpy as jnp
 from mujoco import mjx
 
-from joshua_core.config import finalize, load_preset
+from joshua_core.config import apply_override, finalize, load_preset
 from joshua_core.plugins import PluginHost
 from joshua_mjx.env import MjxEnv, make_mjx_env
 from joshua_ppo.ppo import IterationReport, TrainingState, train_ppo
@@ -55,12 +55,22 @@ def train(settings: PpoSettings, env: MjxEnv, target: float, max_seconds: float,
 
     def on_progress(report: IterationReport, state: TrainingState) -> None:
         metrics = report.metrics
-        log.append({"step": report.env_steps, "wall": report.wall_seconds, "sps": report.steps_per_second,
-                    "return": metrics["mean_return"], "episodes": metrics["episodes"],
-                    "compile": report.compile_seconds})
+        log.append(
+            {
+                "step": report.env_steps,
+                "wall": report.wall_seconds,
+                "sps": report.steps_per_second,
+                "return": metrics["mean_return"],
+                "episodes": metrics["episodes"],
+                "compile": report.compile_seconds,
+            }
+        )
         if report.iteration % 10 == 0 or metrics["mean_return"] >= target:
-            print(f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {report.wall_seconds:7.1f} s  "
-                  f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}", flush=True)
+            print(
+                f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {report.wall_seconds:7.1f} s  "
+                f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}",
+                flush=True,
+            )
         if metrics["episodes"] > 0 and metrics["mean_return"] >= target:
             raise TargetReached
         if report.wall_seconds > max_seconds or (iterations is not None and report.iteration >= iterations):
@@ -68,8 +78,16 @@ def train(settings: PpoSettings, env: MjxEnv, target: float, max_seconds: float,
 
     total = settings.total_timesteps
     try:
-        train_ppo(env, rollout=settings.rollout, optimization=settings.optimization, returns=settings.returns,
-                  network=settings.network, total_timesteps=total, seed=settings.seed, on_progress=on_progress)
+        train_ppo(
+            env,
+            rollout=settings.rollout,
+            optimization=settings.optimization,
+            returns=settings.returns,
+            network=settings.network,
+            total_timesteps=total,
+            seed=settings.seed,
+            on_progress=on_progress,
+        )
     except TargetReached:
         pass
     wall = time.perf_counter() - started
@@ -96,10 +114,14 @@ def main() -> None:
     parser.add_argument("--num-envs", type=int, help="override the preset's num_envs")
     parser.add_argument("--iterations", type=int, help="stop after this many iterations")
     parser.add_argument("--scaling", action="store_true", help="compare throughput on 1 device and on all devices")
+    parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
     parser.add_argument("--json", help="write the results here")
     args = parser.parse_args()
 
-    config = finalize(load_preset(args.preset)).training
+    loaded = load_preset(args.preset)
+    for assignment in args.set:
+        apply_override(loaded.message, assignment)
+    config = finalize(loaded).training
     if args.num_envs:
         config.num_envs = args.num_envs
     settings = PpoSettings.from_config(config)
@@ -108,10 +130,19 @@ def main() -> None:
     print(f"devices: {jax.devices()}  preset {args.preset}: {settings.rollout} {settings.optimization}")
     results = []
     for devices in device_sets:
-        env = make_mjx_env(config.task, settings.rollout.num_envs, model_path=config.model_path,
-                           plugins=plugins, devices=devices)
+        task_config = config.task_config if config.HasField("task_config") else None
+        env = make_mjx_env(
+            config.task,
+            settings.rollout.num_envs,
+            model_path=config.model_path,
+            plugins=plugins,
+            task_config=task_config,
+            devices=devices,
+        )
         raw = raw_physics_rate(env)
-        print(f"{len(devices)} device(s): raw physics {raw:,.0f} steps/s ({raw / env.task.frame_skip:,.0f} env steps/s)")
+        print(
+            f"{len(devices)} device(s): raw physics {raw:,.0f} steps/s ({raw / env.task.frame_skip:,.0f} env steps/s)"
+        )
         outcome = train(settings, env, args.target, args.max_seconds, args.iterations)
         fraction = outcome["train_steps_per_second"] * env.task.frame_skip / raw
         outcome |= {"devices": len(devices), "raw_physics_steps_per_second": raw, "fraction_of_raw_physics": fraction}

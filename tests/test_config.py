@@ -53,7 +53,10 @@ def test_simulation_config_keeps_the_seed_field_numbers() -> None:
     ]
 
 
-PLUGIN_PRESETS = {"so_arm100_reach_sb3", "ant_train_mjx_tuned"}  # presets added with the plugins, beyond the product's nine
+PLUGIN_PRESETS = {
+    "so_arm100_reach_sb3",
+    "ant_train_mjx_tuned",
+}  # presets added with the plugins, beyond the product's nine
 
 
 def test_the_shipped_presets_each_parse_with_a_description() -> None:

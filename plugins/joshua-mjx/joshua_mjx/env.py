@@ -148,7 +148,9 @@ class MjxEnv:
         task, n = self.task, state.observation.shape[0]
         action = jnp.clip(action.astype(jnp.float32), -1.0, 1.0)
         data = state.data.replace(ctrl=task.action_to_ctrl(jnp, action).astype(state.data.ctrl.dtype))
-        data = jax.lax.fori_loop(0, task.frame_skip, lambda _, d: jax.vmap(mjx.step, (None, 0))(self.mjx_model, d), data)
+        data = jax.lax.fori_loop(
+            0, task.frame_skip, lambda _, d: jax.vmap(mjx.step, (None, 0))(self.mjx_model, d), data
+        )
         if self._kinematics_after_step:
             data = jax.vmap(mjx.kinematics, (None, 0))(self.mjx_model, data)
         if self._contact_forces:

@@ -29,7 +29,9 @@ def ant_env():  # type: ignore[no-untyped-def]
 
 
 def test_mjx_env_matches_the_mujoco_backend_step_for_step(ant_env) -> None:  # type: ignore[no-untyped-def]
-    cpu = make_vector_env("ant_locomotion", 4, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=6, nthread=1)
+    cpu = make_vector_env(
+        "ant_locomotion", 4, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=6, nthread=1
+    )
     cpu_observation, _ = cpu.reset(seed=0)
     state = ant_env.reset(jax.random.PRNGKey(0))
     np.testing.assert_allclose(np.asarray(state.observation), cpu_observation, atol=1e-5)
@@ -46,7 +48,9 @@ def test_mjx_contacts_hold_the_ant_up_like_mujoco() -> None:
     """Standing on its legs through 30 steps of contact; random actions on the floor would diverge chaotically."""
     config = task_config_from_options({"terms": NO_RESET_NOISE, "episode_length": 50})
     env = make_mjx_env("ant_locomotion", 2, model_path="ant/ant.xml", task_config=config)
-    cpu = make_vector_env("ant_locomotion", 2, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=50, nthread=1)
+    cpu = make_vector_env(
+        "ant_locomotion", 2, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=50, nthread=1
+    )
     cpu.reset(seed=0)
     state = env.reset(jax.random.PRNGKey(0))
     posture = np.tile([0.0, 0.5, 0.0, -0.5, 0.0, -0.5, 0.0, 0.5], (2, 1))
@@ -105,8 +109,9 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> N
             print("devices", len(state.data.qpos.sharding.device_set))
         print("max difference", float(np.abs(results[0] - results[1]).max()))
         reports = []
-        train_ppo(env, rollout=RolloutSettings(4, 5, 1), optimization=OptimizationSettings(num_epochs=1, minibatch_size=10),
-                  returns=ReturnSettings(), network=NetworkSettings(hidden_sizes=(16,)), total_timesteps=40,
+        train_ppo(env, rollout=RolloutSettings(4, 5, 1), returns=ReturnSettings(),
+                  optimization=OptimizationSettings(num_epochs=1, minibatch_size=10),
+                  network=NetworkSettings(hidden_sizes=(16,)), total_timesteps=40,
                   on_progress=lambda report, state: reports.append(report))
         print("losses finite", all(np.isfinite(r.metrics["loss"]) for r in reports), len(reports))
         try:
@@ -145,5 +150,7 @@ def test_plugin_entry_points_import_nothing_heavy() -> None:
     )
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60, check=True)
     assert done.stdout.strip() == "[]"
-    listing = subprocess.run([sys.executable, "-m", "joshua_core.cli", "plugins"], capture_output=True, text=True, timeout=60)
+    listing = subprocess.run(
+        [sys.executable, "-m", "joshua_core.cli", "plugins"], capture_output=True, text=True, timeout=60
+    )
     assert "backend  mjx" in listing.stdout and "trainer  ppo" in listing.stdout, listing.stdout

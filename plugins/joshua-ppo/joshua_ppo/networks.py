@@ -1,4 +1,9 @@
-"""The default policy network: the seed's ActorCritic, and the Gaussian policy's log-probability and entropy."""
+"""The policy networks: the seed's ActorCritic (shared trunk, the default), separate policy and value
+networks (Brax's layout), and the Gaussian policy's log-probability and entropy.
+
+Both networks map observations to (mean (N, A), log_std (A,), value (N,)): a diagonal Gaussian
+with a learned state-independent log-std, and a state-value estimate.
+"""
 
 from __future__ import annotations
 
@@ -11,20 +16,40 @@ from flax import linen as nn
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
+def _mlp(x: jax.Array, hidden_sizes: tuple[int, ...]) -> jax.Array:
+    for size in hidden_sizes:
+        x = nn.relu(nn.Dense(size)(x))
+    return x
+
+
 class ActorCritic(nn.Module):
-    """Shared ReLU trunk (default 256-256), Gaussian policy mean with a learned state-independent log-std,
-    and a value head. Returns (mean (N, A), log_std (A,), value (N,))."""
+    """The seed's network: one ReLU trunk (default 256-256) under the policy mean and the value head."""
 
     action_dim: int
     hidden_sizes: tuple[int, ...] = (256, 256)
 
     @nn.compact
     def __call__(self, x: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
-        for size in self.hidden_sizes:
-            x = nn.relu(nn.Dense(size)(x))
+        x = _mlp(x, self.hidden_sizes)
         mean = nn.Dense(self.action_dim)(x)
         log_std = self.param("log_std", nn.initializers.zeros, (self.action_dim,))
         value = nn.Dense(1)(x)
+        return mean, log_std, value[..., 0]
+
+
+class SeparateActorCritic(nn.Module):
+    """Policy and value as two ReLU networks: the value loss (large with reward scaling) cannot swamp
+    the policy's features, and each network gets its own size (Brax's Ant: policy 4x32, value 5x256)."""
+
+    action_dim: int
+    policy_hidden_sizes: tuple[int, ...]
+    value_hidden_sizes: tuple[int, ...]
+
+    @nn.compact
+    def __call__(self, x: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
+        mean = nn.Dense(self.action_dim)(_mlp(x, self.policy_hidden_sizes))
+        log_std = self.param("log_std", nn.initializers.zeros, (self.action_dim,))
+        value = nn.Dense(1)(_mlp(x, self.value_hidden_sizes))
         return mean, log_std, value[..., 0]
 
 

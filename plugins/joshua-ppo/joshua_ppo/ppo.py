@@ -27,7 +27,7 @@ from jax.sharding import PartitionSpec
 
 from joshua_core.errors import ConfigError, JoshuaError
 from joshua_mjx.env import ENV_AXIS, EnvState, MjxEnv
-from joshua_ppo.networks import ActorCritic, gaussian_entropy, gaussian_log_prob
+from joshua_ppo.networks import ActorCritic, SeparateActorCritic, gaussian_entropy, gaussian_log_prob
 
 OBSERVATION_CLIP = 10.0  # normalised observations are clipped to +-this
 
@@ -65,10 +65,12 @@ class ReturnSettings:
 
 @dataclass(frozen=True)
 class NetworkSettings:
-    """The actor-critic network and its input."""
+    """The actor-critic network, its input and its output."""
 
-    hidden_sizes: tuple[int, ...] = (256, 256)
+    hidden_sizes: tuple[int, ...] = (256, 256)  # the shared trunk; the policy's layers when value_hidden_sizes is set
+    value_hidden_sizes: tuple[int, ...] = ()  # set: a separate value network of these layers
     normalize_observations: bool = True
+    squash_actions: bool = False  # tanh of the Gaussian sample goes to the env, rather than the sample clipped
 
 
 class RunningStatistics(NamedTuple):
@@ -146,8 +148,15 @@ def check_settings(rollout: RolloutSettings, optimization: OptimizationSettings,
     return batch // optimization.minibatch_size
 
 
-def make_network(env: MjxEnv, network: NetworkSettings) -> ActorCritic:
+def make_network(env: MjxEnv, network: NetworkSettings) -> ActorCritic | SeparateActorCritic:
+    if network.value_hidden_sizes:
+        return SeparateActorCritic(env.action_size, tuple(network.hidden_sizes), tuple(network.value_hidden_sizes))
     return ActorCritic(action_dim=env.action_size, hidden_sizes=tuple(network.hidden_sizes))
+
+
+def env_actions(sample: jax.Array, network: NetworkSettings) -> jax.Array:
+    """What the environment gets for a policy sample (or mean): squashed by tanh, or as is (the env clips)."""
+    return jnp.tanh(sample) if network.squash_actions else sample
 
 
 def make_optimizer(optimization: OptimizationSettings) -> optax.GradientTransformation:
@@ -229,7 +238,7 @@ def make_iteration(
         env_state, params, stats = carry
         mean, log_std, value = apply(params, stats, env_state.observation)
         action = mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape)
-        next_state = env.step(env_state, action)
+        next_state = env.step(env_state, env_actions(action, network))
         _, _, final_value = apply(params, stats, next_state.final_observation)
         transition = _Transition(
             observation=env_state.observation,
@@ -303,9 +312,7 @@ def make_iteration(
         carry: tuple[Any, Any, RunningStatistics], key: jax.Array, samples: _Sample
     ) -> tuple[tuple[Any, Any, RunningStatistics], dict[str, jax.Array]]:
         order = jax.random.permutation(key, samples.advantage.shape[0])
-        minibatches = jax.tree.map(
-            lambda x: x[order].reshape(num_minibatches, local_minibatch, *x.shape[1:]), samples
-        )
+        minibatches = jax.tree.map(lambda x: x[order].reshape(num_minibatches, local_minibatch, *x.shape[1:]), samples)
         return jax.lax.scan(gradient_step, carry, minibatches)
 
     def local_iteration(
@@ -376,7 +383,11 @@ def _update_statistics(stats: RunningStatistics, observations: jax.Array) -> Run
     total = stats.count + batch_count
     delta = batch_mean - stats.mean
     mean = stats.mean + delta * batch_count / total
-    m2 = stats.variance * stats.count + batch_variance * batch_count + jnp.square(delta) * stats.count * batch_count / total
+    m2 = (
+        stats.variance * stats.count
+        + batch_variance * batch_count
+        + jnp.square(delta) * stats.count * batch_count / total
+    )
     return RunningStatistics(total, mean, m2 / total)
 
 
@@ -402,7 +413,9 @@ def train_ppo(
     Raises TrainingDiverged, without calling `on_checkpoint`, when a loss or parameter stops being finite.
     """
     if resume is not None and resume[0].env_state.observation.shape[0] != env.num_envs:
-        raise ConfigError(f"the saved state has {resume[0].env_state.observation.shape[0]} environments, not {env.num_envs}")
+        raise ConfigError(
+            f"the saved state has {resume[0].env_state.observation.shape[0]} environments, not {env.num_envs}"
+        )
     state, progress = resume or (init_state(env, seed=seed, network=network, optimization=optimization), Progress(0, 0))
     iteration = make_iteration(env, rollout=rollout, optimization=optimization, returns=returns, network=network)
     steps_per_iteration = rollout.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
@@ -452,11 +465,15 @@ def train_ppo(
 
 
 def policy_actions(
-    net: ActorCritic, params: Any, stats: RunningStatistics, observation: jax.Array, normalizing: bool
+    net: ActorCritic | SeparateActorCritic,
+    params: Any,
+    stats: RunningStatistics,
+    observation: jax.Array,
+    network: NetworkSettings,
 ) -> jax.Array:
-    """The deterministic policy's actions (the Gaussian's mean)."""
-    mean, _, _ = net.apply({"params": params}, normalize(stats, observation, normalizing))
-    return mean
+    """The deterministic policy's actions (the Gaussian's mean, squashed when the policy squashes)."""
+    mean, _, _ = net.apply({"params": params}, normalize(stats, observation, network.normalize_observations))
+    return env_actions(mean, network)
 
 
 def as_numpy(tree: Any) -> Any:

@@ -21,8 +21,8 @@ from joshua_core.evaluation import open_video_writer
 from joshua_mjx.env import MjxEnv
 from joshua_mujoco.engine import camera_id, create_renderer
 from joshua_mujoco.vector import render_with_commands
-from joshua_ppo.networks import ActorCritic
-from joshua_ppo.ppo import RunningStatistics, policy_actions
+from joshua_ppo.networks import ActorCritic, SeparateActorCritic
+from joshua_ppo.ppo import NetworkSettings, RunningStatistics, policy_actions
 
 VIDEO_WIDTH, VIDEO_HEIGHT = 640, 480
 
@@ -38,16 +38,14 @@ class Rollout:
     metrics: dict[str, np.ndarray]  # (N,) each metric on the first episode's last step
 
 
-def make_rollout(
-    env: MjxEnv, net: ActorCritic, normalizing: bool, steps: int
-) -> Any:
+def make_rollout(env: MjxEnv, net: ActorCritic | SeparateActorCritic, network: NetworkSettings, steps: int) -> Any:
     """A compiled function (params, normalizer, key) -> per-step arrays of a `steps`-long rollout."""
 
     def run(params: Any, stats: RunningStatistics, key: jax.Array) -> dict[str, Any]:
         state = env.reset(key)
 
         def step(state: Any, _: None) -> tuple[Any, dict[str, Any]]:
-            action = policy_actions(net, params, stats, state.observation, normalizing)
+            action = policy_actions(net, params, stats, state.observation, network)
             next_state = env.step(state, action)
             episode = next_state.episode
             record = {
@@ -93,7 +91,9 @@ def collect(raw: dict[str, Any], envs: int | None = None) -> Rollout:
     )
 
 
-def render_video(model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None = None) -> Path | None:
+def render_video(
+    model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None = None
+) -> Path | None:
     """Render env 0's episode to an MP4 (None when joshua-modes, the video writer, is not installed)."""
     writer = open_video_writer(path, fps)
     if writer is None:

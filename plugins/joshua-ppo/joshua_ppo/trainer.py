@@ -75,8 +75,9 @@ class PpoSettings:
     @classmethod
     def from_config(cls, config: TrainingConfig) -> PpoSettings:
         options = config.ppo
-        if any(size <= 0 for size in options.hidden_sizes):
-            raise ConfigError(f"training.ppo.hidden_sizes must be positive, got {list(options.hidden_sizes)}")
+        for name in ("hidden_sizes", "value_hidden_sizes"):
+            if any(size <= 0 for size in getattr(options, name)):
+                raise ConfigError(f"training.ppo.{name} must be positive, got {list(getattr(options, name))}")
         for name in ("num_envs", "num_steps", "num_epochs", "minibatch_size", "total_timesteps"):
             if getattr(config, name) < 0:
                 raise ConfigError(f"training.{name} must not be negative")
@@ -104,7 +105,9 @@ class PpoSettings:
             ),
             network=NetworkSettings(
                 hidden_sizes=tuple(options.hidden_sizes) or (256, 256),
+                value_hidden_sizes=tuple(options.value_hidden_sizes),
                 normalize_observations=not options.disable_observation_normalization,
+                squash_actions=options.squash_actions,
             ),
             total_timesteps=total,
             checkpoint_interval=options.checkpoint_interval or max(1, total // CHECKPOINTS_PER_RUN),
@@ -139,9 +142,13 @@ class ScalarLog:
         from tensorboard.compat.proto import event_pb2, summary_pb2
 
         values = [
-            summary_pb2.Summary.Value(tag=name, simple_value=value) for name, value in scalars.items() if np.isfinite(value)
+            summary_pb2.Summary.Value(tag=name, simple_value=value)
+            for name, value in scalars.items()
+            if np.isfinite(value)
         ]
-        self._writer.add_event(event_pb2.Event(wall_time=time.time(), step=step, summary=summary_pb2.Summary(value=values)))
+        self._writer.add_event(
+            event_pb2.Event(wall_time=time.time(), step=step, summary=summary_pb2.Summary(value=values))
+        )
 
     def close(self) -> None:
         self._writer.close()
@@ -173,7 +180,9 @@ class LiveViewer:
             for pose in qpos[1:]:
                 self._ghost.qpos[:] = pose
                 mujoco.mj_kinematics(model, self._ghost)
-                mujoco.mjv_addGeoms(model, self._ghost, self._option, self._perturb, mujoco.mjtCatBit.mjCAT_DYNAMIC, scene)
+                mujoco.mjv_addGeoms(
+                    model, self._ghost, self._option, self._perturb, mujoco.mjtCatBit.mjCAT_DYNAMIC, scene
+                )
         self.display.set_status(status)
         return self.display.update(self.engine.time)
 
@@ -190,7 +199,9 @@ def open_viewer(options: PpoOptions, model_path: Path) -> LiveViewer | None:
         from joshua_modes.display import display_usable, no_display_error
     except ModuleNotFoundError:
         if options.viewer == PpoOptions.ON:
-            raise UsageError("training.ppo.viewer ON needs joshua-modes (pip install -e plugins/joshua-modes)") from None
+            raise UsageError(
+                "training.ppo.viewer ON needs joshua-modes (pip install -e plugins/joshua-modes)"
+            ) from None
         return None
     if not display_usable():
         if options.viewer == PpoOptions.ON:
@@ -232,7 +243,9 @@ class Run:
             "devices": [str(device) for device in jax.devices()],
             "settings": settings,
             "training": json_format.MessageToDict(self.config, preserving_proto_field_name=True),
-            "versions": {name: _version(name) for name in ("joshua-ppo", "jax", "flax", "optax", "mujoco", "mujoco-mjx")},
+            "versions": {
+                name: _version(name) for name in ("joshua-ppo", "jax", "flax", "optax", "mujoco", "mujoco-mjx")
+            },
         }
 
     def metrics_document(self, progress: Progress) -> dict[str, Any]:
@@ -282,7 +295,9 @@ class Run:
         metrics = self.metrics_document(progress)
         folder = checkpoint_dir(self.root, self.name, progress.env_steps)
         documents = {CONFIG_FILE: self.config_document(), METRICS_FILE: metrics}
-        write_checkpoint(folder, {PARAMS_FILE: jax.device_get(params), TRAIN_STATE_FILE: jax.device_get(train_state)}, documents)
+        write_checkpoint(
+            folder, {PARAMS_FILE: jax.device_get(params), TRAIN_STATE_FILE: jax.device_get(train_state)}, documents
+        )
         atomic_write_json(self.folder / METRICS_FILE, metrics)
         write_training_curves(
             self.history, self.folder / "training_curves.png", title=f"{self.config.task}: ppo", series=CURVE_SERIES
@@ -300,7 +315,10 @@ class Run:
                 task_config=self.config.task_config if self.config.HasField("task_config") else None,
             )
             steps = self.config.ppo.video_steps or env.task.episode_length
-            self._rollout = env, make_rollout(env, make_network(env, self.settings.network), self.settings.network.normalize_observations, steps)
+            self._rollout = (
+                env,
+                make_rollout(env, make_network(env, self.settings.network), self.settings.network, steps),
+            )
         env, rollout = self._rollout
         raw = rollout(state.params, state.normalizer, jax.random.PRNGKey(step))
         try:
@@ -330,7 +348,8 @@ def _run_name(config: TrainingConfig, root: Path) -> tuple[str, Path | None]:
         saved = read_json(root / name / CONFIG_FILE)
         if saved.get("task") != config.task:
             raise ConfigError(
-                f"training.ppo.resume: run '{name}' trained task '{saved.get('task')}', this config asks for '{config.task}'"
+                f"training.ppo.resume: run '{name}' trained task '{saved.get('task')}', "
+                f"this config asks for '{config.task}'"
             )
         return name, checkpoints[-1]
     name = options.run_name or f"{config.task}_{datetime.now():%Y%m%d-%H%M%S}"
@@ -352,7 +371,9 @@ def _newest_run(root: Path) -> str:
 def load_params(checkpoint: Path, env: MjxEnv, network: NetworkSettings) -> tuple[Any, RunningStatistics]:
     """A checkpoint's network parameters and observation normaliser, checked against the network's shapes."""
     template = init_state(env, seed=0, network=network, optimization=OptimizationSettings())
-    saved = read_payload(checkpoint, PARAMS_FILE, {"params": template.params, "normalizer": template.normalizer._asdict()})
+    saved = read_payload(
+        checkpoint, PARAMS_FILE, {"params": template.params, "normalizer": template.normalizer._asdict()}
+    )
     return saved["params"], RunningStatistics(**saved["normalizer"])
 
 
@@ -362,7 +383,9 @@ def load_state(checkpoint: Path, env: MjxEnv, settings: PpoSettings) -> tuple[Tr
     params, normalizer = load_params(checkpoint, env, settings.network)
     target = {"opt_state": template.opt_state, "key": template.key, "iteration": 0, "env_steps": 0}
     saved = read_payload(checkpoint, TRAIN_STATE_FILE, target)
-    state = TrainingState(params, saved["opt_state"], normalizer, env.reset(jax.random.fold_in(saved["key"], 1)), saved["key"])
+    state = TrainingState(
+        params, saved["opt_state"], normalizer, env.reset(jax.random.fold_in(saved["key"], 1)), saved["key"]
+    )
     state = jax.device_put(state, jax.tree.map(lambda leaf: leaf.sharding, template))
     return state, Progress(int(saved["iteration"]), int(saved["env_steps"]))
 
@@ -443,7 +466,7 @@ class PpoTrainer(Trainer):
         params, normalizer = load_params(checkpoint, env, settings.network)
         print(f"ppo: evaluating {checkpoint} ({checkpoint_step(checkpoint)} steps) over {episodes} episodes")
         net = make_network(env, settings.network)
-        rollout = make_rollout(env, net, settings.network.normalize_observations, env.task.episode_length)
+        rollout = make_rollout(env, net, settings.network, env.task.episode_length)
         episode = collect(rollout(params, normalizer, jax.random.PRNGKey(seed)), episodes)
         if video_path is not None:
             written = render_video(env.model, episode, video_path, fps=1.0 / env.task.dt)

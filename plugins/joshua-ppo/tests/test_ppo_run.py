@@ -52,7 +52,11 @@ def test_reach_policy_learns_and_the_run_folder_is_complete(reach_run: Path) -> 
     assert len(returns) >= 4, history
     assert returns[-1] > returns[0] + 5.0, returns  # measured: -13.4 -> -1.8
     assert distances[-1] < 0.75 * distances[0], distances
-    assert [path.name for path in run_checkpoints(reach_run, "reach")] == ["reach_step_0", "reach_step_4000", "reach_step_8000"]
+    assert [path.name for path in run_checkpoints(reach_run, "reach")] == [
+        "reach_step_0",
+        "reach_step_4000",
+        "reach_step_8000",
+    ]
     saved = from_bytes(None, (reach_run / "reach_step_8000" / "params.msgpack").read_bytes())  # as the seed loads it
     assert set(saved) == {"params", "normalizer"} and saved["params"]["log_std"].shape == (6,)
     config = json.loads((reach_run / "reach_step_8000" / "config.json").read_text())
@@ -71,7 +75,9 @@ def test_joshua_eval_rolls_out_the_policy_and_writes_a_video(reach_run: Path) ->
     video = reach_run / "eval.mp4"
     done = subprocess.run(
         [*JOSHUA, "eval", str(reach_run / "reach"), "--episodes", "4", "--video", str(video)],
-        capture_output=True, text=True, timeout=300,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert done.returncode == 0, done.stderr
     assert "mean_return:" in done.stdout and "final_distance:" in done.stdout
@@ -87,7 +93,9 @@ def test_a_corrupt_checkpoint_is_a_clear_error(reach_run: Path, tmp_path: Path) 
     params = broken / "params.msgpack"
     params.write_bytes(params.read_bytes()[:100])
     with pytest.raises(CorruptCheckpointError, match="params.msgpack"):
-        PpoTrainer().evaluate(broken, episodes=2, seed=0, video_path=None, context=RunContext(PluginHost.discover(), tmp_path))
+        PpoTrainer().evaluate(
+            broken, episodes=2, seed=0, video_path=None, context=RunContext(PluginHost.discover(), tmp_path)
+        )
     done = subprocess.run([*JOSHUA, "eval", str(broken), "--no-video"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 1 and "cannot load" in done.stderr and "Traceback" not in done.stderr
 
@@ -122,12 +130,40 @@ def test_diverging_training_stops_with_a_clear_message_and_keeps_the_last_good_c
     with pytest.raises(TrainingDiverged, match="diverged in iteration"):
         train_mjx(model_path="ant/ant_mjx.xml", config=config, checkpoint_dir=tmp_path)
     kept = run_checkpoints(tmp_path, "nan")
-    assert kept and all(np.isfinite(np.asarray(leaf)).all() for leaf in _leaves(from_bytes(None, (kept[-1] / "params.msgpack").read_bytes())))
+    assert kept and all(
+        np.isfinite(np.asarray(leaf)).all()
+        for leaf in _leaves(from_bytes(None, (kept[-1] / "params.msgpack").read_bytes()))
+    )
+
+
+def test_separate_value_network_and_squashed_actions_round_trip_through_eval(tmp_path: Path) -> None:
+    options = {
+        **ANT["ppo"],
+        "run_name": "brax",
+        "hidden_sizes": [8, 8],
+        "value_hidden_sizes": [16],
+        "squash_actions": True,
+    }
+    checkpoint = train_mjx(
+        model_path="ant/ant_mjx.xml", config={**ANT, "total_timesteps": 40, "ppo": options}, checkpoint_dir=tmp_path
+    )
+    params = from_bytes(None, (checkpoint / "params.msgpack").read_bytes())["params"]
+    kernels = sorted(tuple(np.shape(layer["kernel"])) for name, layer in params.items() if name.startswith("Dense"))
+    observation_size = 105
+    assert kernels == sorted([(observation_size, 8), (8, 8), (8, 8), (observation_size, 16), (16, 1)]), kernels
+    done = subprocess.run(
+        [*JOSHUA, "eval", str(checkpoint), "--no-video", "--episodes", "2"], capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
 
 
 def test_bad_settings_are_config_errors(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="minibatch_size 30 must divide"):
         train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "minibatch_size": 30}, checkpoint_dir=tmp_path)
+    with pytest.raises(ConfigError, match="value_hidden_sizes must be positive"):
+        train_mjx(
+            model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"value_hidden_sizes": [0]}}, checkpoint_dir=tmp_path
+        )
     with pytest.raises(ConfigError, match="no_such_field"):
         train_mjx(model_path="ant/ant_mjx.xml", config={"no_such_field": 1}, checkpoint_dir=tmp_path)
     training = TrainingConfig(task="ant_locomotion", backend="mujoco")
