@@ -42,12 +42,18 @@ def put_model(model: mujoco.MjModel, source: str | Path) -> mjx.Model:
         ) from None
 
 
+# What a user of the engine writes into the host MjData between steps; the rest of the device state
+# (contacts, constraint rows, warm start) stays on the device from the previous step.
+HOST_INPUTS = ("time", "qpos", "qvel", "act", "ctrl", "mocap_pos", "mocap_quat", "qfrc_applied", "xfrc_applied")
+
+
 class MjxEngine(MuJoCoEngine):
     """One simulation whose `step()` runs MJX's physics (on the default JAX device)."""
 
     def __init__(self, model_path: str | Path, *, render_width: int = 640, render_height: int = 480) -> None:
         super().__init__(model_path, render_width=render_width, render_height=render_height)
         self.mjx_model = put_model(self.model, model_path)
+        self._device_data = mjx.make_data(self.mjx_model)
         self._step_n = jax.jit(self._physics_steps)
 
     def _physics_steps(self, data: mjx.Data, n: Any) -> mjx.Data:
@@ -55,8 +61,9 @@ class MjxEngine(MuJoCoEngine):
 
     def step(self, n: int = 1) -> None:
         """`n` MJX steps from the current host state; the host `data` then holds the result."""
-        stepped = self._step_n(mjx.put_data(self.model, self.data), n)
-        mjx.get_data_into(self.data, self.model, stepped)
+        inputs = {name: jax.numpy.asarray(getattr(self.data, name)) for name in HOST_INPUTS}
+        self._device_data = self._step_n(self._device_data.replace(**inputs), n)
+        mjx.get_data_into(self.data, self.model, self._device_data)
 
 
 class MjxBackend(Backend):
