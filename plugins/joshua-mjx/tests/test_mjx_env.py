@@ -7,13 +7,14 @@ import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from joshua_core.errors import ConfigError
+from joshua_core.errors import ConfigError, ModelError
 from joshua_mjx.engine import MjxEngine
 from joshua_mjx.env import make_mjx_env
 from joshua_mujoco import MuJoCoEngine
@@ -155,3 +156,32 @@ def test_plugin_entry_points_import_nothing_heavy() -> None:
         [sys.executable, "-m", "joshua_core.cli", "plugins"], capture_output=True, text=True, timeout=60
     )
     assert "backend  mjx" in listing.stdout and "trainer  ppo" in listing.stdout, listing.stdout
+
+
+def test_a_model_mjx_cannot_run_is_a_clear_error(tmp_path: Path) -> None:
+    model = tmp_path / "cylinder_on_box.xml"
+    model.write_text(
+        '<mujoco><worldbody><geom type="box" size=".1 .1 .1"/>'
+        '<body pos="0 0 1"><freejoint/><geom type="cylinder" size=".1 .1"/></body></worldbody></mujoco>'
+    )
+    with pytest.raises(
+        ModelError, match=r"cylinder_on_box.xml: the model uses something MJX does not support .*CYLINDER"
+    ):
+        MjxEngine(model)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "joshua_core.cli",
+            "--set",
+            "simulation.backend=mjx",
+            "--set",
+            f"simulation.model_path={model}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 2 and "MJX does not support" in done.stderr and "Traceback" not in done.stderr, (
+        done.stderr
+    )
