@@ -1,10 +1,19 @@
-"""Settings for every test run, core and plugins alike."""
+"""Settings and fixtures for every test run, core and plugins alike: SIGINT for child processes, and a
+real X server (Xvfb) with screenshots of it, for the tests of the viewers."""
 
 from __future__ import annotations
 
+import shutil
 import signal
+import struct
+import subprocess
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
 
+import numpy as np
 import pytest
+from numpy.typing import NDArray
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -16,3 +25,63 @@ def pytest_configure(config: pytest.Config) -> None:
     """
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+def _free_display_number() -> int:
+    for number in range(90, 200):
+        if not Path(f"/tmp/.X{number}-lock").exists() and not Path(f"/tmp/.X11-unix/X{number}").exists():
+            return number
+    raise RuntimeError("no free X display number between :90 and :199")
+
+
+@pytest.fixture(scope="module")
+def xvfb() -> Iterator[str]:
+    """A running Xvfb (1024x768, 24 bit); yields its DISPLAY. setup.sh --dev installs it, so it must exist."""
+    executable = shutil.which("Xvfb")
+    assert executable, "Xvfb is not installed; ./setup.sh --dev installs it (Debian package xvfb)"
+    number = _free_display_number()
+    server = subprocess.Popen(
+        [executable, f":{number}", "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    socket = Path(f"/tmp/.X11-unix/X{number}")
+    deadline = time.monotonic() + 20
+    while not socket.exists():
+        assert server.poll() is None, f"Xvfb :{number} exited: {server.stderr.read().decode() if server.stderr else ''}"
+        assert time.monotonic() < deadline, f"Xvfb :{number} did not start within 20 s"
+        time.sleep(0.05)
+    try:
+        yield f":{number}"
+    finally:
+        server.terminate()
+        server.wait(10)
+
+
+@pytest.fixture(scope="session")
+def screenshot() -> Callable[[str], NDArray[np.uint8]]:
+    """`screenshot(display)`: the whole X screen as (H, W, 3) RGB, taken with xwd (Debian x11-apps)."""
+    xwd = shutil.which("xwd")
+    assert xwd, "xwd is not installed; ./setup.sh --dev installs it (Debian package x11-apps)"
+
+    def take(display: str) -> NDArray[np.uint8]:
+        dump = subprocess.run(
+            [xwd, "-root", "-silent", "-display", display], capture_output=True, check=True, timeout=30
+        ).stdout
+        return _decode_xwd(dump)
+
+    return take
+
+
+def _decode_xwd(dump: bytes) -> NDArray[np.uint8]:
+    """Decode an X window dump of a 24/32-bit TrueColor screen (the format Xvfb -screen ...x24 gives)."""
+    header = struct.unpack(">25I", dump[:100])
+    header_size, width, height, byte_order, bytes_per_line, ncolors = (
+        header[0], header[4], header[5], header[7], header[12], header[19]
+    )  # fmt: skip
+    pixel_bytes = bytes_per_line // width
+    assert pixel_bytes == 4, f"expected 32-bit pixels, got {pixel_bytes * 8}"
+    start = header_size + 12 * ncolors
+    pixels = np.frombuffer(dump[start : start + bytes_per_line * height], np.uint8)
+    pixels = pixels.reshape(height, bytes_per_line)[:, : width * 4].reshape(height, width, 4)
+    return pixels[..., [2, 1, 0]] if byte_order == 0 else pixels[..., [1, 2, 3]]

@@ -1,15 +1,13 @@
-"""Fixtures for joshua-modes: the installed `joshua` script, trajectory files, a real Xvfb.
+"""Fixtures for joshua-modes: the installed `joshua` script and trajectory files (Xvfb is in the root conftest).
 
 Plain helpers live in modes_testing.py (a unique name, so it cannot clash with another plugin's tests).
 """
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 import sys
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -46,34 +44,3 @@ def write_csv(tmp_path: Path) -> Callable[..., Path]:
         return path
 
     return write
-
-
-def _free_display_number() -> int:
-    for number in range(90, 200):
-        if not Path(f"/tmp/.X{number}-lock").exists() and not Path(f"/tmp/.X11-unix/X{number}").exists():
-            return number
-    raise RuntimeError("no free X display number between :90 and :199")
-
-
-@pytest.fixture(scope="module")
-def xvfb() -> Iterator[str]:
-    """A running Xvfb (1024x768, 24 bit); yields its DISPLAY. setup.sh --dev installs it, so it must exist."""
-    executable = shutil.which("Xvfb")
-    assert executable, "Xvfb is not installed; ./setup.sh --dev installs it (Debian package xvfb)"
-    number = _free_display_number()
-    server = subprocess.Popen(
-        [executable, f":{number}", "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    socket = Path(f"/tmp/.X11-unix/X{number}")
-    deadline = time.monotonic() + 20
-    while not socket.exists():
-        assert server.poll() is None, f"Xvfb :{number} exited: {server.stderr.read().decode() if server.stderr else ''}"
-        assert time.monotonic() < deadline, f"Xvfb :{number} did not start within 20 s"
-        time.sleep(0.05)
-    try:
-        yield f":{number}"
-    finally:
-        server.terminate()
-        server.wait(10)

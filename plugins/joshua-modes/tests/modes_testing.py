@@ -1,11 +1,8 @@
-"""Plain helpers of the joshua-modes tests: paths, small trajectories, video and screenshot decoding."""
+"""Plain helpers of the joshua-modes tests: paths, small trajectories, video decoding, colour counts."""
 
 from __future__ import annotations
 
 import os
-import shutil
-import struct
-import subprocess
 import sys
 from pathlib import Path
 
@@ -58,27 +55,3 @@ def orange_pixels(rgb: NDArray[np.uint8]) -> int:
     """Pixels of the SO-ARM100's printed parts (material 'printed', orange), lit or shaded."""
     r, g, b = (rgb[..., i].astype(int) for i in range(3))
     return int(np.count_nonzero((r > 150) & (r - b > 100) & (g - b > 30) & (r - g > 20)))
-
-
-def screenshot(display: str) -> NDArray[np.uint8]:
-    """The whole X screen as (H, W, 3) RGB, taken with xwd (Debian x11-apps) and decoded here."""
-    xwd = shutil.which("xwd")
-    assert xwd, "xwd is not installed; ./setup.sh --dev installs it (Debian package x11-apps)"
-    dump = subprocess.run(
-        [xwd, "-root", "-silent", "-display", display], capture_output=True, check=True, timeout=30
-    ).stdout
-    return decode_xwd(dump)
-
-
-def decode_xwd(dump: bytes) -> NDArray[np.uint8]:
-    """Decode an X window dump of a 24/32-bit TrueColor screen (the format Xvfb -screen ...x24 gives)."""
-    header = struct.unpack(">25I", dump[:100])
-    header_size, width, height, byte_order, bytes_per_line, ncolors = (
-        header[0], header[4], header[5], header[7], header[12], header[19]
-    )  # fmt: skip
-    pixel_bytes = bytes_per_line // width
-    assert pixel_bytes == 4, f"expected 32-bit pixels, got {pixel_bytes * 8}"
-    start = header_size + 12 * ncolors
-    pixels = np.frombuffer(dump[start : start + bytes_per_line * height], np.uint8)
-    pixels = pixels.reshape(height, bytes_per_line)[:, : width * 4].reshape(height, width, 4)
-    return pixels[..., [2, 1, 0]] if byte_order == 0 else pixels[..., [1, 2, 3]]

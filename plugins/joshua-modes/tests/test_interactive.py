@@ -7,13 +7,16 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
-from modes_testing import JOSHUA_SCRIPT, distinct_colours, headless_env, orange_pixels, screenshot
+from modes_testing import JOSHUA_SCRIPT, distinct_colours, headless_env, orange_pixels
+from numpy.typing import NDArray
 
 BANNER = "MuJoCo viewer: "
 START_TIMEOUT_S = 60.0
+Screenshot = Callable[[str], NDArray[np.uint8]]  # the root conftest's fixture `screenshot`
 
 
 def launch(display: str, cwd: Path, *args: str) -> subprocess.Popen[str]:
@@ -27,7 +30,7 @@ def launch(display: str, cwd: Path, *args: str) -> subprocess.Popen[str]:
     )
 
 
-def wait_for_robot(display: str, process: subprocess.Popen[str]) -> np.ndarray:
+def wait_for_robot(display: str, process: subprocess.Popen[str], screenshot: Screenshot) -> np.ndarray:
     """Screenshots until the viewer shows the orange arm; fails if the process dies or time runs out."""
     deadline = time.monotonic() + START_TIMEOUT_S
     while True:
@@ -54,12 +57,12 @@ def assert_clean(stderr: str) -> None:
         assert sign not in stderr, stderr
 
 
-def test_viewer_shows_the_arm_and_ctrl_c_exits_cleanly(xvfb: str, tmp_path: Path) -> None:
+def test_viewer_shows_the_arm_and_ctrl_c_exits_cleanly(xvfb: str, screenshot: Screenshot, tmp_path: Path) -> None:
     blank = screenshot(xvfb)
     assert distinct_colours(blank) <= 2  # an empty X screen
     process = launch(xvfb, tmp_path)
     try:
-        shot = wait_for_robot(xvfb, process)
+        shot = wait_for_robot(xvfb, process, screenshot)
     finally:
         process.send_signal(signal.SIGINT)
     status, stdout, stderr = finish(process)
@@ -69,12 +72,12 @@ def test_viewer_shows_the_arm_and_ctrl_c_exits_cleanly(xvfb: str, tmp_path: Path
     assert_clean(stderr)
 
 
-def test_closing_the_window_ends_the_run_with_status_0(xvfb: str, tmp_path: Path) -> None:
+def test_closing_the_window_ends_the_run_with_status_0(xvfb: str, screenshot: Screenshot, tmp_path: Path) -> None:
     xdotool = shutil.which("xdotool")
     assert xdotool, "xdotool is not installed; ./setup.sh --dev installs it"
     process = launch(xvfb, tmp_path)
     try:
-        wait_for_robot(xvfb, process)
+        wait_for_robot(xvfb, process, screenshot)
         window = subprocess.run(
             [xdotool, "search", "--name", "^MuJoCo"], env=headless_env(DISPLAY=xvfb), capture_output=True, text=True
         ).stdout.split()
@@ -92,6 +95,7 @@ def test_closing_the_window_ends_the_run_with_status_0(xvfb: str, tmp_path: Path
 
 HOLD_PROBE = """
 import numpy as np
+from numpy.typing import NDArray
 from joshua_mujoco import MuJoCoEngine
 from joshua_modes.interactive import simulate
 with MuJoCoEngine("so_arm100/scene.xml") as engine:

@@ -1,17 +1,22 @@
 """The PPO trainer end to end on the CPU: a reaching policy learns, its run folder and checkpoints are complete,
-`joshua eval` rolls it out, training resumes, and bad checkpoints or diverging losses fail clearly."""
+`joshua eval` rolls it out, training resumes, bad checkpoints or diverging losses fail clearly, and the live
+viewer shows the training environments on a real X server."""
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 from flax.serialization import from_bytes
+from numpy.typing import NDArray
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
@@ -175,3 +180,48 @@ def _leaves(tree: object) -> list[object]:
     if isinstance(tree, dict):
         return [leaf for value in tree.values() for leaf in _leaves(value)]
     return [tree]
+
+
+def test_live_viewer_shows_the_training_ants_and_closing_it_lets_training_finish(
+    xvfb: str, screenshot: Callable[[str], NDArray[np.uint8]], tmp_path: Path
+) -> None:
+    settings = {
+        "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1, "total_timesteps": 4 * 5 * 300,
+        "checkpoint_dir": str(tmp_path), "ppo.run_name": "live", "ppo.viewer": "ON", "ppo.video_interval": -1,
+        "ppo.hidden_sizes": "[16]",
+    }  # fmt: skip
+    overrides = [arg for name, value in settings.items() for arg in ("--set", f"training.{name}={value}")]
+    environment = {key: value for key, value in os.environ.items() if key not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
+    environment["DISPLAY"] = xvfb
+    process = subprocess.Popen(
+        [*JOSHUA, "--preset", "ant_train_mjx", *overrides],
+        env=environment,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 180
+        while ant_pixels(screenshot(xvfb)) < 300:  # the Ant's body material is tan: rgb (0.8, 0.6, 0.4)
+            assert process.poll() is None, f"training ended before the viewer showed the ants: {process.communicate()}"
+            assert time.monotonic() < deadline, "the live viewer did not show the ants within 3 minutes"
+            time.sleep(0.5)
+        window = subprocess.run(
+            ["xdotool", "search", "--name", "^MuJoCo"], env=environment, capture_output=True, text=True
+        )
+        assert window.stdout.split(), "no MuJoCo window"
+        subprocess.run(
+            ["xdotool", "windowfocus", "--sync", window.stdout.split()[0], "key", "ctrl+q"], env=environment, check=True
+        )
+        stdout, stderr = process.communicate(timeout=300)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 0, stderr[-3000:]
+    assert "ppo: 6000 steps" in stdout and (tmp_path / "live_step_6000" / "params.msgpack").is_file()
+    assert "Traceback" not in stderr
+
+
+def ant_pixels(rgb: NDArray[np.uint8]) -> int:
+    r, g, b = (rgb[..., i].astype(int) for i in range(3))
+    return int(np.count_nonzero((r > 90) & (r - b > 50) & (g - b > 20) & (r - g > 15)))
