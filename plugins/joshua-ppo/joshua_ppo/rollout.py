@@ -29,13 +29,13 @@ VIDEO_WIDTH, VIDEO_HEIGHT = 640, 480
 
 @dataclass
 class Rollout:
-    """One deterministic rollout: env 0's poses and commands, and every environment's first episode."""
+    """One deterministic rollout: env 0's poses and commands, and the environments' first episodes."""
 
-    qpos: np.ndarray  # (frames, nq) env 0, from the reset state up to its first episode's last step
+    qpos: np.ndarray  # (frames, nq) env 0, from the reset state to its first episode's last step or the rollout's
     commands: dict[str, np.ndarray]  # (frames, k) env 0's commands, per frame
-    returns: np.ndarray  # (N,) each environment's first episode's return
-    lengths: np.ndarray  # (N,)
-    metrics: dict[str, np.ndarray]  # (N,) each metric on the first episode's last step
+    returns: np.ndarray  # (finished,) the first episode's return of each environment that finished one
+    lengths: np.ndarray  # (finished,)
+    metrics: dict[str, np.ndarray]  # (finished,) each metric on the first episode's last step
 
 
 def make_rollout(env: MjxEnv, net: ActorCritic | SeparateActorCritic, network: NetworkSettings, steps: int) -> Any:
@@ -66,17 +66,15 @@ def make_rollout(env: MjxEnv, net: ActorCritic | SeparateActorCritic, network: N
 
 
 def collect(raw: dict[str, Any], envs: int | None = None) -> Rollout:
-    """Host-side summary of a rollout's arrays: env 0's frames until its first episode ended, and the first
-    episode's statistics of each environment (of the first `envs` of them when given)."""
+    """Host-side summary of a rollout's arrays: env 0's frames until its first episode ended (or the rollout
+    did), and the first episode's statistics of each environment that finished one (of the first `envs`)."""
     raw = jax.device_get(raw)
     steps = raw["steps"]
     done = np.asarray(steps["done"])[:, :envs]  # (T, N)
-    if not done.any(axis=0).all():
-        raise RuntimeError("rollout ended before every environment finished an episode")
-    first_end = done.argmax(axis=0)  # (N,) step index of each environment's first episode end
-    envs = np.arange(done.shape[1])
-    end0 = int(first_end[0])
+    finished = np.flatnonzero(done.any(axis=0))
+    first_end = done[:, finished].argmax(axis=0)  # step index of each finished environment's first episode end
     # The state after the last step of env 0's episode is already the next episode's reset: leave it out.
+    end0 = int(done[:, 0].argmax()) if done[:, 0].any() else done.shape[0]
     qpos = np.concatenate([np.asarray(raw["first"]["qpos"])[None], np.asarray(steps["qpos"])[:end0]])
     commands = {
         name: np.concatenate([np.asarray(value)[None], np.asarray(steps["commands"][name])[:end0]])
@@ -85,9 +83,9 @@ def collect(raw: dict[str, Any], envs: int | None = None) -> Rollout:
     return Rollout(
         qpos=qpos,
         commands=commands,
-        returns=np.asarray(steps["return"])[first_end, envs],
-        lengths=np.asarray(steps["length"])[first_end, envs],
-        metrics={name: np.asarray(value)[first_end, envs] for name, value in steps["metrics"].items()},
+        returns=np.asarray(steps["return"])[first_end, finished],
+        lengths=np.asarray(steps["length"])[first_end, finished],
+        metrics={name: np.asarray(value)[first_end, finished] for name, value in steps["metrics"].items()},
     )
 
 

@@ -320,11 +320,7 @@ class Run:
                 make_rollout(env, make_network(env, self.settings.network), self.settings.network, steps),
             )
         env, rollout = self._rollout
-        raw = rollout(state.params, state.normalizer, jax.random.PRNGKey(step))
-        try:
-            episode = collect(raw)
-        except RuntimeError:
-            return  # video_steps shorter than an episode: nothing finished
+        episode = collect(rollout(state.params, state.normalizer, jax.random.PRNGKey(step)))
         path = render_video(env.model, episode, self.folder / "videos" / f"step_{step}.mp4", fps=1.0 / env.task.dt)
         if path is not None:
             self.bar.write(f"ppo: video {path}")

@@ -117,7 +117,13 @@ ANT = {
 
 
 def test_training_resumes_from_the_newest_checkpoint_with_its_optimizer(tmp_path: Path) -> None:
-    train_mjx(model_path="ant/ant_mjx.xml", config=ANT, checkpoint_dir=tmp_path)
+    filmed = {**ANT, "ppo": {**ANT["ppo"], "video_interval": 2, "video_steps": 12}}
+    train_mjx(model_path="ant/ant_mjx.xml", config=filmed, checkpoint_dir=tmp_path)
+    videos = sorted(path.name for path in (tmp_path / "ant" / "videos").iterdir())
+    assert videos == ["step_80.mp4"], videos  # every 2nd iteration
+    capture = cv2.VideoCapture(str(tmp_path / "ant" / "videos" / "step_80.mp4"))
+    frames = [frame for ok, frame in iter(capture.read, (False, None)) if ok]
+    assert len(frames) >= 12 and frames[0].shape == (480, 640, 3) and frames[0].std() > 10, len(frames)
     first = from_bytes(None, (tmp_path / "ant_step_80" / "train_state.msgpack").read_bytes())
     resumed = {**ANT, "total_timesteps": 160, "ppo": {**ANT["ppo"], "resume": True}}
     checkpoint = train_mjx(model_path="ant/ant_mjx.xml", config=resumed, checkpoint_dir=tmp_path)
