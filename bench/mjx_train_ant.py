@@ -6,10 +6,11 @@
     python bench/mjx_train_ant.py --set training.ppo.reward_scaling=1   # a variant of the preset
 
 Reports: compile seconds, wall seconds to the target return (compile included, and without it),
-training env steps/s, the raw physics rate of `vmap(mjx.step)` on the same batch measured in the
-same run, and their ratio (training env steps/s x frame_skip / raw physics steps/s). Anchor: Brax
-PPO trains Ant for 50 M steps in 2 min 36 s plus 33 s compile; goal: return >= 6000 in <= 3 min on
-one H200, training throughput >= 50 % of raw physics, and >= 1.8x on 2 GPUs.
+the final policy's deterministic return over --eval-envs whole episodes, training env steps/s,
+the raw physics rate of `vmap(mjx.step)` on the same batch measured in the same run, and their
+ratio (training env steps/s x frame_skip / raw physics steps/s). Anchor: Brax PPO trains Ant for
+50 M steps in 2 min 36 s plus 33 s compile; goal: return >= 6000 in <= 3 min on one H200,
+training throughput >= 50 % of raw physics, and >= 1.8x on 2 GPUs.
 """
 
 from __future__ import annotations
@@ -24,7 +25,8 @@ from mujoco import mjx
 from joshua_core.config import apply_override, finalize, load_preset
 from joshua_core.plugins import PluginHost
 from joshua_mjx.env import MjxEnv, make_mjx_env
-from joshua_ppo.ppo import IterationReport, TrainingState, train_ppo
+from joshua_ppo.ppo import IterationReport, TrainingState, make_network, train_ppo
+from joshua_ppo.rollout import collect, make_rollout, mean_results
 from joshua_ppo.trainer import PpoSettings
 
 
@@ -49,11 +51,15 @@ def raw_physics_rate(env: MjxEnv, steps: int = 50) -> float:
     return best
 
 
-def train(settings: PpoSettings, env: MjxEnv, target: float, max_seconds: float, iterations: int | None) -> dict:
+def train(
+    settings: PpoSettings, env: MjxEnv, target: float, max_seconds: float, iterations: int | None
+) -> tuple[dict, TrainingState]:
     started = time.perf_counter()
     log: list[dict] = []
+    latest: list[TrainingState] = []
 
     def on_progress(report: IterationReport, state: TrainingState) -> None:
+        latest[:] = [state]
         metrics = report.metrics
         log.append(
             {
@@ -103,7 +109,14 @@ def train(settings: PpoSettings, env: MjxEnv, target: float, max_seconds: float,
         "reached_target_at_seconds": reached[0]["wall"] if reached else None,
         "reached_target_without_compile_seconds": reached[0]["wall"] - compile_seconds if reached else None,
         "reached_target_at_steps": reached[0]["step"] if reached else None,
-    }
+    }, latest[0]
+
+
+def deterministic_return(settings: PpoSettings, env: MjxEnv, state: TrainingState) -> float:
+    """Mean return of one whole episode per environment of `env` under the policy's mean (no exploration
+    noise): what Brax reports, where the training returns above come from the noisy policy."""
+    rollout = make_rollout(env, make_network(env, settings.network), settings.network, env.task.episode_length)
+    return mean_results(collect(rollout(state.params, state.normalizer, jax.random.PRNGKey(1))))["mean_return"]
 
 
 def main() -> None:
@@ -113,6 +126,7 @@ def main() -> None:
     parser.add_argument("--max-seconds", type=float, default=420.0)
     parser.add_argument("--num-envs", type=int, help="override the preset's num_envs")
     parser.add_argument("--iterations", type=int, help="stop after this many iterations")
+    parser.add_argument("--eval-envs", type=int, default=128, help="episodes of the final deterministic evaluation")
     parser.add_argument("--scaling", action="store_true", help="compare throughput on 1 device and on all devices")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
     parser.add_argument("--json", help="write the results here")
@@ -143,9 +157,20 @@ def main() -> None:
         print(
             f"{len(devices)} device(s): raw physics {raw:,.0f} steps/s ({raw / env.task.frame_skip:,.0f} env steps/s)"
         )
-        outcome = train(settings, env, args.target, args.max_seconds, args.iterations)
+        outcome, state = train(settings, env, args.target, args.max_seconds, args.iterations)
         fraction = outcome["train_steps_per_second"] * env.task.frame_skip / raw
         outcome |= {"devices": len(devices), "raw_physics_steps_per_second": raw, "fraction_of_raw_physics": fraction}
+        if args.eval_envs > 0:
+            eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
+            eval_env = make_mjx_env(
+                config.task,
+                eval_envs,
+                model_path=config.model_path,
+                plugins=plugins,
+                task_config=task_config,
+                devices=devices,
+            )
+            outcome["deterministic_return"] = deterministic_return(settings, eval_env, state)
         print(json.dumps(outcome, indent=1))
         results.append(outcome)
     if args.scaling:
