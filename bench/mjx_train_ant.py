@@ -24,10 +24,10 @@ from mujoco import mjx
 
 from joshua_core.config import apply_override, finalize, load_preset
 from joshua_core.plugins import PluginHost
-from joshua_mjx.env import MjxEnv, make_mjx_env
-from joshua_ppo.ppo import IterationReport, TrainingState, make_network, train_ppo
+from joshua_mjx.env import MjxEnv
+from joshua_ppo.ppo import IterationReport, TrainingState, train_ppo
 from joshua_ppo.rollout import collect, make_rollout, mean_results
-from joshua_ppo.trainer import PpoSettings
+from joshua_ppo.trainer import PpoSettings, environment
 
 
 class TargetReached(Exception):
@@ -115,7 +115,7 @@ def train(
 def deterministic_return(settings: PpoSettings, env: MjxEnv, state: TrainingState) -> float:
     """Mean return of one whole episode per environment of `env` under the policy's mean (no exploration
     noise): what Brax reports, where the training returns above come from the noisy policy."""
-    rollout = make_rollout(env, make_network(env, settings.network), settings.network, env.task.episode_length)
+    rollout = make_rollout(env, settings.network, env.task.episode_length)
     return mean_results(collect(rollout(state.params, state.normalizer, jax.random.PRNGKey(1))))["mean_return"]
 
 
@@ -144,15 +144,7 @@ def main() -> None:
     print(f"devices: {jax.devices()}  preset {args.preset}: {settings.rollout} {settings.optimization}")
     results = []
     for devices in device_sets:
-        task_config = config.task_config if config.HasField("task_config") else None
-        env = make_mjx_env(
-            config.task,
-            settings.rollout.num_envs,
-            model_path=config.model_path,
-            plugins=plugins,
-            task_config=task_config,
-            devices=devices,
-        )
+        env = environment(config, plugins, settings.rollout.num_envs, devices)
         raw = raw_physics_rate(env)
         print(
             f"{len(devices)} device(s): raw physics {raw:,.0f} steps/s ({raw / env.task.frame_skip:,.0f} env steps/s)"
@@ -162,14 +154,7 @@ def main() -> None:
         outcome |= {"devices": len(devices), "raw_physics_steps_per_second": raw, "fraction_of_raw_physics": fraction}
         if args.eval_envs > 0:
             eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
-            eval_env = make_mjx_env(
-                config.task,
-                eval_envs,
-                model_path=config.model_path,
-                plugins=plugins,
-                task_config=task_config,
-                devices=devices,
-            )
+            eval_env = environment(config, plugins, eval_envs, devices)
             outcome["deterministic_return"] = deterministic_return(settings, eval_env, state)
         print(json.dumps(outcome, indent=1))
         results.append(outcome)

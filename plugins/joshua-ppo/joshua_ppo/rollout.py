@@ -21,8 +21,7 @@ from joshua_core.evaluation import open_video_writer
 from joshua_mjx.env import MjxEnv
 from joshua_mujoco.engine import camera_id, create_renderer
 from joshua_mujoco.vector import render_with_commands
-from joshua_ppo.networks import ActorCritic, SeparateActorCritic
-from joshua_ppo.ppo import NetworkSettings, RunningStatistics, policy_actions
+from joshua_ppo.ppo import NetworkSettings, RunningStatistics, make_network, policy_actions
 
 VIDEO_WIDTH, VIDEO_HEIGHT = 640, 480
 
@@ -38,8 +37,10 @@ class Rollout:
     metrics: dict[str, np.ndarray]  # (finished,) each metric on the first episode's last step
 
 
-def make_rollout(env: MjxEnv, net: ActorCritic | SeparateActorCritic, network: NetworkSettings, steps: int) -> Any:
-    """A compiled function (params, normalizer, key) -> per-step arrays of a `steps`-long rollout."""
+def make_rollout(env: MjxEnv, network: NetworkSettings, steps: int) -> Any:
+    """A compiled function (params, normalizer, key) -> per-step arrays of a `steps`-long rollout of the
+    deterministic policy of the network `network` describes."""
+    net = make_network(env, network)
 
     def run(params: Any, stats: RunningStatistics, key: jax.Array) -> dict[str, Any]:
         state = env.reset(key)

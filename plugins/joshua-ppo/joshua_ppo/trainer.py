@@ -22,6 +22,7 @@ from joshua_core.config_pb2 import PpoOptions, TrainingConfig
 from joshua_core.curves import write_training_curves
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import RunContext, Trainer
+from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
 from joshua_mjx.env import MjxEnv, make_mjx_env
 from joshua_ppo.checkpoints import (
@@ -47,7 +48,6 @@ from joshua_ppo.ppo import (
     RunningStatistics,
     TrainingState,
     init_state,
-    make_network,
     train_ppo,
 )
 from joshua_ppo.rollout import collect, make_rollout, mean_results, render_video
@@ -115,8 +115,10 @@ class PpoSettings:
         )
 
 
-def environment(config: TrainingConfig, context: RunContext, num_envs: int) -> MjxEnv:
-    """The MJX environment of a training config's task, model and task_config."""
+def environment(
+    config: TrainingConfig, plugins: PluginHost | None, num_envs: int, devices: list[jax.Device] | None = None
+) -> MjxEnv:
+    """The MJX environment of a training config's task, model and task_config, over `devices` (default: all)."""
     if config.backend and config.backend != "mjx":
         raise ConfigError(f"trainer ppo runs on the backend 'mjx', not '{config.backend}'")
     if not config.task:
@@ -125,8 +127,9 @@ def environment(config: TrainingConfig, context: RunContext, num_envs: int) -> M
         config.task,
         num_envs,
         model_path=config.model_path or None,
-        plugins=context.plugins,
+        plugins=plugins,
         task_config=config.task_config if config.HasField("task_config") else None,
+        devices=devices,
     )
 
 
@@ -308,17 +311,9 @@ class Run:
     def record_video(self, state: TrainingState, step: int) -> None:
         """Roll out the current deterministic policy for one episode and render it to videos/step_<N>.mp4."""
         if self._rollout is None:
-            env = make_mjx_env(
-                self.config.task,
-                len(jax.devices()),
-                model_path=self.config.model_path or None,
-                task_config=self.config.task_config if self.config.HasField("task_config") else None,
-            )
+            env = environment(self.config, None, len(jax.devices()))
             steps = self.config.ppo.video_steps or env.task.episode_length
-            self._rollout = (
-                env,
-                make_rollout(env, make_network(env, self.settings.network), self.settings.network, steps),
-            )
+            self._rollout = env, make_rollout(env, self.settings.network, steps)
         env, rollout = self._rollout
         episode = collect(rollout(state.params, state.normalizer, jax.random.PRNGKey(step)))
         path = render_video(env.model, episode, self.folder / "videos" / f"step_{step}.mp4", fps=1.0 / env.task.dt)
@@ -393,7 +388,7 @@ class PpoTrainer(Trainer):
         settings = PpoSettings.from_config(config)
         root = context.output_dir
         name, resume_from = _run_name(config, root)
-        env = environment(config, context, settings.rollout.num_envs)
+        env = environment(config, context.plugins, settings.rollout.num_envs)
         run = Run(config, settings, env, root, name)
         resume = None
         if resume_from is not None:
@@ -458,11 +453,10 @@ class PpoTrainer(Trainer):
             raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
         settings = PpoSettings.from_config(config)
         devices = len(jax.devices())
-        env = environment(config, context, -(-episodes // devices) * devices)
+        env = environment(config, context.plugins, -(-episodes // devices) * devices)
         params, normalizer = load_params(checkpoint, env, settings.network)
         print(f"ppo: evaluating {checkpoint} ({checkpoint_step(checkpoint)} steps) over {episodes} episodes")
-        net = make_network(env, settings.network)
-        rollout = make_rollout(env, net, settings.network, env.task.episode_length)
+        rollout = make_rollout(env, settings.network, env.task.episode_length)
         episode = collect(rollout(params, normalizer, jax.random.PRNGKey(seed)), episodes)
         if video_path is not None:
             written = render_video(env.model, episode, video_path, fps=1.0 / env.task.dt)
