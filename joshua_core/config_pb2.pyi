@@ -319,14 +319,16 @@ class Sb3Options(_message.Message):
     def __init__(self, algorithm: _Optional[str] = ..., run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., disable_normalization: _Optional[bool] = ..., entropy_coef: _Optional[float] = ..., trust_checkpoint: _Optional[bool] = ...) -> None: ...
 
 class TaskConfig(_message.Message):
-    __slots__ = ("episode_length", "frame_skip", "terms")
+    __slots__ = ("episode_length", "frame_skip", "terms", "keyframe")
     EPISODE_LENGTH_FIELD_NUMBER: _ClassVar[int]
     FRAME_SKIP_FIELD_NUMBER: _ClassVar[int]
     TERMS_FIELD_NUMBER: _ClassVar[int]
+    KEYFRAME_FIELD_NUMBER: _ClassVar[int]
     episode_length: int
     frame_skip: int
     terms: _containers.RepeatedCompositeFieldContainer[TermOverride]
-    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ...) -> None: ...
+    keyframe: str
+    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ..., keyframe: _Optional[str] = ...) -> None: ...
 
 class TermOverride(_message.Message):
     __slots__ = ("name", "weight", "params", "term", "kind")

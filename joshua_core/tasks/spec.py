@@ -97,7 +97,7 @@ def parse_param(text: str) -> Any:
 
 
 def with_config(spec: TaskSpec, config: Any) -> TaskSpec:
-    """`spec` with a `joshua.TaskConfig` message laid over it (episode length, frame skip, term overrides)."""
+    """`spec` with a `joshua.TaskConfig` message laid over it (episode length, frame skip, keyframe, term overrides)."""
     changes: dict[str, Any] = {}
     if config.episode_length < 0 or config.frame_skip < 0:
         raise ConfigError(f"task '{spec.name}': episode_length and frame_skip must not be negative")
@@ -105,6 +105,8 @@ def with_config(spec: TaskSpec, config: Any) -> TaskSpec:
         changes["episode_length"] = config.episode_length
     if config.frame_skip:
         changes["frame_skip"] = config.frame_skip
+    if config.keyframe:
+        changes["keyframe"] = config.keyframe
     term_lists = {kind: list(spec.terms(kind)) for kind in TermKind}
     for override in config.terms:
         _apply_override(spec, term_lists, override)
