@@ -74,7 +74,8 @@ def train(
         if report.iteration % 10 == 0 or metrics["mean_return"] >= target:
             print(
                 f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {report.wall_seconds:7.1f} s  "
-                f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}",
+                f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}  "
+                f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}",
                 flush=True,
             )
         if metrics["episodes"] > 0 and metrics["mean_return"] >= target:

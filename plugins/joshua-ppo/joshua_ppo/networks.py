@@ -1,55 +1,75 @@
 """The policy networks: the seed's ActorCritic (shared trunk, the default), separate policy and value
 networks (Brax's layout), and the Gaussian policy's log-probability and entropy.
 
-Both networks map observations to (mean (N, A), log_std (A,), value (N,)): a diagonal Gaussian
-with a learned state-independent log-std, and a state-value estimate.
+Both networks map observations to (mean (N, A), log_std, value (N,)): a diagonal Gaussian and a
+state-value estimate. The log-std is one learned vector (A,) by default, or, with
+`state_dependent_std`, an output of the policy network (N, A) (softplus of it plus 0.001 is the std).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
 from flax import linen as nn
 
 _LOG_2PI = math.log(2.0 * math.pi)
+_MIN_STD = 1e-3  # floor of a state-dependent std, so that log-probabilities stay finite
+ACTIVATIONS: dict[str, Callable[[jax.Array], jax.Array]] = {
+    "relu": nn.relu,
+    "swish": nn.swish,
+    "tanh": nn.tanh,
+    "elu": nn.elu,
+}
 
 
-def _mlp(x: jax.Array, hidden_sizes: tuple[int, ...]) -> jax.Array:
+def _mlp(x: jax.Array, hidden_sizes: tuple[int, ...], activation: str) -> jax.Array:
     for size in hidden_sizes:
-        x = nn.relu(nn.Dense(size)(x))
+        x = ACTIVATIONS[activation](nn.Dense(size)(x))
     return x
 
 
+def _gaussian_head(module: nn.Module, x: jax.Array, action_dim: int, state_dependent_std: bool) -> tuple[jax.Array, ...]:
+    """Mean and log-std of the policy from its last hidden layer."""
+    if state_dependent_std:
+        mean, raw_std = jnp.split(nn.Dense(2 * action_dim)(x), 2, axis=-1)
+        return mean, jnp.log(nn.softplus(raw_std) + _MIN_STD)
+    return nn.Dense(action_dim)(x), module.param("log_std", nn.initializers.zeros, (action_dim,))
+
+
 class ActorCritic(nn.Module):
-    """The seed's network: one ReLU trunk (default 256-256) under the policy mean and the value head."""
+    """The seed's network: one trunk (default ReLU 256-256) under the policy head and the value head."""
 
     action_dim: int
     hidden_sizes: tuple[int, ...] = (256, 256)
+    activation: str = "relu"
+    state_dependent_std: bool = False
 
     @nn.compact
     def __call__(self, x: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
-        x = _mlp(x, self.hidden_sizes)
-        mean = nn.Dense(self.action_dim)(x)
-        log_std = self.param("log_std", nn.initializers.zeros, (self.action_dim,))
+        x = _mlp(x, self.hidden_sizes, self.activation)
+        mean, log_std = _gaussian_head(self, x, self.action_dim, self.state_dependent_std)
         value = nn.Dense(1)(x)
         return mean, log_std, value[..., 0]
 
 
 class SeparateActorCritic(nn.Module):
-    """Policy and value as two ReLU networks: the value loss (large with reward scaling) cannot swamp
+    """Policy and value as two networks: the value loss (large with reward scaling) cannot swamp
     the policy's features, and each network gets its own size (Brax's Ant: policy 4x32, value 5x256)."""
 
     action_dim: int
     policy_hidden_sizes: tuple[int, ...]
     value_hidden_sizes: tuple[int, ...]
+    activation: str = "relu"
+    state_dependent_std: bool = False
 
     @nn.compact
     def __call__(self, x: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
-        mean = nn.Dense(self.action_dim)(_mlp(x, self.policy_hidden_sizes))
-        log_std = self.param("log_std", nn.initializers.zeros, (self.action_dim,))
-        value = nn.Dense(1)(_mlp(x, self.value_hidden_sizes))
+        policy = _mlp(x, self.policy_hidden_sizes, self.activation)
+        mean, log_std = _gaussian_head(self, policy, self.action_dim, self.state_dependent_std)
+        value = nn.Dense(1)(_mlp(x, self.value_hidden_sizes, self.activation))
         return mean, log_std, value[..., 0]
 
 
@@ -62,3 +82,14 @@ def gaussian_log_prob(action: jax.Array, mean: jax.Array, log_std: jax.Array) ->
 def gaussian_entropy(log_std: jax.Array) -> jax.Array:
     """Entropy of the diagonal Gaussian (it does not depend on the mean)."""
     return jnp.sum(log_std + 0.5 * (1.0 + _LOG_2PI), axis=-1)
+
+
+def squashed_entropy(mean: jax.Array, log_std: jax.Array, noise: jax.Array) -> jax.Array:
+    """One-sample estimate of the entropy of tanh(Gaussian), the actions a squashing policy sends.
+
+    The Gaussian's entropy plus E[log |d tanh(u)/du|] at u = mean + std * noise: unlike the Gaussian's
+    own entropy it does not keep growing with the std, as ever wider samples only saturate at +-1.
+    """
+    u = mean + jnp.exp(log_std) * noise
+    log_det_jacobian = 2.0 * (math.log(2.0) - u - nn.softplus(-2.0 * u))  # log(1 - tanh(u)^2), stably
+    return gaussian_entropy(log_std) + jnp.sum(log_det_jacobian, axis=-1)

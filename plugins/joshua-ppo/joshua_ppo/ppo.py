@@ -27,7 +27,13 @@ from jax.sharding import PartitionSpec
 
 from joshua_core.errors import ConfigError, JoshuaError
 from joshua_mjx.env import ENV_AXIS, EnvState, MjxEnv
-from joshua_ppo.networks import ActorCritic, SeparateActorCritic, gaussian_entropy, gaussian_log_prob
+from joshua_ppo.networks import (
+    ActorCritic,
+    SeparateActorCritic,
+    gaussian_entropy,
+    gaussian_log_prob,
+    squashed_entropy,
+)
 
 OBSERVATION_CLIP = 10.0  # normalised observations are clipped to +-this
 
@@ -71,6 +77,8 @@ class NetworkSettings:
     value_hidden_sizes: tuple[int, ...] = ()  # set: a separate value network of these layers
     normalize_observations: bool = True
     squash_actions: bool = False  # tanh of the Gaussian sample goes to the env, rather than the sample clipped
+    activation: str = "relu"  # of the hidden layers: a name in joshua_ppo.networks.ACTIVATIONS
+    state_dependent_std: bool = False  # the policy network outputs the std too, rather than one learned vector
 
 
 class RunningStatistics(NamedTuple):
@@ -105,7 +113,7 @@ class IterationReport:
     metrics: `mean_return` and `mean_length` of the episodes that ended in this iteration
     (`episodes` of them; NaN when none), `reward/<term>` episode sums, `metrics/<name>` on the
     episodes' last steps, and the losses (`loss`, `policy_loss`, `value_loss`, `entropy`,
-    `approx_kl`, `clip_fraction`).
+    `approx_kl`, `clip_fraction`, and `action_std`, the policy's mean standard deviation).
     """
 
     iteration: int
@@ -149,9 +157,12 @@ def check_settings(rollout: RolloutSettings, optimization: OptimizationSettings,
 
 
 def make_network(env: MjxEnv, network: NetworkSettings) -> ActorCritic | SeparateActorCritic:
+    shape = {"activation": network.activation, "state_dependent_std": network.state_dependent_std}
     if network.value_hidden_sizes:
-        return SeparateActorCritic(env.action_size, tuple(network.hidden_sizes), tuple(network.value_hidden_sizes))
-    return ActorCritic(action_dim=env.action_size, hidden_sizes=tuple(network.hidden_sizes))
+        return SeparateActorCritic(
+            env.action_size, tuple(network.hidden_sizes), tuple(network.value_hidden_sizes), **shape
+        )
+    return ActorCritic(action_dim=env.action_size, hidden_sizes=tuple(network.hidden_sizes), **shape)
 
 
 def env_actions(sample: jax.Array, network: NetworkSettings) -> jax.Array:
@@ -279,7 +290,15 @@ def make_iteration(
         sample = _Sample(transitions.observation, transitions.action, transitions.log_prob, advantage, target)
         return carry, (sample, jax.tree.map(lambda x: x.sum(axis=0), sums))
 
-    def loss_fn(params: Any, stats: RunningStatistics, batch: _Sample) -> tuple[jax.Array, dict[str, jax.Array]]:
+    def entropy_of(mean: jax.Array, log_std: jax.Array, key: jax.Array) -> jax.Array:
+        """Mean entropy of the action distribution (of the squashed actions when the policy squashes)."""
+        if network.squash_actions:
+            return squashed_entropy(mean, log_std, jax.random.normal(key, mean.shape)).mean()
+        return jnp.broadcast_to(gaussian_entropy(log_std), mean.shape[:1]).mean()
+
+    def loss_fn(
+        params: Any, stats: RunningStatistics, batch: _Sample, key: jax.Array
+    ) -> tuple[jax.Array, dict[str, jax.Array]]:
         mean, log_std, value = apply(params, stats, batch.observation)
         log_prob = gaussian_log_prob(batch.action, mean, log_std)
         log_ratio = log_prob - batch.log_prob
@@ -288,22 +307,23 @@ def make_iteration(
         clipped = jnp.clip(ratio, 1.0 - optimization.clip_epsilon, 1.0 + optimization.clip_epsilon)
         policy_loss = -jnp.minimum(ratio * advantage, clipped * advantage).mean()
         value_loss = 0.5 * jnp.square(value - batch.target).mean()
-        entropy = gaussian_entropy(log_std).mean()
+        entropy = entropy_of(mean, log_std, key)
         loss = policy_loss + optimization.value_coef * value_loss - optimization.entropy_coef * entropy
         return loss, {
             "loss": loss,
             "policy_loss": policy_loss,
             "value_loss": value_loss,
             "entropy": entropy,
+            "action_std": jnp.exp(log_std).mean(),
             "approx_kl": ((ratio - 1.0) - log_ratio).mean(),
             "clip_fraction": (jnp.abs(ratio - 1.0) > optimization.clip_epsilon).mean(),
         }
 
     def gradient_step(
-        carry: tuple[Any, Any, RunningStatistics], batch: _Sample
+        carry: tuple[Any, Any, RunningStatistics], batch_and_key: tuple[_Sample, jax.Array]
     ) -> tuple[tuple[Any, Any, RunningStatistics], dict[str, jax.Array]]:
         params, opt_state, stats = carry
-        grads, losses = jax.grad(loss_fn, has_aux=True)(params, stats, batch)
+        grads, losses = jax.grad(loss_fn, has_aux=True)(params, stats, *batch_and_key)
         grads = jax.lax.pmean(grads, ENV_AXIS)
         updates, opt_state = optimizer.update(grads, opt_state, params)
         return (optax.apply_updates(params, updates), opt_state, stats), losses
@@ -311,9 +331,10 @@ def make_iteration(
     def epoch(
         carry: tuple[Any, Any, RunningStatistics], key: jax.Array, samples: _Sample
     ) -> tuple[tuple[Any, Any, RunningStatistics], dict[str, jax.Array]]:
-        order = jax.random.permutation(key, samples.advantage.shape[0])
+        order_key, entropy_key = jax.random.split(key)
+        order = jax.random.permutation(order_key, samples.advantage.shape[0])
         minibatches = jax.tree.map(lambda x: x[order].reshape(num_minibatches, local_minibatch, *x.shape[1:]), samples)
-        return jax.lax.scan(gradient_step, carry, minibatches)
+        return jax.lax.scan(gradient_step, carry, (minibatches, jax.random.split(entropy_key, num_minibatches)))
 
     def local_iteration(
         params: Any, opt_state: Any, stats: RunningStatistics, env_state: EnvState, key: jax.Array

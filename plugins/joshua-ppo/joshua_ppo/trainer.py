@@ -38,6 +38,7 @@ from joshua_ppo.checkpoints import (
     run_checkpoints,
     write_checkpoint,
 )
+from joshua_ppo.networks import ACTIVATIONS
 from joshua_ppo.ppo import (
     IterationReport,
     NetworkSettings,
@@ -78,6 +79,11 @@ class PpoSettings:
         for name in ("hidden_sizes", "value_hidden_sizes"):
             if any(size <= 0 for size in getattr(options, name)):
                 raise ConfigError(f"training.ppo.{name} must be positive, got {list(getattr(options, name))}")
+        activation = options.activation or "relu"
+        if activation not in ACTIVATIONS:
+            raise ConfigError(
+                f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}"
+            )
         for name in ("num_envs", "num_steps", "num_epochs", "minibatch_size", "total_timesteps"):
             if getattr(config, name) < 0:
                 raise ConfigError(f"training.{name} must not be negative")
@@ -108,6 +114,8 @@ class PpoSettings:
                 value_hidden_sizes=tuple(options.value_hidden_sizes),
                 normalize_observations=not options.disable_observation_normalization,
                 squash_actions=options.squash_actions,
+                activation=activation,
+                state_dependent_std=options.state_dependent_std,
             ),
             total_timesteps=total,
             checkpoint_interval=options.checkpoint_interval or max(1, total // CHECKPOINTS_PER_RUN),
