@@ -16,6 +16,7 @@ import pytest
 MODELS = Path(__file__).parents[1] / "models"
 ARM_DIR = MODELS / "so_arm100"
 ANT_XML = MODELS / "ant" / "ant.xml"
+ANT_MJX_XML = MODELS / "ant" / "ant_mjx.xml"
 TRILEG_XML = MODELS / "trileg" / "trileg.xml"
 TRAJECTORY_CSV = MODELS / "trajectories" / "so_arm100_example.csv"
 
@@ -24,7 +25,12 @@ ARM_VARIANTS = ["so_arm100.xml", "scene.xml", "scene_mjx.xml", "pick_place.xml",
 # (model, tolerance of the MJX vs MuJoCo comparison after 100 steps).  MJX runs in float32 and
 # its solver differs in detail; the Ant starts with its ankles outside their limits (as in
 # Gymnasium), and that hard correction is where the two differ most.
-MJX_CASES = [(ARM_DIR / "scene_mjx.xml", 1e-4), (ARM_DIR / "pick_place_mjx.xml", 1e-4), (ANT_XML, 1e-2)]
+MJX_CASES = [
+    (ARM_DIR / "scene_mjx.xml", 1e-4),
+    (ARM_DIR / "pick_place_mjx.xml", 1e-4),
+    (ANT_XML, 1e-2),
+    (ANT_MJX_XML, 1e-3),
+]
 
 ARM_JOINTS = [f"joint_{i}" for i in range(1, 7)]
 ARM_SENSORS = {
@@ -131,6 +137,26 @@ def test_ant_comes_to_rest_standing() -> None:
     touching = floor_contacts(model, data)
     assert "torso" not in touching
     assert {f"shin_{i}_geom" for i in range(1, 5)} <= touching
+
+
+def test_ant_mjx_stands_on_its_feet_from_its_keyframe() -> None:
+    """ant_mjx.xml's 'standing' keyframe stands where it starts (with zero torque the ankles only
+    give way slowly); only the four feet touch the floor, and the feet are massless, so the Ant
+    weighs what ant.xml's does."""
+    model, data = settle(ANT_MJX_XML, 3.0)
+    assert model.key("standing").id == 0
+    torso = data.body("torso")
+    assert torso.xpos[2] == pytest.approx(0.55, abs=0.01)
+    assert torso.xmat[8] > 0.999
+    assert np.abs(data.qvel).max() < 0.05
+    assert floor_contacts(model, data) == {f"foot_{i}" for i in range(1, 5)}
+    assert model.body_subtreemass[0] == pytest.approx(load(ANT_XML).body_subtreemass[0])
+
+
+def test_ant_mjx_is_generated_from_ant_xml() -> None:
+    """The committed ant_mjx.xml is exactly what make_mjx_variant.py makes of ant.xml."""
+    generator = import_script(MODELS / "ant" / "make_mjx_variant.py")
+    assert generator.variant(ANT_XML.read_text()) == ANT_MJX_XML.read_text()
 
 
 def test_trileg_comes_to_rest_standing() -> None:

@@ -241,6 +241,17 @@ def test_config_changes_weights_and_params_adds_terms_and_zero_disables(plugins:
     assert task.reward_terms[0].params["site"].name == "wrist" and task.episode_length == 7
 
 
+def test_config_keyframe_sets_where_episodes_start_and_an_unknown_one_lists_the_models(plugins: PluginHost) -> None:
+    model = mujoco.MjModel.from_xml_path(str(resolve_data_path("ant/ant_mjx.xml")))
+    default = build_task("ant_locomotion", model, plugins, task_config(""))
+    standing = build_task("ant_locomotion", model, plugins, task_config('keyframe: "standing"'))
+    assert default.keyframe_id == -1 and default.initial_qpos[2] == pytest.approx(0.75)
+    assert standing.keyframe_id == 0
+    np.testing.assert_array_equal(standing.initial_qpos, model.key("standing").qpos)
+    with pytest.raises(ConfigError, match=r"keyframe 'sitting'.*its keyframes: standing"):
+        build_task("ant_locomotion", model, plugins, task_config('keyframe: "sitting"'))
+
+
 def test_term_returning_the_wrong_shape_is_reported(plugins: PluginHost) -> None:
     spec = dataclasses.replace(
         BUILTIN_TASKS["so_arm100_reach"], rewards=(TermSpec("site_pos", params={"site": "gripper"}, name="where"),)

@@ -39,19 +39,18 @@ def add_foot(match: re.Match[str]) -> str:
     return f'{match.group(0)}{indent}<geom name="foot_{leg}" class="foot" pos="{x} {y} 0"/>\n'
 
 
-def main() -> None:
-    source = (HERE / "ant.xml").read_text()
+def variant(source: str) -> str:
+    """The text of ant_mjx.xml made from the text of ant.xml."""
     for needed in ("<!--\n  Ant quadruped", OPTION, GEOM_COLLIDES, '<mujoco model="ant">', "</mujoco>"):
         if needed not in source:
             raise SystemExit(f"ant.xml changed: '{needed}' not found; update make_mjx_variant.py")
-    variant = source.replace("<!--\n  Ant quadruped", NOTE, 1).replace(OPTION, MJX_OPTION)
-    variant = variant.replace(GEOM_COLLIDES, FOOT_CLASS, 1)
-    variant, feet = SHIN.subn(add_foot, variant)
+    text = source.replace("<!--\n  Ant quadruped", NOTE, 1).replace(OPTION, MJX_OPTION)
+    text = text.replace(GEOM_COLLIDES, FOOT_CLASS, 1)
+    text, feet = SHIN.subn(add_foot, text)
     if feet != 4:
         raise SystemExit(f"ant.xml changed: found {feet} shin geoms, not 4; update make_mjx_variant.py")
-    variant = variant.replace("</mujoco>", STANDING).replace('<mujoco model="ant">', '<mujoco model="ant_mjx">')
-    (HERE / "ant_mjx.xml").write_text(variant)
+    return text.replace("</mujoco>", STANDING).replace('<mujoco model="ant">', '<mujoco model="ant_mjx">')
 
 
 if __name__ == "__main__":
-    main()
+    (HERE / "ant_mjx.xml").write_text(variant((HERE / "ant.xml").read_text()))

@@ -147,13 +147,16 @@ def test_diverging_training_stops_with_a_clear_message_and_keeps_the_last_good_c
     )
 
 
-def test_separate_value_network_and_squashed_actions_round_trip_through_eval(tmp_path: Path) -> None:
+def test_brax_style_network_round_trips_through_eval(tmp_path: Path) -> None:
+    """Separate policy and value networks, swish, a state-dependent std and tanh-squashed actions."""
     options = {
         **ANT["ppo"],
         "run_name": "brax",
         "hidden_sizes": [8, 8],
         "value_hidden_sizes": [16],
         "squash_actions": True,
+        "activation": "swish",
+        "state_dependent_std": True,
     }
     checkpoint = train_mjx(
         model_path="ant/ant_mjx.xml", config={**ANT, "total_timesteps": 40, "ppo": options}, checkpoint_dir=tmp_path
@@ -161,7 +164,11 @@ def test_separate_value_network_and_squashed_actions_round_trip_through_eval(tmp
     params = from_bytes(None, (checkpoint / "params.msgpack").read_bytes())["params"]
     kernels = sorted(tuple(np.shape(layer["kernel"])) for name, layer in params.items() if name.startswith("Dense"))
     observation_size = 105
-    assert kernels == sorted([(observation_size, 8), (8, 8), (8, 8), (observation_size, 16), (16, 1)]), kernels
+    # the policy head outputs the mean and the std of each of the 8 actions
+    assert kernels == sorted([(observation_size, 8), (8, 8), (8, 16), (observation_size, 16), (16, 1)]), kernels
+    assert "log_std" not in params
+    history = json.loads((tmp_path / "brax" / "metrics.json").read_text())["history"]
+    assert all(0.001 <= record["action_std"] < 10.0 for record in history), history
     done = subprocess.run(
         [*JOSHUA, "eval", str(checkpoint), "--no-video", "--episodes", "2"], capture_output=True, text=True, timeout=300
     )
@@ -175,6 +182,8 @@ def test_bad_settings_are_config_errors(tmp_path: Path) -> None:
         train_mjx(
             model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"value_hidden_sizes": [0]}}, checkpoint_dir=tmp_path
         )
+    with pytest.raises(ConfigError, match="activation 'gelu' is not one of: relu, swish"):
+        train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"activation": "gelu"}}, checkpoint_dir=tmp_path)
     with pytest.raises(ConfigError, match="no_such_field"):
         train_mjx(model_path="ant/ant_mjx.xml", config={"no_such_field": 1}, checkpoint_dir=tmp_path)
     training = TrainingConfig(task="ant_locomotion", backend="mujoco")
