@@ -31,7 +31,9 @@ def _mlp(x: jax.Array, hidden_sizes: tuple[int, ...], activation: str) -> jax.Ar
     return x
 
 
-def _gaussian_head(module: nn.Module, x: jax.Array, action_dim: int, state_dependent_std: bool) -> tuple[jax.Array, ...]:
+def _gaussian_head(
+    module: nn.Module, x: jax.Array, action_dim: int, state_dependent_std: bool
+) -> tuple[jax.Array, ...]:
     """Mean and log-std of the policy from its last hidden layer."""
     if state_dependent_std:
         mean, raw_std = jnp.split(nn.Dense(2 * action_dim)(x), 2, axis=-1)

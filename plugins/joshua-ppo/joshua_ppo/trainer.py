@@ -81,9 +81,7 @@ class PpoSettings:
                 raise ConfigError(f"training.ppo.{name} must be positive, got {list(getattr(options, name))}")
         activation = options.activation or "relu"
         if activation not in ACTIVATIONS:
-            raise ConfigError(
-                f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}"
-            )
+            raise ConfigError(f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}")
         for name in ("num_envs", "num_steps", "num_epochs", "minibatch_size", "total_timesteps"):
             if getattr(config, name) < 0:
                 raise ConfigError(f"training.{name} must not be negative")
