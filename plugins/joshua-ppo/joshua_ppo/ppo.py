@@ -294,7 +294,7 @@ def make_iteration(
         """Mean entropy of the action distribution (of the squashed actions when the policy squashes)."""
         if network.squash_actions:
             return squashed_entropy(mean, log_std, jax.random.normal(key, mean.shape)).mean()
-        return jnp.broadcast_to(gaussian_entropy(log_std), mean.shape[:1]).mean()
+        return gaussian_entropy(log_std).mean()  # log_std (A,) or (N, A): the mean is the same
 
     def loss_fn(
         params: Any, stats: RunningStatistics, batch: _Sample, key: jax.Array
