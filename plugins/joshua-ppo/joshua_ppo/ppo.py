@@ -67,6 +67,9 @@ class ReturnSettings:
     gamma: float = 0.99
     gae_lambda: float = 0.95
     reward_scaling: float = 1.0  # rewards are multiplied by this for learning; reported returns are unscaled
+    # GAE and value targets recomputed on every minibatch with the current value network (as Brax does),
+    # rather than once per iteration with the network that collected the data
+    recompute_advantages: bool = False
 
 
 @dataclass(frozen=True)
@@ -134,8 +137,13 @@ ProgressCallback = Callable[[IterationReport, TrainingState], None]
 CheckpointCallback = Callable[[TrainingState, Progress, IterationReport | None], None]
 
 
-def check_settings(rollout: RolloutSettings, optimization: OptimizationSettings, devices: int) -> int:
-    """Validate the batch arithmetic; returns the number of minibatches per epoch."""
+def check_settings(
+    rollout: RolloutSettings, optimization: OptimizationSettings, devices: int, whole_unrolls: bool = False
+) -> int:
+    """Validate the batch arithmetic; returns the number of minibatches per epoch.
+
+    whole_unrolls: minibatches are made of whole unrolls (for recomputing advantages), not single steps.
+    """
     for name, value in (
         ("num_envs", rollout.num_envs),
         ("num_steps", rollout.num_steps),
@@ -153,6 +161,11 @@ def check_settings(rollout: RolloutSettings, optimization: OptimizationSettings,
         )
     if optimization.minibatch_size % devices:
         raise ConfigError(f"minibatch_size {optimization.minibatch_size} must be a multiple of the {devices} devices")
+    if whole_unrolls and optimization.minibatch_size % (devices * rollout.num_steps):
+        raise ConfigError(
+            f"with recompute_advantages, minibatch_size {optimization.minibatch_size} must be a multiple of "
+            f"num_steps x devices = {rollout.num_steps * devices} (minibatches are made of whole unrolls)"
+        )
     return batch // optimization.minibatch_size
 
 
@@ -215,11 +228,29 @@ class _Transition(NamedTuple):
 
 
 class _Sample(NamedTuple):
+    """One transition with its advantage and value target, computed when it was collected."""
+
     observation: jax.Array
     action: jax.Array
     log_prob: jax.Array
     advantage: jax.Array
     target: jax.Array
+
+
+class _Unroll(NamedTuple):
+    """One environment's unroll (batch-major: (T, ...) per field), for advantages recomputed per minibatch.
+
+    final_value stays the collecting network's: it only counts on the rare steps that truncate an episode.
+    """
+
+    observation: jax.Array
+    action: jax.Array
+    log_prob: jax.Array
+    reward: jax.Array
+    terminated: jax.Array
+    truncated: jax.Array
+    final_value: jax.Array
+    last_observation: jax.Array  # (obs,): after the unroll's last step, to bootstrap from
 
 
 def make_iteration(
@@ -232,8 +263,9 @@ def make_iteration(
 ) -> Callable[[TrainingState], tuple[TrainingState, dict[str, jax.Array]]]:
     """The compiled training iteration: state -> (next state, metrics as scalars)."""
     devices = env.mesh.size
-    num_minibatches = check_settings(rollout, optimization, devices)
-    local_minibatch = optimization.minibatch_size // devices
+    recompute = returns.recompute_advantages
+    num_minibatches = check_settings(rollout, optimization, devices, whole_unrolls=recompute)
+    local_minibatch = optimization.minibatch_size // devices // (rollout.num_steps if recompute else 1)
     net = make_network(env, network)
     optimizer = make_optimizer(optimization)
     normalizing = network.normalize_observations
@@ -263,14 +295,14 @@ def make_iteration(
         )
         return (next_state, params, stats), (transition, _episode_sums(next_state, reward_terms, metric_terms))
 
-    def advantages(transitions: _Transition, last_value: jax.Array) -> tuple[jax.Array, jax.Array]:
-        """GAE over one unroll (time-major); the trace is cut where an episode ended."""
-        next_values = jnp.concatenate([transitions.value[1:], last_value[None]], axis=0)
-        bootstrap = jnp.where(
-            transitions.truncated, transitions.final_value, jnp.where(transitions.terminated, 0.0, next_values)
-        )
-        deltas = transitions.reward + returns.gamma * bootstrap - transitions.value
-        continues = 1.0 - (transitions.terminated | transitions.truncated).astype(jnp.float32)
+    def advantages(
+        value: jax.Array, last_value: jax.Array, steps: _Transition | _Unroll
+    ) -> tuple[jax.Array, jax.Array]:
+        """GAE and value targets over one unroll (time-major); the trace is cut where an episode ended."""
+        next_values = jnp.concatenate([value[1:], last_value[None]], axis=0)
+        bootstrap = jnp.where(steps.truncated, steps.final_value, jnp.where(steps.terminated, 0.0, next_values))
+        deltas = steps.reward + returns.gamma * bootstrap - value
+        continues = 1.0 - (steps.terminated | steps.truncated).astype(jnp.float32)
 
         def backward(carry: jax.Array, step: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
             delta, cont = step
@@ -278,17 +310,21 @@ def make_iteration(
             return advantage, advantage
 
         _, advantage = jax.lax.scan(backward, jnp.zeros_like(last_value), (deltas, continues), reverse=True)
-        return advantage, advantage + transitions.value
+        return advantage, advantage + value
 
     def unroll(
         carry: tuple[EnvState, Any, RunningStatistics], key: jax.Array
-    ) -> tuple[tuple[EnvState, Any, RunningStatistics], tuple[_Sample, dict[str, jax.Array]]]:
-        carry, (transitions, sums) = jax.lax.scan(env_step, carry, jax.random.split(key, rollout.num_steps))
+    ) -> tuple[tuple[EnvState, Any, RunningStatistics], tuple[_Sample | _Unroll, dict[str, jax.Array]]]:
+        carry, (steps, sums) = jax.lax.scan(env_step, carry, jax.random.split(key, rollout.num_steps))
         env_state, params, stats = carry
+        sums = jax.tree.map(lambda x: x.sum(axis=0), sums)
+        if recompute:
+            fields = {name: getattr(steps, name) for name in _Unroll._fields[:-1]}
+            batch_major = jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), fields)
+            return carry, (_Unroll(**batch_major, last_observation=env_state.observation), sums)
         _, _, last_value = apply(params, stats, env_state.observation)
-        advantage, target = advantages(transitions, last_value)
-        sample = _Sample(transitions.observation, transitions.action, transitions.log_prob, advantage, target)
-        return carry, (sample, jax.tree.map(lambda x: x.sum(axis=0), sums))
+        advantage, target = advantages(steps.value, last_value, steps)
+        return carry, (_Sample(steps.observation, steps.action, steps.log_prob, advantage, target), sums)
 
     def entropy_of(mean: jax.Array, log_std: jax.Array, key: jax.Array) -> jax.Array:
         """Mean entropy of the action distribution (of the squashed actions when the policy squashes)."""
@@ -296,17 +332,30 @@ def make_iteration(
             return squashed_entropy(mean, log_std, jax.random.normal(key, mean.shape)).mean()
         return gaussian_entropy(log_std).mean()  # log_std (A,) or (N, A): the mean is the same
 
+    def current_advantages(
+        params: Any, stats: RunningStatistics, batch: _Unroll, value: jax.Array
+    ) -> tuple[jax.Array, jax.Array]:
+        """A minibatch of unrolls' advantages and targets (batch-major) from the current value network."""
+        _, _, last_value = apply(params, stats, batch.last_observation)
+        time_major = jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), batch._replace(last_observation=None))
+        advantage, target = advantages(value.T, last_value, time_major)
+        return jax.lax.stop_gradient((advantage.T, target.T))
+
     def loss_fn(
-        params: Any, stats: RunningStatistics, batch: _Sample, key: jax.Array
+        params: Any, stats: RunningStatistics, batch: _Sample | _Unroll, key: jax.Array
     ) -> tuple[jax.Array, dict[str, jax.Array]]:
         mean, log_std, value = apply(params, stats, batch.observation)
+        if recompute:
+            advantage, target = current_advantages(params, stats, batch, value)
+        else:
+            advantage, target = batch.advantage, batch.target
         log_prob = gaussian_log_prob(batch.action, mean, log_std)
         log_ratio = log_prob - batch.log_prob
         ratio = jnp.exp(log_ratio)
-        advantage = (batch.advantage - batch.advantage.mean()) / (batch.advantage.std() + 1e-8)
+        advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
         clipped = jnp.clip(ratio, 1.0 - optimization.clip_epsilon, 1.0 + optimization.clip_epsilon)
         policy_loss = -jnp.minimum(ratio * advantage, clipped * advantage).mean()
-        value_loss = 0.5 * jnp.square(value - batch.target).mean()
+        value_loss = 0.5 * jnp.square(value - target).mean()
         entropy = entropy_of(mean, log_std, key)
         loss = policy_loss + optimization.value_coef * value_loss - optimization.entropy_coef * entropy
         return loss, {
@@ -329,10 +378,10 @@ def make_iteration(
         return (optax.apply_updates(params, updates), opt_state, stats), losses
 
     def epoch(
-        carry: tuple[Any, Any, RunningStatistics], key: jax.Array, samples: _Sample
+        carry: tuple[Any, Any, RunningStatistics], key: jax.Array, samples: _Sample | _Unroll
     ) -> tuple[tuple[Any, Any, RunningStatistics], dict[str, jax.Array]]:
         order_key, entropy_key = jax.random.split(key)
-        order = jax.random.permutation(order_key, samples.advantage.shape[0])
+        order = jax.random.permutation(order_key, samples.observation.shape[0])
         minibatches = jax.tree.map(lambda x: x[order].reshape(num_minibatches, local_minibatch, *x.shape[1:]), samples)
         return jax.lax.scan(gradient_step, carry, (minibatches, jax.random.split(entropy_key, num_minibatches)))
 
@@ -344,9 +393,10 @@ def make_iteration(
         (env_state, _, _), (samples, sums) = jax.lax.scan(
             unroll, (env_state, params, stats), jax.random.split(rollout_key, rollout.unrolls_per_iteration)
         )
-        samples = jax.tree.map(lambda x: x.reshape(-1, *x.shape[3:]), samples)  # (unrolls * steps * envs, ...)
+        # steps (unrolls * steps * envs, ...) or, to recompute advantages, unrolls (unrolls * envs, steps, ...)
+        samples = jax.tree.map(lambda x: x.reshape(-1, *x.shape[2 if recompute else 3 :]), samples)
         if normalizing:
-            stats = _update_statistics(stats, samples.observation)
+            stats = _update_statistics(stats, samples.observation.reshape(-1, env.observation_size))
         (params, opt_state, _), losses = jax.lax.scan(
             lambda carry, key: epoch(carry, key, samples),
             (params, opt_state, stats),

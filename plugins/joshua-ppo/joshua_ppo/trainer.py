@@ -106,6 +106,7 @@ class PpoSettings:
                 gamma=config.gamma or 0.99,
                 gae_lambda=config.gae_lambda or 0.95,
                 reward_scaling=options.reward_scaling or 1.0,
+                recompute_advantages=options.recompute_advantages,
             ),
             network=NetworkSettings(
                 hidden_sizes=tuple(options.hidden_sizes) or (256, 256),

@@ -1,0 +1,67 @@
+"""The PPO update itself: advantages recomputed per minibatch agree with the once-per-iteration ones while
+the value network is still the collecting one, and differ once it has learned."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from joshua_core.config_pb2 import TaskConfig
+from joshua_core.errors import ConfigError
+from joshua_mjx.env import MjxEnv, make_mjx_env
+from joshua_ppo.ppo import (
+    NetworkSettings,
+    OptimizationSettings,
+    ReturnSettings,
+    RolloutSettings,
+    init_state,
+    make_iteration,
+)
+
+ROLLOUT = RolloutSettings(num_envs=4, num_steps=5, unrolls_per_iteration=2)
+# without observation normalisation: the statistics change between collecting and updating, and with
+# them the values the advantages are computed from
+NETWORK = NetworkSettings(hidden_sizes=(16,), value_hidden_sizes=(16,), normalize_observations=False)
+LOSSES = ("policy_loss", "value_loss", "approx_kl")
+
+
+@pytest.fixture(scope="module")
+def env() -> MjxEnv:
+    # 3-step episodes: unrolls of 5 steps cross truncations, so the final-observation bootstrap counts too
+    return make_mjx_env("ant_locomotion", 4, model_path="ant/ant_mjx.xml", task_config=TaskConfig(episode_length=3))
+
+
+def update_losses(env: MjxEnv, recompute: bool, num_epochs: int) -> np.ndarray:
+    """The losses of one iteration's update, averaged over its epochs."""
+    # one minibatch of the whole batch: the losses do not depend on how the batch is shuffled
+    optimization = OptimizationSettings(num_epochs=num_epochs, minibatch_size=40, learning_rate=1e-2)
+    returns = ReturnSettings(gamma=0.9, reward_scaling=0.1, recompute_advantages=recompute)
+    state = init_state(env, seed=0, network=NETWORK, optimization=optimization)
+    iteration = make_iteration(env, rollout=ROLLOUT, optimization=optimization, returns=returns, network=NETWORK)
+    _, metrics = iteration(state)
+    losses = np.array([float(metrics[name]) for name in LOSSES])
+    assert np.isfinite(losses).all() and np.abs(losses).max() > 0, losses
+    return losses
+
+
+def test_recomputed_advantages_match_while_the_value_network_is_unchanged(env: MjxEnv) -> None:
+    # one epoch of one minibatch: its losses are computed before the first gradient step
+    once, recomputed = update_losses(env, False, 1), update_losses(env, True, 1)
+    np.testing.assert_allclose(recomputed, once, rtol=1e-4, atol=1e-7)
+
+
+def test_recomputed_advantages_follow_the_learning_value_network(env: MjxEnv) -> None:
+    once, recomputed = update_losses(env, False, 3), update_losses(env, True, 3)
+    assert np.abs(recomputed - once).max() > 1e-3 * np.abs(once).max(), (once, recomputed)
+
+
+def test_recomputing_needs_minibatches_of_whole_unrolls(env: MjxEnv) -> None:
+    optimization = OptimizationSettings(minibatch_size=8)
+    with pytest.raises(ConfigError, match="must be a multiple of num_steps x devices = 5"):
+        make_iteration(
+            env,
+            rollout=ROLLOUT,
+            optimization=optimization,
+            returns=ReturnSettings(recompute_advantages=True),
+            network=NETWORK,
+        )
