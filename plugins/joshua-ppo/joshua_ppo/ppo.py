@@ -2,7 +2,8 @@
 
 One training iteration (collect `unrolls_per_iteration` unrolls of `num_steps` steps in every
 environment, update the observation normaliser, compute GAE, then `num_epochs` passes of
-minibatch gradient steps) is a single compiled function: no Python runs per environment step.
+minibatch gradient steps; or, with `recompute_advantages`, GAE per minibatch of whole unrolls with
+the current value network) is a single compiled function: no Python runs per environment step.
 It runs under `jax.shard_map` over the environment's device mesh: each device steps its slice of
 the environments and learns from its slice of every minibatch, and the gradients, normaliser
 statistics and logged metrics are averaged across devices, so N GPUs act as one N times larger.
