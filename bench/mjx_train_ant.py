@@ -26,11 +26,11 @@ import time
 from collections.abc import Callable
 
 import jax
-from mujoco import mjx
 
 from joshua_core.config import apply_override, finalize, load_preset
 from joshua_core.plugins import PluginHost
 from joshua_mjx.env import MjxEnv
+from joshua_mjx.physics import mjx
 from joshua_ppo.ppo import IterationReport, TrainingState, train_ppo
 from joshua_ppo.rollout import collect, make_rollout, mean_results
 from joshua_ppo.trainer import PpoSettings, environment

@@ -13,11 +13,11 @@ from typing import Any
 
 import jax
 import mujoco
-from mujoco import mjx
 
 from joshua_core.errors import ModelError
 from joshua_core.interfaces import Backend
 from joshua_core.resources import resolve_data_path
+from joshua_mjx.physics import mjx
 from joshua_mujoco.engine import MuJoCoEngine
 
 MJX_SUFFIX = "_mjx"

@@ -24,13 +24,13 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
-from mujoco import mjx
 
 from joshua_core.errors import ConfigError
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import Task, TermContext, build_task, load_task_spec
 from joshua_mjx.engine import mjx_variant, put_model
+from joshua_mjx.physics import mjx
 from joshua_mujoco.engine import compile_model
 
 ENV_AXIS = "envs"  # name of the device-mesh axis the environments are spread over

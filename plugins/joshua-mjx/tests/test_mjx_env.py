@@ -159,6 +159,18 @@ def test_plugin_entry_points_import_nothing_heavy() -> None:
     assert "backend  mjx" in listing.stdout and "trainer  ppo" in listing.stdout, listing.stdout
 
 
+def test_importing_the_backend_prints_nothing() -> None:
+    """mujoco-mjx's "Failed to import warp" notice (Warp is optional and not installed) stays out of stdout."""
+    done = subprocess.run(
+        [sys.executable, "-c", "import joshua_mjx.env, mujoco.mjx; print('imported')"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    )
+    assert done.stdout == "imported\n", done.stdout
+
+
 def test_a_model_mjx_cannot_run_is_a_clear_error(tmp_path: Path) -> None:
     model = tmp_path / "cylinder_on_box.xml"
     model.write_text(
