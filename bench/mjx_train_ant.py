@@ -8,7 +8,8 @@
 
 The target return is checked on the training return (episodes that ended in the iteration, with
 exploration noise), or with --eval-interval K every K iterations on the deterministic policy's
-mean return over --eval-envs whole 1000-step episodes (as Brax evaluates; evaluation time counts).
+mean return over --eval-envs whole 1000-step episodes (as Brax checks its periodic evaluations;
+evaluation time counts).
 
 Reports: compile seconds, wall seconds to the target return (compile included, and without it),
 the final policy's deterministic return over --eval-envs whole episodes, training env steps/s,
