@@ -4,15 +4,17 @@
     python bench/mjx_train_ant.py --preset ant_train_mjx --max-seconds 300
     python bench/mjx_train_ant.py --scaling --iterations 20   # throughput on 1 device vs all devices
     python bench/mjx_train_ant.py --set training.ppo.reward_scaling=1   # a variant of the preset
-    python bench/mjx_train_ant.py --eval-interval 50    # the target on whole-episode evaluations
+    python bench/mjx_train_ant.py --max-seconds 180 --snapshot-interval 10   # denser snapshots
 
-The target return is checked on the training return (episodes that ended in the iteration, with
-exploration noise), or with --eval-interval K every K iterations on the deterministic policy's
-mean return over --eval-envs whole 1000-step episodes (as Brax checks its periodic evaluations;
-evaluation time counts).
+Training stops when the training return (episodes that ended in the iteration, with exploration
+noise) reaches the target, or at --max-seconds or --iterations. The policy is snapshotted (copied to
+the host) every --snapshot-interval iterations and at the end; afterwards every snapshot is evaluated
+at once (one rollout vmapped over the snapshots) on the deterministic policy's mean return over
+--eval-envs whole 1000-step episodes. The time to the target is the wall time of the first snapshot
+that reaches it: the training time, without the evaluations (Brax's PPO leaves them out of its training walltime too).
 
 Reports: compile seconds, wall seconds to the target return (compile included, and without it),
-the final policy's deterministic return over --eval-envs whole episodes, training env steps/s,
+every snapshot's deterministic return, training env steps/s,
 the raw physics rate of `vmap(mjx.step)` on the same batch measured in the same run, and their
 ratio (training env steps/s x frame_skip / raw physics steps/s). Anchor: Brax PPO trains Ant for
 50 M steps in 2 min 36 s plus 33 s compile; goal: return >= 6000 in <= 3 min on one H200,
@@ -24,15 +26,16 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from collections.abc import Callable
+from typing import Any
 
 import jax
+import numpy as np
 
 from joshua_core.config import apply_override, finalize, load_preset
 from joshua_core.plugins import PluginHost
 from joshua_mjx.env import MjxEnv
 from joshua_mjx.physics import mjx
-from joshua_ppo.ppo import IterationReport, TrainingState, train_ppo
+from joshua_ppo.ppo import IterationReport, RunningStatistics, TrainingState, train_ppo
 from joshua_ppo.rollout import collect, make_rollout, mean_results
 from joshua_ppo.trainer import PpoSettings, environment
 
@@ -58,7 +61,7 @@ def raw_physics_rate(env: MjxEnv, steps: int = 50) -> float:
     return best
 
 
-Evaluator = Callable[[TrainingState], float]
+Snapshot = tuple[Any, RunningStatistics]  # host copies of a policy's parameters and observation normaliser
 
 
 def train(
@@ -67,19 +70,17 @@ def train(
     target: float,
     max_seconds: float,
     iterations: int | None,
-    evaluate: Evaluator | None = None,
-    eval_interval: int = 0,
-) -> tuple[dict, TrainingState]:
-    """Train until the target (training return, or every `eval_interval` iterations `evaluate`'s), the
-    time limit or the iteration limit; returns the outcome and the last state."""
+    snapshot_interval: int = 0,
+) -> tuple[dict, list[tuple[dict, Snapshot]]]:
+    """Train until the training return reaches the target, the time limit or the iteration limit.
+
+    Returns the outcome and snapshots of the policy every `snapshot_interval` iterations and at the
+    end, each with its step and wall seconds, for `evaluate_snapshots`."""
     started = time.perf_counter()
-    evaluating = evaluate is not None and eval_interval > 0
     log: list[dict] = []
-    evaluations: list[dict] = []
-    latest: list[TrainingState] = []
+    snapshots: list[tuple[dict, Snapshot]] = []
 
     def on_progress(report: IterationReport, state: TrainingState) -> None:
-        latest[:] = [state]
         metrics = report.metrics
         entry = {
             "step": report.env_steps,
@@ -91,24 +92,22 @@ def train(
         }
         log.append(entry)
         reached = metrics["episodes"] > 0 and metrics["mean_return"] >= target
-        if report.iteration % 10 == 0 or reached:
+        out_of_budget = report.wall_seconds > max_seconds or report.iteration == iterations
+        stopping = reached or out_of_budget or report.env_steps >= report.total_steps
+        if report.iteration % 10 == 0 or stopping:
             print(
                 f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {report.wall_seconds:7.1f} s  "
                 f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}  "
                 f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}",
                 flush=True,
             )
-        if evaluating and report.iteration % eval_interval == 0:
-            evaluated = evaluate(state)
-            evaluations.append({"step": report.env_steps, "wall": time.perf_counter() - started, "return": evaluated})
-            print(f"  eval at {report.env_steps:>11,} steps  {evaluations[-1]['wall']:7.1f} s  return {evaluated:8.1f}")
-            reached = evaluated >= target
-        elif evaluating:
-            reached = False
-        if reached or report.wall_seconds > max_seconds or (iterations is not None and report.iteration >= iterations):
-            raise TargetReached  # or out of time or iterations
+        if stopping or (snapshot_interval > 0 and report.iteration % snapshot_interval == 0):
+            # a host copy: the state's buffers are donated to the next iteration
+            when = {"step": report.env_steps, "wall": report.wall_seconds}
+            snapshots.append((when, jax.device_get((state.params, state.normalizer))))
+        if stopping:
+            raise TargetReached  # or out of time, iterations or steps
 
-    total = settings.total_timesteps
     try:
         train_ppo(
             env,
@@ -116,42 +115,32 @@ def train(
             optimization=settings.optimization,
             returns=settings.returns,
             network=settings.network,
-            total_timesteps=total,
+            total_timesteps=settings.total_timesteps,
             seed=settings.seed,
             on_progress=on_progress,
         )
     except TargetReached:
         pass
-    wall = time.perf_counter() - started
     compile_seconds = log[0]["compile"] if log else float("nan")
     steady = [entry["sps"] for entry in log[1:]] or [entry["sps"] for entry in log]
-    if evaluating:
-        reached = [entry for entry in evaluations if entry["return"] >= target]
-    else:
-        reached = [entry for entry in log if entry["episodes"] > 0 and entry["return"] >= target]
+    reached = [entry for entry in log if entry["episodes"] > 0 and entry["return"] >= target]
     return {
-        "wall_seconds": wall,
+        "wall_seconds": time.perf_counter() - started,
         "compile_seconds": compile_seconds,
         "train_steps_per_second": sorted(steady)[len(steady) // 2],
         "env_steps": log[-1]["step"] if log else 0,
         "final_return": next((e["return"] for e in reversed(log) if e["episodes"] > 0), float("nan")),
-        "reached_target_at_seconds": reached[0]["wall"] if reached else None,
-        "reached_target_without_compile_seconds": reached[0]["wall"] - compile_seconds if reached else None,
-        "reached_target_at_steps": reached[0]["step"] if reached else None,
-        "target_on": "evaluation" if evaluating else "training return",
-        "evaluations": evaluations,
-    }, latest[0]
+        "training_return_reached_target_at_seconds": reached[0]["wall"] if reached else None,
+    }, snapshots
 
 
-def make_evaluator(settings: PpoSettings, env: MjxEnv) -> Evaluator:
-    """state -> mean return of one whole episode per environment of `env` under the policy's mean (no
-    exploration noise), compiled once: the training returns above come from the noisy policy."""
+def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snapshot]) -> list[float]:
+    """Each snapshot's mean return over one whole episode per environment of `env`, under the policy's
+    mean (no exploration noise): all snapshots in one rollout, vmapped over them."""
     rollout = make_rollout(env, settings.network, env.task.episode_length)
-
-    def evaluate(state: TrainingState) -> float:
-        return mean_results(collect(rollout(state.params, state.normalizer, jax.random.PRNGKey(1))))["mean_return"]
-
-    return evaluate
+    params, normalizer = jax.tree.map(lambda *leaves: np.stack(leaves), *snapshots)
+    raw = jax.device_get(jax.jit(jax.vmap(rollout, in_axes=(0, 0, None)))(params, normalizer, jax.random.PRNGKey(1)))
+    return [mean_results(collect(jax.tree.map(lambda x, i=i: x[i], raw)))["mean_return"] for i in range(len(snapshots))]
 
 
 def main() -> None:
@@ -163,7 +152,7 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, help="stop after this many iterations")
     parser.add_argument("--eval-envs", type=int, default=128, help="episodes of each deterministic evaluation")
     parser.add_argument(
-        "--eval-interval", type=int, default=0, help="evaluate every this many iterations and check the target on it"
+        "--snapshot-interval", type=int, default=20, help="snapshot the policy every this many iterations (0: only at the end)"
     )
     parser.add_argument("--scaling", action="store_true", help="compare throughput on 1 device and on all devices")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
@@ -187,17 +176,24 @@ def main() -> None:
         print(
             f"{len(devices)} device(s): raw physics {raw:,.0f} steps/s ({raw / env.task.frame_skip:,.0f} env steps/s)"
         )
-        evaluate = None
-        if args.eval_envs > 0:
-            eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
-            evaluate = make_evaluator(settings, environment(config, plugins, eval_envs, devices))
-        outcome, state = train(
-            settings, env, args.target, args.max_seconds, args.iterations, evaluate, args.eval_interval
+        outcome, snapshots = train(
+            settings, env, args.target, args.max_seconds, args.iterations, args.snapshot_interval
         )
         fraction = outcome["train_steps_per_second"] * env.task.frame_skip / raw
         outcome |= {"devices": len(devices), "raw_physics_steps_per_second": raw, "fraction_of_raw_physics": fraction}
-        if evaluate is not None:
-            outcome["deterministic_return"] = evaluate(state)
+        if args.eval_envs > 0 and snapshots:
+            eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
+            eval_env = environment(config, plugins, eval_envs, devices)
+            returns = evaluate_snapshots(settings, eval_env, [snapshot for _, snapshot in snapshots])
+            evaluated = [when | {"return": value} for (when, _), value in zip(snapshots, returns, strict=True)]
+            reached = next((entry for entry in evaluated if entry["return"] >= args.target), None)
+            outcome |= {
+                "snapshots": evaluated,
+                "deterministic_return": returns[-1],
+                "reached_target_at_seconds": reached and reached["wall"],
+                "reached_target_without_compile_seconds": reached and reached["wall"] - outcome["compile_seconds"],
+                "reached_target_at_steps": reached and reached["step"],
+            }
         print(json.dumps(outcome, indent=1))
         results.append(outcome)
     if args.scaling:
