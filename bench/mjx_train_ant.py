@@ -98,7 +98,8 @@ def train(
             print(
                 f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {report.wall_seconds:7.1f} s  "
                 f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}  "
-                f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}",
+                f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}  "
+                f"kl {metrics['approx_kl']:.4f}  lr {metrics['learning_rate']:.2e}",
                 flush=True,
             )
         if stopping or (snapshot_interval > 0 and report.iteration % snapshot_interval == 0):

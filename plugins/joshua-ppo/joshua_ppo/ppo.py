@@ -37,6 +37,7 @@ from joshua_ppo.networks import (
 )
 
 OBSERVATION_CLIP = 10.0  # normalised observations are clipped to +-this
+LEARNING_RATE_BOUNDS = (1e-5, 1e-2)  # of the adaptive learning rate
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,9 @@ class OptimizationSettings:
     entropy_coef: float = 0.0
     value_coef: float = 0.5
     max_grad_norm: float | None = 1.0
+    # > 0: adapt the learning rate on every gradient step to keep the policy's KL divergence from the
+    # collecting policy near this (see adapt_learning_rate); 0: a constant learning rate
+    desired_kl: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -117,7 +121,8 @@ class IterationReport:
     metrics: `mean_return` and `mean_length` of the episodes that ended in this iteration
     (`episodes` of them; NaN when none), `reward/<term>` episode sums, `metrics/<name>` on the
     episodes' last steps, and the losses (`loss`, `policy_loss`, `value_loss`, `entropy`,
-    `approx_kl`, `clip_fraction`, and `action_std`, the policy's mean standard deviation).
+    `approx_kl`, `clip_fraction`, `action_std`, the policy's mean standard deviation, and
+    `learning_rate`, the mean over the iteration's gradient steps).
     """
 
     iteration: int
@@ -185,10 +190,26 @@ def env_actions(sample: jax.Array, network: NetworkSettings) -> jax.Array:
 
 
 def make_optimizer(optimization: OptimizationSettings) -> optax.GradientTransformation:
-    adam = optax.adam(optimization.learning_rate)
-    if optimization.max_grad_norm is None:
-        return adam
-    return optax.chain(optax.clip_by_global_norm(optimization.max_grad_norm), adam)
+    """Adam after optional global-norm clipping, with the learning rate in its state (the adaptive schedule sets it)."""
+
+    def chain(learning_rate: float) -> optax.GradientTransformation:
+        adam = optax.adam(learning_rate)
+        if optimization.max_grad_norm is None:
+            return adam
+        return optax.chain(optax.clip_by_global_norm(optimization.max_grad_norm), adam)
+
+    return optax.inject_hyperparams(chain)(learning_rate=optimization.learning_rate)
+
+
+def adapt_learning_rate(learning_rate: jax.Array, kl: jax.Array, desired_kl: float) -> jax.Array:
+    """The adaptive schedule of rsl_rl (Isaac Lab's PPO): divide the learning rate by 1.5 when the KL
+    divergence from the collecting policy exceeds twice the desired one, multiply it by 1.5 when it is
+    below half, within LEARNING_RATE_BOUNDS. Steps stay small where the policy is sharp (a small std makes
+    every change of the mean a large change of the distribution) and grow where it barely moves."""
+    lower, upper = LEARNING_RATE_BOUNDS
+    # not on a KL of 0: the first step after collecting, before the policy has moved
+    faster = jnp.where((kl > 0) & (kl < desired_kl / 2.0), jnp.minimum(learning_rate * 1.5, upper), learning_rate)
+    return jnp.where(kl > desired_kl * 2.0, jnp.maximum(learning_rate / 1.5, lower), faster)
 
 
 def normalize(stats: RunningStatistics, observation: jax.Array, enabled: bool) -> jax.Array:
@@ -375,7 +396,12 @@ def make_iteration(
         params, opt_state, stats = carry
         grads, losses = jax.grad(loss_fn, has_aux=True)(params, stats, *batch_and_key)
         grads = jax.lax.pmean(grads, ENV_AXIS)
+        if optimization.desired_kl > 0:  # the KL before this step, as every device sees it
+            kl = jax.lax.pmean(losses["approx_kl"], ENV_AXIS)
+            learning_rate = adapt_learning_rate(opt_state.hyperparams["learning_rate"], kl, optimization.desired_kl)
+            opt_state = opt_state._replace(hyperparams={**opt_state.hyperparams, "learning_rate": learning_rate})
         updates, opt_state = optimizer.update(grads, opt_state, params)
+        losses["learning_rate"] = opt_state.hyperparams["learning_rate"]
         return (optax.apply_updates(params, updates), opt_state, stats), losses
 
     def epoch(

@@ -82,6 +82,8 @@ class PpoSettings:
         activation = options.activation or "relu"
         if activation not in ACTIVATIONS:
             raise ConfigError(f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}")
+        if options.desired_kl < 0:
+            raise ConfigError(f"training.ppo.desired_kl must not be negative, got {options.desired_kl}")
         for name in ("num_envs", "num_steps", "num_epochs", "minibatch_size", "total_timesteps"):
             if getattr(config, name) < 0:
                 raise ConfigError(f"training.{name} must not be negative")
@@ -101,6 +103,7 @@ class PpoSettings:
                 entropy_coef=options.entropy_coef,
                 value_coef=options.value_coef or 0.5,
                 max_grad_norm=None if max_grad_norm < 0 else max_grad_norm,
+                desired_kl=options.desired_kl,
             ),
             returns=ReturnSettings(
                 gamma=config.gamma or 0.99,

@@ -1,8 +1,10 @@
 """The PPO update itself: advantages recomputed per minibatch agree with the once-per-iteration ones while
-the value network is still the collecting one, and differ once it has learned."""
+the value network is still the collecting one, and differ once it has learned; the adaptive learning rate
+follows the KL divergence."""
 
 from __future__ import annotations
 
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -10,10 +12,12 @@ from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import ConfigError
 from joshua_mjx.env import MjxEnv, make_mjx_env
 from joshua_ppo.ppo import (
+    LEARNING_RATE_BOUNDS,
     NetworkSettings,
     OptimizationSettings,
     ReturnSettings,
     RolloutSettings,
+    adapt_learning_rate,
     init_state,
     make_iteration,
 )
@@ -65,3 +69,28 @@ def test_recomputing_needs_minibatches_of_whole_unrolls(env: MjxEnv) -> None:
             returns=ReturnSettings(recompute_advantages=True),
             network=NETWORK,
         )
+
+
+def learning_rates(env: MjxEnv, desired_kl: float) -> tuple[float, float]:
+    """The learning rate after one iteration of 2 epochs of 2 minibatches, and its mean over the 4 steps."""
+    optimization = OptimizationSettings(num_epochs=2, minibatch_size=20, learning_rate=1e-3, desired_kl=desired_kl)
+    state = init_state(env, seed=0, network=NETWORK, optimization=optimization)
+    iteration = make_iteration(env, rollout=ROLLOUT, optimization=optimization, returns=ReturnSettings(), network=NETWORK)
+    state, metrics = iteration(state)
+    return float(state.opt_state.hyperparams["learning_rate"]), float(metrics["learning_rate"])
+
+
+def test_adaptive_learning_rate_follows_the_kl_divergence(env: MjxEnv) -> None:
+    assert learning_rates(env, 0.0) == pytest.approx((1e-3, 1e-3))  # off: constant
+    final, mean = learning_rates(env, 1e-9)  # every move is too far: smaller steps
+    assert final < 1e-3 / 1.5**2 and mean < 1e-3
+    final, mean = learning_rates(env, 1e3)  # every move is too small: larger steps
+    assert final > 1e-3 * 1.5**2 and mean > 1e-3
+
+
+def test_adaptive_learning_rate_stays_within_its_bounds() -> None:
+    lower, upper = LEARNING_RATE_BOUNDS
+    assert float(adapt_learning_rate(jnp.float32(lower), jnp.float32(1.0), 0.01)) == pytest.approx(lower)
+    assert float(adapt_learning_rate(jnp.float32(upper), jnp.float32(1e-4), 0.01)) == pytest.approx(upper)
+    assert float(adapt_learning_rate(jnp.float32(1e-3), jnp.float32(0.01), 0.01)) == pytest.approx(1e-3)
+    assert float(adapt_learning_rate(jnp.float32(1e-3), jnp.float32(0.0), 0.01)) == pytest.approx(1e-3)
