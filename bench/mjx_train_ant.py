@@ -153,7 +153,10 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, help="stop after this many iterations")
     parser.add_argument("--eval-envs", type=int, default=128, help="episodes of each deterministic evaluation")
     parser.add_argument(
-        "--snapshot-interval", type=int, default=20, help="snapshot the policy every this many iterations (0: only at the end)"
+        "--snapshot-interval",
+        type=int,
+        default=20,
+        help="snapshot the policy every this many iterations (0: only at the end)",
     )
     parser.add_argument("--scaling", action="store_true", help="compare throughput on 1 device and on all devices")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")

@@ -331,7 +331,11 @@ def make_iteration(
             advantage = delta + returns.gamma * returns.gae_lambda * cont * carry
             return advantage, advantage
 
-        _, advantage = jax.lax.scan(backward, jnp.zeros_like(last_value), (deltas, continues), reverse=True)
+        # unrolled: a few steps of a few elementwise ops, which a loop would launch one kernel at a time
+        # (on every minibatch, with recompute_advantages)
+        _, advantage = jax.lax.scan(
+            backward, jnp.zeros_like(last_value), (deltas, continues), reverse=True, unroll=min(rollout.num_steps, 16)
+        )
         return advantage, advantage + value
 
     def unroll(

@@ -184,6 +184,8 @@ def test_bad_settings_are_config_errors(tmp_path: Path) -> None:
         )
     with pytest.raises(ConfigError, match="activation 'gelu' is not one of: relu, swish"):
         train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"activation": "gelu"}}, checkpoint_dir=tmp_path)
+    with pytest.raises(ConfigError, match="desired_kl must not be negative"):
+        train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"desired_kl": -0.01}}, checkpoint_dir=tmp_path)
     with pytest.raises(ConfigError, match="no_such_field"):
         train_mjx(model_path="ant/ant_mjx.xml", config={"no_such_field": 1}, checkpoint_dir=tmp_path)
     training = TrainingConfig(task="ant_locomotion", backend="mujoco")

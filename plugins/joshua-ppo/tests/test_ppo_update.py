@@ -75,7 +75,9 @@ def learning_rates(env: MjxEnv, desired_kl: float) -> tuple[float, float]:
     """The learning rate after one iteration of 2 epochs of 2 minibatches, and its mean over the 4 steps."""
     optimization = OptimizationSettings(num_epochs=2, minibatch_size=20, learning_rate=1e-3, desired_kl=desired_kl)
     state = init_state(env, seed=0, network=NETWORK, optimization=optimization)
-    iteration = make_iteration(env, rollout=ROLLOUT, optimization=optimization, returns=ReturnSettings(), network=NETWORK)
+    iteration = make_iteration(
+        env, rollout=ROLLOUT, optimization=optimization, returns=ReturnSettings(), network=NETWORK
+    )
     state, metrics = iteration(state)
     return float(state.opt_state.hyperparams["learning_rate"]), float(metrics["learning_rate"])
 
