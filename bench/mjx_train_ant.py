@@ -11,7 +11,8 @@ noise) reaches the target, or at --max-seconds or --iterations. The policy is sn
 the host) every --snapshot-interval iterations and at the end; afterwards every snapshot is evaluated
 at once (one rollout vmapped over the snapshots) on the deterministic policy's mean return over
 --eval-envs whole 1000-step episodes. The time to the target is the wall time of the first snapshot
-that reaches it: the training time, without the evaluations (Brax's PPO leaves them out of its training walltime too).
+that reaches it: the training time, without the evaluations (Brax's PPO leaves them out of its
+training walltime too).
 
 Reports: compile seconds, wall seconds to the target return (compile included, and without it),
 every snapshot's deterministic return, training env steps/s,
