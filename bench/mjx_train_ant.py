@@ -3,6 +3,7 @@
     python bench/mjx_train_ant.py                       # tuned preset until mean return 6000 (GPU)
     python bench/mjx_train_ant.py --preset ant_train_mjx --max-seconds 300
     python bench/mjx_train_ant.py --scaling --iterations 20   # throughput on 1 device vs all devices
+    python bench/mjx_train_ant.py --scaling --weak --iterations 20   # ... each device with the 1-device batch
     python bench/mjx_train_ant.py --set training.ppo.reward_scaling=1   # a variant of the preset
     python bench/mjx_train_ant.py --max-seconds 180 --snapshot-interval 10   # denser snapshots
 
@@ -19,12 +20,15 @@ every snapshot's deterministic return, training env steps/s,
 the raw physics rate of `vmap(mjx.step)` on the same batch measured in the same run, and their
 ratio (training env steps/s x frame_skip / raw physics steps/s). Anchor: Brax PPO trains Ant for
 50 M steps in 2 min 36 s plus 33 s compile; goal: return >= 6000 in <= 3 min on one H200,
-training throughput >= 50 % of raw physics, and >= 1.8x on 2 GPUs.
+training throughput >= 50 % of raw physics, and >= 1.8x on 2 GPUs. `--scaling` trains on one device,
+then on all: with the same batch split over them, or with `--weak` the batch (environments and
+minibatch) multiplied by the device count, the same work per device.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import time
 from typing import Any
@@ -145,6 +149,15 @@ def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snaps
     return [mean_results(collect(jax.tree.map(lambda x, i=i: x[i], raw)))["mean_return"] for i in range(len(snapshots))]
 
 
+def scaled(settings: PpoSettings, factor: int) -> PpoSettings:
+    """`settings` with `factor` times the environments and the minibatch (the same number of gradient steps)."""
+    rollout = dataclasses.replace(settings.rollout, num_envs=settings.rollout.num_envs * factor)
+    optimization = dataclasses.replace(
+        settings.optimization, minibatch_size=settings.optimization.minibatch_size * factor
+    )
+    return dataclasses.replace(settings, rollout=rollout, optimization=optimization)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--preset", default="ant_train_mjx_tuned")
@@ -160,6 +173,11 @@ def main() -> None:
         help="snapshot the policy every this many iterations (0: only at the end)",
     )
     parser.add_argument("--scaling", action="store_true", help="compare throughput on 1 device and on all devices")
+    parser.add_argument(
+        "--weak",
+        action="store_true",
+        help="with --scaling: on N devices N times the environments and minibatch (the same work per device)",
+    )
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
     parser.add_argument("--json", help="write the results here")
     args = parser.parse_args()
@@ -176,6 +194,8 @@ def main() -> None:
     print(f"devices: {jax.devices()}  preset {args.preset}: {settings.rollout} {settings.optimization}")
     results = []
     for devices in device_sets:
+        if args.weak:
+            settings = scaled(PpoSettings.from_config(config), len(devices))
         env = environment(config, plugins, settings.rollout.num_envs, devices)
         raw = raw_physics_rate(env)
         print(
@@ -203,7 +223,8 @@ def main() -> None:
         results.append(outcome)
     if args.scaling:
         ratio = results[1]["train_steps_per_second"] / results[0]["train_steps_per_second"]
-        print(f"throughput {len(jax.devices())} devices / 1 device: {ratio:.2f}x (goal >= 1.8x on 2 GPUs)")
+        kind = "weak (the same work per device)" if args.weak else "strong (the same batch split)"
+        print(f"throughput {len(jax.devices())} devices / 1 device, {kind}: {ratio:.2f}x (goal >= 1.8x on 2 GPUs)")
     if args.json:
         with open(args.json, "w") as handle:
             json.dump(results, handle, indent=1)

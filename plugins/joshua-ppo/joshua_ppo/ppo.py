@@ -291,6 +291,7 @@ def make_iteration(
     net = make_network(env, network)
     optimizer = make_optimizer(optimization)
     normalizing = network.normalize_observations
+    empty_leaves = _EmptyLeaves.of(env)
     reward_terms = [term.name for term in env.task.reward_terms]
     metric_terms = [term.name for term in env.task.metric_terms]
 
@@ -417,8 +418,9 @@ def make_iteration(
         return jax.lax.scan(gradient_step, carry, (minibatches, jax.random.split(entropy_key, num_minibatches)))
 
     def local_iteration(
-        params: Any, opt_state: Any, stats: RunningStatistics, env_state: EnvState, key: jax.Array
-    ) -> tuple[Any, Any, RunningStatistics, EnvState, dict[str, jax.Array]]:
+        params: Any, opt_state: Any, stats: RunningStatistics, filled: list[jax.Array], key: jax.Array
+    ) -> tuple[Any, Any, RunningStatistics, list[jax.Array], dict[str, jax.Array]]:
+        env_state = empty_leaves.rebuild(filled, devices)
         key = jax.random.fold_in(key, jax.lax.axis_index(ENV_AXIS))
         rollout_key, epoch_key = jax.random.split(key)
         (env_state, _, _), (samples, sums) = jax.lax.scan(
@@ -437,7 +439,7 @@ def make_iteration(
         metrics |= {name: jax.lax.pmean(value.mean(), ENV_AXIS) for name, value in losses.items()}
         leaves = jax.tree.leaves(params)
         metrics["params_finite"] = jnp.all(jnp.stack([jnp.isfinite(leaf).all() for leaf in leaves]))
-        return params, opt_state, stats, env_state, metrics
+        return params, opt_state, stats, _EmptyLeaves.filled(env_state), metrics
 
     sharded = jax.shard_map(
         local_iteration,
@@ -449,14 +451,43 @@ def make_iteration(
 
     def iteration(state: TrainingState) -> tuple[TrainingState, dict[str, jax.Array]]:
         key, iteration_key = jax.random.split(state.key)
-        params, opt_state, stats, env_state, metrics = sharded(
-            state.params, state.opt_state, state.normalizer, state.env_state, iteration_key
+        params, opt_state, stats, filled, metrics = sharded(
+            state.params, state.opt_state, state.normalizer, _EmptyLeaves.filled(state.env_state), iteration_key
         )
-        return TrainingState(params, opt_state, stats, env_state, key), metrics
+        return TrainingState(params, opt_state, stats, empty_leaves.rebuild(filled), key), metrics
 
     # explicit output shardings: XLA would otherwise replicate the empty per-env arrays (act, plugin_state)
     # and the next call would no longer match the compiled input shardings
     return jax.jit(iteration, donate_argnums=0, out_shardings=(_state_shardings(env), env.replicated))
+
+
+class _EmptyLeaves(NamedTuple):
+    """Where an environment state has zero-size arrays (MJX's buffers for what a model lacks: actuator
+    activations, tendons, mocap bodies...). They stay out of `jax.shard_map`, as XLA's GPU compiler
+    (jaxlib 0.11, Shardy) crashes on a manual computation with empty per-device inputs; holding no
+    values, they are made anew on the other side."""
+
+    treedef: Any
+    shapes: list[jax.ShapeDtypeStruct | None]  # of each empty leaf; None where a leaf holds values
+
+    @staticmethod
+    def of(env: MjxEnv) -> _EmptyLeaves:
+        leaves, treedef = jax.tree.flatten(jax.eval_shape(env.reset, jax.random.PRNGKey(0)))
+        return _EmptyLeaves(treedef, [leaf if math.prod(leaf.shape) == 0 else None for leaf in leaves])
+
+    @staticmethod
+    def filled(state: EnvState) -> list[jax.Array]:
+        """The state's leaves that hold values, in order."""
+        return [leaf for leaf in jax.tree.leaves(state) if leaf.size]
+
+    def rebuild(self, filled: list[jax.Array], devices: int = 1) -> EnvState:
+        """The state from its filled leaves (inside the shard_map: one of `devices` slices of the environments)."""
+        remaining = iter(filled)
+        leaves = [
+            next(remaining) if empty is None else jnp.zeros((empty.shape[0] // devices, *empty.shape[1:]), empty.dtype)
+            for empty in self.shapes
+        ]
+        return jax.tree.unflatten(self.treedef, leaves)
 
 
 def _episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[str]) -> dict[str, jax.Array]:
