@@ -255,7 +255,13 @@ class TrainingConfig(_message.Message):
     def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., nthread: _Optional[int] = ..., sb3: _Optional[_Union[Sb3Options, _Mapping]] = ..., ppo: _Optional[_Union[PpoOptions, _Mapping]] = ...) -> None: ...
 
 class PpoOptions(_message.Message):
-    __slots__ = ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "value_hidden_sizes", "squash_actions", "activation", "state_dependent_std", "recompute_advantages", "entropy_coef", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "desired_kl", "disable_observation_normalization", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs")
+    __slots__ = ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "value_hidden_sizes", "squash_actions", "activation", "state_dependent_std", "recompute_advantages", "advantage", "entropy_coef", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "desired_kl", "anneal_learning_rate", "disable_observation_normalization", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs")
+    class Advantage(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        GAE: _ClassVar[PpoOptions.Advantage]
+        LAMBDA_RETURN: _ClassVar[PpoOptions.Advantage]
+    GAE: PpoOptions.Advantage
+    LAMBDA_RETURN: PpoOptions.Advantage
     class Viewer(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         AUTO: _ClassVar[PpoOptions.Viewer]
@@ -273,11 +279,13 @@ class PpoOptions(_message.Message):
     ACTIVATION_FIELD_NUMBER: _ClassVar[int]
     STATE_DEPENDENT_STD_FIELD_NUMBER: _ClassVar[int]
     RECOMPUTE_ADVANTAGES_FIELD_NUMBER: _ClassVar[int]
+    ADVANTAGE_FIELD_NUMBER: _ClassVar[int]
     ENTROPY_COEF_FIELD_NUMBER: _ClassVar[int]
     REWARD_SCALING_FIELD_NUMBER: _ClassVar[int]
     UNROLLS_PER_ITERATION_FIELD_NUMBER: _ClassVar[int]
     MAX_GRAD_NORM_FIELD_NUMBER: _ClassVar[int]
     DESIRED_KL_FIELD_NUMBER: _ClassVar[int]
+    ANNEAL_LEARNING_RATE_FIELD_NUMBER: _ClassVar[int]
     DISABLE_OBSERVATION_NORMALIZATION_FIELD_NUMBER: _ClassVar[int]
     VALUE_COEF_FIELD_NUMBER: _ClassVar[int]
     VIDEO_INTERVAL_FIELD_NUMBER: _ClassVar[int]
@@ -293,18 +301,20 @@ class PpoOptions(_message.Message):
     activation: str
     state_dependent_std: bool
     recompute_advantages: bool
+    advantage: PpoOptions.Advantage
     entropy_coef: float
     reward_scaling: float
     unrolls_per_iteration: int
     max_grad_norm: float
     desired_kl: float
+    anneal_learning_rate: bool
     disable_observation_normalization: bool
     value_coef: float
     video_interval: int
     video_steps: int
     viewer: PpoOptions.Viewer
     viewer_envs: int
-    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., value_hidden_sizes: _Optional[_Iterable[int]] = ..., squash_actions: _Optional[bool] = ..., activation: _Optional[str] = ..., state_dependent_std: _Optional[bool] = ..., recompute_advantages: _Optional[bool] = ..., entropy_coef: _Optional[float] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., desired_kl: _Optional[float] = ..., disable_observation_normalization: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ...) -> None: ...
+    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., value_hidden_sizes: _Optional[_Iterable[int]] = ..., squash_actions: _Optional[bool] = ..., activation: _Optional[str] = ..., state_dependent_std: _Optional[bool] = ..., recompute_advantages: _Optional[bool] = ..., advantage: _Optional[_Union[PpoOptions.Advantage, str]] = ..., entropy_coef: _Optional[float] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., desired_kl: _Optional[float] = ..., anneal_learning_rate: _Optional[bool] = ..., disable_observation_normalization: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ...) -> None: ...
 
 class Sb3Options(_message.Message):
     __slots__ = ("algorithm", "run_name", "resume", "checkpoint_interval", "hidden_sizes", "disable_normalization", "entropy_coef", "trust_checkpoint")

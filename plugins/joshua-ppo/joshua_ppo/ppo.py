@@ -38,6 +38,7 @@ from joshua_ppo.networks import (
 
 OBSERVATION_CLIP = 10.0  # normalised observations are clipped to +-this
 LEARNING_RATE_BOUNDS = (1e-5, 1e-2)  # of the adaptive learning rate
+ADVANTAGE_ESTIMATORS = ("gae", "lambda_return")  # ReturnSettings.advantage
 
 
 @dataclass(frozen=True)
@@ -63,6 +64,9 @@ class OptimizationSettings:
     # > 0: adapt the learning rate on every gradient step to keep the policy's KL divergence from the
     # collecting policy near this (see adapt_learning_rate); 0: a constant learning rate
     desired_kl: float = 0.0
+    # > 0: the learning rate falls linearly from learning_rate to 0 over this many environment steps
+    # (counted from the run's start, so across resumes); 0: no annealing
+    anneal_steps: int = 0
 
 
 @dataclass(frozen=True)
@@ -75,6 +79,10 @@ class ReturnSettings:
     # GAE and value targets recomputed on every minibatch with the current value network (as Brax does),
     # rather than once per iteration with the network that collected the data
     recompute_advantages: bool = False
+    # "gae": sum over k of (gamma lambda)^k TD errors (Schulman et al.); "lambda_return": the TD error
+    # towards the next step's lambda-return, r + gamma G_{t+1} - V(s_t) (Brax's PPO), which weighs the
+    # next step's advantage by gamma rather than gamma lambda
+    advantage: str = "gae"
 
 
 @dataclass(frozen=True)
@@ -167,6 +175,8 @@ def check_settings(
         )
     if optimization.minibatch_size % devices:
         raise ConfigError(f"minibatch_size {optimization.minibatch_size} must be a multiple of the {devices} devices")
+    if optimization.desired_kl > 0 and optimization.anneal_steps > 0:
+        raise ConfigError("desired_kl and anneal_steps both set the learning rate; use one of them")
     if whole_unrolls and optimization.minibatch_size % (devices * rollout.num_steps):
         raise ConfigError(
             f"with recompute_advantages, minibatch_size {optimization.minibatch_size} must be a multiple of "
@@ -284,10 +294,13 @@ def make_iteration(
     network: NetworkSettings,
 ) -> Callable[[TrainingState], tuple[TrainingState, dict[str, jax.Array]]]:
     """The compiled training iteration: state -> (next state, metrics as scalars)."""
+    if returns.advantage not in ADVANTAGE_ESTIMATORS:
+        raise ConfigError(f"advantage '{returns.advantage}' is not one of: {', '.join(ADVANTAGE_ESTIMATORS)}")
     devices = env.mesh.size
     recompute = returns.recompute_advantages
     num_minibatches = check_settings(rollout, optimization, devices, whole_unrolls=recompute)
     local_minibatch = optimization.minibatch_size // devices // (rollout.num_steps if recompute else 1)
+    env_steps_per_gradient_step = optimization.minibatch_size / optimization.num_epochs
     net = make_network(env, network)
     optimizer = make_optimizer(optimization)
     normalizing = network.normalize_observations
@@ -318,27 +331,6 @@ def make_iteration(
         )
         return (next_state, params, stats), (transition, _episode_sums(next_state, reward_terms, metric_terms))
 
-    def advantages(
-        value: jax.Array, last_value: jax.Array, steps: _Transition | _Unroll
-    ) -> tuple[jax.Array, jax.Array]:
-        """GAE and value targets over one unroll (time-major); the trace is cut where an episode ended."""
-        next_values = jnp.concatenate([value[1:], last_value[None]], axis=0)
-        bootstrap = jnp.where(steps.truncated, steps.final_value, jnp.where(steps.terminated, 0.0, next_values))
-        deltas = steps.reward + returns.gamma * bootstrap - value
-        continues = 1.0 - (steps.terminated | steps.truncated).astype(jnp.float32)
-
-        def backward(carry: jax.Array, step: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
-            delta, cont = step
-            advantage = delta + returns.gamma * returns.gae_lambda * cont * carry
-            return advantage, advantage
-
-        # unrolled: a few steps of a few elementwise ops, which a loop would launch one kernel at a time
-        # (on every minibatch, with recompute_advantages)
-        _, advantage = jax.lax.scan(
-            backward, jnp.zeros_like(last_value), (deltas, continues), reverse=True, unroll=min(rollout.num_steps, 16)
-        )
-        return advantage, advantage + value
-
     def unroll(
         carry: tuple[EnvState, Any, RunningStatistics], key: jax.Array
     ) -> tuple[tuple[EnvState, Any, RunningStatistics], tuple[_Sample | _Unroll, dict[str, jax.Array]]]:
@@ -350,7 +342,7 @@ def make_iteration(
             batch_major = jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), fields)
             return carry, (_Unroll(**batch_major, last_observation=env_state.observation), sums)
         _, _, last_value = apply(params, stats, env_state.observation)
-        advantage, target = advantages(steps.value, last_value, steps)
+        advantage, target = estimate_advantages(returns, steps.value, last_value, steps)
         return carry, (_Sample(steps.observation, steps.action, steps.log_prob, advantage, target), sums)
 
     def entropy_of(mean: jax.Array, log_std: jax.Array, key: jax.Array) -> jax.Array:
@@ -365,7 +357,7 @@ def make_iteration(
         """A minibatch of unrolls' advantages and targets (batch-major) from the current value network."""
         _, _, last_value = apply(params, stats, batch.last_observation)
         time_major = jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), batch._replace(last_observation=None))
-        advantage, target = advantages(value.T, last_value, time_major)
+        advantage, target = estimate_advantages(returns, value.T, last_value, time_major)
         return jax.lax.stop_gradient((advantage.T, target.T))
 
     def loss_fn(
@@ -404,6 +396,10 @@ def make_iteration(
         if optimization.desired_kl > 0:  # the KL before this step, as every device sees it
             kl = jax.lax.pmean(losses["approx_kl"], ENV_AXIS)
             learning_rate = adapt_learning_rate(opt_state.hyperparams["learning_rate"], kl, optimization.desired_kl)
+            opt_state = opt_state._replace(hyperparams={**opt_state.hyperparams, "learning_rate": learning_rate})
+        if optimization.anneal_steps > 0:  # the optimiser's step count, in environment steps
+            progress = opt_state.count * env_steps_per_gradient_step / optimization.anneal_steps
+            learning_rate = optimization.learning_rate * jnp.maximum(1.0 - progress, 0.0)
             opt_state = opt_state._replace(hyperparams={**opt_state.hyperparams, "learning_rate": learning_rate})
         updates, opt_state = optimizer.update(grads, opt_state, params)
         losses["learning_rate"] = opt_state.hyperparams["learning_rate"]
@@ -459,6 +455,34 @@ def make_iteration(
     # explicit output shardings: XLA would otherwise replicate the empty per-env arrays (act, plugin_state)
     # and the next call would no longer match the compiled input shardings
     return jax.jit(iteration, donate_argnums=0, out_shardings=(_state_shardings(env), env.replicated))
+
+
+def estimate_advantages(
+    returns: ReturnSettings, value: jax.Array, last_value: jax.Array, steps: _Transition | _Unroll
+) -> tuple[jax.Array, jax.Array]:
+    """Advantages and value targets (lambda-returns) over unrolls, time-major: value (T, N) estimated before
+    each step, last_value (N,) after the last; the trace is cut where an episode ended, a terminated
+    episode bootstraps from zero and a truncated one from the value of its final observation."""
+    next_values = jnp.concatenate([value[1:], last_value[None]], axis=0)
+    bootstrap = jnp.where(steps.truncated, steps.final_value, jnp.where(steps.terminated, 0.0, next_values))
+    deltas = steps.reward + returns.gamma * bootstrap - value
+    continues = 1.0 - (steps.terminated | steps.truncated).astype(jnp.float32)
+
+    def backward(carry: jax.Array, step: tuple[jax.Array, jax.Array]) -> tuple[jax.Array, jax.Array]:
+        delta, cont = step
+        advantage = delta + returns.gamma * returns.gae_lambda * cont * carry
+        return advantage, advantage
+
+    # unrolled: a few steps of a few elementwise ops, which a loop would launch one kernel at a time
+    # (on every minibatch, with recompute_advantages)
+    _, advantage = jax.lax.scan(
+        backward, jnp.zeros_like(last_value), (deltas, continues), reverse=True, unroll=min(value.shape[0], 16)
+    )
+    target = advantage + value
+    if returns.advantage == "lambda_return":  # delta_t + gamma (G_{t+1} - V(s_{t+1})) within the episode
+        next_advantage = jnp.concatenate([advantage[1:], jnp.zeros_like(last_value)[None]], axis=0)
+        advantage = deltas + returns.gamma * continues * next_advantage
+    return advantage, target
 
 
 class _EmptyLeaves(NamedTuple):

@@ -104,12 +104,14 @@ class PpoSettings:
                 value_coef=options.value_coef or 0.5,
                 max_grad_norm=None if max_grad_norm < 0 else max_grad_norm,
                 desired_kl=options.desired_kl,
+                anneal_steps=total if options.anneal_learning_rate else 0,
             ),
             returns=ReturnSettings(
                 gamma=config.gamma or 0.99,
                 gae_lambda=config.gae_lambda or 0.95,
                 reward_scaling=options.reward_scaling or 1.0,
                 recompute_advantages=options.recompute_advantages,
+                advantage=PpoOptions.Advantage.Name(options.advantage).lower(),
             ),
             network=NetworkSettings(
                 hidden_sizes=tuple(options.hidden_sizes) or (256, 256),

@@ -1,4 +1,4 @@
-"""The PPO update itself: advantages recomputed per minibatch agree with the once-per-iteration ones while
+"""The PPO update itself: both advantage estimators against a step-by-step reference, advantages recomputed per minibatch agree with the once-per-iteration ones while
 the value network is still the collecting one, and differ once it has learned; the adaptive learning rate
 follows the KL divergence."""
 
@@ -17,7 +17,9 @@ from joshua_ppo.ppo import (
     OptimizationSettings,
     ReturnSettings,
     RolloutSettings,
+    _Transition,
     adapt_learning_rate,
+    estimate_advantages,
     init_state,
     make_iteration,
 )
@@ -96,3 +98,74 @@ def test_adaptive_learning_rate_stays_within_its_bounds() -> None:
     assert float(adapt_learning_rate(jnp.float32(upper), jnp.float32(1e-4), 0.01)) == pytest.approx(upper)
     assert float(adapt_learning_rate(jnp.float32(1e-3), jnp.float32(0.01), 0.01)) == pytest.approx(1e-3)
     assert float(adapt_learning_rate(jnp.float32(1e-3), jnp.float32(0.0), 0.01)) == pytest.approx(1e-3)
+
+
+def reference_advantages(
+    value: np.ndarray, last_value: float, steps: list[tuple[float, bool, bool, float]], gamma: float, lam: float
+) -> tuple[list[float], list[float], list[float]]:
+    """One environment's GAE, lambda-return advantages and lambda-returns, step by step from the definitions.
+
+    steps: (reward, terminated, truncated, final_value) per step."""
+    count = len(steps)
+    following = [*value[1:], last_value]
+    delta, ends = [], []
+    for t, (reward, terminated, truncated, final_value) in enumerate(steps):
+        bootstrap = final_value if truncated else 0.0 if terminated else following[t]
+        delta.append(reward + gamma * bootstrap - value[t])
+        ends.append(terminated or truncated)
+    gae = [0.0] * count
+    for t in reversed(range(count)):
+        later = gae[t + 1] if t + 1 < count and not ends[t] else 0.0
+        gae[t] = delta[t] + gamma * lam * later
+    lambda_return = [gae[t] + value[t] for t in range(count)]
+    # r + gamma G_{t+1} - V(s_t), with G the next step's lambda-return in the same episode (else the bootstrap)
+    by_return = []
+    for t, (reward, terminated, truncated, final_value) in enumerate(steps):
+        if ends[t] or t + 1 == count:
+            by_return.append(delta[t])
+        else:
+            by_return.append(reward + gamma * lambda_return[t + 1] - value[t])
+    return gae, by_return, lambda_return
+
+
+def test_both_advantage_estimators_match_their_definitions() -> None:
+    gamma, lam = 0.9, 0.8
+    rng = np.random.default_rng(0)
+    value = rng.normal(size=(6, 3)).astype(np.float32)
+    last_value = rng.normal(size=3).astype(np.float32)
+    reward = rng.normal(size=(6, 3)).astype(np.float32)
+    final_value = rng.normal(size=(6, 3)).astype(np.float32)
+    terminated = np.zeros((6, 3), bool)
+    truncated = np.zeros((6, 3), bool)
+    terminated[2, 0] = True  # env 0 falls at step 2, env 1 is truncated at step 3, env 2 runs through
+    truncated[3, 1] = True
+    steps = _Transition(
+        observation=None, action=None, log_prob=None, value=value, reward=jnp.asarray(reward),
+        terminated=jnp.asarray(terminated), truncated=jnp.asarray(truncated), final_value=jnp.asarray(final_value),
+    )
+    results = {}
+    for estimator in ("gae", "lambda_return"):
+        returns = ReturnSettings(gamma=gamma, gae_lambda=lam, advantage=estimator)
+        advantage, target = estimate_advantages(returns, jnp.asarray(value), jnp.asarray(last_value), steps)
+        results[estimator] = (np.asarray(advantage), np.asarray(target))
+    for env in range(3):
+        per_step = list(zip(reward[:, env], terminated[:, env], truncated[:, env], final_value[:, env], strict=True))
+        gae, by_return, lambda_return = reference_advantages(value[:, env], last_value[env], per_step, gamma, lam)
+        np.testing.assert_allclose(results["gae"][0][:, env], gae, rtol=1e-5, atol=1e-6)
+        np.testing.assert_allclose(results["lambda_return"][0][:, env], by_return, rtol=1e-5, atol=1e-6)
+        for estimator in results:  # the value targets are the lambda-returns either way
+            np.testing.assert_allclose(results[estimator][1][:, env], lambda_return, rtol=1e-5, atol=1e-6)
+    # the two differ inside an episode (by gamma (1 - lambda) times the next step's GAE), not at its end
+    difference = np.abs(results["lambda_return"][0] - results["gae"][0])
+    assert difference[0, 2] > 1e-3 and difference[2, 0] == 0 and difference[5, 2] == 0
+
+
+def test_an_unknown_advantage_estimator_is_a_config_error(env: MjxEnv) -> None:
+    with pytest.raises(ConfigError, match="advantage 'vtrace' is not one of: gae, lambda_return"):
+        make_iteration(
+            env,
+            rollout=ROLLOUT,
+            optimization=OptimizationSettings(minibatch_size=40),
+            returns=ReturnSettings(advantage="vtrace"),
+            network=NETWORK,
+        )
