@@ -176,7 +176,10 @@ def check_settings(
     if optimization.minibatch_size % devices:
         raise ConfigError(f"minibatch_size {optimization.minibatch_size} must be a multiple of the {devices} devices")
     if optimization.desired_kl > 0 and optimization.anneal_steps > 0:
-        raise ConfigError("desired_kl and anneal_steps both set the learning rate; use one of them")
+        raise ConfigError(
+            "desired_kl and an annealed learning rate cannot be combined (both set the learning rate): "
+            "drop ppo.desired_kl or ppo.anneal_learning_rate (anneal_steps)"
+        )
     if whole_unrolls and optimization.minibatch_size % (devices * rollout.num_steps):
         raise ConfigError(
             f"with recompute_advantages, minibatch_size {optimization.minibatch_size} must be a multiple of "

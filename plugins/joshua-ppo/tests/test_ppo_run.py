@@ -148,7 +148,8 @@ def test_diverging_training_stops_with_a_clear_message_and_keeps_the_last_good_c
 
 
 def test_brax_style_network_round_trips_through_eval(tmp_path: Path) -> None:
-    """Separate policy and value networks, swish, a state-dependent std and tanh-squashed actions."""
+    """Separate policy and value networks, swish, a state-dependent std and tanh-squashed actions, trained with
+    Brax's advantage estimator and an annealed learning rate."""
     options = {
         **ANT["ppo"],
         "run_name": "brax",
@@ -157,10 +158,10 @@ def test_brax_style_network_round_trips_through_eval(tmp_path: Path) -> None:
         "squash_actions": True,
         "activation": "swish",
         "state_dependent_std": True,
+        "advantage": "LAMBDA_RETURN",
+        "anneal_learning_rate": True,
     }
-    checkpoint = train_mjx(
-        model_path="ant/ant_mjx.xml", config={**ANT, "total_timesteps": 40, "ppo": options}, checkpoint_dir=tmp_path
-    )
+    checkpoint = train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": options}, checkpoint_dir=tmp_path)
     params = from_bytes(None, (checkpoint / "params.msgpack").read_bytes())["params"]
     kernels = sorted(tuple(np.shape(layer["kernel"])) for name, layer in params.items() if name.startswith("Dense"))
     observation_size = 105
@@ -169,6 +170,8 @@ def test_brax_style_network_round_trips_through_eval(tmp_path: Path) -> None:
     assert "log_std" not in params
     history = json.loads((tmp_path / "brax" / "metrics.json").read_text())["history"]
     assert all(0.001 <= record["action_std"] < 10.0 for record in history), history
+    # one gradient step per iteration of 40 of the 80 steps: the rate falls linearly from 3e-4 to 0
+    assert [record["learning_rate"] for record in history] == pytest.approx([3e-4, 1.5e-4]), history
     done = subprocess.run(
         [*JOSHUA, "eval", str(checkpoint), "--no-video", "--episodes", "2"], capture_output=True, text=True, timeout=300
     )
@@ -186,6 +189,12 @@ def test_bad_settings_are_config_errors(tmp_path: Path) -> None:
         train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"activation": "gelu"}}, checkpoint_dir=tmp_path)
     with pytest.raises(ConfigError, match="desired_kl must not be negative"):
         train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"desired_kl": -0.01}}, checkpoint_dir=tmp_path)
+    with pytest.raises(ConfigError, match="desired_kl and an annealed learning rate cannot be combined"):
+        train_mjx(
+            model_path="ant/ant_mjx.xml",
+            config={**ANT, "ppo": {"desired_kl": 0.01, "anneal_learning_rate": True}},
+            checkpoint_dir=tmp_path,
+        )
     with pytest.raises(ConfigError, match="no_such_field"):
         train_mjx(model_path="ant/ant_mjx.xml", config={"no_such_field": 1}, checkpoint_dir=tmp_path)
     training = TrainingConfig(task="ant_locomotion", backend="mujoco")

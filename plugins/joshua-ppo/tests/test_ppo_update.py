@@ -1,6 +1,6 @@
-"""The PPO update itself: both advantage estimators against a step-by-step reference, advantages recomputed per minibatch agree with the once-per-iteration ones while
-the value network is still the collecting one, and differ once it has learned; the adaptive learning rate
-follows the KL divergence."""
+"""The PPO update itself: both advantage estimators against a step-by-step reference; advantages recomputed
+per minibatch agree with the once-per-iteration ones while the value network is still the collecting one,
+and differ once it has learned; the adaptive learning rate follows the KL divergence."""
 
 from __future__ import annotations
 
@@ -120,7 +120,7 @@ def reference_advantages(
     lambda_return = [gae[t] + value[t] for t in range(count)]
     # r + gamma G_{t+1} - V(s_t), with G the next step's lambda-return in the same episode (else the bootstrap)
     by_return = []
-    for t, (reward, terminated, truncated, final_value) in enumerate(steps):
+    for t, (reward, *_) in enumerate(steps):
         if ends[t] or t + 1 == count:
             by_return.append(delta[t])
         else:
@@ -140,8 +140,14 @@ def test_both_advantage_estimators_match_their_definitions() -> None:
     terminated[2, 0] = True  # env 0 falls at step 2, env 1 is truncated at step 3, env 2 runs through
     truncated[3, 1] = True
     steps = _Transition(
-        observation=None, action=None, log_prob=None, value=value, reward=jnp.asarray(reward),
-        terminated=jnp.asarray(terminated), truncated=jnp.asarray(truncated), final_value=jnp.asarray(final_value),
+        observation=None,
+        action=None,
+        log_prob=None,
+        value=value,
+        reward=jnp.asarray(reward),
+        terminated=jnp.asarray(terminated),
+        truncated=jnp.asarray(truncated),
+        final_value=jnp.asarray(final_value),
     )
     results = {}
     for estimator in ("gae", "lambda_return"):
