@@ -154,7 +154,7 @@ CheckpointCallback = Callable[[TrainingState, Progress, IterationReport | None],
 def check_settings(
     rollout: RolloutSettings, optimization: OptimizationSettings, devices: int, whole_unrolls: bool = False
 ) -> int:
-    """Validate the batch arithmetic; returns the number of minibatches per epoch.
+    """Validate the batch arithmetic and the learning-rate options; returns the number of minibatches per epoch.
 
     whole_unrolls: minibatches are made of whole unrolls (for recomputing advantages), not single steps.
     """
