@@ -15,9 +15,11 @@ at once (one rollout vmapped over the snapshots) on the deterministic policy's m
 that reaches it: the training time, without the evaluations (Brax's PPO leaves them out of its
 training walltime too).
 
-Reports: compile seconds, wall seconds to the target return (compile included, and without it),
-every snapshot's deterministic return, training env steps/s,
-the raw physics rate of `vmap(mjx.step)` on the same batch measured in the same run, and their
+Reports: compile seconds (everything before the first iteration: the environments' reset and the
+iteration's compilation, which run at once), wall seconds to the target return (compile included,
+and without it), every snapshot's deterministic return, training env steps/s, the raw physics rate
+of `vmap(mjx.step)` on the same batch measured in the same run (after training, so that training
+compiles from cold), and their
 ratio (training env steps/s x frame_skip / raw physics steps/s). Anchor: Brax PPO trains Ant for
 50 M steps in 2 min 36 s plus 33 s compile; goal: return >= 6000 in <= 3 min on one H200,
 training throughput >= 50 % of raw physics, and >= 1.8x on 2 GPUs. `--scaling` trains on one device,
@@ -197,12 +199,12 @@ def main() -> None:
         if args.weak:
             settings = scaled(PpoSettings.from_config(config), len(devices))
         env = environment(config, plugins, settings.rollout.num_envs, devices)
+        outcome, snapshots = train(
+            settings, env, args.target, args.max_seconds, args.iterations, args.snapshot_interval
+        )
         raw = raw_physics_rate(env)
         print(
             f"{len(devices)} device(s): raw physics {raw:,.0f} steps/s ({raw / env.task.frame_skip:,.0f} env steps/s)"
-        )
-        outcome, snapshots = train(
-            settings, env, args.target, args.max_seconds, args.iterations, args.snapshot_interval
         )
         fraction = outcome["train_steps_per_second"] * env.task.frame_skip / raw
         outcome |= {"devices": len(devices), "raw_physics_steps_per_second": raw, "fraction_of_raw_physics": fraction}

@@ -1,14 +1,17 @@
 """Batched, functional JOSHUA task environments on MJX: `reset(key) -> state`, `step(state, action) -> state`.
 
 Both are pure JAX functions of N environments at once: jit them, `lax.scan` over them, or call them
-inside `jax.shard_map` on each device's slice of the environments (`step` takes its batch size from
-the state). The task's terms run on `jax.numpy` through the same `TermContext` the CPU backend fills
+inside `jax.shard_map` on each device's slice of the environments (`step` works on whatever slice it
+is given). The task's terms run on `jax.numpy` through the same `TermContext` the CPU backend fills
 with numpy, so rewards and observations match the `mujoco` backend's.
 
 - Autoreset: an environment whose episode ended (terminated or truncated) starts a new one within
-  the same `step`, from fresh randomised reset terms; `state.final_observation` keeps the last
-  observation of the ended episode (for bootstrapping truncated episodes), `state.episode` its
-  return, length, per-term reward sums and final metrics.
+  the same `step`, from its start state `state.start`: the task's reset terms drawn for that
+  environment. `redraw_starts(state)` draws new start states for every environment (the PPO
+  trainer does before every iteration), so episodes begin from fresh draws without a `mjx.forward`
+  over the whole batch on every step. `state.final_observation` keeps the last observation of the
+  ended episode (for bootstrapping truncated episodes), `state.episode` its return, length,
+  per-term reward sums and final metrics.
 - A simulation whose state becomes non-finite is terminated with zero reward, never propagated.
 - `MjxEnv.sharding` spreads the environments over every visible device (`jax.sharding`);
   `reset` returns a state laid out that way.
@@ -60,6 +63,8 @@ class EnvState(NamedTuple):
     action: jax.Array  # (N, nu) the last clipped action (zero after a reset)
     episode_step: jax.Array  # (N,) int32 steps taken in the current episode
     commands: dict[str, jax.Array]  # task commands (targets, goals) of the current episode
+    start: mjx.Data  # where each environment's next episode starts (reset terms applied, forward done)
+    start_commands: dict[str, jax.Array]  # the commands of each environment's next episode
     running_return: jax.Array  # (N,) return of the current episode so far
     running_terms: dict[str, jax.Array]  # per reward term, the current episode's weighted sum so far
     reward_terms: dict[str, jax.Array]  # per reward term, its weighted value on the last step
@@ -103,16 +108,32 @@ class MjxEnv:
         if task.keyframe_id >= 0:
             mujoco.mj_resetDataKeyframe(model, initial, task.keyframe_id)
         self._initial_data = mjx.put_data(model, initial)
-        self.reset = jax.jit(self._reset, out_shardings=self.sharding)
+        self._draw_starts = jax.jit(self._fresh_episodes, in_shardings=self.sharding, out_shardings=self.sharding)
+        self._split_keys = jax.jit(_split_each, in_shardings=self.sharding, out_shardings=self.sharding)
+        self._begin = jax.jit(self._begin_episodes, out_shardings=self.sharding)
         self.step = jax.jit(self._step)
 
     # --- the functional API -------------------------------------------------------------------
 
-    def _reset(self, key: jax.Array) -> EnvState:
-        """Every environment at the start of a fresh episode (reset terms drawn from `key`)."""
-        keys = jax.random.split(key, self.num_envs)
-        keys, draw = _split_each(keys)
-        data, commands = self._fresh_episodes(draw, self.num_envs)
+    def reset(self, key: jax.Array) -> EnvState:
+        """Every environment at the start of a fresh episode (reset terms drawn from `key`); the same
+        draws are each environment's start state until `redraw_starts`."""
+        keys, draw = self._split_keys(jax.random.split(key, self.num_envs))
+        data, commands = self._draw_starts(draw)
+        return self._begin(data, commands, keys)
+
+    def redraw_starts(self, state: EnvState) -> EnvState:
+        """`state` with a new start state for every environment, drawn from its reset terms.
+
+        Call it between rollouts (the PPO trainer does before every iteration): it runs `mjx.forward`
+        once over the batch, which `step` would otherwise run on every step that ends an episode
+        anywhere in the batch, and it stays out of the compiled rollout."""
+        keys, draw = self._split_keys(state.key)
+        start, start_commands = self._draw_starts(draw)
+        return state._replace(start=start, start_commands=start_commands, key=keys)
+
+    def _begin_episodes(self, data: mjx.Data, commands: dict[str, jax.Array], keys: jax.Array) -> EnvState:
+        """The environments at the first step of episodes started from `data`, which are also their start states."""
         n = self.num_envs
         zeros = jnp.zeros(n, jnp.float32)
         action = jnp.zeros((n, self.action_size), jnp.float32)
@@ -129,6 +150,8 @@ class MjxEnv:
             action=action,
             episode_step=episode_step,
             commands=commands,
+            start=data,
+            start_commands=commands,
             running_return=zeros,
             running_terms=term_zeros,
             reward_terms=term_zeros,
@@ -145,7 +168,7 @@ class MjxEnv:
     def _step(self, state: EnvState, action: jax.Array) -> EnvState:
         """Apply `action` (N, nu; clipped to [-1, 1]), advance frame_skip physics steps, evaluate the task,
         and start a new episode wherever one ended."""
-        task, n = self.task, state.observation.shape[0]
+        task = self.task
         action = jnp.clip(action.astype(jnp.float32), -1.0, 1.0)
         data = state.data.replace(ctrl=task.action_to_ctrl(jnp, action).astype(state.data.ctrl.dtype))
         data = jax.lax.fori_loop(
@@ -175,13 +198,8 @@ class MjxEnv:
             metrics={name: value.astype(jnp.float32) for name, value in task.metrics(ctx).items()},
         )
 
-        # Autoreset: fresh episodes are computed only on steps where some environment needs one.
-        keys, draw = _split_each(state.key)
-        fresh_data, fresh_commands = jax.lax.cond(
-            done.any(), lambda: self._fresh_episodes(draw, n), lambda: (data, state.commands)
-        )
-        data = _where_env(done, fresh_data, data)
-        commands = _where_env(done, fresh_commands, state.commands)
+        data = _where_env(done, state.start, data)  # autoreset
+        commands = _where_env(done, state.start_commands, state.commands)
         action = jnp.where(done[:, None], 0.0, action)
         previous_action = jnp.where(done[:, None], 0.0, state.action)
         episode_step = jnp.where(done, 0, episode_step)
@@ -197,18 +215,20 @@ class MjxEnv:
             action=action,
             episode_step=episode_step,
             commands=commands,
+            start=state.start,
+            start_commands=state.start_commands,
             running_return=jnp.where(done, 0.0, running_return),
             running_terms={name: jnp.where(done, 0.0, value) for name, value in running_terms.items()},
             reward_terms=reward_terms,
             episode=episode,
-            key=keys,
+            key=state.key,
         )
 
     # --- pieces -------------------------------------------------------------------------------
 
-    def _fresh_episodes(self, keys: jax.Array, n: int) -> tuple[mjx.Data, dict[str, jax.Array]]:
-        """n new episodes: the task's initial state with its reset terms applied, forward kinematics done."""
-        task = self.task
+    def _fresh_episodes(self, keys: jax.Array) -> tuple[mjx.Data, dict[str, jax.Array]]:
+        """New episodes, one per key: the task's initial state with its reset terms applied, forward done."""
+        task, n = self.task, keys.shape[0]
         ctx = task.reset(task.reset_context(jnp, n, _PerEnvRandom(keys)))
         data = jax.tree.map(lambda leaf: jnp.broadcast_to(leaf, (n, *jnp.shape(leaf))), self._initial_data)
         dtype = data.qpos.dtype

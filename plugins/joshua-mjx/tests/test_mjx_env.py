@@ -81,15 +81,43 @@ def test_autoreset_ends_episodes_at_the_length_and_reports_them(ant_env) -> None
     np.testing.assert_allclose(np.asarray(state.data.qpos), np.tile(ant_env.task.initial_qpos, (4, 1)), atol=1e-6)
 
 
-def test_reset_terms_draw_per_environment_and_repeat_with_the_key() -> None:
-    env = make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml")
-    first, again, other = (env.reset(jax.random.PRNGKey(seed)) for seed in (0, 0, 1))
+@pytest.fixture(scope="module")
+def noisy_ant_env():  # type: ignore[no-untyped-def]
+    config = task_config_from_options({"episode_length": 3})
+    return make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", task_config=config)
+
+
+def test_reset_terms_draw_per_environment_and_repeat_with_the_key(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
+    first, again, other = (noisy_ant_env.reset(jax.random.PRNGKey(seed)) for seed in (0, 0, 1))
     qpos = np.asarray(first.data.qpos)
     assert len({tuple(row) for row in qpos.round(6)}) == 4  # every environment its own start
     np.testing.assert_array_equal(qpos, np.asarray(again.data.qpos))
     assert not np.allclose(qpos, np.asarray(other.data.qpos))
     with pytest.raises(ConfigError, match="num_envs must be at least 1"):
         make_mjx_env("ant_locomotion", 0, model_path="ant/ant.xml")
+
+
+def test_episodes_restart_from_the_start_state_until_it_is_redrawn(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
+    env, action = noisy_ant_env, jnp.full((4, 8), 0.2)
+    first = state = env.reset(jax.random.PRNGKey(2))
+    np.testing.assert_array_equal(np.asarray(first.start.qpos), np.asarray(first.data.qpos))
+    for _ in range(3):
+        state = env.step(state, action)
+    assert np.asarray(state.truncated).all()  # autoreset to the reset's own draws
+    np.testing.assert_allclose(np.asarray(state.data.qpos), np.asarray(first.data.qpos), atol=1e-6)
+    np.testing.assert_allclose(np.asarray(state.observation), np.asarray(first.observation), atol=1e-5)
+
+    redrawn = env.redraw_starts(state)
+    np.testing.assert_array_equal(np.asarray(redrawn.data.qpos), np.asarray(state.data.qpos))  # episodes go on
+    new_starts = np.asarray(redrawn.start.qpos)
+    assert len({tuple(row) for row in new_starts.round(6)}) == 4
+    assert not np.isclose(new_starts, np.asarray(first.start.qpos)).all(axis=1).any()  # every env drew anew
+    np.testing.assert_array_equal(new_starts, np.asarray(env.redraw_starts(state).start.qpos))  # from the state's keys
+    state = redrawn
+    for _ in range(3):
+        state = env.step(state, action)
+    assert np.asarray(state.truncated).all()
+    np.testing.assert_allclose(np.asarray(state.data.qpos), new_starts, atol=1e-6)
 
 
 def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> None:

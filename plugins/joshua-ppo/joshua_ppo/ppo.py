@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -138,8 +139,8 @@ class IterationReport:
     total_steps: int
     iteration_seconds: float
     steps_per_second: float
-    wall_seconds: float
-    compile_seconds: float
+    wall_seconds: float  # since train_ppo was called
+    compile_seconds: float  # before the first iteration: environments reset and the iteration compiled, at once
     metrics: dict[str, float] = field(default_factory=dict)
 
 
@@ -249,6 +250,16 @@ def init_state(
 def _state_shardings(env: MjxEnv) -> TrainingState:
     """Where a training state lives (a prefix of its tree): environments split over devices, the rest replicated."""
     return TrainingState(env.replicated, env.replicated, env.replicated, env.sharding, env.replicated)
+
+
+def _abstract_state(env: MjxEnv, *, network: NetworkSettings, optimization: OptimizationSettings) -> TrainingState:
+    """Shapes, dtypes and shardings of `init_state`'s result, computing nothing: enough to compile the iteration."""
+    shapes = jax.eval_shape(lambda: init_state(env, seed=0, network=network, optimization=optimization))
+
+    def placed(sharding: jax.sharding.Sharding, subtree: Any) -> Any:
+        return jax.tree.map(lambda leaf: jax.ShapeDtypeStruct(leaf.shape, leaf.dtype, sharding=sharding), subtree)
+
+    return jax.tree.map(placed, _state_shardings(env), shapes)
 
 
 class _Transition(NamedTuple):
@@ -576,20 +587,30 @@ def train_ppo(
         raise ConfigError(
             f"the saved state has {resume[0].env_state.observation.shape[0]} environments, not {env.num_envs}"
         )
-    state, progress = resume or (init_state(env, seed=seed, network=network, optimization=optimization), Progress(0, 0))
+    started = time.perf_counter()
     iteration = make_iteration(env, rollout=rollout, optimization=optimization, returns=returns, network=network)
+    abstract = _abstract_state(env, network=network, optimization=optimization)
+    # the iteration compiles while the environments reset (which compiles mjx.forward): both take seconds
+    # of XLA compilation, which runs without holding the GIL
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        compiling = pool.submit(lambda: iteration.lower(abstract).compile())
+        state, progress = resume or (
+            init_state(env, seed=seed, network=network, optimization=optimization),
+            Progress(0, 0),
+        )
+        compiled = compiling.result()
+    compile_seconds = time.perf_counter() - started
     steps_per_iteration = rollout.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
     iterations = max(0, math.ceil((total_timesteps - progress.env_steps) / steps_per_iteration))
     total_steps = progress.env_steps + iterations * steps_per_iteration
-    started = time.perf_counter()
-    compiled = iteration.lower(state).compile()
-    compile_seconds = time.perf_counter() - started
     if resume is None and on_checkpoint is not None:
         on_checkpoint(state, progress, None)
     next_checkpoint = progress.env_steps + checkpoint_interval if checkpoint_interval > 0 else None
     report: IterationReport | None = None
     for _ in range(iterations):
         iteration_started = time.perf_counter()
+        # every iteration's episodes start from fresh draws of the task's reset terms
+        state = state._replace(env_state=env.redraw_starts(state.env_state))
         candidate, metrics = compiled(state)
         values = {name: float(value) for name, value in jax.device_get(metrics).items()}
         finite = values.pop("params_finite") == 1.0

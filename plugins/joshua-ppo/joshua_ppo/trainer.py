@@ -48,6 +48,7 @@ from joshua_ppo.ppo import (
     RolloutSettings,
     RunningStatistics,
     TrainingState,
+    check_settings,
     init_state,
     train_ppo,
 )
@@ -398,9 +399,13 @@ class PpoTrainer(Trainer):
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
         settings = PpoSettings.from_config(config)
+        env = environment(config, context.plugins, settings.rollout.num_envs)
+        # a bad batch layout is a config error before anything is written
+        check_settings(
+            settings.rollout, settings.optimization, env.mesh.size, whole_unrolls=settings.returns.recompute_advantages
+        )
         root = context.output_dir
         name, resume_from = _run_name(config, root)
-        env = environment(config, context.plugins, settings.rollout.num_envs)
         run = Run(config, settings, env, root, name)
         resume = None
         if resume_from is not None:

@@ -197,6 +197,7 @@ def test_bad_settings_are_config_errors(tmp_path: Path) -> None:
         )
     with pytest.raises(ConfigError, match="no_such_field"):
         train_mjx(model_path="ant/ant_mjx.xml", config={"no_such_field": 1}, checkpoint_dir=tmp_path)
+    assert not any(tmp_path.iterdir())  # no run folder left behind by a rejected config
     training = TrainingConfig(task="ant_locomotion", backend="mujoco")
     with pytest.raises(ConfigError, match="backend 'mjx'"):
         PpoTrainer().train(training, RunContext(PluginHost.discover(), tmp_path))
