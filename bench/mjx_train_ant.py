@@ -141,13 +141,14 @@ def train(
     }, snapshots
 
 
-def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snapshot]) -> list[float]:
-    """Each snapshot's mean return over one whole episode per environment of `env`, under the policy's
-    mean (no exploration noise): all snapshots in one rollout, vmapped over them."""
+def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snapshot]) -> list[dict[str, float]]:
+    """Each snapshot's mean return and episode length over one episode per environment of `env`, under
+    the policy's mean (no exploration noise): all snapshots in one rollout, vmapped over them."""
     rollout = make_rollout(env, settings.network, env.task.episode_length)
     params, normalizer = jax.tree.map(lambda *leaves: np.stack(leaves), *snapshots)
     raw = jax.device_get(jax.jit(jax.vmap(rollout, in_axes=(0, 0, None)))(params, normalizer, jax.random.PRNGKey(1)))
-    return [mean_results(collect(jax.tree.map(lambda x, i=i: x[i], raw)))["mean_return"] for i in range(len(snapshots))]
+    results = [mean_results(collect(jax.tree.map(lambda x, i=i: x[i], raw))) for i in range(len(snapshots))]
+    return [{"return": result["mean_return"], "length": result["mean_length"]} for result in results]
 
 
 def scaled(settings: PpoSettings, factor: int) -> PpoSettings:
@@ -210,12 +211,12 @@ def main() -> None:
         if args.eval_envs > 0 and snapshots:
             eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
             eval_env = environment(config, plugins, eval_envs, devices)
-            returns = evaluate_snapshots(settings, eval_env, [snapshot for _, snapshot in snapshots])
-            evaluated = [when | {"return": value} for (when, _), value in zip(snapshots, returns, strict=True)]
+            evaluations = evaluate_snapshots(settings, eval_env, [snapshot for _, snapshot in snapshots])
+            evaluated = [when | result for (when, _), result in zip(snapshots, evaluations, strict=True)]
             reached = next((entry for entry in evaluated if entry["return"] >= args.target), None)
             outcome |= {
                 "snapshots": evaluated,
-                "deterministic_return": returns[-1],
+                "deterministic_return": evaluated[-1]["return"],
                 "reached_target_at_seconds": reached and reached["wall"],
                 "reached_target_without_compile_seconds": reached and reached["wall"] - outcome["compile_seconds"],
                 "reached_target_at_steps": reached and reached["step"],
