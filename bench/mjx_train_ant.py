@@ -17,9 +17,10 @@ training walltime too).
 
 Reports: compile seconds (everything before the first iteration: the environments' reset and the
 iteration's compilation, which run at once), wall seconds to the target return (compile included,
-and without it), every snapshot's deterministic return, training env steps/s, the raw physics rate
-of `vmap(mjx.step)` on the same batch measured in the same run (after training, so that training
-compiles from cold), and their ratio (training env steps/s x frame_skip / raw physics steps/s).
+and without it), every snapshot's deterministic return and episode length, training env steps/s,
+the raw physics rate of `vmap(mjx.step)` on the same batch measured in the same run (after
+training, so that training compiles from cold), and their ratio (training env steps/s x frame_skip
+/ raw physics steps/s).
 Anchor: Brax PPO trains Ant for 50 M steps in 2 min 36 s plus 33 s compile; goal: return >= 6000 in
 <= 3 min on one H200, training throughput >= 50 % of raw physics, and >= 1.8x on 2 GPUs. `--scaling`
 trains on one device, then on all: with the same batch split over them, or with `--weak` the batch
