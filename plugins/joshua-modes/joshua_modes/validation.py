@@ -22,9 +22,9 @@ from numpy.typing import NDArray
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import UsageError
+from joshua_core.interfaces import Engine
 from joshua_core.trajectory import Trajectory, read_trajectory
 from joshua_modes.replay import Replayer, model_joint_names, qpos_addresses
-from joshua_mujoco import MuJoCoEngine
 
 DEFAULT_VELOCITY_LIMIT = 10.0  # rad/s (or m/s for slide joints)
 DEFAULT_PENETRATION_THRESHOLD = 0.005  # m
@@ -322,7 +322,7 @@ def _geom_name(model: mujoco.MjModel, geom: int) -> str:
 
 
 def validated_replayer(
-    config: SimulationConfig, engine: MuJoCoEngine, report_path: Path, *, refusal: str
+    config: SimulationConfig, engine: Engine, report_path: Path, *, refusal: str
 ) -> tuple[Replayer, ValidationReport]:
     """Read and validate `config.trajectory_path` against the engine's model, print the report and write it
     as JSON; return the replayer of its usable rows. With `replay.strict` and any problem, raise UsageError
