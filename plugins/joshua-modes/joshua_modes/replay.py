@@ -1,4 +1,5 @@
-"""Replaying a trajectory on an engine with MuJoCo's model and data: kinematic (set joint positions) or tracked (drive the actuators).
+"""Replaying a trajectory on an engine (MuJoCo's model and data): kinematic (set joint positions) or tracked
+(drive the actuators).
 
 A `Replayer` moves the engine to any time of the trajectory with `show(t)`: kinematic replay
 interpolates the joint positions linearly and runs mj_forward; tracked replay steps the physics up to

@@ -83,7 +83,9 @@ class TaskEnv(gymnasium.Env):
         return observation, 0.0 if failed else float(reward[0]), terminated, truncated, info
 
     def render(self) -> NDArray[np.uint8] | None:
-        return self.simulation.render(0, None, DEFAULT_RENDER_WIDTH, DEFAULT_RENDER_HEIGHT) if self.render_mode == "rgb_array" else None
+        if self.render_mode != "rgb_array":
+            return None
+        return self.simulation.render(0, None, DEFAULT_RENDER_WIDTH, DEFAULT_RENDER_HEIGHT)
 
     def close(self) -> None:
         self.simulation.close()

@@ -29,7 +29,7 @@ FLOOR = """
 def test_camera_id_by_name_default_and_unknown() -> None:
     model = mujoco.MjModel.from_xml_path(str(SCENE))
     assert camera_id(model, None) == 0 and camera_id(model, "side") == model.camera("side").id
-    no_cameras = mujoco.MjModel.from_xml_string("<mujoco><worldbody><geom size='1 1 1' type='box'/></worldbody></mujoco>")
+    no_cameras = mujoco.MjModel.from_xml_string("<mujoco><worldbody><geom size='1'/></worldbody></mujoco>")
     assert camera_id(no_cameras, None) == -1  # the free camera
     with pytest.raises(UsageError, match="no camera 'top' in the model; cameras: overview, side"):
         camera_id(model, "top")
