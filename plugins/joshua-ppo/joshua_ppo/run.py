@@ -30,7 +30,7 @@ from joshua_ppo.envs import MjxEnv, environment
 from joshua_ppo.rollout import collect, make_rollout, render_video
 from joshua_ppo.state import Progress, TrainingState
 from joshua_ppo.train import IterationReport
-from joshua_ppo.viewer import LiveViewer
+from joshua_render import LiveViewer
 
 TRAINER_NAME = "ppo"
 RUN_FORMAT = "joshua-ppo-run/1"
@@ -165,8 +165,7 @@ class Run:
         env, rollout = self._rollout
         episode = collect(rollout(state.params, state.normalizer, jax.random.PRNGKey(step)))
         path = render_video(env.model, episode, self.folder / "videos" / f"step_{step}.mp4", fps=1.0 / env.task.dt)
-        if path is not None:
-            self.bar.write(f"ppo: video {path}")
+        self.bar.write(f"ppo: video {path}")
 
 
 def _version(distribution: str) -> str:

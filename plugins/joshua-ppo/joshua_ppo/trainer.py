@@ -91,7 +91,7 @@ class PpoTrainer(Trainer):
         start = resume[1].env_steps if resume else 0
         run.bar = progress_bar(settings.total_timesteps, description=f"ppo {config.task}", unit="steps", initial=start)
         run.scalars = ScalarLog(run.folder / "tensorboard")
-        run.viewer = open_viewer(config.ppo, env.source)
+        run.viewer = open_viewer(config.ppo, env.model)
         devices = ", ".join(str(device) for device in jax.devices())
         run.bar.write(f"ppo: {settings.rollout.num_envs} environments on {devices}; compiling the training iteration")
         try:
@@ -148,6 +148,5 @@ class PpoTrainer(Trainer):
         episode = collect(rollout(params, normalizer, jax.random.PRNGKey(seed)), episodes)
         if video_path is not None:
             written = render_video(env.model, episode, video_path, fps=1.0 / env.task.dt)
-            if written is not None:
-                print(f"video: {written}", file=sys.stderr)
+            print(f"video: {written}", file=sys.stderr)
         return mean_results(episode)
