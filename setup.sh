@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Set up JOSHUA in ./.venv on Debian with Python 3.11.
-#   ./setup.sh          the runtime: joshua-core, the joshua-mujoco backend, joshua-modes (viewer, replay, offscreen)
+#   ./setup.sh          the runtime: joshua-core, joshua-render (rendering, video, viewer), the joshua-mujoco backend,
+#                       joshua-modes (viewer, replay, offscreen)
 #   ./setup.sh --all    every plugin: also joshua-mirror (rclpy + Fast DDS wheels, no ROS install),
 #                       joshua-sb3 (stable-baselines3 with torch's CPU wheel), joshua-mjx and joshua-ppo
 #                       (MJX, JAX, Flax, Optax; JAX for the CPU: on a GPU machine add pip install "jax[cuda13]")
@@ -42,7 +43,7 @@ command -v "$PYTHON" >/dev/null || PYTHON=python3
 [[ -x .venv/bin/python ]] || "$PYTHON" -m venv .venv
 export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
 
-requirements=(-e . -e plugins/joshua-mujoco -e plugins/joshua-modes)
+requirements=(-e . -e plugins/joshua-render -e plugins/joshua-mujoco -e plugins/joshua-modes)
 if [[ -n $option ]]; then
   requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e plugins/joshua-mjx -e plugins/joshua-ppo)
   # torch first, pinned to its CPU wheel: then stable-baselines3 finds it installed and pulls no CUDA packages

@@ -28,9 +28,8 @@ from joshua_core.resources import models_dir
 from joshua_core.trajectory import read_trajectory
 from joshua_modes.offscreen import FrameRenderer, frame_times
 from joshua_modes.replay import Replayer, model_joint_names
-from joshua_modes.video import VideoWriter
 from joshua_mujoco import MuJoCoEngine
-from joshua_mujoco.engine import create_renderer
+from joshua_render import VideoWriter, create_renderer
 
 TARGET_RATIO = 1.05
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -20,9 +19,6 @@ if TYPE_CHECKING:
     from joshua_core.plugins import PluginHost
 
 RUN_CONFIG_FILE = "config.json"
-VIDEO_HINT = (
-    "no video written: pip install joshua-modes gives one (from a source checkout: pip install -e plugins/joshua-modes)"
-)
 
 
 def read_run_config(run_dir: Path) -> dict[str, Any]:
@@ -39,18 +35,6 @@ def read_run_config(run_dir: Path) -> dict[str, Any]:
     if not isinstance(document, dict) or not isinstance(document.get("trainer"), str):
         raise UsageError(f'{path}: has no "trainer" entry naming the trainer that wrote the run')
     return document
-
-
-def open_video_writer(path: Path, fps: float) -> Any | None:
-    """A `joshua_modes.video.VideoWriter` for `path`, or None (with a hint on stderr) when joshua-modes is missing."""
-    try:
-        from joshua_modes.video import VideoWriter
-    except ModuleNotFoundError as error:
-        if error.name not in ("joshua_modes", "joshua_modes.video"):
-            raise
-        print(f"joshua: {VIDEO_HINT}", file=sys.stderr)
-        return None
-    return VideoWriter(path, fps)
 
 
 class EvalCommand(Command):

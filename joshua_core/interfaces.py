@@ -25,6 +25,15 @@ if TYPE_CHECKING:
     from joshua_core.config_pb2 import SimulationConfig, TrainingConfig
     from joshua_core.plugins import PluginHost
 
+# The size of rendered images when a config leaves simulation.render_width/render_height at 0.
+DEFAULT_RENDER_WIDTH = 640
+DEFAULT_RENDER_HEIGHT = 480
+
+
+def render_size(simulation: SimulationConfig) -> tuple[int, int]:
+    """(width, height) of the images a simulation config asks for: its render_width/height, else the defaults."""
+    return simulation.render_width or DEFAULT_RENDER_WIDTH, simulation.render_height or DEFAULT_RENDER_HEIGHT
+
 
 class Engine(ABC):
     """One simulation instance: a compiled model (`model`) and its mutable state (`data`)."""
@@ -85,7 +94,9 @@ class Backend(ABC):
     """A physics backend registered under a name (e.g. "mujoco"); creates engines."""
 
     @abstractmethod
-    def create_engine(self, model_path: Path, *, render_width: int = 640, render_height: int = 480) -> Engine:
+    def create_engine(
+        self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
+    ) -> Engine:
         """Load the model at `model_path`; a missing or invalid model raises ModelError."""
 
 
@@ -100,11 +111,8 @@ class RunContext:
         """Engine for a finalized simulation config, from the backend it names, reset to the config's keyframe
         (the model's initial state when none is named); an unknown keyframe is a ConfigError listing them."""
         backend = self.plugins.backend(simulation.backend)
-        engine = backend.create_engine(
-            Path(simulation.model_path),
-            render_width=simulation.render_width or 640,
-            render_height=simulation.render_height or 480,
-        )
+        width, height = render_size(simulation)
+        engine = backend.create_engine(Path(simulation.model_path), render_width=width, render_height=height)
         try:
             engine.reset(simulation.keyframe or None)
         except KeyError as error:
@@ -141,9 +149,9 @@ class Trainer(ABC):
         """Roll out the policy saved in `run_dir` (a run folder: its last checkpoint; or one checkpoint folder).
 
         Returns `mean_return` and the task's metrics averaged over `episodes` episodes (environments seeded
-        from `seed`), and writes an MP4 of one episode to `video_path` when given (see
-        `joshua_core.evaluation.open_video_writer`). `trust_checkpoint` allows loading files this machine's user
-        did not write (for formats that can run code on load). `joshua eval RUN` calls this.
+        from `seed`), and writes an MP4 of one episode to `video_path` when given (the trainer writes it itself,
+        e.g. with `joshua_render.VideoWriter`: the core renders nothing). `trust_checkpoint` allows loading files
+        this machine's user did not write (for formats that can run code on load). `joshua eval RUN` calls this.
         """
         raise UsageError(f"trainer {type(self).__name__} cannot evaluate a run: it does not implement evaluate()")
 

@@ -11,7 +11,6 @@ import sys
 import time
 from collections.abc import Callable
 from contextlib import ExitStack
-from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -35,7 +34,6 @@ QUEUE_DEPTH = 100  # messages kept per subscription if the callback thread falls
 MAX_CATCH_UP_S = 0.25  # physics further behind the wall clock than this skips ahead instead of racing
 GIL_SWITCH_INTERVAL_S = 2e-4  # the executor thread gets the GIL within this while the main thread runs Python
 FLOAT64_TYPE = "std_msgs/msg/Float64"
-DISPLAY_HINT = "pip install joshua-modes"
 
 
 class MirrorMode(Mode):
@@ -56,7 +54,7 @@ class MirrorMode(Mode):
                 stale_timeout=options.stale_timeout or DEFAULT_STALE_TIMEOUT_S,
             )
             watcher = _subscribe(ros, mirror, options)
-            display = _open_display(stack, config, context.output_dir)
+            display = _open_display(stack, config, context)
             loop = _MainLoop(engine, mirror, watcher, display, options)
             stopped_by = loop.run(config.duration)
             ros.close()  # no callback may change the state while it is reported
@@ -158,36 +156,19 @@ def _float64_callback(mirror: Mirror, index: int) -> Any:
     return on_float64
 
 
-def _open_display(stack: ExitStack, config: SimulationConfig, output_dir: Path) -> _DisplayFeed | None:
-    """The display the options ask for, on an engine of its own; None (said once) when joshua-modes is missing."""
+def _open_display(stack: ExitStack, config: SimulationConfig, context: RunContext) -> _DisplayFeed | None:
+    """The display the options ask for (None for NONE), on an engine of its own from the config's backend."""
     choice = config.mirror.display
     if choice == MirrorOptions.NONE:
         return None
-    try:
-        from joshua_modes.display import open_display
-    except ImportError:
-        if choice != MirrorOptions.AUTO:
-            name = MirrorOptions.Display.Name(choice)
-            raise UsageError(
-                f"simulation.mirror.display: {name} needs the plugin joshua-modes: {DISPLAY_HINT}"
-            ) from None
-        print(
-            f"joshua: mirror: running without a display; to watch or record the mirrored robot: {DISPLAY_HINT}",
-            file=sys.stderr,
-        )
-        return None
-    from joshua_mujoco import MuJoCoEngine
+    from joshua_render import open_display  # here: mujoco's viewer and OpenCV load only when a display is asked for
 
-    shadow = stack.enter_context(
-        MuJoCoEngine(
-            config.model_path, render_width=config.render_width or 640, render_height=config.render_height or 480
-        )
-    )
+    shadow = stack.enter_context(context.create_engine(config))
     viewer = {MirrorOptions.AUTO: None, MirrorOptions.VIEWER: True, MirrorOptions.RECORD: False}[choice]
     display = stack.enter_context(
         open_display(
             shadow,
-            output_dir=output_dir,
+            output_dir=context.output_dir,
             name="mirror",
             fps=config.mirror.display_fps or DEFAULT_DISPLAY_FPS,
             camera=config.mirror.camera or None,

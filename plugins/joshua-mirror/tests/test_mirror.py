@@ -8,7 +8,6 @@ in a random ROS domain per test run, so parallel runs do not see each other.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import math
 import os
@@ -91,10 +90,8 @@ def assert_mirrored(report: dict[str, Any], values: dict[str, float]) -> None:
 
 
 def test_sim_mirror_preset_runs_for_its_duration(tmp_path: Path, ros_env: dict[str, str]) -> None:
-    display_installed = importlib.util.find_spec("joshua_modes") is not None
-    overrides = [] if display_installed else ["--set", "simulation.mirror.display=AUTO"]
     result = subprocess.run(
-        [str(JOSHUA), "--preset", "sim_mirror", "--set", "simulation.duration=1", *FAST, *overrides],
+        [str(JOSHUA), "--preset", "sim_mirror", "--set", "simulation.duration=1", *FAST],
         cwd=tmp_path,
         env=ros_env,
         capture_output=True,
@@ -107,8 +104,6 @@ def test_sim_mirror_preset_runs_for_its_duration(tmp_path: Path, ros_env: dict[s
     assert all(entry["stale"] and entry["received"] == 0 for entry in report["joints"].values())
     assert "stale, no valid value for 0.5 s: joint_1 (/encoder/joint_1)" in result.stderr
     assert "[mirror" in result.stderr  # status lines
-    if not display_installed:
-        assert "pip install joshua-modes" in result.stderr
 
 
 def test_float64_motion_is_mirrored_exactly(tmp_path: Path, ros_env: dict[str, str]) -> None:
@@ -280,7 +275,7 @@ def test_replay_reports_bad_csv_rows_and_missing_columns(tmp_path: Path, ros_env
 
 
 def test_headless_display_records_the_mirrored_motion(tmp_path: Path, ros_env: dict[str, str]) -> None:
-    """With joshua-modes installed and no display, the mirror records what it shows to an MP4."""
+    """With no display, the mirror records what it shows to an MP4."""
     import cv2
 
     small = ("simulation.mirror.display=RECORD", "simulation.render_width=160", "simulation.render_height=120")

@@ -15,7 +15,7 @@ import jax
 import mujoco
 
 from joshua_core.errors import ModelError
-from joshua_core.interfaces import Backend
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend
 from joshua_core.resources import resolve_data_path
 from joshua_mjx.physics import mjx
 from joshua_mujoco.engine import MuJoCoEngine
@@ -50,7 +50,13 @@ HOST_INPUTS = ("time", "qpos", "qvel", "act", "ctrl", "mocap_pos", "mocap_quat",
 class MjxEngine(MuJoCoEngine):
     """One simulation whose `step()` runs MJX's physics (on the default JAX device)."""
 
-    def __init__(self, model_path: str | Path, *, render_width: int = 640, render_height: int = 480) -> None:
+    def __init__(
+        self,
+        model_path: str | Path,
+        *,
+        render_width: int = DEFAULT_RENDER_WIDTH,
+        render_height: int = DEFAULT_RENDER_HEIGHT,
+    ) -> None:
         super().__init__(model_path, render_width=render_width, render_height=render_height)
         self.mjx_model = put_model(self.model, model_path)
         self._device_data = mjx.make_data(self.mjx_model)
@@ -69,5 +75,7 @@ class MjxEngine(MuJoCoEngine):
 class MjxBackend(Backend):
     """The `mjx` backend: an `MjxEngine` per model (the batched environments are in joshua_mjx.env)."""
 
-    def create_engine(self, model_path: Path, *, render_width: int = 640, render_height: int = 480) -> MjxEngine:
+    def create_engine(
+        self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
+    ) -> MjxEngine:
         return MjxEngine(model_path, render_width=render_width, render_height=render_height)

@@ -12,13 +12,11 @@ import threading
 import time
 from pathlib import Path
 
-import mujoco
-
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
-from joshua_core.interfaces import Mode, RunContext
-from joshua_modes.display import ViewerDisplay
+from joshua_core.interfaces import Engine, Mode, RunContext
 from joshua_mujoco import MuJoCoEngine
+from joshua_render import ViewerDisplay
 
 KEY_SPACE = 32  # GLFW key codes, as the viewer's key_callback reports them
 KEY_RIGHT = 262
@@ -58,7 +56,7 @@ def run_interactive(model_path: str | Path, *, keyframe: str | None = None, dura
         simulate(engine, keyframe=keyframe, duration=duration)
 
 
-def simulate(engine: MuJoCoEngine, *, keyframe: str | None, duration: float) -> None:
+def simulate(engine: Engine, *, keyframe: str | None, duration: float) -> None:
     """Reset `engine` to the keyframe and run it in real time in the viewer until the window closes."""
     name = keyframe if keyframe else (engine.model.key(0).name if engine.model.nkey else None)
     try:
@@ -66,7 +64,7 @@ def simulate(engine: MuJoCoEngine, *, keyframe: str | None, duration: float) -> 
     except KeyError as error:
         raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
     controls = _Controls()
-    viewer = ViewerDisplay(engine, key_callback=controls.on_key)
+    viewer = ViewerDisplay(engine.model, engine.data, key_callback=controls.on_key)
     held = f"held at keyframe '{name}' by its actuators" if name else "from its initial state"
     print(
         f"MuJoCo viewer: {engine.model.nbody - 1} bodies, {held}. Space: pause/resume, Right: step while paused; "
@@ -79,13 +77,13 @@ def simulate(engine: MuJoCoEngine, *, keyframe: str | None, duration: float) -> 
         viewer.close()
 
 
-def _loop(engine: MuJoCoEngine, viewer: ViewerDisplay, controls: _Controls, duration: float) -> None:
+def _loop(engine: Engine, viewer: ViewerDisplay, controls: _Controls, duration: float) -> None:
     """Step the physics to keep up with the wall clock (not while paused) and sync the viewer each frame."""
-    model, data = engine.model, engine.data
+    timestep = engine.timestep
     last = time.perf_counter()
     owed = 0.0  # simulated seconds the physics is behind the wall clock
     was_paused = False
-    while duration <= 0 or data.time < duration:
+    while duration <= 0 or engine.time < duration:
         now = time.perf_counter()
         elapsed, last = min(now - last, MAX_CATCH_UP_S), now
         with viewer.lock():
@@ -93,14 +91,14 @@ def _loop(engine: MuJoCoEngine, viewer: ViewerDisplay, controls: _Controls, dura
                 steps = controls.take_steps()
             else:
                 owed += elapsed
-                steps = int(owed / model.opt.timestep)
-                owed -= steps * model.opt.timestep
+                steps = int(owed / timestep)
+                owed -= steps * timestep
             if steps:
-                mujoco.mj_step(model, data, steps)
+                engine.step(steps)
         if controls.paused != was_paused:
             was_paused = controls.paused
             viewer.set_status("PAUSED (Space: resume, Right: step)" if was_paused else "")
-        if not viewer.update(data.time):
+        if not viewer.update(engine.time):
             return
         time.sleep(max(0.0, FRAME_PERIOD_S - (time.perf_counter() - now)))
 
@@ -110,5 +108,4 @@ class InteractiveMode(Mode):
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         with context.create_engine(config) as engine:
-            assert isinstance(engine, MuJoCoEngine)
             simulate(engine, keyframe=config.keyframe or None, duration=config.duration)

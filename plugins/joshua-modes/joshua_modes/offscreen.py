@@ -19,15 +19,14 @@ from numpy.typing import NDArray
 
 from joshua_core.config_pb2 import OffscreenOptions, SimulationConfig
 from joshua_core.errors import ConfigError
-from joshua_core.interfaces import Mode, RunContext
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, RunContext, render_size
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
 from joshua_core.trajectory import read_trajectory
 from joshua_modes.replay import Replayer, model_joint_names
 from joshua_modes.validation import validate, validated_replayer
-from joshua_modes.video import VideoWriter, write_png
 from joshua_mujoco import MuJoCoEngine
-from joshua_mujoco.engine import camera_id, create_renderer
+from joshua_render import VideoWriter, camera_id, create_renderer, write_png
 
 DEFAULT_FPS = 30.0
 DEFAULT_DURATION_S = 5.0  # rendered when there is no trajectory: the model at its keyframe under physics
@@ -88,8 +87,8 @@ def frame_times(start: float, end: float, fps: float) -> NDArray[np.float64]:
 def iter_offscreen_frames(
     model_path: str | Path,
     trajectory_path: str | Path,
-    width: int = 640,
-    height: int = 480,
+    width: int = DEFAULT_RENDER_WIDTH,
+    height: int = DEFAULT_RENDER_HEIGHT,
     *,
     camera: str | None = None,
     fps: float = DEFAULT_FPS,
@@ -121,8 +120,8 @@ def iter_offscreen_frames(
 def run_offscreen(
     model_path: str | Path,
     trajectory_path: str | Path,
-    width: int = 640,
-    height: int = 480,
+    width: int = DEFAULT_RENDER_WIDTH,
+    height: int = DEFAULT_RENDER_HEIGHT,
     *,
     camera: str | None = None,
     fps: float = DEFAULT_FPS,
@@ -165,10 +164,9 @@ class OffscreenMode(Mode):
         fps = options.fps or DEFAULT_FPS
         if fps < 0:
             raise ConfigError(f"simulation.offscreen.fps must be positive, got {fps:g}")
-        width, height = config.render_width or 640, config.render_height or 480
+        width, height = render_size(config)
         outputs = OffscreenOutputs(context.output_dir)
         with context.create_engine(config) as engine:
-            assert isinstance(engine, MuJoCoEngine)
             renderer = FrameRenderer(
                 engine.model,
                 width,
@@ -185,7 +183,7 @@ class OffscreenMode(Mode):
 
     @staticmethod
     def _timeline(
-        config: SimulationConfig, engine: MuJoCoEngine, output_dir: Path, fps: float
+        config: SimulationConfig, engine: Engine, output_dir: Path, fps: float
     ) -> tuple[Replayer | None, NDArray[np.float64]]:
         """The replayer (None: plain physics) and the times of the frames."""
         if not config.trajectory_path:
@@ -199,7 +197,7 @@ class OffscreenMode(Mode):
     def _render(
         options: OffscreenOptions,
         renderer: FrameRenderer,
-        engine: MuJoCoEngine,
+        engine: Engine,
         replayer: Replayer | None,
         times: NDArray[np.float64],
         fps: float,

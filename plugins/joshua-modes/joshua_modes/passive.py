@@ -15,11 +15,10 @@ from joshua_core.config_pb2 import SimulationConfig, ViewerOptions
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import Mode, RunContext
 from joshua_core.progress import progress_bar
-from joshua_modes.display import Display, RecordingDisplay, open_display
 from joshua_modes.offscreen import frame_times
 from joshua_modes.replay import Replayer
 from joshua_modes.validation import ValidationReport, validated_replayer
-from joshua_mujoco import MuJoCoEngine
+from joshua_render import Display, RecordingDisplay, open_display
 
 REPORT_NAME = "passive_report.json"
 VIDEO_NAME = "passive_replay"
@@ -45,7 +44,6 @@ class PassiveMode(Mode):
         if speed < 0 or fps < 0:
             raise ConfigError("simulation.replay.speed and simulation.viewer.fps must be positive")
         with context.create_engine(config) as engine:
-            assert isinstance(engine, MuJoCoEngine)
             report_path = context.output_dir / REPORT_NAME
             replayer, report = validated_replayer(
                 config, engine, report_path, refusal="not replayed because simulation.replay.strict is set (--strict)"

@@ -1,4 +1,5 @@
-"""Replaying a trajectory on a MuJoCo engine: kinematic (set joint positions) or tracked (drive the actuators).
+"""Replaying a trajectory on an engine (MuJoCo's model and data): kinematic (set joint positions) or tracked
+(drive the actuators).
 
 A `Replayer` moves the engine to any time of the trajectory with `show(t)`: kinematic replay
 interpolates the joint positions linearly and runs mj_forward; tracked replay steps the physics up to
@@ -14,8 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.errors import UsageError
+from joshua_core.interfaces import Engine
 from joshua_core.trajectory import Trajectory
-from joshua_mujoco import MuJoCoEngine
 
 SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
@@ -81,7 +82,7 @@ class Replayer:
 
     def __init__(
         self,
-        engine: MuJoCoEngine,
+        engine: Engine,
         trajectory: Trajectory,
         usable: NDArray[np.bool_] | None = None,
         *,

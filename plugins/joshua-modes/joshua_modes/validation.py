@@ -22,9 +22,9 @@ from numpy.typing import NDArray
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import UsageError
+from joshua_core.interfaces import Engine
 from joshua_core.trajectory import Trajectory, read_trajectory
 from joshua_modes.replay import Replayer, model_joint_names, qpos_addresses
-from joshua_mujoco import MuJoCoEngine
 
 DEFAULT_VELOCITY_LIMIT = 10.0  # rad/s (or m/s for slide joints)
 DEFAULT_PENETRATION_THRESHOLD = 0.005  # m
@@ -102,10 +102,32 @@ def validate(
 ) -> tuple[ValidationReport, NDArray[np.bool_]]:
     """Check `trajectory` on `model` (joints it does not name stay at `base_qpos`); return the report and
     the mask of rows that can be replayed."""
-    name = trajectory.path.name
-    lines = trajectory.lines
-    issues: list[Issue] = []
+    issues, usable = _row_issues(trajectory)
+    kept = np.flatnonzero(usable)
+    times, positions, kept_lines = trajectory.timestamps[kept], trajectory.positions[kept], trajectory.lines[kept]
+    issues += _limit_issues(trajectory, model, positions, kept_lines)
+    issues += _velocity_issues(trajectory, times, positions, kept_lines, velocity_limit)
+    issues += _penetrations(model, base_qpos, trajectory, positions, kept_lines, penetration_threshold)
+    issues.sort(key=lambda issue: (issue.first_line, issue.kind, issue.subject))
+    report = ValidationReport(
+        trajectory=str(trajectory.path),
+        model=model_path,
+        joints=list(trajectory.joint_names),
+        rows=trajectory.rows,
+        replayed_rows=int(usable.sum()),
+        duration_s=float(times[-1] - times[0]) if len(kept) else 0.0,
+        velocity_limit=velocity_limit,
+        penetration_threshold=penetration_threshold,
+        issues=issues,
+    )
+    return report, usable
 
+
+def _row_issues(trajectory: Trajectory) -> tuple[list[Issue], NDArray[np.bool_]]:
+    """Rows with a non-finite value or a timestamp that does not increase (each reported, and skipped);
+    returns the issues and the mask of the rows kept."""
+    name, lines = trajectory.path.name, trajectory.lines
+    issues: list[Issue] = []
     finite = np.isfinite(trajectory.timestamps) & np.all(np.isfinite(trajectory.positions), axis=1)
     for row in np.flatnonzero(~finite):
         bad = [
@@ -137,13 +159,16 @@ def validate(
                 f"timestamp {t:g} {what} the previous one, {last_time:g} (line {lines[last_row]}); row skipped",
             )
         )
+    return issues, usable
 
-    kept = np.flatnonzero(usable)
-    times, positions, kept_lines = trajectory.timestamps[kept], trajectory.positions[kept], lines[kept]
-    joint_ids = [model.joint(joint).id for joint in trajectory.joint_names]
 
+def _limit_issues(
+    trajectory: Trajectory, model: mujoco.MjModel, positions: NDArray[np.float64], kept_lines: NDArray[np.int64]
+) -> list[Issue]:
+    """Runs of kept rows where a limited joint is outside its range."""
+    issues: list[Issue] = []
     for j, joint in enumerate(trajectory.joint_names):
-        joint_id = joint_ids[j]
+        joint_id = model.joint(joint).id
         if not model.jnt_limited[joint_id]:
             continue
         low, high = model.jnt_range[joint_id]
@@ -151,7 +176,7 @@ def validate(
         issues += _runs(
             "joint_limit",
             joint,
-            name,
+            trajectory.path.name,
             kept_lines,
             excess > 1e-9,
             positions[:, j],
@@ -160,38 +185,36 @@ def validate(
                 f"{where}: {joint} outside its range [{low:g}, {high:g}]: {value:.4g} at line {worst}"
             ),
         )
+    return issues
 
-    if len(kept) > 1:
-        speeds = np.abs(np.diff(positions, axis=0)) / np.diff(times)[:, None]
-        for j, joint in enumerate(trajectory.joint_names):
-            issues += _runs(
-                "velocity",
-                joint,
-                name,
-                kept_lines[1:],
-                speeds[:, j] > velocity_limit,
-                speeds[:, j],
-                speeds[:, j],
-                lambda where, worst, value, joint=joint: (
-                    f"{where}: {joint} moves at {value:.3g}/s (finite difference), above the limit "
-                    f"{velocity_limit:g}/s; fastest at line {worst}"
-                ),
-            )
 
-    issues += _penetrations(model, base_qpos, trajectory, positions, kept_lines, penetration_threshold)
-    issues.sort(key=lambda issue: (issue.first_line, issue.kind, issue.subject))
-    report = ValidationReport(
-        trajectory=str(trajectory.path),
-        model=model_path,
-        joints=list(trajectory.joint_names),
-        rows=trajectory.rows,
-        replayed_rows=int(usable.sum()),
-        duration_s=float(times[-1] - times[0]) if len(kept) else 0.0,
-        velocity_limit=velocity_limit,
-        penetration_threshold=penetration_threshold,
-        issues=issues,
-    )
-    return report, usable
+def _velocity_issues(
+    trajectory: Trajectory,
+    times: NDArray[np.float64],
+    positions: NDArray[np.float64],
+    kept_lines: NDArray[np.int64],
+    velocity_limit: float,
+) -> list[Issue]:
+    """Runs of kept rows where a joint's finite-difference speed is above `velocity_limit`."""
+    if len(times) < 2:
+        return []
+    issues: list[Issue] = []
+    speeds = np.abs(np.diff(positions, axis=0)) / np.diff(times)[:, None]
+    for j, joint in enumerate(trajectory.joint_names):
+        issues += _runs(
+            "velocity",
+            joint,
+            trajectory.path.name,
+            kept_lines[1:],
+            speeds[:, j] > velocity_limit,
+            speeds[:, j],
+            speeds[:, j],
+            lambda where, worst, value, joint=joint: (
+                f"{where}: {joint} moves at {value:.3g}/s (finite difference), above the limit "
+                f"{velocity_limit:g}/s; fastest at line {worst}"
+            ),
+        )
+    return issues
 
 
 def _single(kind: str, subject: str, name: str, line: int, value: float, text: str) -> Issue:
@@ -322,7 +345,7 @@ def _geom_name(model: mujoco.MjModel, geom: int) -> str:
 
 
 def validated_replayer(
-    config: SimulationConfig, engine: MuJoCoEngine, report_path: Path, *, refusal: str
+    config: SimulationConfig, engine: Engine, report_path: Path, *, refusal: str
 ) -> tuple[Replayer, ValidationReport]:
     """Read and validate `config.trajectory_path` against the engine's model, print the report and write it
     as JSON; return the replayer of its usable rows. With `replay.strict` and any problem, raise UsageError

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from joshua_mujoco.gl import choose_headless_gl, rendering_unavailable
+from joshua_render import choose_headless_gl
 
 choose_headless_gl()  # must run before mujoco is imported: mujoco picks its GL platform at import
 
@@ -13,9 +13,10 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from numpy.typing import ArrayLike, NDArray  # noqa: E402
 
-from joshua_core.errors import ModelError, UsageError  # noqa: E402
-from joshua_core.interfaces import Backend, Engine  # noqa: E402
+from joshua_core.errors import ModelError  # noqa: E402
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, Engine  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
+from joshua_render import camera_id, create_renderer  # noqa: E402
 
 # MuJoCo warnings that mean the state went non-finite (MuJoCo then silently resets the data).
 _INSTABILITY_WARNINGS = (
@@ -39,8 +40,8 @@ class MuJoCoEngine(Engine):
         *,
         xml: str | None = None,
         assets: Mapping[str, bytes] | None = None,
-        render_width: int = 640,
-        render_height: int = 480,
+        render_width: int = DEFAULT_RENDER_WIDTH,
+        render_height: int = DEFAULT_RENDER_HEIGHT,
     ) -> None:
         if (model_path is None) == (xml is None):
             raise TypeError("MuJoCoEngine needs exactly one of model_path= or xml=")
@@ -131,35 +132,12 @@ class MuJoCoEngine(Engine):
             self._renderer = None
 
 
-def camera_id(model: mujoco.MjModel, camera: str | None) -> int:
-    """Id of the named camera; None: the model's first camera, or -1 (the free camera) if it has none."""
-    if not camera:
-        return 0 if model.ncam else -1
-    found = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
-    if found < 0:
-        names = [model.camera(i).name for i in range(model.ncam)]
-        raise UsageError(f"no camera '{camera}' in the model; cameras: {', '.join(names) or 'none'}")
-    return found
-
-
-def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
-    """A headless `mujoco.Renderer` of `width` x `height`, enlarging the model's offscreen buffer if needed.
-
-    A GL platform that cannot create a context raises `RenderingUnavailableError` naming what to install.
-    """
-    visual = model.vis.global_
-    visual.offwidth = max(visual.offwidth, width)
-    visual.offheight = max(visual.offheight, height)
-    try:
-        return mujoco.Renderer(model, height=height, width=width)
-    except Exception as error:  # GL platform failures surface as several exception types
-        raise rendering_unavailable(error) from error
-
-
 class MuJoCoBackend(Backend):
     """The `mujoco` backend: a MuJoCoEngine per model."""
 
-    def create_engine(self, model_path: Path, *, render_width: int = 640, render_height: int = 480) -> MuJoCoEngine:
+    def create_engine(
+        self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
+    ) -> MuJoCoEngine:
         return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height)
 
 

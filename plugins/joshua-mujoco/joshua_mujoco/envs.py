@@ -15,6 +15,7 @@ import gymnasium
 import numpy as np
 from numpy.typing import NDArray
 
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH
 from joshua_core.plugins import PluginHost
 from joshua_mujoco.vector import (
     BatchedSimulation,
@@ -82,7 +83,9 @@ class TaskEnv(gymnasium.Env):
         return observation, 0.0 if failed else float(reward[0]), terminated, truncated, info
 
     def render(self) -> NDArray[np.uint8] | None:
-        return self.simulation.render(0, None, 640, 480) if self.render_mode == "rgb_array" else None
+        if self.render_mode != "rgb_array":
+            return None
+        return self.simulation.render(0, None, DEFAULT_RENDER_WIDTH, DEFAULT_RENDER_HEIGHT)
 
     def close(self) -> None:
         self.simulation.close()

@@ -12,7 +12,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
-from joshua_mujoco.gl import choose_headless_gl
+from joshua_render import choose_headless_gl
 
 choose_headless_gl()  # before mujoco is imported, so that render_frame works without a display
 
@@ -26,10 +26,11 @@ from numpy.typing import NDArray  # noqa: E402
 
 from joshua_core.config_pb2 import TaskConfig, TrainingConfig  # noqa: E402
 from joshua_core.errors import ConfigError, ModelError  # noqa: E402
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH  # noqa: E402
 from joshua_core.plugins import PluginHost  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
 from joshua_core.tasks import NumpyRandom, Task, TermContext, build_task, load_task_spec  # noqa: E402
-from joshua_mujoco.engine import camera_id, create_renderer  # noqa: E402
+from joshua_render import camera_id, create_renderer, render_with_commands  # noqa: E402
 
 _T = TypeVar("_T")
 
@@ -41,8 +42,6 @@ _DERIVED_FIELDS = ("xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext")
 _CURRENT_FIELDS = frozenset({"xpos", "xquat", "site_xpos", "sensordata"})
 # A sensor that makes MuJoCo compute cfrc_ext (mj_rnePostConstraint) inside every step.
 _CONTACT_FORCE_SENSOR = "joshua_contact_forces"
-_MARKER_RGBA = np.array([0.1, 0.9, 0.2, 0.7], dtype=np.float32)
-_MARKER_RADIUS = 0.02
 
 
 def load_task_model(
@@ -202,38 +201,6 @@ class BatchedSimulation:
             renderer.close()
 
 
-def render_with_commands(
-    renderer: mujoco.Renderer,
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    camera: int,
-    commands: Mapping[str, NDArray[np.float64]],
-) -> NDArray[np.uint8]:
-    """Render `data` (kinematics computed) with one environment's 3-d commands (targets, goals) as green spheres.
-
-    A site of the world body named like a command (pick-and-place's `goal`) is moved to the command's
-    x, y, so that the model's own marker shows the sampled goal.
-    """
-    for name, value in commands.items():
-        site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)
-        if site >= 0 and model.site_bodyid[site] == 0 and np.shape(value) == (3,):
-            model.site_pos[site, :2] = value[:2]
-    renderer.update_scene(data, camera=camera)
-    scene = renderer.scene
-    for value in commands.values():
-        if np.shape(value) == (3,) and scene.ngeom < scene.maxgeom:
-            mujoco.mjv_initGeom(
-                scene.geoms[scene.ngeom],
-                mujoco.mjtGeom.mjGEOM_SPHERE,
-                np.array([_MARKER_RADIUS, 0.0, 0.0]),
-                np.asarray(value, dtype=np.float64),
-                np.eye(3).flatten(),
-                _MARKER_RGBA,
-            )
-            scene.ngeom += 1
-    return renderer.render()
-
-
 class BatchedVectorEnv(VectorEnv):
     """A Gymnasium VectorEnv over `mujoco.batch`, running any registered task.
 
@@ -317,7 +284,11 @@ class BatchedVectorEnv(VectorEnv):
         return observation, reward, terminated, truncated, infos
 
     def render_frame(
-        self, env_index: int = 0, camera: str | None = None, width: int = 640, height: int = 480
+        self,
+        env_index: int = 0,
+        camera: str | None = None,
+        width: int = DEFAULT_RENDER_WIDTH,
+        height: int = DEFAULT_RENDER_HEIGHT,
     ) -> NDArray[np.uint8]:
         """(height, width, 3) uint8 image of one environment; `camera` by name (default: the model's first)."""
         return self.simulation.render(env_index, camera, width, height)

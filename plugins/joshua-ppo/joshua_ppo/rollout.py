@@ -2,8 +2,7 @@
 
 The rollout is one compiled `lax.scan` of the deterministic policy over whole episodes; what is
 drawn afterwards (env 0's poses, its commands) comes back to the host once, and is rendered on the
-CPU with `mujoco.Renderer` into an MP4 through joshua-modes' writer (skipped, with a hint, when
-joshua-modes is not installed).
+CPU with joshua-render's renderer (commands drawn as markers) into an MP4 by its `VideoWriter`.
 """
 
 from __future__ import annotations
@@ -17,13 +16,12 @@ import jax
 import mujoco
 import numpy as np
 
-from joshua_core.evaluation import open_video_writer
-from joshua_mjx.env import MjxEnv
-from joshua_mujoco.engine import camera_id, create_renderer
-from joshua_mujoco.vector import render_with_commands
-from joshua_ppo.ppo import NetworkSettings, RunningStatistics, make_network, policy_actions
-
-VIDEO_WIDTH, VIDEO_HEIGHT = 640, 480
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH
+from joshua_ppo.envs import MjxEnv
+from joshua_ppo.normalizer import RunningStatistics
+from joshua_ppo.policy import make_network, policy_actions
+from joshua_ppo.settings import NetworkSettings
+from joshua_render import VideoWriter, camera_id, create_renderer, render_with_commands
 
 
 @dataclass
@@ -92,14 +90,12 @@ def collect(raw: dict[str, Any], envs: int | None = None) -> Rollout:
 
 def render_video(
     model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None = None
-) -> Path | None:
-    """Render env 0's episode to an MP4 (None when joshua-modes, the video writer, is not installed)."""
-    writer = open_video_writer(path, fps)
-    if writer is None:
-        return None
+) -> Path:
+    """Render env 0's episode to an MP4 at `path` (returned), with its commands drawn as markers."""
+    writer = VideoWriter(path, fps)
     model = copy.deepcopy(model)  # drawing commands moves marker sites of the model it draws
     data = mujoco.MjData(model)
-    renderer = create_renderer(model, VIDEO_WIDTH, VIDEO_HEIGHT)
+    renderer = create_renderer(model, DEFAULT_RENDER_WIDTH, DEFAULT_RENDER_HEIGHT)
     camera_index = camera_id(model, camera)
     try:
         with writer:

@@ -25,10 +25,11 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
-from joshua_core.evaluation import open_video_writer, read_run_config
+from joshua_core.evaluation import read_run_config
 from joshua_core.interfaces import RunContext, Trainer
 from joshua_core.progress import progress_bar
 from joshua_mujoco.vector import BatchedVectorEnv, vector_env_from_config
+from joshua_render import VideoWriter
 from joshua_sb3.run_folder import (
     CONFIG_FILE,
     METRICS_FILE,
@@ -328,7 +329,7 @@ def _roll_out(
     finished: dict[int, dict[str, Any]] = {}
     fps = float(environments.metadata.get("render_fps", 30))
     with contextlib.ExitStack() as stack:  # the video is closed (finished) however the rollout ends
-        writer = open_video_writer(video_path, fps) if video_path is not None else None
+        writer = VideoWriter(video_path, fps) if video_path is not None else None
         if writer is not None:
             stack.enter_context(writer)
             writer.write(environments.render_frame(0))

@@ -9,14 +9,16 @@ from pathlib import Path
 
 import mujoco
 
-from joshua_core.interfaces import Backend
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend
 from joshua_mujoco import MuJoCoEngine
 
 
 class RK4Backend(Backend):
     """Creates MuJoCo engines that integrate with RK4 instead of the integrator the model file names."""
 
-    def create_engine(self, model_path: Path, *, render_width: int = 640, render_height: int = 480) -> MuJoCoEngine:
+    def create_engine(
+        self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
+    ) -> MuJoCoEngine:
         engine = MuJoCoEngine(model_path, render_width=render_width, render_height=render_height)
         engine.model.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
         return engine

@@ -1,4 +1,7 @@
-"""VideoWriter and open_display (the contract other mode plugins use): real MP4 files read back with OpenCV."""
+"""VideoWriter and open_display (the contract the modes and the mirror use): real MP4 files read back with OpenCV.
+
+The engine is the tests' own minimal `Engine` (render_testing.SceneEngine): any engine with MuJoCo's model and
+data can be shown or recorded, not only the MuJoCo backend's."""
 
 from __future__ import annotations
 
@@ -6,12 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from modes_testing import SCENE, distinct_colours, orange_pixels, read_video
+from render_testing import SceneEngine, distinct_colours, orange_pixels, read_video
 
 from joshua_core.errors import JoshuaError, UsageError
-from joshua_modes.display import RecordingDisplay, open_display
-from joshua_modes.video import VideoWriter
-from joshua_mujoco import MuJoCoEngine
+from joshua_render import RecordingDisplay, VideoWriter, open_display
 
 
 def gradient(index: int, height: int = 48, width: int = 64) -> np.ndarray:
@@ -62,15 +63,8 @@ def test_video_writer_keeps_what_was_recorded_when_the_run_fails(tmp_path: Path)
     assert len(read_video(path)[0]) == 3
 
 
-@pytest.fixture
-def engine() -> MuJoCoEngine:
-    with MuJoCoEngine(SCENE, render_width=160, render_height=120) as engine:
-        engine.reset("home")
-        yield engine
-
-
 def test_open_display_records_one_frame_per_interval_without_a_display(
-    engine: MuJoCoEngine, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    engine: SceneEngine, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
@@ -90,7 +84,7 @@ def test_open_display_records_one_frame_per_interval_without_a_display(
 
 
 def test_recording_duplicates_frames_over_time_gaps_and_restarts_when_time_goes_back(
-    engine: MuJoCoEngine, tmp_path: Path
+    engine: SceneEngine, tmp_path: Path
 ) -> None:
     display = RecordingDisplay(engine, tmp_path / "gaps.mp4", fps=10.0)
     for time in (0.0, 0.05, 0.31):  # frames due at 0.0, then 0.1, 0.2, 0.3 all passed by 0.31
@@ -101,7 +95,7 @@ def test_recording_duplicates_frames_over_time_gaps_and_restarts_when_time_goes_
     assert len(read_video(display.close())[0]) == 5
 
 
-def test_viewer_without_a_display_is_a_usage_error(engine: MuJoCoEngine, tmp_path: Path, monkeypatch) -> None:
+def test_viewer_without_a_display_is_a_usage_error(engine: SceneEngine, tmp_path: Path, monkeypatch) -> None:
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     with pytest.raises(UsageError) as error:
@@ -116,6 +110,6 @@ def test_viewer_without_a_display_is_a_usage_error(engine: MuJoCoEngine, tmp_pat
     assert not (tmp_path / "auto.mp4").exists()
 
 
-def test_unknown_camera_lists_the_cameras(engine: MuJoCoEngine, tmp_path: Path) -> None:
+def test_unknown_camera_lists_the_cameras(engine: SceneEngine, tmp_path: Path) -> None:
     with pytest.raises(UsageError, match="no camera 'top' in the model; cameras: overview, side"):
         open_display(engine, output_dir=tmp_path, name="x", camera="top", viewer=False)

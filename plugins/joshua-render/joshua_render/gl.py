@@ -1,8 +1,8 @@
 """Choice of MuJoCo's OpenGL platform for rendering without a display: EGL, else OSMesa.
 
 MuJoCo reads MUJOCO_GL once, when `mujoco` is first imported, so the choice is made before
-joshua_mujoco imports it. The probes use ctypes only (no PyOpenGL, no mujoco), so a failed probe
-leaves nothing behind that would stop the other platform from working.
+joshua_render (and the MuJoCo backend, through it) imports it. The probes use ctypes only (no PyOpenGL,
+no mujoco), so a failed probe leaves nothing behind that would stop the other platform from working.
 """
 
 from __future__ import annotations

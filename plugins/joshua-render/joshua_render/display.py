@@ -1,8 +1,8 @@
 """Show a running simulation: the MuJoCo viewer when a display is usable, else a headless MP4 recording.
 
-`open_display` is shared with other mode plugins (mirror, evaluation): they change the engine's
+`open_display` is shared by the mode plugins (passive replay, the mirror): they change the engine's
 state and call `Display.update(time)`; the display either syncs the viewer window or keeps one
-frame per 1/fps of `time` in a video.
+frame per 1/fps of `time` in a video. Any `Engine` whose `model` and `data` are MuJoCo's works.
 """
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ from types import TracebackType
 from typing import TYPE_CHECKING
 
 from joshua_core.errors import UsageError
-from joshua_modes.video import VideoWriter
-from joshua_mujoco import MuJoCoEngine
-from joshua_mujoco.engine import camera_id
-from joshua_mujoco.gl import has_display
+from joshua_core.interfaces import Engine
+from joshua_render.frames import camera_id
+from joshua_render.gl import has_display
+from joshua_render.video import VideoWriter
 
 if TYPE_CHECKING:
     import mujoco
@@ -88,7 +88,7 @@ def no_display_error(what: str) -> UsageError:
 
 
 def open_display(
-    engine: MuJoCoEngine,
+    engine: Engine,
     *,
     output_dir: Path,
     name: str,
@@ -104,27 +104,32 @@ def open_display(
     if window:
         if viewer and not display_usable():
             raise no_display_error("the MuJoCo viewer")
-        return ViewerDisplay(engine, camera=camera)
+        return ViewerDisplay(engine.model, engine.data, camera=camera)
     return RecordingDisplay(engine, Path(output_dir) / f"{name}.mp4", fps=fps, camera=camera)
 
 
 class ViewerDisplay(Display):
-    """The MuJoCo viewer (`mujoco.viewer.launch_passive`) showing the engine's model and data.
+    """The MuJoCo viewer (`mujoco.viewer.launch_passive`) showing `data` of `model` (an engine's, or one's own).
 
     The viewer renders on its own thread; `close()` closes the window and joins that thread, so
     nothing is left running at interpreter exit. `key_callback` gets the GLFW key code of each key press.
     """
 
     def __init__(
-        self, engine: MuJoCoEngine, *, camera: str | None = None, key_callback: Callable[[int], None] | None = None
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        *,
+        camera: str | None = None,
+        key_callback: Callable[[int], None] | None = None,
     ) -> None:
         if not display_usable():
             raise no_display_error("the MuJoCo viewer")
         import mujoco.viewer  # here, not at the top: it loads GLFW, which recording does not need
 
-        fixed_camera = camera_id(engine.model, camera) if camera else None
+        fixed_camera = camera_id(model, camera) if camera else None
         before = set(threading.enumerate())
-        self._handle = mujoco.viewer.launch_passive(engine.model, engine.data, key_callback=key_callback)
+        self._handle = mujoco.viewer.launch_passive(model, data, key_callback=key_callback)
         self._threads = [thread for thread in threading.enumerate() if thread not in before]
         if fixed_camera is not None:
             with self._handle.lock():
@@ -180,7 +185,7 @@ def _sigint_ignored() -> Iterator[None]:
 class RecordingDisplay(Display):
     """Records the engine's state to an MP4, one frame per 1/fps of the `time` given to `update`."""
 
-    def __init__(self, engine: MuJoCoEngine, path: Path, *, fps: float = 30.0, camera: str | None = None) -> None:
+    def __init__(self, engine: Engine, path: Path, *, fps: float = 30.0, camera: str | None = None) -> None:
         self._engine = engine
         self._camera = camera_id(engine.model, camera)
         self._video = VideoWriter(path, fps)

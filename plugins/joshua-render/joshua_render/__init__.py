@@ -1,0 +1,77 @@
+"""JOSHUA's rendering floor: headless GL, frames, MP4/PNG writing, the viewer or a recording, the live viewer.
+
+A library the MuJoCo backend, the modes, the mirror and the trainers share (no `joshua` entry point):
+
+- headless GL: `choose_headless_gl`, `has_display`, `RenderingUnavailableError`;
+- frames: `create_renderer`, `camera_id`, `render_with_commands` (3-d commands drawn as markers);
+- files: `VideoWriter` (atomic MP4), `write_png`;
+- display: `open_display` (the MuJoCo viewer when a display is usable, else an MP4 recording),
+  `Display`, `ViewerDisplay`, `RecordingDisplay`, `display_usable`, `no_display_error`;
+- training: `LiveViewer`, `open_viewer` (a few environments' poses in the viewer).
+
+Importing the package is light: mujoco and OpenCV are imported the first time a name is used.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from joshua_render.display import (
+        Display,
+        RecordingDisplay,
+        ViewerDisplay,
+        display_usable,
+        no_display_error,
+        open_display,
+    )
+    from joshua_render.frames import camera_id, create_renderer, render_with_commands
+    from joshua_render.gl import RenderingUnavailableError, choose_headless_gl, has_display
+    from joshua_render.video import VideoWriter, write_png
+    from joshua_render.viewer import LiveViewer, open_viewer
+
+__all__ = [
+    "Display",
+    "LiveViewer",
+    "RecordingDisplay",
+    "RenderingUnavailableError",
+    "VideoWriter",
+    "ViewerDisplay",
+    "camera_id",
+    "choose_headless_gl",
+    "create_renderer",
+    "display_usable",
+    "has_display",
+    "no_display_error",
+    "open_display",
+    "open_viewer",
+    "render_with_commands",
+    "write_png",
+]
+
+# The module that defines each name of __all__: only that module (and what it needs) is imported.
+_HOME = {
+    "choose_headless_gl": "gl",
+    "has_display": "gl",
+    "RenderingUnavailableError": "gl",
+    "camera_id": "frames",
+    "create_renderer": "frames",
+    "render_with_commands": "frames",
+    "VideoWriter": "video",
+    "write_png": "video",
+    "Display": "display",
+    "RecordingDisplay": "display",
+    "ViewerDisplay": "display",
+    "display_usable": "display",
+    "no_display_error": "display",
+    "open_display": "display",
+    "LiveViewer": "viewer",
+    "open_viewer": "viewer",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _HOME:
+        return getattr(importlib.import_module(f"joshua_render.{_HOME[name]}"), name)
+    raise AttributeError(f"module 'joshua_render' has no attribute '{name}'")
