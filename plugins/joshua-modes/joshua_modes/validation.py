@@ -22,7 +22,9 @@ from numpy.typing import NDArray
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import UsageError
+from joshua_core.options import options_of
 from joshua_core.trajectory import Trajectory, read_trajectory
+from joshua_modes import options_pb2
 from joshua_modes.replay import Replayer, model_joint_names, qpos_addresses
 from joshua_mujoco import MuJoCoEngine
 
@@ -328,7 +330,7 @@ def validated_replayer(
     as JSON; return the replayer of its usable rows. With `replay.strict` and any problem, raise UsageError
     ending in `refusal` (what was not done) instead."""
     trajectory = read_trajectory(config.trajectory_path, model_joint_names(engine.model))
-    replay = config.replay
+    replay = options_of(config, options_pb2.replay)
     report, usable = validate(
         trajectory,
         engine.model,
