@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import importlib.util
+import sys
 from pathlib import Path
 
 import pytest
 
 from joshua_core import config as config_module
-from joshua_core.config import apply_override, finalize, load_file, load_preset, preset_names
+from joshua_core.config import apply_override, finalize, load_file, load_preset, preset_names, simulation_mode
 from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig, TrainingConfig
 from joshua_core.errors import ConfigError, ModelError, UsageError
 from joshua_core.resources import models_dir
@@ -27,13 +28,16 @@ SEED_PRESETS = {
 }
 
 
-def test_committed_generated_code_matches_the_schema(tmp_path: Path) -> None:
-    spec = importlib.util.spec_from_file_location("generate", REPO_ROOT / "proto" / "generate.py")
+def test_committed_generated_code_matches_every_schema(tmp_path: Path, monkeypatch) -> None:
+    spec = importlib.util.spec_from_file_location("joshua_proto_generate", REPO_ROOT / "proto" / "generate.py")
     generate = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, spec.name, generate)  # its dataclasses look their module up
     spec.loader.exec_module(generate)
-    for fresh in generate.generate(tmp_path):
-        committed = REPO_ROOT / "joshua_core" / fresh.name
-        assert committed.read_bytes() == fresh.read_bytes(), f"{committed} is stale: run python proto/generate.py"
+    assert len(generate.SCHEMAS) == 6  # the core's, four plugins' options, the joshua-rk4 example's
+    for index, schema in enumerate(generate.SCHEMAS):
+        for fresh in generate.generate(schema, tmp_path / str(index)):
+            committed = schema.out_dir / fresh.name
+            assert committed.read_bytes() == fresh.read_bytes(), f"{committed} is stale: run python proto/generate.py"
 
 
 def test_simulation_config_keeps_the_seed_field_numbers() -> None:
@@ -45,12 +49,18 @@ def test_simulation_config_keeps_the_seed_field_numbers() -> None:
         "mirror_topic_mappings": 4,
     }
     assert (fields["render_width"], fields["render_height"]) == (5, 6)
-    assert [v.name for v in SimulationConfig.Mode.DESCRIPTOR.values][:4] == [
-        "INTERACTIVE",
-        "PASSIVE",
-        "MIRROR",
-        "OFFSCREEN",
-    ]
+    assert SimulationConfig.DESCRIPTOR.fields_by_name["mode"].type == SimulationConfig.DESCRIPTOR.fields_by_name[
+        "model_path"
+    ].type  # a string: plugins add modes by name
+
+
+def test_the_seed_mode_names_parse_bare_or_quoted_and_empty_means_interactive(tmp_path: Path) -> None:
+    for mode in ("INTERACTIVE", "PASSIVE", "MIRROR", "OFFSCREEN", "HEADLESS"):
+        for written in (mode, f'"{mode}"'):
+            (tmp_path / "run.pbtxt").write_text(f"operation_mode: SIMULATION\nsimulation {{ mode: {written} }}\n")
+            assert load_file(tmp_path / "run.pbtxt").message.simulation.mode == mode
+    assert simulation_mode(SimulationConfig()) == "INTERACTIVE"
+    assert finalize(load_preset("so_arm100_sim_interactive")).simulation.mode == "INTERACTIVE"
 
 
 PLUGIN_PRESETS = {
@@ -92,8 +102,8 @@ def test_parse_error_reports_file_line_and_column(tmp_path: Path) -> None:
 
 def test_bad_enum_value_is_a_located_error(tmp_path: Path) -> None:
     bad = tmp_path / "bad.pbtxt"
-    bad.write_text("simulation { mode: SIDEWAYS }\n")
-    with pytest.raises(ConfigError, match=rf"{bad}:1:20: .*SIDEWAYS"):
+    bad.write_text("operation_mode: SIDEWAYS\n")
+    with pytest.raises(ConfigError, match=rf"{bad}:1:17: .*SIDEWAYS"):
         load_file(bad)
 
 
@@ -109,7 +119,7 @@ def test_custom_file_extends_a_preset_and_replaces_its_lists(tmp_path: Path) -> 
         "}\n"
     )
     message = load_file(custom).message
-    assert message.simulation.mode == SimulationConfig.MIRROR  # from the preset
+    assert message.simulation.mode == "MIRROR"  # from the preset
     assert message.simulation.model_path == "so_arm100/scene.xml"  # from the preset
     assert message.simulation.render_width == 320  # from the file
     assert [m.ros_topic for m in message.simulation.mirror_topic_mappings.mappings] == ["/arm/j1"]
@@ -138,7 +148,7 @@ def test_overrides_set_scalars_enums_strings_and_list_items() -> None:
     apply_override(config, "simulation.mirror_topic_mappings.mappings[1].offset=0.25")
     apply_override(config, "simulation.mirror_topic_mappings.mappings[6].ros_topic=/encoder/extra")
     assert config.simulation.render_width == 1280
-    assert config.simulation.mode == SimulationConfig.OFFSCREEN
+    assert config.simulation.mode == "OFFSCREEN"
     assert config.simulation.keyframe == "home"
     mappings = config.simulation.mirror_topic_mappings.mappings
     assert mappings[1].offset == pytest.approx(0.25)
@@ -150,7 +160,7 @@ def test_overrides_set_scalars_enums_strings_and_list_items() -> None:
     [
         ("simulation.render_widht=3", "Did you mean: render_width"),
         ("simulation.render_width=wide", "render_width"),
-        ("simulation.mode=SIDEWAYS", "SIDEWAYS"),
+        ("simulation.duration=long", "duration"),
         ("simulation=3", "is a message"),
         ("simulation.mirror_topic_mappings.mappings[9].offset=1", "has 6 items"),
         ("simulation.mirror_topic_mappings.mappings.offset=1", "is a list"),
@@ -198,7 +208,7 @@ def test_negative_sizes_are_rejected() -> None:
 def test_default_config_is_a_headless_run() -> None:
     config = finalize(config_module.load_default())
     assert config.operation_mode == JoshuaConfig.SIMULATION
-    assert config.simulation.mode == SimulationConfig.HEADLESS
+    assert config.simulation.mode == "HEADLESS"
 
 
 def test_extends_is_applied_and_cannot_be_set_from_the_command_line(tmp_path: Path) -> None:
