@@ -179,7 +179,8 @@ def _unknown_name(assignment: str, where: str, message: Message, part: str, opti
     listing = f"Fields: {', '.join(sorted(descriptor.fields_by_name))}"
     if options.names(descriptor):
         listing += f"; options: {', '.join(options.names(descriptor))}"
-    hint = close_names(descriptor, part, options) + config_text.provider_hint(part)
+    provider = config_text.provider_hint(part)
+    hint = close_names(descriptor, part, options) + (f"{provider}." if provider else "")
     return f"--set {assignment}: {where or descriptor.name} has no field '{part}'.{hint} {listing}"
 
 
