@@ -7,8 +7,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from joshua_core.config_pb2 import PpoOptions
 from joshua_core.errors import UsageError
+from joshua_ppo.options_pb2 import PpoOptions
 
 DEFAULT_VIEWER_ENVS = 4
 
