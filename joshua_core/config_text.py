@@ -10,7 +10,7 @@ tracking the message type at each nesting level, and rewrites
 - a bare identifier after `mode:` in `simulation` into a quoted string.
 
 Each edit is recorded, so that an error protobuf finds in the rewritten text is reported at its place
-in the original (`Rewritten.original_position`). `to_short` does the reverse for `--print-config`.
+in the original (`Rewritten.located`). `to_short` does the reverse for `--print-config`.
 """
 
 from __future__ import annotations
