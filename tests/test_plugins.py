@@ -310,7 +310,7 @@ def test_a_third_party_plugin_adds_a_mode_and_its_options(tmp_path: Path, run_jo
     site = tmp_path / "site"
     source = (Path(__file__).parent / "joshua_sample_plugin.py").read_text()
     install_fake_distribution(site, "joshua-sample", "sample", "joshua_sample_plugin", source)
-    env = {"PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])}
+    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")]))}
     listing = run_joshua("plugins", env=env).stdout
     assert "    mode     SAMPLE " in listing and "    option   sample " in listing
     config = tmp_path / "sample.pbtxt"
