@@ -26,7 +26,9 @@ from typing import Any
 import numpy as np
 
 from joshua_core.config import finalize, load_preset
-from joshua_core.config_pb2 import MirrorOptions
+from joshua_core.options import options_of
+from joshua_mirror import options_pb2
+from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.ros import local_only_environment
 
 GOAL_P99_US = 1000.0
@@ -85,7 +87,7 @@ def measure(case: str, topic: str, joint_state: bool, count: int, rate: float, e
 
     received: dict[float, int] = {}
     config = finalize(load_preset("sim_mirror")).simulation
-    options = config.mirror
+    options = options_of(config, options_pb2.mirror)
     options.message_type = MirrorOptions.JOINT_STATE if joint_state else MirrorOptions.FLOAT64
     options.status_period = -1
     with MuJoCoEngine(config.model_path) as engine, RosSession("joshua_mirror_bench") as ros:

@@ -7,25 +7,27 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from google.protobuf import text_format
-
 from joshua_core import __version__
 from joshua_core.config import (
     LoadedConfig,
     apply_override,
+    config_text_of,
     finalize,
     load_default,
     load_file,
     load_preset,
     preset_names,
     required_components,
+    simulation_mode,
 )
-from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig
+from joshua_core.config_pb2 import JoshuaConfig
 from joshua_core.errors import JoshuaError, PluginNotFoundError
 from joshua_core.interfaces import RunContext
+from joshua_core.options import LENIENT, OptionSet
 from joshua_core.plugins import DISABLE_ENV_VAR, KNOWN_PROVIDERS, Kind, PluginHost
 
 DEFAULT_OUTPUT_DIR = "joshua_output"
+STRICT_OVERRIDE = "simulation.replay.strict=true"  # what --strict means
 
 EPILOG = f"""\
 examples:
@@ -56,7 +58,7 @@ def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.Argu
     parser.add_argument(
         "--strict",
         action="store_true",
-        help="do not replay a trajectory that fails validation (same as --set simulation.replay.strict=true)",
+        help=f"do not replay a trajectory that fails validation (same as --set {STRICT_OVERRIDE})",
     )
     parser.add_argument("--print-config", action="store_true", help="print the final config and exit")
     commands = parser.add_subparsers(dest="command", title="commands", metavar="COMMAND")
@@ -112,8 +114,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def list_presets() -> int:
     names = preset_names()
     width = max(map(len, names))
-    for name in names:
-        description = load_preset(name).message.description
+    for name in names:  # read leniently: only the description is needed, not the plugins' options
+        description = load_preset(name, LENIENT).message.description
         print(f"{name:<{width}}  {description}")
     return 0
 
@@ -139,30 +141,27 @@ def run_plugin_command(host: PluginHost, name: str, argv: list[str]) -> int:
     return command.run(parser.parse_args(argv), host)
 
 
-def load(args: argparse.Namespace) -> LoadedConfig:
-    """The config that the arguments of `add_config_arguments` describe, with the --set overrides applied."""
+def load(args: argparse.Namespace, options: OptionSet) -> LoadedConfig:
+    """The config that the arguments of `add_config_arguments` describe, with the --set overrides applied.
+
+    `options` are those the config may use: the host's (`PluginHost.options()`), or LENIENT to read only
+    what the core schema holds before the plugins' options are loaded (e.g. which plugins it needs).
+    """
     if args.preset:
-        loaded = load_preset(args.preset)
+        loaded = load_preset(args.preset, options)
     elif args.config:
-        loaded = load_file(args.config)
+        loaded = load_file(args.config, options)
     else:
-        loaded = load_default()
+        loaded = load_default(options)
     for assignment in args.overrides:
-        apply_override(loaded.message, assignment)
+        apply_override(loaded.message, assignment, options)
     return loaded
 
 
-def run(args: argparse.Namespace, host: PluginHost) -> int:
-    loaded = load(args)
-    if args.strict:
-        loaded.message.simulation.replay.strict = True
-    if args.print_config:
-        print(text_format.MessageToString(finalize(loaded)), end="")
-        return 0
-    for problem in host.problems:
-        print(f"joshua: warning: {problem}", file=sys.stderr)
+def check_components(config: JoshuaConfig, host: PluginHost) -> None:
+    """Raise PluginNotFoundError naming what to install when the config needs plugins that are missing."""
     missing = []
-    for kind, name in required_components(loaded.message):  # plugins first: installing them comes first
+    for kind, name in required_components(config):
         try:
             host.component(kind, name)
         except PluginNotFoundError as error:
@@ -171,11 +170,27 @@ def run(args: argparse.Namespace, host: PluginHost) -> int:
         raise PluginNotFoundError(missing[0])
     if missing:
         raise PluginNotFoundError("this config needs plugins that are not installed:\n- " + "\n- ".join(missing))
+
+
+def run(args: argparse.Namespace, host: PluginHost) -> int:
+    """Run (or print) the config: first check that its plugins are installed, reading it leniently, since
+    installing them comes before any other problem (their options would be unknown); then parse it strictly."""
+    if not args.print_config:
+        for problem in host.problems:
+            print(f"joshua: warning: {problem}", file=sys.stderr)
+    check_components(load(args, LENIENT).message, host)
+    options = host.options()
+    loaded = load(args, options)
+    if args.strict:
+        apply_override(loaded.message, STRICT_OVERRIDE, options)
     config = finalize(loaded)
+    if args.print_config:
+        print(config_text_of(config, options), end="")
+        return 0
     if config.operation_mode == JoshuaConfig.SIMULATION:
         simulation = config.simulation
         context = RunContext(host, Path(simulation.output_dir or DEFAULT_OUTPUT_DIR))
-        host.mode(SimulationConfig.Mode.Name(simulation.mode)).run(simulation, context)
+        host.mode(simulation_mode(simulation)).run(simulation, context)
     else:
         training = config.training
         context = RunContext(host, Path(training.checkpoint_dir or DEFAULT_OUTPUT_DIR))

@@ -1,7 +1,10 @@
 """Loading configs: presets and `.pbtxt` files (text-format JoshuaConfig), `extends`, `--set` overrides.
 
-Errors always point at the input: `file:line:col` for parse errors, the close names for an unknown
-preset, the field names available for a bad `--set` path, every path searched for a missing model.
+Plugins' options are extensions of the config messages, named by their short names
+(`joshua_core.options`); every loader takes the `OptionSet` it may use (default: the installed
+plugins'). Errors always point at the input: `file:line:col` for parse errors, the close names for an
+unknown preset, the field and option names available for a bad `--set` path, every path searched for
+a missing model.
 """
 
 from __future__ import annotations
@@ -15,8 +18,10 @@ from google.protobuf import text_format
 from google.protobuf.descriptor import FieldDescriptor
 from google.protobuf.message import Message
 
+from joshua_core import config_text
 from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig, TrainingConfig
 from joshua_core.errors import ConfigError, UsageError
+from joshua_core.options import OptionSet, close_names, field_or_option, installed_options, sub_message
 from joshua_core.plugins import Kind
 from joshua_core.resources import presets_dir, resolve_data_path
 
@@ -28,6 +33,7 @@ FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
     TrainingConfig.SB3: ("sb3", "mujoco"),
 }
 DEFAULT_SIMULATION_BACKEND = "mujoco"
+DEFAULT_MODE = "INTERACTIVE"  # the seed's enum default: a config that names no mode
 NON_NEGATIVE_TRAINING_FIELDS = (
     "num_envs",
     "total_timesteps",
@@ -66,79 +72,96 @@ def preset_path(name: str) -> Path:
     raise UsageError(f"unknown preset '{name}'.{hint}\nAvailable presets: {', '.join(names)}")
 
 
-def load_preset(name: str) -> LoadedConfig:
-    """Parse a shipped preset (following its `extends`)."""
-    return LoadedConfig(_parse_file(preset_path(name), seen=(name,)), f"preset {name}", None)
+def load_preset(name: str, options: OptionSet | None = None) -> LoadedConfig:
+    """Parse a shipped preset (following its `extends`); `options`: those it may use, default the installed ones."""
+    options = installed_options() if options is None else options
+    return LoadedConfig(_parse_file(preset_path(name), (name,), options), f"preset {name}", None)
 
 
-def load_file(path: str | Path) -> LoadedConfig:
-    """Parse a `.pbtxt` config (following its `extends`)."""
+def load_file(path: str | Path, options: OptionSet | None = None) -> LoadedConfig:
+    """Parse a `.pbtxt` config (following its `extends`); `options` as for `load_preset`."""
     file = Path(path)
     if not file.is_file():
         raise UsageError(f"config file '{path}' not found")
-    return LoadedConfig(_parse_file(file, seen=()), str(file), file.resolve().parent)
+    options = installed_options() if options is None else options
+    return LoadedConfig(_parse_file(file, (), options), str(file), file.resolve().parent)
 
 
-def _parse_file(path: Path, seen: tuple[str, ...]) -> JoshuaConfig:
+def _parse_file(path: Path, seen: tuple[str, ...], options: OptionSet) -> JoshuaConfig:
     """Parse `path`; if it `extends` a preset, parse that first and lay this file over it."""
     text = path.read_text(encoding="utf-8")
-    own = _parse_text(text, str(path))
+    own = parse_text(text, str(path), options)
     if not own.extends:
         return own
     if own.extends in seen:
         chain = " -> ".join((*seen, own.extends))
         raise ConfigError(f"{path}: presets extend each other in a cycle: {chain}")
-    merged = _parse_file(preset_path(own.extends), seen=(*seen, own.extends))
+    merged = _parse_file(preset_path(own.extends), (*seen, own.extends), options)
     _clear_repeated_fields_set_in(own, merged)
-    text_format.Merge(text, merged)
+    _read_text(text, str(path), merged, options, merge=True)
     merged.ClearField("extends")  # applied; the result stands on its own (e.g. in --print-config)
     return merged
 
 
-def _parse_text(text: str, source: str) -> JoshuaConfig:
+def parse_text(text: str, source: str, options: OptionSet) -> JoshuaConfig:
+    """Parse one config text (its `extends` not followed); errors say `source:line:col`."""
     config = JoshuaConfig()
-    try:
-        text_format.Parse(text, config)
-    except text_format.ParseError as error:
-        raise ConfigError(f"{source}:{error.GetLine()}:{error.GetColumn()}: {_bare_message(error)}") from None
+    _read_text(text, source, config, options, merge=False)
     return config
 
 
-def _bare_message(error: text_format.ParseError) -> str:
-    """ParseError's text without the 'line:col : ' prefix protobuf puts in front."""
-    return re.sub(r"^\d+:\d+ : ", "", str(error))
+def _read_text(text: str, source: str, config: JoshuaConfig, options: OptionSet, *, merge: bool) -> None:
+    """Parse (or merge) `text` into `config` after the short-name pass; errors at their original place."""
+    rewritten = config_text.to_protobuf(text, JoshuaConfig.DESCRIPTOR, options, source)
+    read = text_format.Merge if merge else text_format.Parse
+    try:
+        read(rewritten.text, config, allow_unknown_extension=options.lenient, allow_unknown_field=options.lenient)
+    except text_format.ParseError as error:
+        raise ConfigError(f"{source}:{rewritten.located(error)}") from None
 
 
 def _clear_repeated_fields_set_in(overlay: Message, base: Message) -> None:
     """Empty every repeated field of `base` that `overlay` lists, so the overlay replaces, not appends."""
     for field, value in overlay.ListFields():
         if field.is_repeated:
-            base.ClearField(field.name)
+            _clear(base, field)
         elif field.type == FieldDescriptor.TYPE_MESSAGE:
-            _clear_repeated_fields_set_in(value, getattr(base, field.name))
+            _clear_repeated_fields_set_in(value, sub_message(base, field))
+
+
+def _clear(message: Message, field: FieldDescriptor) -> None:
+    if field.is_extension:
+        message.ClearExtension(field)
+    else:
+        message.ClearField(field.name)
+
+
+def config_text_of(config: JoshuaConfig, options: OptionSet) -> str:
+    """The text of `config` as configs are written (options by short names): what `--print-config` shows."""
+    return config_text.to_short(text_format.MessageToString(config), JoshuaConfig.DESCRIPTOR, options)
 
 
 _PATH_PART = re.compile(r"^(?P<name>\w+)(?:\[(?P<index>\d+)\])?$")
 
 
-def apply_override(config: JoshuaConfig, assignment: str) -> None:
-    """Apply one `--set path.to.field=value`; list items as `mappings[2].offset=0.1`."""
+def apply_override(config: JoshuaConfig, assignment: str, options: OptionSet | None = None) -> None:
+    """Apply one `--set path.to.field=value`; list items as `mappings[2].offset=0.1`, options by short name
+    (`simulation.offscreen.fps=60`). `options` as for `load_preset`; a lenient set skips unknown names."""
     path, separator, value = assignment.partition("=")
     if not separator or not path:
         raise UsageError(f"--set expects path.to.field=value, got '{assignment}'")
     if path.strip() == "extends":
         raise UsageError("--set extends=... has no effect; put `extends` in a config file or use --preset")
+    options = installed_options() if options is None else options
     message: Message = config
     parts = path.strip().split(".")
     for depth, part in enumerate(parts):
         match = _PATH_PART.match(part)
-        field = message.DESCRIPTOR.fields_by_name.get(match["name"]) if match else None
-        where = ".".join(parts[:depth]) or message.DESCRIPTOR.name
-        if match is None or field is None:
-            options = sorted(message.DESCRIPTOR.fields_by_name)
-            close = difflib.get_close_matches(part, options, n=3)
-            hint = f" Did you mean: {', '.join(close)}?" if close else ""
-            raise UsageError(f"--set {assignment}: {where} has no field '{part}'.{hint} Fields: {', '.join(options)}")
+        field = field_or_option(message.DESCRIPTOR, match["name"], options) if match else None
+        if field is None:
+            if options.lenient:
+                return
+            raise UsageError(_unknown_name(assignment, ".".join(parts[:depth]), message, part, options))
         last = depth == len(parts) - 1
         if last and match["index"] is None:
             if field.type == FieldDescriptor.TYPE_MESSAGE:
@@ -150,13 +173,24 @@ def apply_override(config: JoshuaConfig, assignment: str) -> None:
         message = _descend(message, field, match["index"], assignment)
 
 
+def _unknown_name(assignment: str, where: str, message: Message, part: str, options: OptionSet) -> str:
+    """The error for a `--set` path part that names no field or option: the close ones, then all of them."""
+    descriptor = message.DESCRIPTOR
+    listing = f"Fields: {', '.join(sorted(descriptor.fields_by_name))}"
+    if options.names(descriptor):
+        listing += f"; options: {', '.join(options.names(descriptor))}"
+    provider = config_text.provider_hint(part)
+    hint = close_names(descriptor, part, options) + (f"{provider}." if provider else "")
+    return f"--set {assignment}: {where or descriptor.name} has no field '{part}'.{hint} {listing}"
+
+
 def _descend(message: Message, field: FieldDescriptor, index: str | None, assignment: str) -> Message:
     """The sub-message `field` (item `index` of a list; one past the end appends a new item)."""
     if not field.is_repeated:
         if index is not None:
             raise UsageError(f"--set {assignment}: '{field.name}' is not a list")
-        return getattr(message, field.name)
-    items = getattr(message, field.name)
+        return sub_message(message, field)
+    items = sub_message(message, field)
     if index is None:
         raise UsageError(f"--set {assignment}: '{field.name}' is a list; name an item as {field.name}[N]")
     position = int(index)
@@ -170,11 +204,12 @@ def _merge_field(message: Message, field: FieldDescriptor, value: str, assignmen
     if field.type == FieldDescriptor.TYPE_STRING and not value.startswith(('"', "'")):
         value = '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if field.is_repeated:
-        message.ClearField(field.name)
+        _clear(message, field)
+    name = f"[{field.full_name}]" if field.is_extension else field.name
     try:
-        text_format.Merge(f"{field.name}: {value}", message)
+        text_format.Merge(f"{name}: {value}", message)
     except text_format.ParseError as error:
-        raise UsageError(f"--set {assignment}: {_bare_message(error)}") from None
+        raise UsageError(f"--set {assignment}: {config_text.bare_message(error)}") from None
 
 
 def finalize(loaded: LoadedConfig) -> JoshuaConfig:
@@ -195,6 +230,7 @@ def finalize(loaded: LoadedConfig) -> JoshuaConfig:
         if simulation.duration < 0:
             raise ConfigError(f"{loaded.source}: simulation.duration must not be negative")
         simulation.backend = simulation_backend(simulation)
+        simulation.mode = simulation_mode(simulation)
     else:
         training = config.training
         if not training.model_path:
@@ -210,10 +246,14 @@ def finalize(loaded: LoadedConfig) -> JoshuaConfig:
 def required_components(config: JoshuaConfig) -> list[tuple[Kind, str]]:
     """The plugin components a config needs to run (before or after `finalize`)."""
     if config.operation_mode == JoshuaConfig.SIMULATION:
-        mode = SimulationConfig.Mode.Name(config.simulation.mode)
-        return [(Kind.MODE, mode), (Kind.BACKEND, simulation_backend(config.simulation))]
+        return [(Kind.MODE, simulation_mode(config.simulation)), (Kind.BACKEND, simulation_backend(config.simulation))]
     trainer, backend = training_plugins(config.training)
     return [(Kind.TRAINER, trainer), (Kind.BACKEND, backend)]
+
+
+def simulation_mode(simulation: SimulationConfig) -> str:
+    """The mode a simulation runs: the one it names, else INTERACTIVE (the seed's default)."""
+    return simulation.mode or DEFAULT_MODE
 
 
 def simulation_backend(simulation: SimulationConfig) -> str:
@@ -240,6 +280,7 @@ simulation {
 """
 
 
-def load_default() -> LoadedConfig:
+def load_default(options: OptionSet | None = None) -> LoadedConfig:
     """The embedded default config."""
-    return LoadedConfig(_parse_text(DEFAULT_CONFIG_TEXT, "<embedded default>"), "embedded default", None)
+    options = installed_options() if options is None else options
+    return LoadedConfig(parse_text(DEFAULT_CONFIG_TEXT, "<embedded default>", options), "embedded default", None)

@@ -24,67 +24,38 @@ _sym_db = _symbol_database.Default()
 
 
 
-DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x13joshua/config.proto\x12\x06joshua\"\xf7\x01\n\x0cJoshuaConfig\x12:\n\x0eoperation_mode\x18\x01 \x01(\x0e\x32\".joshua.JoshuaConfig.OperationMode\x12,\n\nsimulation\x18\x02 \x01(\x0b\x32\x18.joshua.SimulationConfig\x12(\n\x08training\x18\x03 \x01(\x0b\x32\x16.joshua.TrainingConfig\x12\x13\n\x0b\x64\x65scription\x18\x04 \x01(\t\x12\x0f\n\x07\x65xtends\x18\x05 \x01(\t\"-\n\rOperationMode\x12\x0e\n\nSIMULATION\x10\x00\x12\x0c\n\x08TRAINING\x10\x01\"\x8f\x04\n\x10SimulationConfig\x12+\n\x04mode\x18\x01 \x01(\x0e\x32\x1d.joshua.SimulationConfig.Mode\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x17\n\x0ftrajectory_path\x18\x03 \x01(\t\x12:\n\x15mirror_topic_mappings\x18\x04 \x01(\x0b\x32\x1b.joshua.MirrorTopicMappings\x12\x14\n\x0crender_width\x18\x05 \x01(\x05\x12\x15\n\rrender_height\x18\x06 \x01(\x05\x12\x0f\n\x07\x62\x61\x63kend\x18\x07 \x01(\t\x12\x10\n\x08keyframe\x18\x08 \x01(\t\x12\x10\n\x08\x64uration\x18\t \x01(\x01\x12\x12\n\noutput_dir\x18\n \x01(\t\x12+\n\toffscreen\x18\x0b \x01(\x0b\x32\x18.joshua.OffscreenOptions\x12%\n\x06replay\x18\x0c \x01(\x0b\x32\x15.joshua.ReplayOptions\x12%\n\x06viewer\x18\r \x01(\x0b\x32\x15.joshua.ViewerOptions\x12%\n\x06mirror\x18\x0e \x01(\x0b\x32\x15.joshua.MirrorOptions\"M\n\x04Mode\x12\x0f\n\x0bINTERACTIVE\x10\x00\x12\x0b\n\x07PASSIVE\x10\x01\x12\n\n\x06MIRROR\x10\x02\x12\r\n\tOFFSCREEN\x10\x03\x12\x0c\n\x08HEADLESS\x10\x04\"\xd4\x01\n\x10OffscreenOptions\x12\x0e\n\x06\x63\x61mera\x18\x01 \x01(\t\x12\x0b\n\x03\x66ps\x18\x02 \x01(\x01\x12/\n\x06output\x18\x03 \x01(\x0e\x32\x1f.joshua.OffscreenOptions.Output\x12\r\n\x05\x64\x65pth\x18\x04 \x01(\x08\x12\x14\n\x0csegmentation\x18\x05 \x01(\x08\x12\x14\n\x07shadows\x18\x06 \x01(\x08H\x00\x88\x01\x01\"+\n\x06Output\x12\x07\n\x03MP4\x10\x00\x12\x07\n\x03PNG\x10\x01\x12\x0f\n\x0bMP4_AND_PNG\x10\x02\x42\n\n\x08_shadows\"\xa1\x01\n\rReplayOptions\x12\r\n\x05speed\x18\x01 \x01(\x01\x12\x0c\n\x04loop\x18\x02 \x01(\x08\x12\x1b\n\x13\x61s_fast_as_possible\x18\x03 \x01(\x08\x12\x0e\n\x06strict\x18\x04 \x01(\x08\x12\x0f\n\x07tracked\x18\x05 \x01(\x08\x12\x16\n\x0evelocity_limit\x18\x06 \x01(\x01\x12\x1d\n\x15penetration_threshold\x18\x07 \x01(\x01\"\x89\x01\n\rViewerOptions\x12.\n\x07\x64isplay\x18\x01 \x01(\x0e\x32\x1d.joshua.ViewerOptions.Display\x12\x0e\n\x06\x63\x61mera\x18\x02 \x01(\t\x12\x0b\n\x03\x66ps\x18\x03 \x01(\x01\"+\n\x07\x44isplay\x12\x08\n\x04\x41UTO\x10\x00\x12\n\n\x06WINDOW\x10\x01\x12\n\n\x06RECORD\x10\x02\"\xe0\x04\n\rMirrorOptions\x12*\n\x05\x61pply\x18\x01 \x01(\x0e\x32\x1b.joshua.MirrorOptions.Apply\x12\x37\n\x0cmessage_type\x18\x02 \x01(\x0e\x32!.joshua.MirrorOptions.MessageType\x12\x19\n\x11joint_state_topic\x18\x03 \x01(\t\x12\x45\n\x11joint_state_names\x18\x04 \x03(\x0b\x32*.joshua.MirrorOptions.JointStateNamesEntry\x12\x15\n\rstale_timeout\x18\x05 \x01(\x01\x12\x15\n\rstatus_period\x18\x06 \x01(\x01\x12\x14\n\x0crange_margin\x18\x07 \x01(\x01\x12.\n\x07\x64isplay\x18\x08 \x01(\x0e\x32\x1d.joshua.MirrorOptions.Display\x12\x13\n\x0b\x64isplay_fps\x18\t \x01(\x01\x12\x0e\n\x06\x63\x61mera\x18\n \x01(\t\x12\x11\n\tnode_name\x18\x0b \x01(\t\x1a\x36\n\x14JointStateNamesEntry\x12\x0b\n\x03key\x18\x01 \x01(\t\x12\r\n\x05value\x18\x02 \x01(\t:\x02\x38\x01\"@\n\x05\x41pply\x12\r\n\tKINEMATIC\x10\x00\x12\x0c\n\x08\x41\x43TUATOR\x10\x01\x12\x1a\n\x16KINEMATIC_AND_ACTUATOR\x10\x02\"+\n\x0bMessageType\x12\x0b\n\x07\x46LOAT64\x10\x00\x12\x0f\n\x0bJOINT_STATE\x10\x01\"5\n\x07\x44isplay\x12\x08\n\x04\x41UTO\x10\x00\x12\x08\n\x04NONE\x10\x01\x12\n\n\x06VIEWER\x10\x02\x12\n\n\x06RECORD\x10\x03\"=\n\x13MirrorTopicMappings\x12&\n\x08mappings\x18\x01 \x03(\x0b\x32\x14.joshua.TopicMapping\"J\n\x0cTopicMapping\x12\x11\n\tros_topic\x18\x01 \x01(\t\x12\x17\n\x0fmujoco_actuator\x18\x02 \x01(\t\x12\x0e\n\x06offset\x18\x03 \x01(\x02\"\x84\x04\n\x0eTrainingConfig\x12\x33\n\tframework\x18\x01 \x01(\x0e\x32 .joshua.TrainingConfig.Framework\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x10\n\x08num_envs\x18\x03 \x01(\x05\x12\x17\n\x0ftotal_timesteps\x18\x04 \x01(\x03\x12\x16\n\x0e\x63heckpoint_dir\x18\x05 \x01(\t\x12\x11\n\tnum_steps\x18\x06 \x01(\x05\x12\x12\n\nnum_epochs\x18\x07 \x01(\x05\x12\x16\n\x0eminibatch_size\x18\x08 \x01(\x05\x12\x15\n\rlearning_rate\x18\t \x01(\x02\x12\r\n\x05gamma\x18\n \x01(\x02\x12\x12\n\ngae_lambda\x18\x0b \x01(\x02\x12\x14\n\x0c\x63lip_epsilon\x18\x0c \x01(\x02\x12\x0c\n\x04task\x18\r \x01(\t\x12\x0f\n\x07\x62\x61\x63kend\x18\x0e \x01(\t\x12\x0f\n\x07trainer\x18\x0f \x01(\t\x12\x0c\n\x04seed\x18\x10 \x01(\x03\x12\'\n\x0btask_config\x18\x11 \x01(\x0b\x32\x12.joshua.TaskConfig\x12\x0f\n\x07nthread\x18\x12 \x01(\x05\x12\x1f\n\x03sb3\x18\x14 \x01(\x0b\x32\x12.joshua.Sb3Options\x12\x1f\n\x03ppo\x18\x15 \x01(\x0b\x32\x12.joshua.PpoOptions\"\x1d\n\tFramework\x12\x07\n\x03MJX\x10\x00\x12\x07\n\x03SB3\x10\x01\"\xa5\x05\n\nPpoOptions\x12\x10\n\x08run_name\x18\x01 \x01(\t\x12\x0e\n\x06resume\x18\x02 \x01(\x08\x12\x1b\n\x13\x63heckpoint_interval\x18\x03 \x01(\x03\x12\x14\n\x0chidden_sizes\x18\x04 \x03(\x05\x12\x1a\n\x12value_hidden_sizes\x18\x0f \x03(\x05\x12\x16\n\x0esquash_actions\x18\x10 \x01(\x08\x12\x12\n\nactivation\x18\x11 \x01(\t\x12\x1b\n\x13state_dependent_std\x18\x12 \x01(\x08\x12\x1c\n\x14recompute_advantages\x18\x13 \x01(\x08\x12/\n\tadvantage\x18\x15 \x01(\x0e\x32\x1c.joshua.PpoOptions.Advantage\x12\x14\n\x0c\x65ntropy_coef\x18\x05 \x01(\x02\x12\x16\n\x0ereward_scaling\x18\x06 \x01(\x02\x12\x1d\n\x15unrolls_per_iteration\x18\x07 \x01(\x05\x12\x15\n\rmax_grad_norm\x18\x08 \x01(\x02\x12\x12\n\ndesired_kl\x18\x14 \x01(\x02\x12\x1c\n\x14\x61nneal_learning_rate\x18\x16 \x01(\x08\x12)\n!disable_observation_normalization\x18\t \x01(\x08\x12\x12\n\nvalue_coef\x18\n \x01(\x02\x12\x16\n\x0evideo_interval\x18\x0b \x01(\x05\x12\x13\n\x0bvideo_steps\x18\x0c \x01(\x05\x12)\n\x06viewer\x18\r \x01(\x0e\x32\x19.joshua.PpoOptions.Viewer\x12\x13\n\x0bviewer_envs\x18\x0e \x01(\x05\"\'\n\tAdvantage\x12\x07\n\x03GAE\x10\x00\x12\x11\n\rLAMBDA_RETURN\x10\x01\"#\n\x06Viewer\x12\x08\n\x04\x41UTO\x10\x00\x12\x07\n\x03OFF\x10\x01\x12\x06\n\x02ON\x10\x02\"\xc3\x01\n\nSb3Options\x12\x11\n\talgorithm\x18\x01 \x01(\t\x12\x10\n\x08run_name\x18\x02 \x01(\t\x12\x0e\n\x06resume\x18\x03 \x01(\x08\x12\x1b\n\x13\x63heckpoint_interval\x18\x04 \x01(\x03\x12\x14\n\x0chidden_sizes\x18\x05 \x03(\x05\x12\x1d\n\x15\x64isable_normalization\x18\x06 \x01(\x08\x12\x14\n\x0c\x65ntropy_coef\x18\x07 \x01(\x02\x12\x18\n\x10trust_checkpoint\x18\x08 \x01(\x08\"o\n\nTaskConfig\x12\x16\n\x0e\x65pisode_length\x18\x01 \x01(\x05\x12\x12\n\nframe_skip\x18\x02 \x01(\x05\x12#\n\x05terms\x18\x03 \x03(\x0b\x32\x14.joshua.TermOverride\x12\x10\n\x08keyframe\x18\x04 \x01(\t\"\xb7\x02\n\x0cTermOverride\x12\x0c\n\x04name\x18\x01 \x01(\t\x12\x13\n\x06weight\x18\x02 \x01(\x01H\x00\x88\x01\x01\x12\x30\n\x06params\x18\x03 \x03(\x0b\x32 .joshua.TermOverride.ParamsEntry\x12\x0c\n\x04term\x18\x04 \x01(\t\x12\'\n\x04kind\x18\x05 \x01(\x0e\x32\x19.joshua.TermOverride.Kind\x1a-\n\x0bParamsEntry\x12\x0b\n\x03key\x18\x01 \x01(\t\x12\r\n\x05value\x18\x02 \x01(\t:\x02\x38\x01\"a\n\x04Kind\x12\x14\n\x10KIND_UNSPECIFIED\x10\x00\x12\x0f\n\x0bOBSERVATION\x10\x01\x12\n\n\x06REWARD\x10\x02\x12\x0f\n\x0bTERMINATION\x10\x03\x12\t\n\x05RESET\x10\x04\x12\n\n\x06METRIC\x10\x05\x42\t\n\x07_weightb\x06proto3')
+DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x13joshua/config.proto\x12\x06joshua\"\xf7\x01\n\x0cJoshuaConfig\x12:\n\x0eoperation_mode\x18\x01 \x01(\x0e\x32\".joshua.JoshuaConfig.OperationMode\x12,\n\nsimulation\x18\x02 \x01(\x0b\x32\x18.joshua.SimulationConfig\x12(\n\x08training\x18\x03 \x01(\x0b\x32\x16.joshua.TrainingConfig\x12\x13\n\x0b\x64\x65scription\x18\x04 \x01(\t\x12\x0f\n\x07\x65xtends\x18\x05 \x01(\t\"-\n\rOperationMode\x12\x0e\n\nSIMULATION\x10\x00\x12\x0c\n\x08TRAINING\x10\x01\"\xb3\x02\n\x10SimulationConfig\x12\x0c\n\x04mode\x18\x01 \x01(\t\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x17\n\x0ftrajectory_path\x18\x03 \x01(\t\x12:\n\x15mirror_topic_mappings\x18\x04 \x01(\x0b\x32\x1b.joshua.MirrorTopicMappings\x12\x14\n\x0crender_width\x18\x05 \x01(\x05\x12\x15\n\rrender_height\x18\x06 \x01(\x05\x12\x0f\n\x07\x62\x61\x63kend\x18\x07 \x01(\t\x12\x10\n\x08keyframe\x18\x08 \x01(\t\x12\x10\n\x08\x64uration\x18\t \x01(\x01\x12\x12\n\noutput_dir\x18\n \x01(\t*\t\x08\xe8\x07\x10\x80\x80\x80\x80\x02J\x04\x08\x0b\x10\x0fR\toffscreenR\x06replayR\x06viewerR\x06mirror\"=\n\x13MirrorTopicMappings\x12&\n\x08mappings\x18\x01 \x03(\x0b\x32\x14.joshua.TopicMapping\"J\n\x0cTopicMapping\x12\x11\n\tros_topic\x18\x01 \x01(\t\x12\x17\n\x0fmujoco_actuator\x18\x02 \x01(\t\x12\x0e\n\x06offset\x18\x03 \x01(\x02\"\xe3\x03\n\x0eTrainingConfig\x12\x33\n\tframework\x18\x01 \x01(\x0e\x32 .joshua.TrainingConfig.Framework\x12\x12\n\nmodel_path\x18\x02 \x01(\t\x12\x10\n\x08num_envs\x18\x03 \x01(\x05\x12\x17\n\x0ftotal_timesteps\x18\x04 \x01(\x03\x12\x16\n\x0e\x63heckpoint_dir\x18\x05 \x01(\t\x12\x11\n\tnum_steps\x18\x06 \x01(\x05\x12\x12\n\nnum_epochs\x18\x07 \x01(\x05\x12\x16\n\x0eminibatch_size\x18\x08 \x01(\x05\x12\x15\n\rlearning_rate\x18\t \x01(\x02\x12\r\n\x05gamma\x18\n \x01(\x02\x12\x12\n\ngae_lambda\x18\x0b \x01(\x02\x12\x14\n\x0c\x63lip_epsilon\x18\x0c \x01(\x02\x12\x0c\n\x04task\x18\r \x01(\t\x12\x0f\n\x07\x62\x61\x63kend\x18\x0e \x01(\t\x12\x0f\n\x07trainer\x18\x0f \x01(\t\x12\x0c\n\x04seed\x18\x10 \x01(\x03\x12\'\n\x0btask_config\x18\x11 \x01(\x0b\x32\x12.joshua.TaskConfig\x12\x0f\n\x07nthread\x18\x12 \x01(\x05\"\x1d\n\tFramework\x12\x07\n\x03MJX\x10\x00\x12\x07\n\x03SB3\x10\x01*\t\x08\xe8\x07\x10\x80\x80\x80\x80\x02J\x04\x08\x14\x10\x15J\x04\x08\x15\x10\x16R\x03sb3R\x03ppo\"o\n\nTaskConfig\x12\x16\n\x0e\x65pisode_length\x18\x01 \x01(\x05\x12\x12\n\nframe_skip\x18\x02 \x01(\x05\x12#\n\x05terms\x18\x03 \x03(\x0b\x32\x14.joshua.TermOverride\x12\x10\n\x08keyframe\x18\x04 \x01(\t\"\xae\x02\n\x0cTermOverride\x12\x0c\n\x04name\x18\x01 \x01(\t\x12\x15\n\x06weight\x18\x02 \x01(\x01\x42\x05\xaa\x01\x02\x08\x01\x12\x30\n\x06params\x18\x03 \x03(\x0b\x32 .joshua.TermOverride.ParamsEntry\x12\x0c\n\x04term\x18\x04 \x01(\t\x12\'\n\x04kind\x18\x05 \x01(\x0e\x32\x19.joshua.TermOverride.Kind\x1a-\n\x0bParamsEntry\x12\x0b\n\x03key\x18\x01 \x01(\t\x12\r\n\x05value\x18\x02 \x01(\t:\x02\x38\x01\"a\n\x04Kind\x12\x14\n\x10KIND_UNSPECIFIED\x10\x00\x12\x0f\n\x0bOBSERVATION\x10\x01\x12\n\n\x06REWARD\x10\x02\x12\x0f\n\x0bTERMINATION\x10\x03\x12\t\n\x05RESET\x10\x04\x12\n\n\x06METRIC\x10\x05\x42\x05\x92\x03\x02\x08\x02\x62\x08\x65\x64itionsp\xe8\x07')
 
 _globals = globals()
 _builder.BuildMessageAndEnumDescriptors(DESCRIPTOR, _globals)
 _builder.BuildTopDescriptorsAndMessages(DESCRIPTOR, 'joshua.config_pb2', _globals)
 if not _descriptor._USE_C_DESCRIPTORS:
-  DESCRIPTOR._loaded_options = None
-  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._loaded_options = None
-  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_options = b'8\001'
+  _globals['DESCRIPTOR']._loaded_options = None
+  _globals['DESCRIPTOR']._serialized_options = b'\222\003\002\010\002'
   _globals['_TERMOVERRIDE_PARAMSENTRY']._loaded_options = None
   _globals['_TERMOVERRIDE_PARAMSENTRY']._serialized_options = b'8\001'
+  _globals['_TERMOVERRIDE'].fields_by_name['weight']._loaded_options = None
+  _globals['_TERMOVERRIDE'].fields_by_name['weight']._serialized_options = b'\252\001\002\010\001'
   _globals['_JOSHUACONFIG']._serialized_start=32
   _globals['_JOSHUACONFIG']._serialized_end=279
   _globals['_JOSHUACONFIG_OPERATIONMODE']._serialized_start=234
   _globals['_JOSHUACONFIG_OPERATIONMODE']._serialized_end=279
   _globals['_SIMULATIONCONFIG']._serialized_start=282
-  _globals['_SIMULATIONCONFIG']._serialized_end=809
-  _globals['_SIMULATIONCONFIG_MODE']._serialized_start=732
-  _globals['_SIMULATIONCONFIG_MODE']._serialized_end=809
-  _globals['_OFFSCREENOPTIONS']._serialized_start=812
-  _globals['_OFFSCREENOPTIONS']._serialized_end=1024
-  _globals['_OFFSCREENOPTIONS_OUTPUT']._serialized_start=969
-  _globals['_OFFSCREENOPTIONS_OUTPUT']._serialized_end=1012
-  _globals['_REPLAYOPTIONS']._serialized_start=1027
-  _globals['_REPLAYOPTIONS']._serialized_end=1188
-  _globals['_VIEWEROPTIONS']._serialized_start=1191
-  _globals['_VIEWEROPTIONS']._serialized_end=1328
-  _globals['_VIEWEROPTIONS_DISPLAY']._serialized_start=1285
-  _globals['_VIEWEROPTIONS_DISPLAY']._serialized_end=1328
-  _globals['_MIRROROPTIONS']._serialized_start=1331
-  _globals['_MIRROROPTIONS']._serialized_end=1939
-  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_start=1719
-  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_end=1773
-  _globals['_MIRROROPTIONS_APPLY']._serialized_start=1775
-  _globals['_MIRROROPTIONS_APPLY']._serialized_end=1839
-  _globals['_MIRROROPTIONS_MESSAGETYPE']._serialized_start=1841
-  _globals['_MIRROROPTIONS_MESSAGETYPE']._serialized_end=1884
-  _globals['_MIRROROPTIONS_DISPLAY']._serialized_start=1886
-  _globals['_MIRROROPTIONS_DISPLAY']._serialized_end=1939
-  _globals['_MIRRORTOPICMAPPINGS']._serialized_start=1941
-  _globals['_MIRRORTOPICMAPPINGS']._serialized_end=2002
-  _globals['_TOPICMAPPING']._serialized_start=2004
-  _globals['_TOPICMAPPING']._serialized_end=2078
-  _globals['_TRAININGCONFIG']._serialized_start=2081
-  _globals['_TRAININGCONFIG']._serialized_end=2597
-  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_start=2568
-  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_end=2597
-  _globals['_PPOOPTIONS']._serialized_start=2600
-  _globals['_PPOOPTIONS']._serialized_end=3277
-  _globals['_PPOOPTIONS_ADVANTAGE']._serialized_start=3201
-  _globals['_PPOOPTIONS_ADVANTAGE']._serialized_end=3240
-  _globals['_PPOOPTIONS_VIEWER']._serialized_start=3242
-  _globals['_PPOOPTIONS_VIEWER']._serialized_end=3277
-  _globals['_SB3OPTIONS']._serialized_start=3280
-  _globals['_SB3OPTIONS']._serialized_end=3475
-  _globals['_TASKCONFIG']._serialized_start=3477
-  _globals['_TASKCONFIG']._serialized_end=3588
-  _globals['_TERMOVERRIDE']._serialized_start=3591
-  _globals['_TERMOVERRIDE']._serialized_end=3902
-  _globals['_TERMOVERRIDE_PARAMSENTRY']._serialized_start=3747
-  _globals['_TERMOVERRIDE_PARAMSENTRY']._serialized_end=3792
-  _globals['_TERMOVERRIDE_KIND']._serialized_start=3794
-  _globals['_TERMOVERRIDE_KIND']._serialized_end=3891
+  _globals['_SIMULATIONCONFIG']._serialized_end=589
+  _globals['_MIRRORTOPICMAPPINGS']._serialized_start=591
+  _globals['_MIRRORTOPICMAPPINGS']._serialized_end=652
+  _globals['_TOPICMAPPING']._serialized_start=654
+  _globals['_TOPICMAPPING']._serialized_end=728
+  _globals['_TRAININGCONFIG']._serialized_start=731
+  _globals['_TRAININGCONFIG']._serialized_end=1214
+  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_start=1152
+  _globals['_TRAININGCONFIG_FRAMEWORK']._serialized_end=1181
+  _globals['_TASKCONFIG']._serialized_start=1216
+  _globals['_TASKCONFIG']._serialized_end=1327
+  _globals['_TERMOVERRIDE']._serialized_start=1330
+  _globals['_TERMOVERRIDE']._serialized_end=1632
+  _globals['_TERMOVERRIDE_PARAMSENTRY']._serialized_start=1488
+  _globals['_TERMOVERRIDE_PARAMSENTRY']._serialized_end=1533
+  _globals['_TERMOVERRIDE_KIND']._serialized_start=1535
+  _globals['_TERMOVERRIDE_KIND']._serialized_end=1632
 # @@protoc_insertion_point(module_scope)

@@ -43,8 +43,9 @@ def joshua_register_backends(registry: Registrar) -> None:
 def joshua_register_modes(registry: Registrar) -> None:
     """Register simulation modes: `registry.add(name, target, summary)`.
 
-    Called by PluginHost when it is built. `name` is a `SimulationConfig.Mode` name
-    (e.g. "OFFSCREEN"); `target` is a `joshua_core.interfaces.Mode` subclass or its path.
+    Called by PluginHost when it is built. `name` is what configs put in `simulation.mode`
+    (upper case by convention, e.g. "OFFSCREEN"); `target` is a `joshua_core.interfaces.Mode`
+    subclass or its path. A mode's own settings are an option (`joshua_register_options`).
     """
 
 
@@ -85,4 +86,18 @@ def joshua_register_commands(registry: Registrar) -> None:
     Called by PluginHost when it is built. `name` is the subcommand (e.g. "mirror-replay", "eval");
     `summary` is its one-line help; `target` is a `joshua_core.interfaces.Command` subclass or its
     path, imported only when that subcommand runs.
+    """
+
+
+@hookspec
+def joshua_register_options(registry: Registrar) -> None:
+    """Register config options: `registry.add(name, target, summary)`.
+
+    Called by PluginHost when it is built. `target` is the "module:attribute" path of a protobuf
+    extension of `joshua.SimulationConfig` or `joshua.TrainingConfig` that the plugin declares in a
+    .proto of its own (e.g. "joshua_modes.options_pb2:offscreen"); `name` is the extension's short
+    name, which configs, `--set` and `--print-config` use as if it were a field of the message it
+    extends (`simulation { offscreen { fps: 30 } }`). The CLI imports the targets (`PluginHost.options`)
+    before it parses a config strictly, so a `_pb2` module must stay light: it imports only protobuf
+    and `joshua_core.config_pb2`. See docs/configuration.md for the field numbers.
     """

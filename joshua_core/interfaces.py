@@ -122,7 +122,7 @@ class RunContext:
 
 
 class Mode(ABC):
-    """A simulation mode, registered under its SimulationConfig.Mode name (e.g. "OFFSCREEN")."""
+    """A simulation mode, registered under the name `simulation.mode` selects (e.g. "OFFSCREEN")."""
 
     @abstractmethod
     def run(self, config: SimulationConfig, context: RunContext) -> None:

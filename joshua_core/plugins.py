@@ -20,10 +20,12 @@ from importlib import metadata
 from typing import Any
 
 import pluggy
+from google.protobuf.descriptor import FieldDescriptor
 
 from joshua_core import hookspecs
 from joshua_core.errors import PluginLoadError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import Backend, Command, Mode, Trainer
+from joshua_core.options import OptionSet
 
 ENTRY_POINT_GROUP = "joshua"
 DISABLE_ENV_VAR = "JOSHUA_DISABLE_PLUGINS"
@@ -39,6 +41,7 @@ class Kind(enum.Enum):
     TASK = "task"
     TERM = "term"
     COMMAND = "command"
+    OPTIONS = "option"
 
     @property
     def hook_name(self) -> str:
@@ -58,6 +61,12 @@ KNOWN_PROVIDERS: dict[tuple[Kind, str], str] = {
     (Kind.TRAINER, "ppo"): "joshua-ppo",
     (Kind.TRAINER, "sb3"): "joshua-sb3",
     (Kind.COMMAND, "mirror-replay"): "joshua-mirror",
+    (Kind.OPTIONS, "offscreen"): "joshua-modes",
+    (Kind.OPTIONS, "replay"): "joshua-modes",
+    (Kind.OPTIONS, "viewer"): "joshua-modes",
+    (Kind.OPTIONS, "mirror"): "joshua-mirror",
+    (Kind.OPTIONS, "ppo"): "joshua-ppo",
+    (Kind.OPTIONS, "sb3"): "joshua-sb3",
 }
 
 
@@ -76,7 +85,8 @@ class PluginInfo:
 
 @dataclass(frozen=True)
 class Component:
-    """A registered backend, mode, trainer, task or term; `target` is the object or its "module:attr" path."""
+    """A registered backend, mode, trainer, task, term, command or option; `target` is the object or its
+    "module:attr" path."""
 
     kind: Kind
     name: str
@@ -137,6 +147,7 @@ class PluginHost:
         self.plugins: list[PluginInfo] = []
         self._components: dict[tuple[Kind, str], Component] = {}
         self._conflicts: dict[tuple[Kind, str], list[PluginInfo]] = {}
+        self._options: OptionSet | None = None
         self._manager = pluggy.PluginManager(hookspecs.PROJECT_NAME)
         self._manager.add_hookspecs(hookspecs)
         for info, plugin in plugins:
@@ -289,3 +300,20 @@ class PluginHost:
 
     def command(self, name: str) -> Command:
         return self.create(Kind.COMMAND, name, Command)
+
+    def options(self) -> OptionSet:
+        """The registered options, their `_pb2` modules imported (light: they import only protobuf and the core
+        schema). A target that is not an extension of that short name is a PluginLoadError naming the plugin."""
+        if self._options is None:
+            self._options = OptionSet(tuple(self._option(name) for name in self.names(Kind.OPTIONS)))
+        return self._options
+
+    def _option(self, name: str) -> FieldDescriptor:
+        component = self.component(Kind.OPTIONS, name)
+        target = component.load()
+        if not (isinstance(target, FieldDescriptor) and target.is_extension and target.name == name):
+            raise PluginLoadError(
+                f"option '{name}' from plugin '{component.plugin.name}' ({component.plugin.distribution}) is "
+                f"{target!r}, not a protobuf extension named '{name}' (e.g. \"my_plugin.options_pb2:{name}\")"
+            )
+        return target

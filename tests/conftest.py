@@ -1,4 +1,7 @@
-"""Shared fixtures: run the installed `joshua` script the way a user would."""
+"""Shared fixtures: run the installed `joshua` script the way a user would.
+
+Plain helpers live beside the tests (e.g. joshua_sample_plugin.py, a third-party plugin made for them).
+"""
 
 from __future__ import annotations
 
@@ -9,6 +12,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 JOSHUA_SCRIPT = Path(sys.executable).parent / "joshua"

@@ -113,3 +113,42 @@ def test_known_command_of_a_missing_plugin_says_what_to_install(run_joshua) -> N
     assert result.returncode == 2
     assert "no command named 'mirror-replay' is installed. It comes from joshua-mirror" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_options_set_on_the_command_line_print_by_short_name_and_read_back(run_joshua, tmp_path: Path) -> None:
+    printed = run_joshua(
+        "--preset", "sim_passive", "--strict", "--print-config",
+        "--set", "simulation.viewer.fps=12", "--set", "simulation.offscreen.fps=60",
+    )  # fmt: skip
+    assert printed.returncode == 0, printed.stderr
+    assert "  mode: PASSIVE\n" in printed.stdout and "[" not in printed.stdout
+    for block in ("offscreen {\n    fps: 60.0\n  }", "replay {\n    strict: true\n  }", "viewer {\n    fps: 12.0\n  }"):
+        assert block in printed.stdout
+    (tmp_path / "printed.pbtxt").write_text(printed.stdout)
+    again = run_joshua("--config", "printed.pbtxt", "--print-config")
+    assert again.returncode == 0 and again.stdout == printed.stdout
+
+
+def test_bad_option_names_list_the_close_ones(run_joshua, tmp_path: Path) -> None:
+    result = run_joshua("--preset", "sim_offscreen", "--set", "simulation.offscren.fps=3")
+    assert result.returncode == 2 and "Did you mean: offscreen?" in result.stderr
+    config = tmp_path / "run.pbtxt"
+    config.write_text('extends: "sim_offscreen"\nsimulation { offscreen { fsp: 30 } }\n')
+    located = run_joshua("--config", str(config))
+    assert located.returncode == 2 and f"{config}:2:26: " in located.stderr and "Did you mean: fps?" in located.stderr
+
+
+def test_a_config_of_a_missing_mode_plugin_says_what_to_install_before_its_options(run_joshua, tmp_path: Path) -> None:
+    config = tmp_path / "run.pbtxt"
+    config.write_text('extends: "sim_offscreen"\nsimulation { offscreen { fps: 30 } }\n')
+    disabled = {"JOSHUA_DISABLE_PLUGINS": "modes,ppo"}
+    for args in (("--config", str(config)), ("--config", str(config), "--print-config"), ("--preset", "sim_offscreen")):
+        result = run_joshua(*args, "--set", "simulation.offscreen.fps=60", env=disabled)
+        assert result.returncode == 2, args
+        assert "no mode named 'OFFSCREEN' is installed. It comes from joshua-modes" in result.stderr, result.stderr
+    training = run_joshua("--preset", "ant_train_mjx_tuned", "--set", "training.ppo.entropy_coef=0", env=disabled)
+    assert training.returncode == 2 and "It comes from joshua-ppo, which is disabled" in training.stderr
+    headless = run_joshua("--set", "simulation.offscreen.fps=60", env=disabled)  # HEADLESS needs no joshua-modes
+    assert headless.returncode == 2 and "'offscreen' is an option of joshua-modes" in headless.stderr
+    presets = run_joshua("presets", env={"JOSHUA_DISABLE_PLUGINS": "modes,mirror,ppo,sb3"})
+    assert presets.returncode == 0 and "ant_train_mjx_tuned " in presets.stdout and "sim_offscreen " in presets.stdout

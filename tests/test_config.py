@@ -3,15 +3,31 @@
 from __future__ import annotations
 
 import importlib.util
+import re
+import sys
 from pathlib import Path
 
+import joshua_sample_plugin
 import pytest
 
 from joshua_core import config as config_module
-from joshua_core.config import apply_override, finalize, load_file, load_preset, preset_names
+from joshua_core.config import (
+    apply_override,
+    config_text_of,
+    finalize,
+    load_file,
+    load_preset,
+    parse_text,
+    preset_names,
+    simulation_mode,
+)
 from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig, TrainingConfig
 from joshua_core.errors import ConfigError, ModelError, UsageError
+from joshua_core.options import LENIENT, OptionSet, installed_options, message_to_dict, options_of, parse_dict
+from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import models_dir
+from joshua_modes import options_pb2 as modes_options
+from joshua_ppo import options_pb2 as ppo_options
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
@@ -27,13 +43,16 @@ SEED_PRESETS = {
 }
 
 
-def test_committed_generated_code_matches_the_schema(tmp_path: Path) -> None:
-    spec = importlib.util.spec_from_file_location("generate", REPO_ROOT / "proto" / "generate.py")
+def test_committed_generated_code_matches_every_schema(tmp_path: Path, monkeypatch) -> None:
+    spec = importlib.util.spec_from_file_location("joshua_proto_generate", REPO_ROOT / "proto" / "generate.py")
     generate = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, spec.name, generate)  # its dataclasses look their module up
     spec.loader.exec_module(generate)
-    for fresh in generate.generate(tmp_path):
-        committed = REPO_ROOT / "joshua_core" / fresh.name
-        assert committed.read_bytes() == fresh.read_bytes(), f"{committed} is stale: run python proto/generate.py"
+    assert len(generate.SCHEMAS) == 6  # the core's, four plugins' options, the joshua-rk4 example's
+    for index, schema in enumerate(generate.SCHEMAS):
+        for fresh in generate.generate(schema, tmp_path / str(index)):
+            committed = schema.out_dir / fresh.name
+            assert committed.read_bytes() == fresh.read_bytes(), f"{committed} is stale: run python proto/generate.py"
 
 
 def test_simulation_config_keeps_the_seed_field_numbers() -> None:
@@ -45,12 +64,18 @@ def test_simulation_config_keeps_the_seed_field_numbers() -> None:
         "mirror_topic_mappings": 4,
     }
     assert (fields["render_width"], fields["render_height"]) == (5, 6)
-    assert [v.name for v in SimulationConfig.Mode.DESCRIPTOR.values][:4] == [
-        "INTERACTIVE",
-        "PASSIVE",
-        "MIRROR",
-        "OFFSCREEN",
-    ]
+    assert SimulationConfig.DESCRIPTOR.fields_by_name["mode"].type == SimulationConfig.DESCRIPTOR.fields_by_name[
+        "model_path"
+    ].type  # a string: plugins add modes by name
+
+
+def test_the_seed_mode_names_parse_bare_or_quoted_and_empty_means_interactive(tmp_path: Path) -> None:
+    for mode in ("INTERACTIVE", "PASSIVE", "MIRROR", "OFFSCREEN", "HEADLESS"):
+        for written in (mode, f'"{mode}"'):
+            (tmp_path / "run.pbtxt").write_text(f"operation_mode: SIMULATION\nsimulation {{ mode: {written} }}\n")
+            assert load_file(tmp_path / "run.pbtxt").message.simulation.mode == mode
+    assert simulation_mode(SimulationConfig()) == "INTERACTIVE"
+    assert finalize(load_preset("so_arm100_sim_interactive")).simulation.mode == "INTERACTIVE"
 
 
 PLUGIN_PRESETS = {
@@ -92,8 +117,8 @@ def test_parse_error_reports_file_line_and_column(tmp_path: Path) -> None:
 
 def test_bad_enum_value_is_a_located_error(tmp_path: Path) -> None:
     bad = tmp_path / "bad.pbtxt"
-    bad.write_text("simulation { mode: SIDEWAYS }\n")
-    with pytest.raises(ConfigError, match=rf"{bad}:1:20: .*SIDEWAYS"):
+    bad.write_text("operation_mode: SIDEWAYS\n")
+    with pytest.raises(ConfigError, match=rf"{bad}:1:17: .*SIDEWAYS"):
         load_file(bad)
 
 
@@ -109,7 +134,7 @@ def test_custom_file_extends_a_preset_and_replaces_its_lists(tmp_path: Path) -> 
         "}\n"
     )
     message = load_file(custom).message
-    assert message.simulation.mode == SimulationConfig.MIRROR  # from the preset
+    assert message.simulation.mode == "MIRROR"  # from the preset
     assert message.simulation.model_path == "so_arm100/scene.xml"  # from the preset
     assert message.simulation.render_width == 320  # from the file
     assert [m.ros_topic for m in message.simulation.mirror_topic_mappings.mappings] == ["/arm/j1"]
@@ -138,7 +163,7 @@ def test_overrides_set_scalars_enums_strings_and_list_items() -> None:
     apply_override(config, "simulation.mirror_topic_mappings.mappings[1].offset=0.25")
     apply_override(config, "simulation.mirror_topic_mappings.mappings[6].ros_topic=/encoder/extra")
     assert config.simulation.render_width == 1280
-    assert config.simulation.mode == SimulationConfig.OFFSCREEN
+    assert config.simulation.mode == "OFFSCREEN"
     assert config.simulation.keyframe == "home"
     mappings = config.simulation.mirror_topic_mappings.mappings
     assert mappings[1].offset == pytest.approx(0.25)
@@ -150,7 +175,7 @@ def test_overrides_set_scalars_enums_strings_and_list_items() -> None:
     [
         ("simulation.render_widht=3", "Did you mean: render_width"),
         ("simulation.render_width=wide", "render_width"),
-        ("simulation.mode=SIDEWAYS", "SIDEWAYS"),
+        ("simulation.duration=long", "duration"),
         ("simulation=3", "is a message"),
         ("simulation.mirror_topic_mappings.mappings[9].offset=1", "has 6 items"),
         ("simulation.mirror_topic_mappings.mappings.offset=1", "is a list"),
@@ -198,7 +223,7 @@ def test_negative_sizes_are_rejected() -> None:
 def test_default_config_is_a_headless_run() -> None:
     config = finalize(config_module.load_default())
     assert config.operation_mode == JoshuaConfig.SIMULATION
-    assert config.simulation.mode == SimulationConfig.HEADLESS
+    assert config.simulation.mode == "HEADLESS"
 
 
 def test_extends_is_applied_and_cannot_be_set_from_the_command_line(tmp_path: Path) -> None:
@@ -214,3 +239,157 @@ def test_negative_hyper_parameters_are_rejected() -> None:
     apply_override(loaded.message, "training.learning_rate=-0.1")
     with pytest.raises(ConfigError, match="learning_rate must not be negative"):
         finalize(loaded)
+
+
+# Plugins' options: extensions of the config messages, read and written by their short names.
+
+
+def test_every_preset_parses_strictly_and_prints_as_it_reads(tmp_path: Path) -> None:
+    options = installed_options()
+    for name in preset_names():
+        config = finalize(load_preset(name, options))
+        printed = config_text_of(config, options)
+        assert "[joshua" not in printed, name  # options by their short names
+        reparsed = parse_text(printed, f"printed {name}", options)
+        assert reparsed == config, name
+    tuned = config_text_of(finalize(load_preset("ant_train_mjx_tuned", options)), options)
+    assert "\n  ppo {\n" in tuned and "advantage: LAMBDA_RETURN" in tuned
+    assert "\n  mode: MIRROR\n" in config_text_of(finalize(load_preset("sim_mirror", options)), options)
+
+
+def test_options_read_by_short_name_or_bracketed(tmp_path: Path) -> None:
+    custom = tmp_path / "run.pbtxt"
+    custom.write_text(
+        'extends: "sim_offscreen"\n'
+        "simulation {\n"
+        "  offscreen { fps: 12 output: PNG shadows: false }  # a comment\n"
+        "  [joshua_modes.replay] { speed: 2 }\n"
+        "  viewer: < camera: 'side' >\n"
+        "}\n"
+    )
+    simulation = load_file(custom).message.simulation
+    offscreen = options_of(simulation, modes_options.offscreen)
+    assert (offscreen.fps, offscreen.output) == (12, modes_options.OffscreenOptions.PNG)
+    assert offscreen.HasField("shadows") and not offscreen.shadows
+    assert options_of(simulation, modes_options.replay).speed == 2
+    assert options_of(simulation, modes_options.viewer).camera == "side"
+    assert simulation.trajectory_path.endswith("so_arm100_example.csv")  # from the preset
+
+
+def test_extends_merges_options_and_replaces_their_lists(tmp_path: Path) -> None:
+    custom = tmp_path / "tuned.pbtxt"
+    custom.write_text('extends: "ant_train_mjx_tuned"\ntraining { ppo { hidden_sizes: [32] entropy_coef: 0 } }\n')
+    ppo = options_of(load_file(custom).message.training, ppo_options.ppo)
+    assert list(ppo.hidden_sizes) == [32]  # the file's list replaces the preset's
+    assert list(ppo.value_hidden_sizes) == [256] * 5 and ppo.squash_actions  # the rest from the preset
+    assert ppo.entropy_coef == 0  # a zero written in the file overrides the preset's 0.01
+
+
+def test_error_after_a_rewritten_name_keeps_its_original_place(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.pbtxt"
+    line = "simulation { mode: OFFSCREEN offscreen { fps: 30 output: PNGG } }"
+    bad.write_text(f"operation_mode: SIMULATION\n{line}\n")
+    column = line.index("PNGG") + 1
+    with pytest.raises(ConfigError, match=rf"{bad}:2:{column}: '{re.escape(line)}': .*PNGG"):
+        load_file(bad)
+    bad.write_text("simulation {\n  replay { speed: 2 }\n  viewer { fps: fast }\n}\n")
+    with pytest.raises(ConfigError, match=rf"{bad}:3:17: .*fast"):
+        load_file(bad)
+
+
+@pytest.mark.parametrize(
+    ("text", "where", "message"),
+    [
+        ("simulation { offscren { fps: 1 } }", "1:14", 'SimulationConfig has no field or option named "offscren". '
+         "Did you mean: offscreen?"),
+        ("simulation {\n  offscreen { fsp: 1 } }", "2:15", 'OffscreenOptions has no field or option named "fsp". '
+         "Did you mean: fps?"),
+        ("training { pp { } }", "1:12", 'TrainingConfig has no field or option named "pp". Did you mean: ppo?'),
+    ],
+)  # fmt: skip
+def test_unknown_names_in_a_file_list_close_fields_and_options(tmp_path: Path, text: str, where: str, message: str):
+    bad = tmp_path / "bad.pbtxt"
+    bad.write_text(text)
+    with pytest.raises(ConfigError, match=rf"{bad}:{where}: {re.escape(message)}"):
+        load_file(bad)
+
+
+def test_an_option_of_a_missing_plugin_says_what_to_install(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.pbtxt"
+    bad.write_text("simulation { offscreen { fps: 1 } }")
+    hint = "'offscreen' is an option of joshua-modes, which is not installed or is disabled: pip install joshua-modes"
+    with pytest.raises(ConfigError, match=rf":1:14: .*{re.escape(hint)}$"):
+        load_file(bad, OptionSet())
+
+
+def test_overrides_set_options_by_short_name() -> None:
+    loaded = load_preset("sim_offscreen")
+    for assignment in (
+        "simulation.offscreen.fps=60",
+        "simulation.offscreen.output=MP4_AND_PNG",
+        "simulation.offscreen.shadows=false",
+        "simulation.replay.strict=true",
+    ):
+        apply_override(loaded.message, assignment)
+    offscreen = options_of(loaded.message.simulation, modes_options.offscreen)
+    assert (offscreen.fps, offscreen.output) == (60, modes_options.OffscreenOptions.MP4_AND_PNG)
+    assert offscreen.HasField("shadows") and not offscreen.shadows
+    assert options_of(loaded.message.simulation, modes_options.replay).strict
+    training = load_preset("ant_train_mjx_tuned").message
+    apply_override(training, "training.ppo.hidden_sizes=[16, 16]")
+    assert list(options_of(training.training, ppo_options.ppo).hidden_sizes) == [16, 16]
+
+
+@pytest.mark.parametrize(
+    ("assignment", "message"),
+    [
+        ("simulation.offscren.fps=3", "simulation has no field 'offscren'. Did you mean: offscreen?"),
+        ("simulation.offscreen.fsp=3", "simulation.offscreen has no field 'fsp'. Did you mean: fps?"),
+        ("simulation.offscreen.fps=fast", "Couldn't parse float: fast"),
+        ("simulation.offscreen=3", "is a message"),
+    ],
+)
+def test_bad_option_overrides_list_close_fields_and_options(assignment: str, message: str) -> None:
+    with pytest.raises(UsageError, match=re.escape(message)) as caught:
+        apply_override(load_preset("sim_offscreen").message, assignment)
+    if "offscren" in assignment:
+        assert "options: mirror, offscreen, replay, viewer" in str(caught.value)
+
+
+def test_lenient_reading_skips_names_it_does_not_know(tmp_path: Path) -> None:
+    custom = tmp_path / "run.pbtxt"
+    custom.write_text('description: "d"\nsimulation { mode: SAMPLE sample { level: 2 } offscreen { fps: 3 } }\n')
+    loaded = load_file(custom, LENIENT)
+    assert (loaded.message.description, loaded.message.simulation.mode) == ("d", "SAMPLE")
+    apply_override(loaded.message, "simulation.sample.level=5", LENIENT)  # skipped, not an error
+    apply_override(loaded.message, "simulation.keyframe=home", LENIENT)
+    assert loaded.message.simulation.keyframe == "home"
+
+
+def test_a_third_party_plugin_adds_options_without_touching_the_core(tmp_path: Path) -> None:
+    host = PluginHost([(PluginInfo("sample", "joshua-sample", "1.0", "joshua_sample_plugin"), joshua_sample_plugin)])
+    options = host.options()
+    assert options.names(SimulationConfig.DESCRIPTOR) == ["sample"]
+    custom = tmp_path / "run.pbtxt"
+    custom.write_text("simulation {\n  mode: SAMPLE\n  sample { level: 2 sizes: [1, 2] }\n}\n")
+    loaded = load_file(custom, options)
+    apply_override(loaded.message, "simulation.sample.label=from --set", options)
+    sample = options_of(loaded.message.simulation, joshua_sample_plugin.sample)
+    assert (sample.level, list(sample.sizes), sample.label) == (2, [1, 2], "from --set")
+    printed = config_text_of(loaded.message, options)
+    assert "  sample {\n    level: 2\n" in printed and parse_text(printed, "printed", options) == loaded.message
+    custom.write_text("simulation {\n  sample { levl: 2 }\n}\n")
+    with pytest.raises(ConfigError, match=rf"{custom}:2:12: .*\"levl\". Did you mean: level, label\?"):
+        load_file(custom, options)
+
+
+def test_run_config_dicts_name_options_by_short_name() -> None:
+    training = finalize(load_preset("ant_train_mjx_tuned")).training
+    document = message_to_dict(training)
+    assert document["ppo"]["hidden_sizes"] == [128] * 4 and not any(key.startswith("[") for key in document)
+    again = TrainingConfig()
+    parse_dict(document, again, installed_options())
+    assert again == training
+    bracketed = TrainingConfig()
+    parse_dict({"[joshua_ppo.ppo]": {"entropy_coef": 0.5}}, bracketed, installed_options())
+    assert options_of(bracketed, ppo_options.ppo).entropy_coef == 0.5

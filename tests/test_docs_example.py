@@ -24,10 +24,22 @@ PENDULUM = """
       <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.02" mass="1"/>
     </body>
   </worldbody>
+  <keyframe><key name="out" qpos="1"/></keyframe>
 </mujoco>
 """
 
-# Runs with the example installed: discovery stays light, then the backend's engines step with RK4.
+# A config using the example's mode and its typed options (simulation.rk4_compare, field 10000).
+COMPARE_CONFIG = """\
+operation_mode: SIMULATION
+simulation {
+  mode: RK4_COMPARE
+  model_path: "pendulum.xml"
+  keyframe: "out"
+  rk4_compare { steps: 200 report_name: "compare.json" }
+}
+"""
+
+# Runs with the example installed: discovery and options stay light, then the backend's engines step with RK4.
 PROBE = """
 import json, sys
 from pathlib import Path
@@ -36,6 +48,7 @@ from joshua_core.plugins import Kind, PluginHost
 
 host = PluginHost.discover()
 component = host.component(Kind.BACKEND, "mujoco_rk4")
+host.options()  # imports every registered options module, joshua_rk4.options_pb2 too
 light = "mujoco" not in sys.modules
 engine = host.backend("mujoco_rk4").create_engine(Path(sys.argv[1]))
 
@@ -66,6 +79,11 @@ print(json.dumps({
 """
 
 
+def with_site(site: Path) -> dict[str, str]:
+    """The environment that makes the installed example importable, ahead of any PYTHONPATH already set."""
+    return {"PYTHONPATH": os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")]))}
+
+
 @pytest.fixture(scope="module")
 def example_site(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The example built into a wheel and installed into its own folder, as a user's pip would."""
@@ -79,14 +97,14 @@ def example_site(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return site
 
 
-def test_plugins_lists_the_rk4_backend(example_site: Path, run_joshua) -> None:
-    result = run_joshua("plugins", env={"PYTHONPATH": str(example_site)})
+def test_plugins_lists_the_rk4_backend_mode_and_options(example_site: Path, run_joshua) -> None:
+    result = run_joshua("plugins", env=with_site(example_site))
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
     header = next(i for i, line in enumerate(lines) if line.startswith("rk4  (joshua-rk4 "))
     assert lines[header].endswith("joshua_rk4.plugin") and "[BROKEN]" not in lines[header]
-    assert lines[header + 1].split()[:2] == ["backend", "mujoco_rk4"]
-    assert "backend  mujoco_rk4" in lines[header + 1]
+    registered = [line.split()[:2] for line in lines[header + 1 : header + 4]]
+    assert registered == [["backend", "mujoco_rk4"], ["mode", "RK4_COMPARE"], ["option", "rk4_compare"]]
     assert "conflict" not in result.stdout
 
 
@@ -96,7 +114,7 @@ def test_a_run_on_the_rk4_backend_succeeds(example_site: Path, run_joshua, tmp_p
         "simulation.backend=mujoco_rk4",
         "--set",
         "simulation.duration=0.2",
-        env={"PYTHONPATH": str(example_site)},
+        env=with_site(example_site),
     )
     assert result.returncode == 0, result.stderr
     assert "warning" not in result.stderr
@@ -110,7 +128,7 @@ def test_the_backend_creates_engines_that_step_with_rk4(example_site: Path, tmp_
     probe = subprocess.run(
         [sys.executable, "-c", PROBE, str(model)],
         cwd=tmp_path,
-        env={**os.environ, "PYTHONPATH": str(example_site)},
+        env={**os.environ, **with_site(example_site)},
         capture_output=True,
         text=True,
         timeout=120,
@@ -124,3 +142,28 @@ def test_the_backend_creates_engines_that_step_with_rk4(example_site: Path, tmp_
     assert report["integrator"] == report["rk4"]
     assert report["engine_qpos"] == report["raw_rk4_qpos"]
     assert report["engine_qpos"] != pytest.approx(report["raw_default_qpos"], abs=1e-9)
+
+
+def test_the_compare_mode_runs_with_its_own_options(example_site: Path, run_joshua, tmp_path: Path) -> None:
+    (tmp_path / "pendulum.xml").write_text(textwrap.dedent(PENDULUM))
+    config = tmp_path / "compare.pbtxt"
+    config.write_text(COMPARE_CONFIG)
+    env = with_site(example_site)
+    result = run_joshua("--config", str(config), env=env)
+    assert result.returncode == 0, result.stderr
+    report = json.loads((tmp_path / "joshua_output" / "compare.json").read_text())
+    assert (report["steps"], report["integrator"], report["tolerance"]) == (200, "EULER", 0.0)
+    assert 1e-4 < report["max_divergence"] < 1.0 and report["final_divergence"] <= report["max_divergence"]
+
+    over = run_joshua("--config", str(config), "--set", "simulation.rk4_compare.tolerance=1e-9", env=env)
+    assert over.returncode == 1 and "over the tolerance 1e-09" in over.stderr
+
+    printed = run_joshua("--config", str(config), "--set", "simulation.rk4_compare.steps=50", "--print-config", env=env)
+    assert printed.returncode == 0, printed.stderr
+    assert "  mode: RK4_COMPARE\n" in printed.stdout
+    assert '  rk4_compare {\n    steps: 50\n    report_name: "compare.json"\n  }\n' in printed.stdout
+
+    config.write_text(COMPARE_CONFIG.replace("steps: 200", "step: 200"))
+    error = run_joshua("--config", str(config), env=env)
+    assert error.returncode == 2 and "Traceback" not in error.stderr
+    assert f'{config}:6:17: CompareOptions has no field or option named "step". Did you mean: steps?' in error.stderr

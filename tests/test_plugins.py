@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -11,6 +14,7 @@ from types import ModuleType
 import pytest
 
 from joshua_core import hookimpl
+from joshua_core.config_pb2 import SimulationConfig, TrainingConfig
 from joshua_core.errors import PluginLoadError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import Backend, Mode
 from joshua_core.plugins import Kind, PluginHost, PluginInfo
@@ -259,3 +263,67 @@ def test_plugin_subcommand_gets_its_own_arguments_and_exit_status(tmp_path: Path
     assert usage.returncode == 0 and "usage: joshua greet" in usage.stdout and "--times" in usage.stdout
     wrong = run_joshua("presets", "--times", "2", env=env)
     assert wrong.returncode == 2 and "unrecognized arguments: --times 2" in wrong.stderr
+
+
+def test_plugins_lists_the_options_each_plugin_registers(run_joshua) -> None:
+    listing = run_joshua("plugins").stdout
+    for name, distribution in (("offscreen", "modes"), ("replay", "modes"), ("mirror", "mirror"), ("ppo", "ppo")):
+        block = re.split(r"\n(?=\S)", listing.split(f"{distribution}  (joshua-{distribution} ")[1])[0]
+        assert f"    option   {name:<14} " in block, block
+
+
+def test_options_are_loaded_from_their_registered_extensions() -> None:
+    host = PluginHost.discover()
+    options = host.options()
+    assert {"offscreen", "replay", "viewer", "mirror"} <= set(options.names(SimulationConfig.DESCRIPTOR))
+    assert {"ppo", "sb3"} <= set(options.names(TrainingConfig.DESCRIPTOR))
+    assert options.find(SimulationConfig.DESCRIPTOR, "offscreen").full_name == "joshua_modes.offscreen"
+    assert host.options() is options  # imported once per host
+
+
+@pytest.mark.parametrize(
+    ("target", "problem"),
+    [
+        ("joshua_core.config_pb2:SimulationConfig", "not a protobuf extension named 'odd'"),
+        ("joshua_modes.options_pb2:offscreen", "not a protobuf extension named 'odd'"),  # registered under another name
+        ("joshua_no_such_module.options_pb2:odd", "names module 'joshua_no_such_module.options_pb2'"),
+    ],
+)
+def test_an_option_that_is_not_an_extension_of_its_name_names_the_plugin(target: str, problem: str) -> None:
+    host = host_of(("odd", plugin_registering("option", "odd", target)))
+    with pytest.raises(PluginLoadError, match=rf"option 'odd' from plugin 'odd' \(dist-odd\).*{re.escape(problem)}"):
+        host.options()
+
+
+SAMPLE_CONFIG = """\
+operation_mode: SIMULATION
+simulation {
+  mode: SAMPLE
+  model_path: "so_arm100/scene.xml"
+  sample { level: 2 sizes: [3, 4] }
+}
+"""
+
+
+def test_a_third_party_plugin_adds_a_mode_and_its_options(tmp_path: Path, run_joshua) -> None:
+    """The sample plugin, installed as a distribution, adds SAMPLE and `sample` without touching the core."""
+    site = tmp_path / "site"
+    source = (Path(__file__).parent / "joshua_sample_plugin.py").read_text()
+    install_fake_distribution(site, "joshua-sample", "sample", "joshua_sample_plugin", source)
+    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")]))}
+    listing = run_joshua("plugins", env=env).stdout
+    assert "    mode     SAMPLE " in listing and "    option   sample " in listing
+    config = tmp_path / "sample.pbtxt"
+    config.write_text(SAMPLE_CONFIG)
+    run = run_joshua("--config", str(config), "--set", "simulation.sample.label=set", env=env)
+    assert run.returncode == 0, run.stderr
+    written = json.loads((tmp_path / "joshua_output" / "sample.json").read_text())
+    assert written == {"level": 2, "sizes": [3, 4], "label": "set"}
+    printed = run_joshua("--config", str(config), "--print-config", env=env)
+    assert "  mode: SAMPLE\n" in printed.stdout and "  sample {\n    level: 2\n" in printed.stdout
+    config.write_text(SAMPLE_CONFIG.replace("level: 2", "levle: 2"))
+    error = run_joshua("--config", str(config), env=env)
+    assert error.returncode == 2 and f"{config}:5:12: " in error.stderr and "Did you mean: level" in error.stderr
+    missing = run_joshua("--config", str(config))  # not installed: the mode is what to install, not a field error
+    assert missing.returncode == 2 and "no mode named 'SAMPLE' is installed" in missing.stderr
+    assert "levle" not in missing.stderr and "Traceback" not in missing.stderr

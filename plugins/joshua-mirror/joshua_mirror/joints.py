@@ -10,8 +10,9 @@ from dataclasses import dataclass
 
 import mujoco
 
-from joshua_core.config_pb2 import MirrorOptions, TopicMapping
+from joshua_core.config_pb2 import TopicMapping
 from joshua_core.errors import ConfigError
+from joshua_mirror.options_pb2 import MirrorOptions
 
 MAPPINGS_FIELD = "simulation.mirror_topic_mappings.mappings"
 

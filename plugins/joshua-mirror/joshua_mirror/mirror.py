@@ -17,8 +17,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from joshua_core.config_pb2 import MirrorOptions
 from joshua_mirror.joints import MirroredJoint
+from joshua_mirror.options_pb2 import MirrorOptions
 
 APPLY_LATENCY_SAMPLES = 100_000  # kept for the report's percentiles; older ones are dropped
 

@@ -16,11 +16,14 @@ from typing import Any
 import mujoco
 
 from joshua_core.atomic import atomic_write_json
-from joshua_core.config_pb2 import MirrorOptions, SimulationConfig
+from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.interfaces import Engine, Mode, RunContext
+from joshua_core.options import options_of
+from joshua_mirror import options_pb2
 from joshua_mirror.joints import MAPPINGS_FIELD, MirroredJoint, resolve_joints
 from joshua_mirror.mirror import Mirror
+from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.ros import RosSession, message_types, sensor_qos
 
 REPORT_FILE = "mirror_report.json"
@@ -40,7 +43,7 @@ class MirrorMode(Mode):
     """Mirrors the mapped encoder topics into the simulation until `duration` wall seconds pass or Ctrl-C."""
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
-        options = config.mirror
+        options = options_of(config, options_pb2.mirror)
         with ExitStack() as stack:
             ros = stack.enter_context(RosSession(options.node_name or DEFAULT_NODE_NAME))
             engine = stack.enter_context(context.create_engine(config))
@@ -158,7 +161,8 @@ def _float64_callback(mirror: Mirror, index: int) -> Any:
 
 def _open_display(stack: ExitStack, config: SimulationConfig, context: RunContext) -> _DisplayFeed | None:
     """The display the options ask for (None for NONE), on an engine of its own from the config's backend."""
-    choice = config.mirror.display
+    options = options_of(config, options_pb2.mirror)
+    choice = options.display
     if choice == MirrorOptions.NONE:
         return None
     from joshua_render import open_display  # here: mujoco's viewer and OpenCV load only when a display is asked for
@@ -170,13 +174,13 @@ def _open_display(stack: ExitStack, config: SimulationConfig, context: RunContex
             shadow,
             output_dir=context.output_dir,
             name="mirror",
-            fps=config.mirror.display_fps or DEFAULT_DISPLAY_FPS,
-            camera=config.mirror.camera or None,
+            fps=options.display_fps or DEFAULT_DISPLAY_FPS,
+            camera=options.camera or None,
             viewer=viewer,
         )
     )
     print(f"joshua: mirror: display: {display.description}", file=sys.stderr)
-    return _DisplayFeed(shadow, display, config.mirror.display_fps or DEFAULT_DISPLAY_FPS)
+    return _DisplayFeed(shadow, display, options.display_fps or DEFAULT_DISPLAY_FPS)
 
 
 class _DisplayFeed:
@@ -288,7 +292,7 @@ def _warn_stale(joints: list[MirroredJoint], timeout: float) -> None:
 
 
 def _report(config: SimulationConfig, mirror: Mirror, loop: _MainLoop, stopped_by: str) -> dict[str, Any]:
-    options = config.mirror
+    options = options_of(config, options_pb2.mirror)
     return {
         "model_path": config.model_path,
         "apply": MirrorOptions.Apply.Name(options.apply),

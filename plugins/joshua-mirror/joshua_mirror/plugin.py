@@ -1,4 +1,7 @@
-"""Entry point of joshua-mirror: registers the MIRROR mode and `joshua mirror-replay`. Imports nothing heavy."""
+"""Entry point of joshua-mirror: registers the MIRROR mode, its options and `joshua mirror-replay`.
+
+Imports nothing heavy: the options module (options_pb2) imports only protobuf and the core schema.
+"""
 
 from __future__ import annotations
 
@@ -13,6 +16,11 @@ def joshua_register_modes(registry: Registrar) -> None:
         "joshua_mirror.mode:MirrorMode",
         "ROS 2 digital twin: mirrors encoder topics (Float64 or JointState) into the simulation in real time",
     )
+
+
+@hookimpl
+def joshua_register_options(registry: Registrar) -> None:
+    registry.add("mirror", "joshua_mirror.options_pb2:mirror", "MIRROR: how encoder values reach the simulation")
 
 
 @hookimpl

@@ -17,16 +17,19 @@ from pathlib import Path
 import numpy as np
 
 from joshua_core.cli import add_config_arguments, load
-from joshua_core.config import finalize
-from joshua_core.config_pb2 import MirrorOptions, SimulationConfig
+from joshua_core.config import finalize, simulation_mode
+from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import Command
+from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
 from joshua_core.trajectory import Trajectory, read_trajectory
+from joshua_mirror import options_pb2
 from joshua_mirror.joints import MirroredJoint, resolve_joints
 from joshua_mirror.mode import DEFAULT_JOINT_STATE_TOPIC
+from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.ros import RosSession, message_types
 
 DEFAULT_PRESET = "sim_mirror"
@@ -68,13 +71,11 @@ class MirrorReplayCommand(Command):
             raise UsageError("--rate and --speed must be positive and --loops at least 1")
         if not args.preset and not args.config:
             args.preset = DEFAULT_PRESET
-        config = finalize(load(args)).simulation
-        if config.mode != SimulationConfig.MIRROR:
-            raise ConfigError(
-                f"mirror-replay needs a MIRROR config; this one is {SimulationConfig.Mode.Name(config.mode)}"
-            )
+        config = finalize(load(args, plugins.options())).simulation
+        if simulation_mode(config) != "MIRROR":
+            raise ConfigError(f"mirror-replay needs a MIRROR config; this one is {simulation_mode(config)}")
         if args.joint_state:
-            config.mirror.message_type = MirrorOptions.JOINT_STATE
+            options_of(config, options_pb2.mirror).message_type = MirrorOptions.JOINT_STATE
         joints = _joints_of(config)
         trajectory = read_trajectory(resolve_data_path(args.csv, what="trajectory"))
         trajectory.require_playable()
@@ -104,7 +105,8 @@ def _joints_of(config: SimulationConfig) -> list[MirroredJoint]:
     from joshua_mujoco import MuJoCoEngine
 
     with MuJoCoEngine(config.model_path) as engine:
-        return resolve_joints(engine.model, config.mirror_topic_mappings.mappings, config.mirror)
+        options = options_of(config, options_pb2.mirror)
+        return resolve_joints(engine.model, config.mirror_topic_mappings.mappings, options)
 
 
 def _columns(trajectory: Trajectory, joints: list[MirroredJoint], csv: Path) -> list[int]:
@@ -129,8 +131,9 @@ class _EncoderPublisher:
         self.node = ros.node
         self.float64 = float64
         self.joint_state = joint_state
-        if config.mirror.message_type == MirrorOptions.JOINT_STATE:
-            topic = config.mirror.joint_state_topic or DEFAULT_JOINT_STATE_TOPIC
+        options = options_of(config, options_pb2.mirror)
+        if options.message_type == MirrorOptions.JOINT_STATE:
+            topic = options.joint_state_topic or DEFAULT_JOINT_STATE_TOPIC
             self.publishers = [self.node.create_publisher(joint_state, topic, 10)]
             self.names: list[str] | None = [joint.source for joint in joints]
         else:

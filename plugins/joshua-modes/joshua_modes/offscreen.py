@@ -17,12 +17,15 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from joshua_core.config_pb2 import OffscreenOptions, SimulationConfig
+from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, RunContext, render_size
+from joshua_core.options import options_of
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
 from joshua_core.trajectory import read_trajectory
+from joshua_modes import options_pb2
+from joshua_modes.options_pb2 import OffscreenOptions
 from joshua_modes.replay import Replayer, model_joint_names
 from joshua_modes.validation import validate, validated_replayer
 from joshua_mujoco import MuJoCoEngine
@@ -160,7 +163,7 @@ class OffscreenMode(Mode):
     """Renders the trajectory replay (or, without a trajectory, `duration` seconds of physics) to files."""
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
-        options = config.offscreen
+        options = options_of(config, options_pb2.offscreen)
         fps = options.fps or DEFAULT_FPS
         if fps < 0:
             raise ConfigError(f"simulation.offscreen.fps must be positive, got {fps:g}")

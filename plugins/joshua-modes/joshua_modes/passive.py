@@ -11,11 +11,14 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from joshua_core.config_pb2 import SimulationConfig, ViewerOptions
+from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import Mode, RunContext
+from joshua_core.options import options_of
 from joshua_core.progress import progress_bar
+from joshua_modes import options_pb2
 from joshua_modes.offscreen import frame_times
+from joshua_modes.options_pb2 import ViewerOptions
 from joshua_modes.replay import Replayer
 from joshua_modes.validation import ValidationReport, validated_replayer
 from joshua_render import Display, RecordingDisplay, open_display
@@ -38,9 +41,9 @@ class PassiveMode(Mode):
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         if not config.trajectory_path:
             raise ConfigError("PASSIVE mode replays a trajectory: set simulation.trajectory_path to a CSV file")
-        replay = config.replay
+        replay, viewer = options_of(config, options_pb2.replay), options_of(config, options_pb2.viewer)
         speed = replay.speed or 1.0
-        fps = config.viewer.fps or DEFAULT_FPS
+        fps = viewer.fps or DEFAULT_FPS
         if speed < 0 or fps < 0:
             raise ConfigError("simulation.replay.speed and simulation.viewer.fps must be positive")
         with context.create_engine(config) as engine:
@@ -53,8 +56,8 @@ class PassiveMode(Mode):
                 output_dir=context.output_dir,
                 name=VIDEO_NAME,
                 fps=fps,
-                camera=config.viewer.camera or None,
-                viewer=VIEWER_CHOICE[config.viewer.display],
+                camera=viewer.camera or None,
+                viewer=VIEWER_CHOICE[viewer.display],
             ) as display:
                 print(
                     f"replaying {replayer.duration:.3f} s ({'tracked' if replay.tracked else 'kinematic'}): "

@@ -1,4 +1,7 @@
-"""Entry point of joshua-modes: registers the OFFSCREEN, PASSIVE and INTERACTIVE modes. Imports nothing heavy."""
+"""Entry point of joshua-modes: registers the OFFSCREEN, PASSIVE and INTERACTIVE modes and their options.
+
+Imports nothing heavy: the options module (options_pb2) imports only protobuf and the core schema.
+"""
 
 from __future__ import annotations
 
@@ -23,3 +26,10 @@ def joshua_register_modes(registry: Registrar) -> None:
         "joshua_modes.interactive:InteractiveMode",
         "the MuJoCo viewer with the robot held at its keyframe by its actuators",
     )
+
+
+@hookimpl
+def joshua_register_options(registry: Registrar) -> None:
+    registry.add("offscreen", "joshua_modes.options_pb2:offscreen", "OFFSCREEN: camera, fps, outputs, depth, shadows")
+    registry.add("replay", "joshua_modes.options_pb2:replay", "PASSIVE, OFFSCREEN: trajectory validation and replay")
+    registry.add("viewer", "joshua_modes.options_pb2:viewer", "PASSIVE, INTERACTIVE: viewer window or recorded video")

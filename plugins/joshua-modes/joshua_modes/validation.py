@@ -23,7 +23,9 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Engine
+from joshua_core.options import options_of
 from joshua_core.trajectory import Trajectory, read_trajectory
+from joshua_modes import options_pb2
 from joshua_modes.replay import Replayer, model_joint_names, qpos_addresses
 
 DEFAULT_VELOCITY_LIMIT = 10.0  # rad/s (or m/s for slide joints)
@@ -351,7 +353,7 @@ def validated_replayer(
     as JSON; return the replayer of its usable rows. With `replay.strict` and any problem, raise UsageError
     ending in `refusal` (what was not done) instead."""
     trajectory = read_trajectory(config.trajectory_path, model_joint_names(engine.model))
-    replay = config.replay
+    replay = options_of(config, options_pb2.replay)
     report, usable = validate(
         trajectory,
         engine.model,

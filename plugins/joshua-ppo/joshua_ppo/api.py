@@ -11,6 +11,7 @@ from google.protobuf import json_format
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import RunContext
+from joshua_core.options import parse_dict
 from joshua_core.plugins import Kind, PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import load_task_spec
@@ -35,12 +36,12 @@ def train_mjx(
     `ppo`: {...} for PpoOptions); unknown names are a ConfigError. The task defaults to the registered
     task whose model is `model_path` (its `_mjx` variant counts too), e.g. ant/ant.xml -> ant_locomotion.
     """
+    host = plugins or PluginHost.discover()
     training = TrainingConfig()
     try:
-        json_format.ParseDict(dict(config or {}), training)
+        parse_dict(dict(config or {}), training, host.options())
     except json_format.ParseError as error:
         raise ConfigError(f"train_mjx config: {error}") from None
-    host = plugins or PluginHost.discover()
     training.model_path = str(resolve_data_path(model_path))
     training.task = task or training.task or _task_for_model(Path(training.model_path), host)
     root = Path(checkpoint_dir or training.checkpoint_dir or DEFAULT_CHECKPOINT_DIR)

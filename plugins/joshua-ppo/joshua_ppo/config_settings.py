@@ -4,9 +4,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from joshua_core.config_pb2 import PpoOptions, TrainingConfig
+from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
+from joshua_core.options import options_of
+from joshua_ppo import options_pb2
 from joshua_ppo.networks import ACTIVATIONS
+from joshua_ppo.options_pb2 import PpoOptions
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
 
 DEFAULT_TOTAL_TIMESTEPS = 50_000_000
@@ -27,7 +30,7 @@ class PpoSettings:
 
     @classmethod
     def from_config(cls, config: TrainingConfig) -> PpoSettings:
-        options = config.ppo
+        options = options_of(config, options_pb2.ppo)
         for name in ("hidden_sizes", "value_hidden_sizes"):
             if any(size <= 0 for size in getattr(options, name)):
                 raise ConfigError(f"training.ppo.{name} must be positive, got {list(getattr(options, name))}")

@@ -1,4 +1,4 @@
-"""Entry point of joshua-ppo: registers the `ppo` trainer. Imports nothing heavy (no jax, flax or mujoco)."""
+"""Entry point of joshua-ppo: registers the `ppo` trainer and its options. Imports nothing heavy (no jax or flax)."""
 
 from __future__ import annotations
 
@@ -9,3 +9,8 @@ from joshua_core.plugins import Registrar
 @hookimpl
 def joshua_register_trainers(registry: Registrar) -> None:
     registry.add("ppo", "joshua_ppo.trainer:PpoTrainer", "PPO in JAX/Flax on MJX: thousands of environments per GPU")
+
+
+@hookimpl
+def joshua_register_options(registry: Registrar) -> None:
+    registry.add("ppo", "joshua_ppo.options_pb2:ppo", "ppo trainer: network, advantages, schedule, run, videos")

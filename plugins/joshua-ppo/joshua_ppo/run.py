@@ -12,11 +12,12 @@ from typing import Any
 
 import jax
 import numpy as np
-from google.protobuf import json_format
 
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.curves import write_training_curves
+from joshua_core.options import message_to_dict, options_of
+from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import (
     CONFIG_FILE,
     METRICS_FILE,
@@ -93,7 +94,7 @@ class Run:
             "action_size": self.env.action_size,
             "devices": [str(device) for device in jax.devices()],
             "settings": settings,
-            "training": json_format.MessageToDict(self.config, preserving_proto_field_name=True),
+            "training": message_to_dict(self.config),
             "versions": {
                 name: _version(name) for name in ("joshua-ppo", "jax", "flax", "optax", "mujoco", "mujoco-mjx")
             },
@@ -125,7 +126,7 @@ class Run:
             self.scalars.write(report.env_steps, {**metrics, "steps_per_second": report.steps_per_second})
         self.bar.set_description_str(f"ppo {self.config.task} return {self.last_return:.4g}", refresh=False)
         self.bar.update(report.env_steps - self.bar.n)
-        interval = self.config.ppo.video_interval
+        interval = options_of(self.config, options_pb2.ppo).video_interval
         if interval > 0 and report.iteration % interval == 0:
             self.record_video(state, report.env_steps)
         if self.viewer is not None:
@@ -153,14 +154,14 @@ class Run:
         write_training_curves(
             self.history, self.folder / "training_curves.png", title=f"{self.config.task}: ppo", series=CURVE_SERIES
         )
-        if report is not None and self.config.ppo.video_interval == 0:
+        if report is not None and options_of(self.config, options_pb2.ppo).video_interval == 0:
             self.record_video(state, progress.env_steps)
 
     def record_video(self, state: TrainingState, step: int) -> None:
         """Roll out the current deterministic policy for one episode and render it to videos/step_<N>.mp4."""
         if self._rollout is None:
             env = environment(self.config, None, len(jax.devices()))
-            steps = self.config.ppo.video_steps or env.task.episode_length
+            steps = options_of(self.config, options_pb2.ppo).video_steps or env.task.episode_length
             self._rollout = env, make_rollout(env, self.settings.network, steps)
         env, rollout = self._rollout
         episode = collect(rollout(state.params, state.normalizer, jax.random.PRNGKey(step)))

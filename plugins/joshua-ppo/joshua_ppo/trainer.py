@@ -14,7 +14,9 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import RunContext, Trainer
+from joshua_core.options import options_of, parse_dict
 from joshua_core.progress import progress_bar
+from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import (
     CONFIG_FILE,
     METRICS_FILE,
@@ -36,7 +38,7 @@ from joshua_ppo.viewer import open_viewer
 
 def _run_name(config: TrainingConfig, root: Path) -> tuple[str, Path | None]:
     """The run's name and the checkpoint to resume from (None for a new run)."""
-    options = config.ppo
+    options = options_of(config, options_pb2.ppo)
     if options.resume:
         name = options.run_name or _newest_run(root)
         checkpoints = run_checkpoints(root, name)
@@ -91,7 +93,7 @@ class PpoTrainer(Trainer):
         start = resume[1].env_steps if resume else 0
         run.bar = progress_bar(settings.total_timesteps, description=f"ppo {config.task}", unit="steps", initial=start)
         run.scalars = ScalarLog(run.folder / "tensorboard")
-        run.viewer = open_viewer(config.ppo, env.model)
+        run.viewer = open_viewer(options_of(config, options_pb2.ppo), env.model)
         devices = ", ".join(str(device) for device in jax.devices())
         run.bar.write(f"ppo: {settings.rollout.num_envs} environments on {devices}; compiling the training iteration")
         try:
@@ -136,7 +138,7 @@ class PpoTrainer(Trainer):
             raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
         config = TrainingConfig()
         try:
-            json_format.ParseDict(saved["training"], config)
+            parse_dict(saved["training"], config, context.plugins.options())
         except (KeyError, json_format.ParseError) as error:
             raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
         settings = PpoSettings.from_config(config)

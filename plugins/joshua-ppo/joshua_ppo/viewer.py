@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import mujoco
 
-from joshua_core.config_pb2 import PpoOptions
+from joshua_ppo.options_pb2 import PpoOptions
 from joshua_render import LiveViewer
 from joshua_render import open_viewer as open_live_viewer
 

@@ -1,4 +1,4 @@
-"""Entry point of joshua-sb3: registers the `sb3` trainer. Imports nothing heavy."""
+"""Entry point of joshua-sb3: registers the `sb3` trainer and its options. Imports nothing heavy."""
 
 from __future__ import annotations
 
@@ -13,3 +13,8 @@ def joshua_register_trainers(registry: Registrar) -> None:
         "joshua_sb3.trainer:Sb3Trainer",
         "stable-baselines3 PPO (SAC, TD3) on the CPU vectorized MuJoCo environments",
     )
+
+
+@hookimpl
+def joshua_register_options(registry: Registrar) -> None:
+    registry.add("sb3", "joshua_sb3.options_pb2:sb3", "sb3 trainer: algorithm, network, run, resume")

@@ -8,6 +8,8 @@ from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
+from joshua_core.options import options_of
+from joshua_sb3 import options_pb2
 
 ALGORITHMS = ("PPO", "SAC", "TD3")
 ON_POLICY_ONLY = ("gae_lambda", "clip_epsilon")  # PPO fields SAC and TD3 have no use for
@@ -41,25 +43,26 @@ class Settings:
 
     @classmethod
     def from_config(cls, config: TrainingConfig) -> Settings:
-        algorithm = (config.sb3.algorithm or "PPO").upper()
+        options = options_of(config, options_pb2.sb3)
+        algorithm = (options.algorithm or "PPO").upper()
         if algorithm not in ALGORITHMS:
-            raise ConfigError(f"training.sb3.algorithm '{config.sb3.algorithm}' is unknown; choose one of {ALGORITHMS}")
+            raise ConfigError(f"training.sb3.algorithm '{options.algorithm}' is unknown; choose one of {ALGORITHMS}")
         on_policy = algorithm == "PPO"
         if not on_policy:
             ignored = [name for name in ON_POLICY_ONLY if getattr(config, name)]
             if ignored:
                 names = ", ".join(f"training.{name}" for name in ignored)
                 print(f"joshua: warning: {algorithm} ignores {names} (PPO settings)", file=sys.stderr)
-        if any(size <= 0 for size in config.sb3.hidden_sizes):
-            raise ConfigError(f"training.sb3.hidden_sizes must be positive, got {list(config.sb3.hidden_sizes)}")
-        if config.sb3.checkpoint_interval < 0:
+        if any(size <= 0 for size in options.hidden_sizes):
+            raise ConfigError(f"training.sb3.hidden_sizes must be positive, got {list(options.hidden_sizes)}")
+        if options.checkpoint_interval < 0:
             raise ConfigError("training.sb3.checkpoint_interval must not be negative")
         total_timesteps = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
         return cls(
             algorithm=algorithm,
             num_envs=config.num_envs or DEFAULT_NUM_ENVS,
             total_timesteps=total_timesteps,
-            checkpoint_interval=config.sb3.checkpoint_interval or max(1, total_timesteps // CHECKPOINTS_PER_RUN),
+            checkpoint_interval=options.checkpoint_interval or max(1, total_timesteps // CHECKPOINTS_PER_RUN),
             num_steps=config.num_steps or (64 if on_policy else 1),
             num_epochs=config.num_epochs or (10 if on_policy else 1),
             minibatch_size=config.minibatch_size or 256,
@@ -67,9 +70,9 @@ class Settings:
             gamma=config.gamma or 0.99,
             gae_lambda=config.gae_lambda or 0.95,
             clip_epsilon=config.clip_epsilon or 0.2,
-            entropy_coef=config.sb3.entropy_coef,
-            hidden_sizes=tuple(config.sb3.hidden_sizes) or DEFAULT_HIDDEN_SIZES,
-            normalize=not config.sb3.disable_normalization,
+            entropy_coef=options.entropy_coef,
+            hidden_sizes=tuple(options.hidden_sizes) or DEFAULT_HIDDEN_SIZES,
+            normalize=not options.disable_normalization,
             seed=int(config.seed),
         )
 

@@ -27,9 +27,11 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.evaluation import read_run_config
 from joshua_core.interfaces import RunContext, Trainer
+from joshua_core.options import message_to_dict, options_of, parse_dict
 from joshua_core.progress import progress_bar
 from joshua_mujoco.vector import BatchedVectorEnv, vector_env_from_config
 from joshua_render import VideoWriter
+from joshua_sb3 import options_pb2
 from joshua_sb3.run_folder import (
     CONFIG_FILE,
     METRICS_FILE,
@@ -127,7 +129,7 @@ class RunWriter:
             "algorithm": self.settings.algorithm,
             "task": self.config.task,
             "settings": self.settings.as_dict(),
-            "training": json_format.MessageToDict(self.config, preserving_proto_field_name=True),
+            "training": message_to_dict(self.config),
             "versions": {name: _version(name) for name in ("joshua-sb3", "stable-baselines3", "torch", "mujoco")},
         }
 
@@ -167,7 +169,7 @@ def _version(distribution: str) -> str:
 def _run_dir(config: TrainingConfig, context: RunContext, settings: Settings) -> tuple[Path, Path | None]:
     """The run folder to write, and the checkpoint to resume from (None for a new run)."""
     root = context.output_dir
-    options = config.sb3
+    options = options_of(config, options_pb2.sb3)
     if options.resume:
         run_dir = root / options.run_name if options.run_name else _newest_run(root)
         if not (run_dir / CONFIG_FILE).is_file():
@@ -231,7 +233,7 @@ class Sb3Trainer(Trainer):
                 resume_from,
                 settings.algorithm,
                 vec_env,
-                trust=config.sb3.trust_checkpoint,
+                trust=options_of(config, options_pb2.sb3).trust_checkpoint,
                 trust_hint=TRAIN_TRUST_HINT,
                 with_buffer=True,
             )
@@ -293,7 +295,7 @@ class Sb3Trainer(Trainer):
             raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
         training = TrainingConfig()
         try:
-            json_format.ParseDict(saved["training"], training)
+            parse_dict(saved["training"], training, context.plugins.options())
         except (KeyError, json_format.ParseError) as error:
             raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
         training.num_envs = episodes

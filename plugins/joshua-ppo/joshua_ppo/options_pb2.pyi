@@ -1,0 +1,73 @@
+from joshua_core import config_pb2 as _config_pb2
+from google.protobuf.internal import containers as _containers
+from google.protobuf.internal import enum_type_wrapper as _enum_type_wrapper
+from google.protobuf import descriptor as _descriptor
+from google.protobuf import message as _message
+from collections.abc import Iterable as _Iterable
+from typing import ClassVar as _ClassVar, Optional as _Optional, Union as _Union
+
+DESCRIPTOR: _descriptor.FileDescriptor
+PPO_FIELD_NUMBER: _ClassVar[int]
+ppo: _descriptor.FieldDescriptor
+
+class PpoOptions(_message.Message):
+    __slots__ = ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "value_hidden_sizes", "squash_actions", "activation", "state_dependent_std", "recompute_advantages", "advantage", "entropy_coef", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "desired_kl", "anneal_learning_rate", "disable_observation_normalization", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs")
+    class Advantage(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        GAE: _ClassVar[PpoOptions.Advantage]
+        LAMBDA_RETURN: _ClassVar[PpoOptions.Advantage]
+    GAE: PpoOptions.Advantage
+    LAMBDA_RETURN: PpoOptions.Advantage
+    class Viewer(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        AUTO: _ClassVar[PpoOptions.Viewer]
+        OFF: _ClassVar[PpoOptions.Viewer]
+        ON: _ClassVar[PpoOptions.Viewer]
+    AUTO: PpoOptions.Viewer
+    OFF: PpoOptions.Viewer
+    ON: PpoOptions.Viewer
+    RUN_NAME_FIELD_NUMBER: _ClassVar[int]
+    RESUME_FIELD_NUMBER: _ClassVar[int]
+    CHECKPOINT_INTERVAL_FIELD_NUMBER: _ClassVar[int]
+    HIDDEN_SIZES_FIELD_NUMBER: _ClassVar[int]
+    VALUE_HIDDEN_SIZES_FIELD_NUMBER: _ClassVar[int]
+    SQUASH_ACTIONS_FIELD_NUMBER: _ClassVar[int]
+    ACTIVATION_FIELD_NUMBER: _ClassVar[int]
+    STATE_DEPENDENT_STD_FIELD_NUMBER: _ClassVar[int]
+    RECOMPUTE_ADVANTAGES_FIELD_NUMBER: _ClassVar[int]
+    ADVANTAGE_FIELD_NUMBER: _ClassVar[int]
+    ENTROPY_COEF_FIELD_NUMBER: _ClassVar[int]
+    REWARD_SCALING_FIELD_NUMBER: _ClassVar[int]
+    UNROLLS_PER_ITERATION_FIELD_NUMBER: _ClassVar[int]
+    MAX_GRAD_NORM_FIELD_NUMBER: _ClassVar[int]
+    DESIRED_KL_FIELD_NUMBER: _ClassVar[int]
+    ANNEAL_LEARNING_RATE_FIELD_NUMBER: _ClassVar[int]
+    DISABLE_OBSERVATION_NORMALIZATION_FIELD_NUMBER: _ClassVar[int]
+    VALUE_COEF_FIELD_NUMBER: _ClassVar[int]
+    VIDEO_INTERVAL_FIELD_NUMBER: _ClassVar[int]
+    VIDEO_STEPS_FIELD_NUMBER: _ClassVar[int]
+    VIEWER_FIELD_NUMBER: _ClassVar[int]
+    VIEWER_ENVS_FIELD_NUMBER: _ClassVar[int]
+    run_name: str
+    resume: bool
+    checkpoint_interval: int
+    hidden_sizes: _containers.RepeatedScalarFieldContainer[int]
+    value_hidden_sizes: _containers.RepeatedScalarFieldContainer[int]
+    squash_actions: bool
+    activation: str
+    state_dependent_std: bool
+    recompute_advantages: bool
+    advantage: PpoOptions.Advantage
+    entropy_coef: float
+    reward_scaling: float
+    unrolls_per_iteration: int
+    max_grad_norm: float
+    desired_kl: float
+    anneal_learning_rate: bool
+    disable_observation_normalization: bool
+    value_coef: float
+    video_interval: int
+    video_steps: int
+    viewer: PpoOptions.Viewer
+    viewer_envs: int
+    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., value_hidden_sizes: _Optional[_Iterable[int]] = ..., squash_actions: _Optional[bool] = ..., activation: _Optional[str] = ..., state_dependent_std: _Optional[bool] = ..., recompute_advantages: _Optional[bool] = ..., advantage: _Optional[_Union[PpoOptions.Advantage, str]] = ..., entropy_coef: _Optional[float] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., desired_kl: _Optional[float] = ..., anneal_learning_rate: _Optional[bool] = ..., disable_observation_normalization: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ...) -> None: ...
