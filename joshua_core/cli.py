@@ -125,7 +125,9 @@ def list_plugins(host: PluginHost) -> int:
         if info.error:
             print(f"    error: {info.error}")
         for component in info.components:
-            print(f"    {component.kind.value:<8} {component.name:<14} {component.summary}")
+            verb = "provides" if component.kind is Kind.BACKEND else "needs"
+            kinds = f" [{verb} {', '.join(component.env_kinds)} envs]" if component.env_kinds else ""
+            print(f"    {component.kind.value:<8} {component.name:<14} {component.summary}{kinds}")
     for conflict in host.conflicts:
         print(f"conflict: {conflict}")
     return 0
@@ -171,6 +173,9 @@ def run(args: argparse.Namespace, host: PluginHost) -> int:
         raise PluginNotFoundError(missing[0])
     if missing:
         raise PluginNotFoundError("this config needs plugins that are not installed:\n- " + "\n- ".join(missing))
+    needed = dict(required_components(loaded.message))
+    if Kind.TRAINER in needed:  # a trainer on a backend without the environments it needs: before heavy imports
+        host.check_env_kinds(needed[Kind.TRAINER], needed[Kind.BACKEND])
     config = finalize(loaded)
     if config.operation_mode == JoshuaConfig.SIMULATION:
         simulation = config.simulation

@@ -28,8 +28,7 @@ FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
     TrainingConfig.SB3: ("sb3", "mujoco"),
 }
 DEFAULT_SIMULATION_BACKEND = "mujoco"
-NON_NEGATIVE_TRAINING_FIELDS = (
-    "num_envs",
+NON_NEGATIVE_TRAINING_FIELDS = (  # num_envs is checked where environments are made (EnvSpec)
     "total_timesteps",
     "num_steps",
     "num_epochs",
