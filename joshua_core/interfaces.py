@@ -142,10 +142,12 @@ class EnvSpec:
             raise ConfigError(f"num_envs must be at least 1, got {self.num_envs}")
 
     @classmethod
-    def from_training(cls, training: TrainingConfig, *, num_envs: int | None = None, seed: int | None = None) -> EnvSpec:
+    def from_training(
+        cls, training: TrainingConfig, *, num_envs: int | None = None, seed: int | None = None
+    ) -> EnvSpec:
         """The environments a finalized training config describes; `num_envs` and `seed` replace its own."""
         if not training.task:
-            raise ConfigError('training.task is empty; name a task, e.g. task: "so_arm100_reach" (see `joshua plugins`)')
+            raise ConfigError('training.task is empty; name a task, e.g. task: "ant_locomotion" (see `joshua plugins`)')
         return cls(
             task=training.task,
             num_envs=training.num_envs if num_envs is None else num_envs,

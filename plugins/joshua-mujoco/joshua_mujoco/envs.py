@@ -51,7 +51,8 @@ class TaskEnv(gymnasium.Env):
         **task_options: Any,
     ) -> None:
         path = resolve_data_path(model_path) if model_path else None
-        built, model = load_task_model(task, path, plugins or PluginHost.discover(), task_config_from_options(task_options))
+        config = task_config_from_options(task_options)
+        built, model = load_task_model(task, path, plugins or PluginHost.discover(), config)
         self.simulation = BatchedSimulation(built, model, 1, nthread=1)
         self.task = built
         self.render_mode = render_mode
