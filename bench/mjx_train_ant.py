@@ -42,9 +42,12 @@ from joshua_core.config import apply_override, finalize, load_preset
 from joshua_core.plugins import PluginHost
 from joshua_mjx.env import MjxEnv
 from joshua_mjx.physics import mjx
-from joshua_ppo.ppo import IterationReport, RunningStatistics, TrainingState, train_ppo
+from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.envs import environment
+from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.rollout import collect, make_rollout, mean_results
-from joshua_ppo.trainer import PpoSettings, environment
+from joshua_ppo.state import TrainingState
+from joshua_ppo.train import IterationReport, train_ppo
 
 
 class TargetReached(Exception):

@@ -8,37 +8,20 @@ every trainer (sb3, ppo, a third party's) plugs into the same command.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command, RunContext
+from joshua_core.runs import read_run_config
 
 if TYPE_CHECKING:
     from joshua_core.plugins import PluginHost
 
-RUN_CONFIG_FILE = "config.json"
 VIDEO_HINT = (
     "no video written: pip install joshua-modes gives one (from a source checkout: pip install -e plugins/joshua-modes)"
 )
-
-
-def read_run_config(run_dir: Path) -> dict[str, Any]:
-    """The `config.json` of a run or checkpoint folder; a folder without one is a UsageError."""
-    path = run_dir / RUN_CONFIG_FILE
-    if not run_dir.is_dir():
-        raise UsageError(f"run folder '{run_dir}' does not exist")
-    if not path.is_file():
-        raise UsageError(f"'{run_dir}' is not a run folder: it has no {RUN_CONFIG_FILE} (training runs write one)")
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise UsageError(f"{path}: not valid JSON: {error}") from None
-    if not isinstance(document, dict) or not isinstance(document.get("trainer"), str):
-        raise UsageError(f'{path}: has no "trainer" entry naming the trainer that wrote the run')
-    return document
 
 
 def open_video_writer(path: Path, fps: float) -> Any | None:

@@ -126,8 +126,10 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> N
         import re, jax, jax.numpy as jnp, numpy as np
         from joshua_core.errors import ConfigError
         from joshua_mjx.env import make_mjx_env
-        from joshua_ppo.ppo import (NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings,
-                                    init_state, make_iteration, train_ppo)
+        from joshua_ppo.iteration import make_iteration
+        from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
+        from joshua_ppo.state import init_state
+        from joshua_ppo.train import train_ppo
         assert len(jax.devices()) == 2
         results = []
         for devices in (jax.devices()[:1], jax.devices()):

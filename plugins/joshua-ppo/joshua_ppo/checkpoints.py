@@ -19,11 +19,17 @@ import re
 from pathlib import Path
 from typing import Any
 
+import jax
 from flax import serialization
 
 from joshua_core.atomic import atomic_directory, atomic_write_json
 from joshua_core.errors import JoshuaError, UsageError
 from joshua_core.evaluation import read_run_config
+from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.envs import MjxEnv
+from joshua_ppo.normalizer import RunningStatistics
+from joshua_ppo.settings import NetworkSettings, OptimizationSettings
+from joshua_ppo.state import Progress, TrainingState, init_state
 
 PARAMS_FILE = "params.msgpack"
 TRAIN_STATE_FILE = "train_state.msgpack"
@@ -99,3 +105,25 @@ def read_json(path: Path) -> dict[str, Any]:
     if not isinstance(document, dict):
         raise CorruptCheckpointError(f"{path} does not hold a JSON object")
     return document
+
+
+def load_params(checkpoint: Path, env: MjxEnv, network: NetworkSettings) -> tuple[Any, RunningStatistics]:
+    """A checkpoint's network parameters and observation normaliser, checked against the network's shapes."""
+    template = init_state(env, seed=0, network=network, optimization=OptimizationSettings())
+    saved = read_payload(
+        checkpoint, PARAMS_FILE, {"params": template.params, "normalizer": template.normalizer._asdict()}
+    )
+    return saved["params"], RunningStatistics(**saved["normalizer"])
+
+
+def load_state(checkpoint: Path, env: MjxEnv, settings: PpoSettings) -> tuple[TrainingState, Progress]:
+    """The full training state of a checkpoint (environments freshly reset), for resuming."""
+    template = init_state(env, seed=settings.seed, network=settings.network, optimization=settings.optimization)
+    params, normalizer = load_params(checkpoint, env, settings.network)
+    target = {"opt_state": template.opt_state, "key": template.key, "iteration": 0, "env_steps": 0}
+    saved = read_payload(checkpoint, TRAIN_STATE_FILE, target)
+    state = TrainingState(
+        params, saved["opt_state"], normalizer, env.reset(jax.random.fold_in(saved["key"], 1)), saved["key"]
+    )
+    state = jax.device_put(state, jax.tree.map(lambda leaf: leaf.sharding, template))
+    return state, Progress(int(saved["iteration"]), int(saved["env_steps"]))

@@ -18,10 +18,12 @@ import mujoco
 import numpy as np
 
 from joshua_core.evaluation import open_video_writer
-from joshua_mjx.env import MjxEnv
 from joshua_mujoco.engine import camera_id, create_renderer
 from joshua_mujoco.vector import render_with_commands
-from joshua_ppo.ppo import NetworkSettings, RunningStatistics, make_network, policy_actions
+from joshua_ppo.envs import MjxEnv
+from joshua_ppo.normalizer import RunningStatistics
+from joshua_ppo.policy import make_network, policy_actions
+from joshua_ppo.settings import NetworkSettings
 
 VIDEO_WIDTH, VIDEO_HEIGHT = 640, 480
 

@@ -1,344 +1,37 @@
 """Trainer `ppo`: a TrainingConfig turned into `train_ppo` on an MJX environment, with run folders,
-checkpoints, resume and monitoring (progress bar, TensorBoard, training-curve PNG, rollout MP4s,
-the live MuJoCo viewer). The checkpoint layout is in `joshua_ppo.checkpoints`."""
+checkpoints, resume and monitoring (`joshua_ppo.run`), and the evaluation of a saved run."""
 
 from __future__ import annotations
 
 import sys
-import time
-from dataclasses import asdict, dataclass
 from datetime import datetime
-from importlib import metadata
 from pathlib import Path
-from typing import Any
 
 import jax
-import mujoco
-import numpy as np
 from google.protobuf import json_format
 
 from joshua_core.atomic import atomic_write_json
-from joshua_core.config_pb2 import PpoOptions, TrainingConfig
-from joshua_core.curves import write_training_curves
+from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import RunContext, Trainer
-from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
-from joshua_mjx.env import MjxEnv, make_mjx_env
 from joshua_ppo.checkpoints import (
     CONFIG_FILE,
     METRICS_FILE,
-    PARAMS_FILE,
-    TRAIN_STATE_FILE,
-    checkpoint_dir,
     checkpoint_step,
+    load_params,
+    load_state,
     read_json,
-    read_payload,
     resolve_checkpoint,
     run_checkpoints,
-    write_checkpoint,
 )
-from joshua_ppo.networks import ACTIVATIONS
-from joshua_ppo.ppo import (
-    IterationReport,
-    NetworkSettings,
-    OptimizationSettings,
-    Progress,
-    ReturnSettings,
-    RolloutSettings,
-    RunningStatistics,
-    TrainingState,
-    check_settings,
-    init_state,
-    train_ppo,
-)
+from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.envs import environment
 from joshua_ppo.rollout import collect, make_rollout, mean_results, render_video
-
-TRAINER_NAME = "ppo"
-RUN_FORMAT = "joshua-ppo-run/1"
-DEFAULT_TOTAL_TIMESTEPS = 50_000_000
-CHECKPOINTS_PER_RUN = 10
-DEFAULT_VIEWER_ENVS = 4
-CURVE_SERIES = ("mean_return", "mean_length", "policy_loss", "value_loss", "entropy", "steps_per_second")
-
-
-@dataclass(frozen=True)
-class PpoSettings:
-    """A TrainingConfig's PPO hyper-parameters with the defaults filled in (the product description's numbers)."""
-
-    rollout: RolloutSettings
-    optimization: OptimizationSettings
-    returns: ReturnSettings
-    network: NetworkSettings
-    total_timesteps: int
-    checkpoint_interval: int
-    seed: int
-
-    @classmethod
-    def from_config(cls, config: TrainingConfig) -> PpoSettings:
-        options = config.ppo
-        for name in ("hidden_sizes", "value_hidden_sizes"):
-            if any(size <= 0 for size in getattr(options, name)):
-                raise ConfigError(f"training.ppo.{name} must be positive, got {list(getattr(options, name))}")
-        activation = options.activation or "relu"
-        if activation not in ACTIVATIONS:
-            raise ConfigError(f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}")
-        if options.desired_kl < 0:
-            raise ConfigError(f"training.ppo.desired_kl must not be negative, got {options.desired_kl}")
-        for name in ("num_envs", "num_steps", "num_epochs", "minibatch_size", "total_timesteps"):
-            if getattr(config, name) < 0:
-                raise ConfigError(f"training.{name} must not be negative")
-        total = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
-        max_grad_norm = options.max_grad_norm or 1.0
-        return cls(
-            rollout=RolloutSettings(
-                num_envs=config.num_envs or 2048,
-                num_steps=config.num_steps or 10,
-                unrolls_per_iteration=options.unrolls_per_iteration or 1,
-            ),
-            optimization=OptimizationSettings(
-                num_epochs=config.num_epochs or 4,
-                minibatch_size=config.minibatch_size or 256,
-                learning_rate=config.learning_rate or 3e-4,
-                clip_epsilon=config.clip_epsilon or 0.2,
-                entropy_coef=options.entropy_coef,
-                value_coef=options.value_coef or 0.5,
-                max_grad_norm=None if max_grad_norm < 0 else max_grad_norm,
-                desired_kl=options.desired_kl,
-                anneal_steps=total if options.anneal_learning_rate else 0,
-            ),
-            returns=ReturnSettings(
-                gamma=config.gamma or 0.99,
-                gae_lambda=config.gae_lambda or 0.95,
-                reward_scaling=options.reward_scaling or 1.0,
-                recompute_advantages=options.recompute_advantages,
-                advantage=PpoOptions.Advantage.Name(options.advantage).lower(),
-            ),
-            network=NetworkSettings(
-                hidden_sizes=tuple(options.hidden_sizes) or (256, 256),
-                value_hidden_sizes=tuple(options.value_hidden_sizes),
-                normalize_observations=not options.disable_observation_normalization,
-                squash_actions=options.squash_actions,
-                activation=activation,
-                state_dependent_std=options.state_dependent_std,
-            ),
-            total_timesteps=total,
-            checkpoint_interval=options.checkpoint_interval or max(1, total // CHECKPOINTS_PER_RUN),
-            seed=int(config.seed),
-        )
-
-
-def environment(
-    config: TrainingConfig, plugins: PluginHost | None, num_envs: int, devices: list[jax.Device] | None = None
-) -> MjxEnv:
-    """The MJX environment of a training config's task, model and task_config, over `devices` (default: all)."""
-    if config.backend and config.backend != "mjx":
-        raise ConfigError(f"trainer ppo runs on the backend 'mjx', not '{config.backend}'")
-    if not config.task:
-        raise ConfigError('training.task is empty; name a task, e.g. task: "ant_locomotion" (see `joshua plugins`)')
-    return make_mjx_env(
-        config.task,
-        num_envs,
-        model_path=config.model_path or None,
-        plugins=plugins,
-        task_config=config.task_config if config.HasField("task_config") else None,
-        devices=devices,
-    )
-
-
-class ScalarLog:
-    """TensorBoard scalars, written with TensorBoard's own event-file writer (no TensorFlow or torch)."""
-
-    def __init__(self, folder: Path) -> None:
-        from tensorboard.summary.writer.event_file_writer import EventFileWriter
-
-        self._writer = EventFileWriter(str(folder))
-
-    def write(self, step: int, scalars: dict[str, float]) -> None:
-        from tensorboard.compat.proto import event_pb2, summary_pb2
-
-        values = [
-            summary_pb2.Summary.Value(tag=name, simple_value=value)
-            for name, value in scalars.items()
-            if np.isfinite(value)
-        ]
-        self._writer.add_event(
-            event_pb2.Event(wall_time=time.time(), step=step, summary=summary_pb2.Summary(value=values))
-        )
-
-    def close(self) -> None:
-        self._writer.close()
-
-
-class LiveViewer:
-    """The MuJoCo viewer showing a few training environments, updated after every iteration: the first one
-    as the scene, the others drawn into it (on top of each other, where they all start from one place)."""
-
-    def __init__(self, model_path: Path, envs: int) -> None:
-        from joshua_modes.display import ViewerDisplay
-        from joshua_mujoco import MuJoCoEngine
-
-        self.engine = MuJoCoEngine(model_path)
-        self.display = ViewerDisplay(self.engine)
-        self.envs = envs
-        self._ghost = mujoco.MjData(self.engine.model)
-        self._option = mujoco.MjvOption()
-        self._perturb = mujoco.MjvPerturb()
-
-    def show(self, qpos: np.ndarray, status: str) -> bool:
-        """Show the poses (envs, nq); False once the user closed the window."""
-        model = self.engine.model
-        with self.display.lock():
-            self.engine.data.qpos[:] = qpos[0]
-            mujoco.mj_forward(model, self.engine.data)
-            scene = self.display.user_scene
-            scene.ngeom = 0
-            for pose in qpos[1:]:
-                self._ghost.qpos[:] = pose
-                mujoco.mj_kinematics(model, self._ghost)
-                mujoco.mjv_addGeoms(
-                    model, self._ghost, self._option, self._perturb, mujoco.mjtCatBit.mjCAT_DYNAMIC, scene
-                )
-        self.display.set_status(status)
-        return self.display.update(self.engine.time)
-
-    def close(self) -> None:
-        self.display.close()
-        self.engine.close()
-
-
-def open_viewer(options: PpoOptions, model_path: Path) -> LiveViewer | None:
-    """The live viewer the options ask for: AUTO opens it when joshua-modes is installed and a display is usable."""
-    if options.viewer == PpoOptions.OFF:
-        return None
-    try:
-        from joshua_modes.display import display_usable, no_display_error
-    except ModuleNotFoundError:
-        if options.viewer == PpoOptions.ON:
-            raise UsageError(
-                "training.ppo.viewer ON needs joshua-modes (pip install -e plugins/joshua-modes)"
-            ) from None
-        return None
-    if not display_usable():
-        if options.viewer == PpoOptions.ON:
-            raise no_display_error("training.ppo.viewer ON (the live MuJoCo viewer)")
-        return None
-    return LiveViewer(model_path, options.viewer_envs or DEFAULT_VIEWER_ENVS)
-
-
-class Run:
-    """One run being trained: its folder, history and monitors; the callbacks `train_ppo` calls."""
-
-    def __init__(self, config: TrainingConfig, settings: PpoSettings, env: MjxEnv, root: Path, name: str) -> None:
-        self.config = config
-        self.settings = settings
-        self.env = env
-        self.root = root
-        self.name = name
-        self.folder = root / name
-        self.history: list[dict[str, float]] = []
-        self.last_return = float("nan")
-        self.compile_seconds = 0.0
-        self.wall_seconds = 0.0
-        self.bar: Any = None
-        self.scalars: ScalarLog | None = None
-        self.viewer: LiveViewer | None = None
-        self._rollout: tuple[MjxEnv, Any] | None = None
-
-    def config_document(self) -> dict[str, Any]:
-        settings = asdict(self.settings)
-        return {
-            "trainer": TRAINER_NAME,
-            "format": RUN_FORMAT,
-            "run": self.name,
-            "task": self.config.task,
-            "model_path": str(self.config.model_path),
-            "seed": self.settings.seed,
-            "observation_size": self.env.observation_size,
-            "action_size": self.env.action_size,
-            "devices": [str(device) for device in jax.devices()],
-            "settings": settings,
-            "training": json_format.MessageToDict(self.config, preserving_proto_field_name=True),
-            "versions": {
-                name: _version(name) for name in ("joshua-ppo", "jax", "flax", "optax", "mujoco", "mujoco-mjx")
-            },
-        }
-
-    def metrics_document(self, progress: Progress) -> dict[str, Any]:
-        recent = self.history[-1] if self.history else {}
-        return {
-            "env_steps": progress.env_steps,
-            "iteration": progress.iteration,
-            "wall_seconds": round(self.wall_seconds, 3),
-            "compile_seconds": round(self.compile_seconds, 3),
-            "steps_per_second": recent.get("steps_per_second", 0.0),
-            "mean_return": self.last_return,
-            "history": [record for record in self.history if record["step"] <= progress.env_steps],
-        }
-
-    # --- callbacks of train_ppo ---
-
-    def on_progress(self, report: IterationReport, state: TrainingState) -> None:
-        metrics = report.metrics
-        if metrics["episodes"] > 0:
-            self.last_return = metrics["mean_return"]
-        self.compile_seconds, self.wall_seconds = report.compile_seconds, report.wall_seconds
-        record = {"step": report.env_steps, "steps_per_second": round(report.steps_per_second, 1)}
-        record |= {name: value for name, value in metrics.items() if np.isfinite(value)}
-        self.history.append(record)
-        if self.scalars is not None:
-            self.scalars.write(report.env_steps, {**metrics, "steps_per_second": report.steps_per_second})
-        self.bar.set_description_str(f"ppo {self.config.task} return {self.last_return:.4g}", refresh=False)
-        self.bar.update(report.env_steps - self.bar.n)
-        interval = self.config.ppo.video_interval
-        if interval > 0 and report.iteration % interval == 0:
-            self.record_video(state, report.env_steps)
-        if self.viewer is not None:
-            qpos = np.asarray(jax.device_get(state.env_state.data.qpos[: self.viewer.envs]))
-            status = f"step {report.env_steps:,}  return {self.last_return:.4g}  {report.steps_per_second:,.0f} steps/s"
-            if not self.viewer.show(qpos, status):
-                self.viewer.close()
-                self.viewer = None
-
-    def on_checkpoint(self, state: TrainingState, progress: Progress, report: IterationReport | None) -> None:
-        params = {"params": state.params, "normalizer": state.normalizer._asdict()}
-        train_state = {
-            "opt_state": state.opt_state,
-            "key": state.key,
-            "iteration": progress.iteration,
-            "env_steps": progress.env_steps,
-        }
-        metrics = self.metrics_document(progress)
-        folder = checkpoint_dir(self.root, self.name, progress.env_steps)
-        documents = {CONFIG_FILE: self.config_document(), METRICS_FILE: metrics}
-        write_checkpoint(
-            folder, {PARAMS_FILE: jax.device_get(params), TRAIN_STATE_FILE: jax.device_get(train_state)}, documents
-        )
-        atomic_write_json(self.folder / METRICS_FILE, metrics)
-        write_training_curves(
-            self.history, self.folder / "training_curves.png", title=f"{self.config.task}: ppo", series=CURVE_SERIES
-        )
-        if report is not None and self.config.ppo.video_interval == 0:
-            self.record_video(state, progress.env_steps)
-
-    def record_video(self, state: TrainingState, step: int) -> None:
-        """Roll out the current deterministic policy for one episode and render it to videos/step_<N>.mp4."""
-        if self._rollout is None:
-            env = environment(self.config, None, len(jax.devices()))
-            steps = self.config.ppo.video_steps or env.task.episode_length
-            self._rollout = env, make_rollout(env, self.settings.network, steps)
-        env, rollout = self._rollout
-        episode = collect(rollout(state.params, state.normalizer, jax.random.PRNGKey(step)))
-        path = render_video(env.model, episode, self.folder / "videos" / f"step_{step}.mp4", fps=1.0 / env.task.dt)
-        if path is not None:
-            self.bar.write(f"ppo: video {path}")
-
-
-def _version(distribution: str) -> str:
-    try:
-        return metadata.version(distribution)
-    except metadata.PackageNotFoundError:
-        return "unknown"
+from joshua_ppo.run import RUN_FORMAT, TRAINER_NAME, Run, ScalarLog
+from joshua_ppo.settings import check_settings
+from joshua_ppo.train import train_ppo
+from joshua_ppo.viewer import open_viewer
 
 
 def _run_name(config: TrainingConfig, root: Path) -> tuple[str, Path | None]:
@@ -370,28 +63,6 @@ def _newest_run(root: Path) -> str:
     if not runs:
         raise ConfigError(f"training.ppo.resume: {root} has no ppo run to resume")
     return max(runs, key=lambda path: (path / CONFIG_FILE).stat().st_mtime).name
-
-
-def load_params(checkpoint: Path, env: MjxEnv, network: NetworkSettings) -> tuple[Any, RunningStatistics]:
-    """A checkpoint's network parameters and observation normaliser, checked against the network's shapes."""
-    template = init_state(env, seed=0, network=network, optimization=OptimizationSettings())
-    saved = read_payload(
-        checkpoint, PARAMS_FILE, {"params": template.params, "normalizer": template.normalizer._asdict()}
-    )
-    return saved["params"], RunningStatistics(**saved["normalizer"])
-
-
-def load_state(checkpoint: Path, env: MjxEnv, settings: PpoSettings) -> tuple[TrainingState, Progress]:
-    """The full training state of a checkpoint (environments freshly reset), for resuming."""
-    template = init_state(env, seed=settings.seed, network=settings.network, optimization=settings.optimization)
-    params, normalizer = load_params(checkpoint, env, settings.network)
-    target = {"opt_state": template.opt_state, "key": template.key, "iteration": 0, "env_steps": 0}
-    saved = read_payload(checkpoint, TRAIN_STATE_FILE, target)
-    state = TrainingState(
-        params, saved["opt_state"], normalizer, env.reset(jax.random.fold_in(saved["key"], 1)), saved["key"]
-    )
-    state = jax.device_put(state, jax.tree.map(lambda leaf: leaf.sharding, template))
-    return state, Progress(int(saved["iteration"]), int(saved["env_steps"]))
 
 
 class PpoTrainer(Trainer):

@@ -24,7 +24,7 @@ from joshua_core.interfaces import RunContext
 from joshua_core.plugins import PluginHost
 from joshua_ppo import train_mjx
 from joshua_ppo.checkpoints import CorruptCheckpointError, run_checkpoints
-from joshua_ppo.ppo import TrainingDiverged
+from joshua_ppo.train import TrainingDiverged
 from joshua_ppo.trainer import PpoTrainer
 
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]

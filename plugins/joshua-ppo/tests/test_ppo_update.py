@@ -11,18 +11,18 @@ import pytest
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import ConfigError
 from joshua_mjx.env import MjxEnv, make_mjx_env
-from joshua_ppo.ppo import (
+from joshua_ppo.advantages import estimate_advantages
+from joshua_ppo.batches import Transition
+from joshua_ppo.iteration import make_iteration
+from joshua_ppo.optimizer import adapt_learning_rate
+from joshua_ppo.settings import (
     LEARNING_RATE_BOUNDS,
     NetworkSettings,
     OptimizationSettings,
     ReturnSettings,
     RolloutSettings,
-    _Transition,
-    adapt_learning_rate,
-    estimate_advantages,
-    init_state,
-    make_iteration,
 )
+from joshua_ppo.state import init_state
 
 ROLLOUT = RolloutSettings(num_envs=4, num_steps=5, unrolls_per_iteration=2)
 # without observation normalisation: the statistics change between collecting and updating, and with
@@ -139,7 +139,7 @@ def test_both_advantage_estimators_match_their_definitions() -> None:
     truncated = np.zeros((6, 3), bool)
     terminated[2, 0] = True  # env 0 falls at step 2, env 1 is truncated at step 3, env 2 runs through
     truncated[3, 1] = True
-    steps = _Transition(
+    steps = Transition(
         observation=None,
         action=None,
         log_prob=None,

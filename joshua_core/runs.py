@@ -1,0 +1,248 @@
+"""Run folders, one layout for every trainer: unique names, a lock while training, atomic checkpoints.
+
+    <checkpoint_dir>/<run>/            the run's own folder: config.json, metrics.json, curves, logs, videos,
+                                       and .lock (held by the process training the run)
+    <checkpoint_dir>/<run>_step_<N>/   one folder per checkpoint (what is in it is the trainer's business)
+
+A run folder appears already locked: it is made as a hidden folder beside, its lock file taken and
+its holder's pid written, and only then renamed to its name (a rename never replaces a folder that
+holds files), so two processes never share a run and a second one asking for a name in use learns
+which process holds it. A checkpoint is written into a hidden folder beside, flushed to disk and
+renamed into place (`joshua_core.atomic.atomic_directory`): every visible checkpoint is complete.
+"""
+
+from __future__ import annotations
+
+import errno
+import fcntl
+import json
+import os
+import re
+import shutil
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from joshua_core.atomic import atomic_directory
+from joshua_core.errors import ConfigError, UsageError
+
+CONFIG_FILE = "config.json"  # in a run folder and each of its checkpoints: "trainer" names who wrote it
+METRICS_FILE = "metrics.json"
+LOCK_FILE = ".lock"
+MAX_SUFFIX = 999  # default names taken in one second before giving up
+_STEP_SUFFIX = re.compile(r"_step_(\d+)$")
+
+
+class RunInUseError(UsageError):
+    """Another process holds the run's lock: it is training that run now."""
+
+
+class RunFolder:
+    """A run being trained: `<root>/<name>/`, locked by this process until `close()`, and its checkpoints."""
+
+    def __init__(self, root: Path, name: str, lock: int) -> None:
+        self.root = root
+        self.name = name
+        self._lock: int | None = lock
+
+    @property
+    def path(self) -> Path:
+        return self.root / self.name
+
+    def checkpoint_path(self, step: int) -> Path:
+        return self.root / f"{self.name}_step_{step}"
+
+    def checkpoints(self) -> list[Path]:
+        """The run's checkpoint folders, oldest (fewest steps) first."""
+        return run_checkpoints(self.root, self.name)
+
+    @contextmanager
+    def publish(self, step: int) -> Iterator[Path]:
+        """Yield an empty hidden folder to write checkpoint `step` into; it appears as a whole when the block
+        ends without error, and not at all otherwise. Hidden folders left by a killed writer are removed."""
+        with atomic_directory(self.checkpoint_path(step)) as folder:
+            yield folder
+        leftovers = re.compile(rf"^\.{re.escape(self.name)}_step_\d+\..+\.(tmp|old)$")
+        for leftover in self.root.iterdir():
+            if leftovers.match(leftover.name):
+                shutil.rmtree(leftover, ignore_errors=True)
+
+    def close(self) -> None:
+        """Release the lock (the lock file stays: it is how the next holder is found)."""
+        if self._lock is not None:
+            os.close(self._lock)
+            self._lock = None
+
+    def __enter__(self) -> RunFolder:
+        return self
+
+    def __exit__(self, error_type: type[BaseException] | None, *_: object) -> None:
+        """Release the lock; a block that failed before writing anything into the run leaves no folder."""
+        if error_type is not None and [path.name for path in self.path.iterdir()] == [LOCK_FILE]:
+            if not self.checkpoints():
+                shutil.rmtree(self.path, ignore_errors=True)
+        self.close()
+
+
+def default_run_name(stem: str, now: datetime | None = None) -> str:
+    """`<stem>_<date>-<time>` (the stem is the task, for PPO): the name of a run the config does not name."""
+    return f"{stem}_{now or datetime.now():%Y%m%d-%H%M%S}"
+
+
+def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunFolder:
+    """A new run folder, locked by this process. `name` None: `default_run_name(stem)`, with `_2`, `_3`...
+    when that is taken.
+
+    A name the config chose that exists is a ConfigError (or a RunInUseError while a process trains it);
+    `options` is where the config's run options live (e.g. "training.ppo"), for the hint.
+    """
+    root.mkdir(parents=True, exist_ok=True)
+    if name is not None:
+        run = None if run_checkpoints(root, name) else _claim(root, name)
+        if run is None:
+            if (root / name).is_dir():
+                open_run(root, name).close()  # raises RunInUseError while another process trains it
+            raise ConfigError(
+                f"run '{name}' exists in {root}; continue it with --set {options}.resume=true, "
+                f"or choose another {options}.run_name"
+            )
+        return run
+    base = default_run_name(stem)
+    for candidate in (base, *(f"{base}_{number}" for number in range(2, MAX_SUFFIX + 1))):
+        run = None if run_checkpoints(root, candidate) else _claim(root, candidate)
+        if run is not None:
+            return run
+    raise UsageError(f"{root} holds runs {base} to {base}_{MAX_SUFFIX}; name the run with {options}.run_name")
+
+
+def open_run(root: Path, name: str) -> RunFolder:
+    """An existing run folder, locked by this process (to resume it); RunInUseError while another holds it."""
+    folder = root / name
+    if not folder.is_dir():
+        raise UsageError(f"run folder '{folder}' does not exist")
+    descriptor = os.open(folder / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        _lock(descriptor, root, name)
+    except BaseException:
+        os.close(descriptor)
+        raise
+    return RunFolder(root, name, descriptor)
+
+
+def _claim(root: Path, name: str) -> RunFolder | None:
+    """Make `<root>/<name>` with its lock already held, or None when that name exists."""
+    temporary = Path(tempfile.mkdtemp(dir=root, prefix=f".{name}.", suffix=".new"))
+    descriptor = os.open(temporary / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        _lock(descriptor, root, name)
+        try:
+            os.rename(temporary, root / name)  # fails on a folder holding files: every run folder does
+        except OSError as error:
+            if error.errno not in (errno.EEXIST, errno.ENOTEMPTY):
+                raise
+            os.close(descriptor)
+            shutil.rmtree(temporary, ignore_errors=True)
+            return None
+    except BaseException:
+        os.close(descriptor)
+        shutil.rmtree(temporary, ignore_errors=True)
+        raise
+    return RunFolder(root, name, descriptor)
+
+
+def _lock(descriptor: int, root: Path, name: str) -> None:
+    """Take the run's lock without waiting and write this process's pid into it; RunInUseError when held."""
+    try:
+        fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = os.pread(descriptor, 32, 0).decode(errors="replace").strip() or "unknown"
+        raise RunInUseError(
+            f"run '{name}' in {root} is being trained by process {holder}; wait for it to end, or choose another "
+            "run_name"
+        ) from None
+    os.ftruncate(descriptor, 0)
+    os.pwrite(descriptor, f"{os.getpid()}\n".encode(), 0)
+    os.fsync(descriptor)
+
+
+def checkpoint_step(folder: Path) -> int:
+    """N of a checkpoint folder `<run>_step_<N>`."""
+    match = _STEP_SUFFIX.search(folder.name)
+    if match is None:
+        raise UsageError(f"'{folder}' is not a checkpoint folder (<run>_step_<N>)")
+    return int(match.group(1))
+
+
+def run_checkpoints(root: Path, name: str) -> list[Path]:
+    """The checkpoint folders `<root>/<name>_step_<N>/`, oldest first."""
+    pattern = re.compile(rf"^{re.escape(name)}_step_\d+$")
+    if not root.is_dir():
+        return []
+    return sorted((path for path in root.iterdir() if pattern.match(path.name) and path.is_dir()), key=checkpoint_step)
+
+
+def list_runs(root: Path, trainer: str | None = None) -> list[Path]:
+    """The run folders in `root` (those with a config.json), of `trainer` when given, oldest first."""
+    runs = []
+    for config in root.glob(f"*/{CONFIG_FILE}") if root.is_dir() else []:
+        if _STEP_SUFFIX.search(config.parent.name):
+            continue
+        if trainer is None or _trainer_of(config) == trainer:
+            runs.append(config.parent)
+    return sorted(runs, key=lambda run: (run / CONFIG_FILE).stat().st_mtime)
+
+
+def newest_run(root: Path, trainer: str | None = None) -> Path | None:
+    """The run folder whose config.json was written last (of `trainer` when given), or None."""
+    runs = list_runs(root, trainer)
+    return runs[-1] if runs else None
+
+
+def resume_run(root: Path, name: str | None, *, trainer: str, options: str) -> tuple[RunFolder, dict[str, Any]]:
+    """The run to resume (the named one, else the newest of `trainer`), locked, and its config.json."""
+    folder = root / name if name else newest_run(root, trainer)
+    if folder is None or not (folder / CONFIG_FILE).is_file():
+        which = f"no run '{name}'" if name else f"no {trainer} run"
+        raise ConfigError(f"{options}.resume: there is {which} in {root} to resume")
+    saved = read_run_config(folder)
+    if saved["trainer"] != trainer:
+        raise ConfigError(f"{options}.resume: run {folder} was trained by '{saved['trainer']}', not '{trainer}'")
+    return open_run(root, folder.name), saved
+
+
+def resolve_checkpoint(path: Path) -> Path:
+    """A checkpoint folder itself, or the newest checkpoint of the run folder `path`."""
+    if _STEP_SUFFIX.search(path.name) and (path / CONFIG_FILE).is_file():
+        return path
+    read_run_config(path)  # a clear error when `path` is neither
+    checkpoints = run_checkpoints(path.parent, path.name)
+    if not checkpoints:
+        raise UsageError(f"run '{path}' has no checkpoint yet (looked for {path.parent}/{path.name}_step_<N>/)")
+    return checkpoints[-1]
+
+
+def read_run_config(run_dir: Path) -> dict[str, Any]:
+    """The `config.json` of a run or checkpoint folder; a folder without one is a UsageError."""
+    path = run_dir / CONFIG_FILE
+    if not run_dir.is_dir():
+        raise UsageError(f"run folder '{run_dir}' does not exist")
+    if not path.is_file():
+        raise UsageError(f"'{run_dir}' is not a run folder: it has no {CONFIG_FILE} (training runs write one)")
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise UsageError(f"{path}: not valid JSON: {error}") from None
+    if not isinstance(document, dict) or not isinstance(document.get("trainer"), str):
+        raise UsageError(f'{path}: has no "trainer" entry naming the trainer that wrote the run')
+    return document
+
+
+def _trainer_of(config: Path) -> str | None:
+    try:
+        document = json.loads(config.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return None
+    return document.get("trainer") if isinstance(document, dict) else None

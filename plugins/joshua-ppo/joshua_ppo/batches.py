@@ -1,0 +1,46 @@
+"""What one iteration collects and learns from: transitions as stepped, and the two forms minibatches take."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+
+
+class Transition(NamedTuple):
+    """One step of every environment (time-major when stacked over an unroll)."""
+
+    observation: jax.Array
+    action: jax.Array
+    log_prob: jax.Array
+    value: jax.Array
+    reward: jax.Array
+    terminated: jax.Array
+    truncated: jax.Array
+    final_value: jax.Array
+
+
+class Sample(NamedTuple):
+    """One transition with its advantage and value target, computed when it was collected."""
+
+    observation: jax.Array
+    action: jax.Array
+    log_prob: jax.Array
+    advantage: jax.Array
+    target: jax.Array
+
+
+class Unroll(NamedTuple):
+    """One environment's unroll (batch-major: (T, ...) per field), for advantages recomputed per minibatch.
+
+    final_value stays the collecting network's: it only counts on the rare steps that truncate an episode.
+    """
+
+    observation: jax.Array
+    action: jax.Array
+    log_prob: jax.Array
+    reward: jax.Array
+    terminated: jax.Array
+    truncated: jax.Array
+    final_value: jax.Array
+    last_observation: jax.Array  # (obs,): after the unroll's last step, to bootstrap from

@@ -1,0 +1,265 @@
+"""The compiled training iteration: collect unrolls, update the normaliser, then minibatch epochs of PPO.
+
+One iteration (collect `unrolls_per_iteration` unrolls of `num_steps` steps in every environment,
+update the observation normaliser, compute GAE, then `num_epochs` passes of minibatch gradient steps;
+or, with `recompute_advantages`, GAE per minibatch of whole unrolls with the current value network)
+is a single compiled function: no Python runs per environment step. It runs under `jax.shard_map`
+over the environment's device mesh: each device steps its slice of the environments and learns from
+its slice of every minibatch, and the gradients, normaliser statistics and logged metrics are averaged
+across devices, so N GPUs act as one N times larger.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import optax
+from jax.sharding import PartitionSpec
+
+from joshua_ppo.advantages import estimate_advantages
+from joshua_ppo.batches import Sample, Transition, Unroll
+from joshua_ppo.envs import EnvState, MjxEnv, env_axis
+from joshua_ppo.losses import ppo_loss
+from joshua_ppo.networks import gaussian_log_prob
+from joshua_ppo.normalizer import RunningStatistics, normalize, update_statistics
+from joshua_ppo.optimizer import make_optimizer, scheduled_learning_rate
+from joshua_ppo.policy import env_actions, make_network
+from joshua_ppo.settings import (
+    NetworkSettings,
+    OptimizationSettings,
+    ReturnSettings,
+    RolloutSettings,
+    check_advantage,
+    check_settings,
+)
+from joshua_ppo.state import TrainingState, state_shardings
+
+Carry = tuple[Any, Any, RunningStatistics]  # (environments or optimiser state, params, normaliser) in scans
+Metrics = dict[str, jax.Array]
+
+
+class _Iteration:
+    """The steps of one training iteration on one device's slice (traced inside the shard_map)."""
+
+    def __init__(
+        self,
+        env: MjxEnv,
+        rollout: RolloutSettings,
+        optimization: OptimizationSettings,
+        returns: ReturnSettings,
+        network: NetworkSettings,
+    ) -> None:
+        check_advantage(returns)
+        self.env, self.rollout, self.optimization, self.returns, self.network = (
+            env,
+            rollout,
+            optimization,
+            returns,
+            network,
+        )
+        self.axis = env_axis(env)
+        self.devices = env.mesh.size
+        self.recompute = returns.recompute_advantages
+        self.num_minibatches = check_settings(rollout, optimization, self.devices, whole_unrolls=self.recompute)
+        self.local_minibatch = (
+            optimization.minibatch_size // self.devices // (rollout.num_steps if self.recompute else 1)
+        )
+        self.env_steps_per_gradient_step = optimization.minibatch_size / optimization.num_epochs
+        self.net = make_network(env, network)
+        self.optimizer = make_optimizer(optimization)
+        self.empty_leaves = EmptyLeaves.of(env)
+        self.reward_terms = [term.name for term in env.task.reward_terms]
+        self.metric_terms = [term.name for term in env.task.metric_terms]
+
+    def apply(self, params: Any, stats: RunningStatistics, observation: jax.Array) -> tuple[jax.Array, ...]:
+        return self.net.apply({"params": params}, normalize(stats, observation, self.network.normalize_observations))
+
+    def env_step(self, carry: Carry, key: jax.Array) -> tuple[Carry, tuple[Transition, Metrics]]:
+        env_state, params, stats = carry
+        mean, log_std, value = self.apply(params, stats, env_state.observation)
+        action = mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape)
+        next_state = self.env.step(env_state, env_actions(action, self.network))
+        _, _, final_value = self.apply(params, stats, next_state.final_observation)
+        transition = Transition(
+            observation=env_state.observation,
+            action=action,
+            log_prob=gaussian_log_prob(action, mean, log_std),
+            value=value,
+            reward=next_state.reward * self.returns.reward_scaling,
+            terminated=next_state.terminated,
+            truncated=next_state.truncated,
+            final_value=final_value,
+        )
+        return (next_state, params, stats), (
+            transition,
+            _episode_sums(next_state, self.reward_terms, self.metric_terms),
+        )
+
+    def unroll(self, carry: Carry, key: jax.Array) -> tuple[Carry, tuple[Sample | Unroll, Metrics]]:
+        carry, (steps, sums) = jax.lax.scan(self.env_step, carry, jax.random.split(key, self.rollout.num_steps))
+        env_state, params, stats = carry
+        sums = jax.tree.map(lambda x: x.sum(axis=0), sums)
+        if self.recompute:
+            fields = {name: getattr(steps, name) for name in Unroll._fields[:-1]}
+            batch_major = jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), fields)
+            return carry, (Unroll(**batch_major, last_observation=env_state.observation), sums)
+        _, _, last_value = self.apply(params, stats, env_state.observation)
+        advantage, target = estimate_advantages(self.returns, steps.value, last_value, steps)
+        return carry, (Sample(steps.observation, steps.action, steps.log_prob, advantage, target), sums)
+
+    def current_advantages(
+        self, params: Any, stats: RunningStatistics, batch: Unroll, value: jax.Array
+    ) -> tuple[jax.Array, jax.Array]:
+        """A minibatch of unrolls' advantages and targets (batch-major) from the current value network."""
+        _, _, last_value = self.apply(params, stats, batch.last_observation)
+        time_major = jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), batch._replace(last_observation=None))
+        advantage, target = estimate_advantages(self.returns, value.T, last_value, time_major)
+        return jax.lax.stop_gradient((advantage.T, target.T))
+
+    def loss(
+        self, params: Any, stats: RunningStatistics, batch: Sample | Unroll, key: jax.Array
+    ) -> tuple[jax.Array, Metrics]:
+        mean, log_std, value = self.apply(params, stats, batch.observation)
+        if self.recompute:
+            advantage, target = self.current_advantages(params, stats, batch, value)
+        else:
+            advantage, target = batch.advantage, batch.target
+        return ppo_loss(
+            mean,
+            log_std,
+            value,
+            action=batch.action,
+            old_log_prob=batch.log_prob,
+            advantage=advantage,
+            target=target,
+            key=key,
+            optimization=self.optimization,
+            squash_actions=self.network.squash_actions,
+        )
+
+    def gradient_step(self, carry: Carry, batch_and_key: tuple[Sample | Unroll, jax.Array]) -> tuple[Carry, Metrics]:
+        params, opt_state, stats = carry
+        grads, losses = jax.grad(self.loss, has_aux=True)(params, stats, *batch_and_key)
+        grads = jax.lax.pmean(grads, self.axis)
+        # the KL before this step, as every device sees it
+        kl = jax.lax.pmean(losses["approx_kl"], self.axis) if self.optimization.desired_kl > 0 else None
+        opt_state = scheduled_learning_rate(opt_state, kl, self.optimization, self.env_steps_per_gradient_step)
+        updates, opt_state = self.optimizer.update(grads, opt_state, params)
+        losses["learning_rate"] = opt_state.hyperparams["learning_rate"]
+        return (optax.apply_updates(params, updates), opt_state, stats), losses
+
+    def epoch(self, carry: Carry, key: jax.Array, samples: Sample | Unroll) -> tuple[Carry, Metrics]:
+        order_key, entropy_key = jax.random.split(key)
+        order = jax.random.permutation(order_key, samples.observation.shape[0])
+        shape = (self.num_minibatches, self.local_minibatch)
+        minibatches = jax.tree.map(lambda x: x[order].reshape(*shape, *x.shape[1:]), samples)
+        keys = jax.random.split(entropy_key, self.num_minibatches)
+        return jax.lax.scan(self.gradient_step, carry, (minibatches, keys))
+
+    def local(
+        self, params: Any, opt_state: Any, stats: RunningStatistics, filled: list[jax.Array], key: jax.Array
+    ) -> tuple[Any, Any, RunningStatistics, list[jax.Array], Metrics]:
+        """The iteration on this device's slice: its environments' filled leaves in and out."""
+        env_state = self.empty_leaves.rebuild(filled, self.devices)
+        key = jax.random.fold_in(key, jax.lax.axis_index(self.axis))
+        rollout_key, epoch_key = jax.random.split(key)
+        (env_state, _, _), (samples, sums) = jax.lax.scan(
+            self.unroll, (env_state, params, stats), jax.random.split(rollout_key, self.rollout.unrolls_per_iteration)
+        )
+        # steps (unrolls * steps * envs, ...) or, to recompute advantages, unrolls (unrolls * envs, steps, ...)
+        samples = jax.tree.map(lambda x: x.reshape(-1, *x.shape[2 if self.recompute else 3 :]), samples)
+        if self.network.normalize_observations:
+            observations = samples.observation.reshape(-1, self.env.observation_size)
+            stats = update_statistics(stats, observations, self.axis)
+        (params, opt_state, _), losses = jax.lax.scan(
+            lambda carry, key: self.epoch(carry, key, samples),
+            (params, opt_state, stats),
+            jax.random.split(epoch_key, self.optimization.num_epochs),
+        )
+        metrics = _episode_metrics(jax.tree.map(lambda x: jax.lax.psum(x.sum(), self.axis), sums))
+        metrics |= {name: jax.lax.pmean(value.mean(), self.axis) for name, value in losses.items()}
+        leaves = jax.tree.leaves(params)
+        metrics["params_finite"] = jnp.all(jnp.stack([jnp.isfinite(leaf).all() for leaf in leaves]))
+        return params, opt_state, stats, EmptyLeaves.filled(env_state), metrics
+
+
+def make_iteration(
+    env: MjxEnv,
+    *,
+    rollout: RolloutSettings,
+    optimization: OptimizationSettings,
+    returns: ReturnSettings,
+    network: NetworkSettings,
+) -> Callable[[TrainingState], tuple[TrainingState, Metrics]]:
+    """The compiled training iteration: state -> (next state, metrics as scalars)."""
+    steps = _Iteration(env, rollout, optimization, returns, network)
+    replicated, split = PartitionSpec(), PartitionSpec(steps.axis)
+    sharded = jax.shard_map(
+        steps.local,
+        mesh=env.mesh,
+        in_specs=(replicated, replicated, replicated, split, replicated),
+        out_specs=(replicated, replicated, replicated, split, replicated),
+        check_vma=False,
+    )
+
+    def iteration(state: TrainingState) -> tuple[TrainingState, Metrics]:
+        key, iteration_key = jax.random.split(state.key)
+        params, opt_state, stats, filled, metrics = sharded(
+            state.params, state.opt_state, state.normalizer, EmptyLeaves.filled(state.env_state), iteration_key
+        )
+        return TrainingState(params, opt_state, stats, steps.empty_leaves.rebuild(filled), key), metrics
+
+    # explicit output shardings: XLA would otherwise replicate the empty per-env arrays (act, plugin_state)
+    # and the next call would no longer match the compiled input shardings
+    return jax.jit(iteration, donate_argnums=0, out_shardings=(state_shardings(env), env.replicated))
+
+
+class EmptyLeaves(NamedTuple):
+    """Where an environment state has zero-size arrays (MJX's buffers for what a model lacks: actuator
+    activations, tendons, mocap bodies...). They stay out of `jax.shard_map`, as XLA's GPU compiler
+    (jaxlib 0.11, Shardy) crashes on a manual computation with empty per-device inputs; holding no
+    values, they are made anew on the other side."""
+
+    treedef: Any
+    shapes: list[jax.ShapeDtypeStruct | None]  # of each empty leaf; None where a leaf holds values
+
+    @staticmethod
+    def of(env: MjxEnv) -> EmptyLeaves:
+        leaves, treedef = jax.tree.flatten(jax.eval_shape(env.reset, jax.random.PRNGKey(0)))
+        return EmptyLeaves(treedef, [leaf if math.prod(leaf.shape) == 0 else None for leaf in leaves])
+
+    @staticmethod
+    def filled(state: EnvState) -> list[jax.Array]:
+        """The state's leaves that hold values, in order."""
+        return [leaf for leaf in jax.tree.leaves(state) if leaf.size]
+
+    def rebuild(self, filled: list[jax.Array], devices: int = 1) -> EnvState:
+        """The state from its filled leaves (inside the shard_map: one of `devices` slices of the environments)."""
+        remaining = iter(filled)
+        leaves = [
+            next(remaining) if empty is None else jnp.zeros((empty.shape[0] // devices, *empty.shape[1:]), empty.dtype)
+            for empty in self.shapes
+        ]
+        return jax.tree.unflatten(self.treedef, leaves)
+
+
+def _episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[str]) -> Metrics:
+    """Per-environment sums of the statistics of the episodes that ended on this step."""
+    episode = state.episode
+    done = episode.done.astype(jnp.float32)
+    sums = {"episodes": done, "return": episode.return_ * done, "length": episode.length * done}
+    sums |= {f"reward/{name}": episode.reward_terms[name] * done for name in reward_terms}
+    sums |= {f"metrics/{name}": episode.metrics[name] * done for name in metric_terms}
+    return sums
+
+
+def _episode_metrics(sums: Metrics) -> Metrics:
+    """Means over the ended episodes (NaN when none ended)."""
+    count = sums.pop("episodes")
+    means = {name: value / count for name, value in sums.items()}
+    means["mean_return"], means["mean_length"] = means.pop("return"), means.pop("length")
+    return {"episodes": count, **means}

@@ -1,0 +1,47 @@
+"""The observation normaliser: running mean and variance, merged across devices, and the clipped scaling."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from joshua_ppo.settings import OBSERVATION_CLIP
+
+
+class RunningStatistics(NamedTuple):
+    """Running mean and variance of observations (Chan et al.'s parallel update)."""
+
+    count: jax.Array
+    mean: jax.Array
+    variance: jax.Array
+
+
+def fresh_statistics(size: int) -> RunningStatistics:
+    """Statistics of no observations yet (mean 0, variance 1)."""
+    return RunningStatistics(jnp.zeros((), jnp.float32), jnp.zeros(size), jnp.ones(size))
+
+
+def normalize(stats: RunningStatistics, observation: jax.Array, enabled: bool) -> jax.Array:
+    """Observations scaled by the running statistics and clipped (unchanged when normalisation is off)."""
+    if not enabled:
+        return observation
+    scaled = (observation - stats.mean) / jnp.sqrt(stats.variance + 1e-8)
+    return jnp.clip(scaled, -OBSERVATION_CLIP, OBSERVATION_CLIP)
+
+
+def update_statistics(stats: RunningStatistics, observations: jax.Array, axis: str) -> RunningStatistics:
+    """Merge this iteration's observations (from every device along mesh `axis`) into the running statistics."""
+    batch_count = jax.lax.psum(jnp.asarray(observations.shape[0], jnp.float32), axis)
+    batch_mean = jax.lax.psum(observations.sum(axis=0), axis) / batch_count
+    batch_variance = jax.lax.psum(jnp.square(observations - batch_mean).sum(axis=0), axis) / batch_count
+    total = stats.count + batch_count
+    delta = batch_mean - stats.mean
+    mean = stats.mean + delta * batch_count / total
+    m2 = (
+        stats.variance * stats.count
+        + batch_variance * batch_count
+        + jnp.square(delta) * stats.count * batch_count / total
+    )
+    return RunningStatistics(total, mean, m2 / total)

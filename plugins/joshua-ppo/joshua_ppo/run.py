@@ -1,0 +1,176 @@
+"""One PPO run being trained: its folder, history and monitors (progress bar, TensorBoard, training-curve
+PNG, rollout MP4s, the live viewer), and the callbacks `train_ppo` calls to report and checkpoint.
+The checkpoint layout is in `joshua_ppo.checkpoints`."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import jax
+import numpy as np
+from google.protobuf import json_format
+
+from joshua_core.atomic import atomic_write_json
+from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.curves import write_training_curves
+from joshua_ppo.checkpoints import (
+    CONFIG_FILE,
+    METRICS_FILE,
+    PARAMS_FILE,
+    TRAIN_STATE_FILE,
+    checkpoint_dir,
+    write_checkpoint,
+)
+from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.envs import MjxEnv, environment
+from joshua_ppo.rollout import collect, make_rollout, render_video
+from joshua_ppo.state import Progress, TrainingState
+from joshua_ppo.train import IterationReport
+from joshua_ppo.viewer import LiveViewer
+
+TRAINER_NAME = "ppo"
+RUN_FORMAT = "joshua-ppo-run/1"
+CURVE_SERIES = ("mean_return", "mean_length", "policy_loss", "value_loss", "entropy", "steps_per_second")
+
+
+class ScalarLog:
+    """TensorBoard scalars, written with TensorBoard's own event-file writer (no TensorFlow or torch)."""
+
+    def __init__(self, folder: Path) -> None:
+        from tensorboard.summary.writer.event_file_writer import EventFileWriter
+
+        self._writer = EventFileWriter(str(folder))
+
+    def write(self, step: int, scalars: dict[str, float]) -> None:
+        from tensorboard.compat.proto import event_pb2, summary_pb2
+
+        values = [
+            summary_pb2.Summary.Value(tag=name, simple_value=value)
+            for name, value in scalars.items()
+            if np.isfinite(value)
+        ]
+        self._writer.add_event(
+            event_pb2.Event(wall_time=time.time(), step=step, summary=summary_pb2.Summary(value=values))
+        )
+
+    def close(self) -> None:
+        self._writer.close()
+
+
+class Run:
+    """One run being trained: its folder, history and monitors; the callbacks `train_ppo` calls."""
+
+    def __init__(self, config: TrainingConfig, settings: PpoSettings, env: MjxEnv, root: Path, name: str) -> None:
+        self.config = config
+        self.settings = settings
+        self.env = env
+        self.root = root
+        self.name = name
+        self.folder = root / name
+        self.history: list[dict[str, float]] = []
+        self.last_return = float("nan")
+        self.compile_seconds = 0.0
+        self.wall_seconds = 0.0
+        self.bar: Any = None
+        self.scalars: ScalarLog | None = None
+        self.viewer: LiveViewer | None = None
+        self._rollout: tuple[MjxEnv, Any] | None = None
+
+    def config_document(self) -> dict[str, Any]:
+        settings = asdict(self.settings)
+        return {
+            "trainer": TRAINER_NAME,
+            "format": RUN_FORMAT,
+            "run": self.name,
+            "task": self.config.task,
+            "model_path": str(self.config.model_path),
+            "seed": self.settings.seed,
+            "observation_size": self.env.observation_size,
+            "action_size": self.env.action_size,
+            "devices": [str(device) for device in jax.devices()],
+            "settings": settings,
+            "training": json_format.MessageToDict(self.config, preserving_proto_field_name=True),
+            "versions": {
+                name: _version(name) for name in ("joshua-ppo", "jax", "flax", "optax", "mujoco", "mujoco-mjx")
+            },
+        }
+
+    def metrics_document(self, progress: Progress) -> dict[str, Any]:
+        recent = self.history[-1] if self.history else {}
+        return {
+            "env_steps": progress.env_steps,
+            "iteration": progress.iteration,
+            "wall_seconds": round(self.wall_seconds, 3),
+            "compile_seconds": round(self.compile_seconds, 3),
+            "steps_per_second": recent.get("steps_per_second", 0.0),
+            "mean_return": self.last_return,
+            "history": [record for record in self.history if record["step"] <= progress.env_steps],
+        }
+
+    # --- callbacks of train_ppo ---
+
+    def on_progress(self, report: IterationReport, state: TrainingState) -> None:
+        metrics = report.metrics
+        if metrics["episodes"] > 0:
+            self.last_return = metrics["mean_return"]
+        self.compile_seconds, self.wall_seconds = report.compile_seconds, report.wall_seconds
+        record = {"step": report.env_steps, "steps_per_second": round(report.steps_per_second, 1)}
+        record |= {name: value for name, value in metrics.items() if np.isfinite(value)}
+        self.history.append(record)
+        if self.scalars is not None:
+            self.scalars.write(report.env_steps, {**metrics, "steps_per_second": report.steps_per_second})
+        self.bar.set_description_str(f"ppo {self.config.task} return {self.last_return:.4g}", refresh=False)
+        self.bar.update(report.env_steps - self.bar.n)
+        interval = self.config.ppo.video_interval
+        if interval > 0 and report.iteration % interval == 0:
+            self.record_video(state, report.env_steps)
+        if self.viewer is not None:
+            qpos = np.asarray(jax.device_get(state.env_state.data.qpos[: self.viewer.envs]))
+            status = f"step {report.env_steps:,}  return {self.last_return:.4g}  {report.steps_per_second:,.0f} steps/s"
+            if not self.viewer.show(qpos, status):
+                self.viewer.close()
+                self.viewer = None
+
+    def on_checkpoint(self, state: TrainingState, progress: Progress, report: IterationReport | None) -> None:
+        params = {"params": state.params, "normalizer": state.normalizer._asdict()}
+        train_state = {
+            "opt_state": state.opt_state,
+            "key": state.key,
+            "iteration": progress.iteration,
+            "env_steps": progress.env_steps,
+        }
+        metrics = self.metrics_document(progress)
+        folder = checkpoint_dir(self.root, self.name, progress.env_steps)
+        documents = {CONFIG_FILE: self.config_document(), METRICS_FILE: metrics}
+        write_checkpoint(
+            folder, {PARAMS_FILE: jax.device_get(params), TRAIN_STATE_FILE: jax.device_get(train_state)}, documents
+        )
+        atomic_write_json(self.folder / METRICS_FILE, metrics)
+        write_training_curves(
+            self.history, self.folder / "training_curves.png", title=f"{self.config.task}: ppo", series=CURVE_SERIES
+        )
+        if report is not None and self.config.ppo.video_interval == 0:
+            self.record_video(state, progress.env_steps)
+
+    def record_video(self, state: TrainingState, step: int) -> None:
+        """Roll out the current deterministic policy for one episode and render it to videos/step_<N>.mp4."""
+        if self._rollout is None:
+            env = environment(self.config, None, len(jax.devices()))
+            steps = self.config.ppo.video_steps or env.task.episode_length
+            self._rollout = env, make_rollout(env, self.settings.network, steps)
+        env, rollout = self._rollout
+        episode = collect(rollout(state.params, state.normalizer, jax.random.PRNGKey(step)))
+        path = render_video(env.model, episode, self.folder / "videos" / f"step_{step}.mp4", fps=1.0 / env.task.dt)
+        if path is not None:
+            self.bar.write(f"ppo: video {path}")
+
+
+def _version(distribution: str) -> str:
+    try:
+        return metadata.version(distribution)
+    except metadata.PackageNotFoundError:
+        return "unknown"

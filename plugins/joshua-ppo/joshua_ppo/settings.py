@@ -1,0 +1,114 @@
+"""PPO's settings in four groups (rollout, optimisation, returns, network) and the check of their batch arithmetic.
+
+Plain frozen dataclasses with the product description's defaults; `joshua_ppo.config_settings` fills
+them from a TrainingConfig.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from joshua_core.errors import ConfigError
+
+OBSERVATION_CLIP = 10.0  # normalised observations are clipped to +-this
+LEARNING_RATE_BOUNDS = (1e-5, 1e-2)  # of the adaptive learning rate
+ADVANTAGE_ESTIMATORS = ("gae", "lambda_return")  # ReturnSettings.advantage
+
+
+@dataclass(frozen=True)
+class RolloutSettings:
+    """How much experience one iteration collects: num_envs x num_steps x unrolls_per_iteration transitions."""
+
+    num_envs: int = 2048
+    num_steps: int = 10  # unroll length: steps per environment between bootstraps
+    unrolls_per_iteration: int = 1
+
+
+@dataclass(frozen=True)
+class OptimizationSettings:
+    """The PPO update."""
+
+    num_epochs: int = 4
+    minibatch_size: int = 256  # transitions per gradient step (all devices together)
+    learning_rate: float = 3e-4
+    clip_epsilon: float = 0.2
+    entropy_coef: float = 0.0
+    value_coef: float = 0.5
+    max_grad_norm: float | None = 1.0
+    # > 0: adapt the learning rate on every gradient step to keep the policy's KL divergence from the
+    # collecting policy near this (see adapt_learning_rate); 0: a constant learning rate
+    desired_kl: float = 0.0
+    # > 0: the learning rate falls linearly from learning_rate to 0 over this many environment steps
+    # (counted from the run's start, so across resumes); 0: no annealing
+    anneal_steps: int = 0
+
+
+@dataclass(frozen=True)
+class ReturnSettings:
+    """Returns and advantages."""
+
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    reward_scaling: float = 1.0  # rewards are multiplied by this for learning; reported returns are unscaled
+    # GAE and value targets recomputed on every minibatch with the current value network (as Brax does),
+    # rather than once per iteration with the network that collected the data
+    recompute_advantages: bool = False
+    # "gae": sum over k of (gamma lambda)^k TD errors (Schulman et al.); "lambda_return": the TD error
+    # towards the next step's lambda-return, r + gamma G_{t+1} - V(s_t) (Brax's PPO), which weighs the
+    # next step's advantage by gamma rather than gamma lambda
+    advantage: str = "gae"
+
+
+@dataclass(frozen=True)
+class NetworkSettings:
+    """The actor-critic network, its input and its output."""
+
+    hidden_sizes: tuple[int, ...] = (256, 256)  # the shared trunk; the policy's layers when value_hidden_sizes is set
+    value_hidden_sizes: tuple[int, ...] = ()  # set: a separate value network of these layers
+    normalize_observations: bool = True
+    squash_actions: bool = False  # tanh of the Gaussian sample goes to the env, rather than the sample clipped
+    activation: str = "relu"  # of the hidden layers: a name in joshua_ppo.networks.ACTIVATIONS
+    state_dependent_std: bool = False  # the policy network outputs the std too, rather than one learned vector
+
+
+def check_settings(
+    rollout: RolloutSettings, optimization: OptimizationSettings, devices: int, whole_unrolls: bool = False
+) -> int:
+    """Validate the batch arithmetic and the learning-rate options; returns the number of minibatches per epoch.
+
+    whole_unrolls: minibatches are made of whole unrolls (for recomputing advantages), not single steps.
+    """
+    for name, value in (
+        ("num_envs", rollout.num_envs),
+        ("num_steps", rollout.num_steps),
+        ("unrolls_per_iteration", rollout.unrolls_per_iteration),
+        ("num_epochs", optimization.num_epochs),
+        ("minibatch_size", optimization.minibatch_size),
+    ):
+        if value < 1:
+            raise ConfigError(f"PPO setting {name} must be at least 1, got {value}")
+    batch = rollout.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
+    if batch % optimization.minibatch_size:
+        raise ConfigError(
+            f"minibatch_size {optimization.minibatch_size} must divide the iteration's "
+            f"num_envs x num_steps x unrolls_per_iteration = {batch} transitions"
+        )
+    if optimization.minibatch_size % devices:
+        raise ConfigError(f"minibatch_size {optimization.minibatch_size} must be a multiple of the {devices} devices")
+    if optimization.desired_kl > 0 and optimization.anneal_steps > 0:
+        raise ConfigError(
+            "desired_kl and an annealed learning rate cannot be combined (both set the learning rate): "
+            "drop ppo.desired_kl or ppo.anneal_learning_rate (anneal_steps)"
+        )
+    if whole_unrolls and optimization.minibatch_size % (devices * rollout.num_steps):
+        raise ConfigError(
+            f"with recompute_advantages, minibatch_size {optimization.minibatch_size} must be a multiple of "
+            f"num_steps x devices = {rollout.num_steps * devices} (minibatches are made of whole unrolls)"
+        )
+    return batch // optimization.minibatch_size
+
+
+def check_advantage(returns: ReturnSettings) -> None:
+    """The advantage estimator is one PPO knows."""
+    if returns.advantage not in ADVANTAGE_ESTIMATORS:
+        raise ConfigError(f"advantage '{returns.advantage}' is not one of: {', '.join(ADVANTAGE_ESTIMATORS)}")

@@ -1,0 +1,139 @@
+"""`train_ppo`: PPO in JAX/Flax/Optax on a functional batched environment (`joshua_mjx.env.MjxEnv`).
+
+The whole algorithm: settings in four groups (`joshua_ppo.settings`), a seed, and callbacks for
+progress and checkpoints. Each iteration is one compiled function (`joshua_ppo.iteration`); this
+loop only redraws the episodes' starts, checks the losses stay finite and reports. The trainer plugin
+(`joshua_ppo.trainer`) adds configs, run folders and monitoring.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import jax
+
+from joshua_core.errors import ConfigError, JoshuaError
+from joshua_ppo.envs import MjxEnv
+from joshua_ppo.iteration import make_iteration
+from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
+from joshua_ppo.state import Progress, TrainingState, abstract_state, init_state
+
+
+@dataclass
+class IterationReport:
+    """What one iteration did: counters, timing, and its metrics as Python floats.
+
+    metrics: `mean_return` and `mean_length` of the episodes that ended in this iteration
+    (`episodes` of them; NaN when none), `reward/<term>` episode sums, `metrics/<name>` on the
+    episodes' last steps, and the losses (`loss`, `policy_loss`, `value_loss`, `entropy`,
+    `approx_kl`, `clip_fraction`, `action_std`, the policy's mean standard deviation, and
+    `learning_rate`, the mean over the iteration's gradient steps).
+    """
+
+    iteration: int
+    env_steps: int
+    total_steps: int
+    iteration_seconds: float
+    steps_per_second: float
+    wall_seconds: float  # since train_ppo was called
+    compile_seconds: float  # before the first iteration: environments reset and the iteration compiled, at once
+    metrics: dict[str, float] = field(default_factory=dict)
+
+
+class TrainingDiverged(JoshuaError):
+    """A loss or parameter became NaN or infinite; training stopped before writing anything from that state."""
+
+
+ProgressCallback = Callable[[IterationReport, TrainingState], None]
+CheckpointCallback = Callable[[TrainingState, Progress, IterationReport | None], None]
+
+
+def train_ppo(
+    env: MjxEnv,
+    *,
+    rollout: RolloutSettings,
+    optimization: OptimizationSettings,
+    returns: ReturnSettings,
+    network: NetworkSettings,
+    total_timesteps: int,
+    seed: int = 0,
+    checkpoint_interval: int = 0,
+    resume: tuple[TrainingState, Progress] | None = None,
+    on_progress: ProgressCallback | None = None,
+    on_checkpoint: CheckpointCallback | None = None,
+) -> tuple[TrainingState, Progress]:
+    """Train until `total_timesteps` environment steps (rounded up to whole iterations).
+
+    `on_progress` gets a report after every iteration; `on_checkpoint` gets the state every
+    `checkpoint_interval` environment steps (0: never), before the first iteration of a new run
+    (the untrained policy) and at the end. `resume` continues from a saved state and its counters.
+    Raises TrainingDiverged, without calling `on_checkpoint`, when a loss or parameter stops being finite.
+    """
+    if resume is not None and resume[0].env_state.observation.shape[0] != env.num_envs:
+        raise ConfigError(
+            f"the saved state has {resume[0].env_state.observation.shape[0]} environments, not {env.num_envs}"
+        )
+    started = time.perf_counter()
+    iteration = make_iteration(env, rollout=rollout, optimization=optimization, returns=returns, network=network)
+    abstract = abstract_state(env, network=network, optimization=optimization)
+    # the iteration compiles while the environments reset (which compiles mjx.forward): both take seconds
+    # of XLA compilation, which runs without holding the GIL
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        compiling = pool.submit(lambda: iteration.lower(abstract).compile())
+        state, progress = resume or (
+            init_state(env, seed=seed, network=network, optimization=optimization),
+            Progress(0, 0),
+        )
+        compiled = compiling.result()
+    compile_seconds = time.perf_counter() - started
+    steps_per_iteration = rollout.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
+    iterations = max(0, math.ceil((total_timesteps - progress.env_steps) / steps_per_iteration))
+    total_steps = progress.env_steps + iterations * steps_per_iteration
+    if resume is None and on_checkpoint is not None:
+        on_checkpoint(state, progress, None)
+    next_checkpoint = progress.env_steps + checkpoint_interval if checkpoint_interval > 0 else None
+    for _ in range(iterations):
+        iteration_started = time.perf_counter()
+        # every iteration's episodes start from fresh draws of the task's reset terms
+        state = state._replace(env_state=env.redraw_starts(state.env_state))
+        candidate, metrics = compiled(state)
+        values = {name: float(value) for name, value in jax.device_get(metrics).items()}
+        _check_finite(values, progress)
+        state = candidate
+        elapsed = time.perf_counter() - iteration_started
+        progress = Progress(progress.iteration + 1, progress.env_steps + steps_per_iteration)
+        report = IterationReport(
+            iteration=progress.iteration,
+            env_steps=progress.env_steps,
+            total_steps=total_steps,
+            iteration_seconds=elapsed,
+            steps_per_second=steps_per_iteration / elapsed,
+            wall_seconds=time.perf_counter() - started,
+            compile_seconds=compile_seconds,
+            metrics=values,
+        )
+        if on_progress is not None:
+            on_progress(report, state)
+        due = next_checkpoint is not None and progress.env_steps >= next_checkpoint
+        if on_checkpoint is not None and (due or progress.env_steps >= total_steps):
+            on_checkpoint(state, progress, report)
+            while next_checkpoint is not None and next_checkpoint <= progress.env_steps:
+                next_checkpoint += checkpoint_interval
+    return state, progress
+
+
+def _check_finite(values: dict[str, float], progress: Progress) -> None:
+    """Raise TrainingDiverged when an iteration's losses or parameters stopped being finite (pops params_finite)."""
+    finite = values.pop("params_finite") == 1.0
+    bad = [name for name in ("loss", "policy_loss", "value_loss") if not math.isfinite(values[name])]
+    if bad or not finite:
+        what = f"{', '.join(bad)} became {values[bad[0]]}" if bad else "the network parameters became non-finite"
+        raise TrainingDiverged(
+            f"training diverged in iteration {progress.iteration + 1} ({progress.env_steps} steps done): {what}; "
+            "the last checkpoint written before it is kept. Lower training.learning_rate, set "
+            "training.ppo.max_grad_norm, or check the task's rewards and observations for huge values"
+        )
