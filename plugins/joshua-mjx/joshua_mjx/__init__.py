@@ -13,21 +13,21 @@ if TYPE_CHECKING:
     from joshua_mjx.engine import MJX_SUFFIX, MjxBackend, MjxEngine
     from joshua_mjx.env import EnvState, MjxEnv, make_mjx_env
 
-# Each exported name and the module that defines it.
-_MODULES = {
-    "MJX_SUFFIX": "engine",
-    "MjxBackend": "engine",
-    "MjxEngine": "engine",
-    "EnvState": "env",
-    "MjxEnv": "env",
-    "make_mjx_env": "env",
-}
-__all__ = list(_MODULES)
+__all__ = [
+    "MJX_SUFFIX",
+    "MjxBackend",
+    "MjxEngine",
+    "EnvState",
+    "MjxEnv",
+    "make_mjx_env",
+]
+_IN_ENV = {"EnvState", "MjxEnv", "make_mjx_env"}  # the others are in engine.py
 
 
 def __getattr__(name: str) -> Any:
-    if name in _MODULES:
+    if name in __all__:
         import importlib
 
-        return getattr(importlib.import_module(f"joshua_mjx.{_MODULES[name]}"), name)
+        module = "env" if name in _IN_ENV else "engine"
+        return getattr(importlib.import_module(f"joshua_mjx.{module}"), name)
     raise AttributeError(f"module 'joshua_mjx' has no attribute '{name}'")

@@ -13,21 +13,21 @@ if TYPE_CHECKING:
     from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine, compile_model
     from joshua_mujoco.vector import BatchedVectorEnv, make_vector_env, vector_env_from_config
 
-# Each exported name and the module that defines it.
-_MODULES = {
-    "MuJoCoBackend": "engine",
-    "MuJoCoEngine": "engine",
-    "compile_model": "engine",
-    "BatchedVectorEnv": "vector",
-    "make_vector_env": "vector",
-    "vector_env_from_config": "vector",
-}
-__all__ = list(_MODULES)
+__all__ = [
+    "MuJoCoBackend",
+    "MuJoCoEngine",
+    "compile_model",
+    "BatchedVectorEnv",
+    "make_vector_env",
+    "vector_env_from_config",
+]
+_IN_VECTOR = {"BatchedVectorEnv", "make_vector_env", "vector_env_from_config"}  # the others are in engine.py
 
 
 def __getattr__(name: str) -> Any:
-    if name in _MODULES:
+    if name in __all__:
         import importlib
 
-        return getattr(importlib.import_module(f"joshua_mujoco.{_MODULES[name]}"), name)
+        module = "vector" if name in _IN_VECTOR else "engine"
+        return getattr(importlib.import_module(f"joshua_mujoco.{module}"), name)
     raise AttributeError(f"module 'joshua_mujoco' has no attribute '{name}'")

@@ -20,7 +20,7 @@ import numpy as np
 from joshua_core.evaluation import open_video_writer
 from joshua_mujoco.engine import camera_id, create_renderer
 from joshua_mujoco.vector import render_with_commands
-from joshua_ppo.envs import MjxEnv
+from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.policy import make_network, policy_actions
 from joshua_ppo.settings import NetworkSettings
@@ -39,7 +39,7 @@ class Rollout:
     metrics: dict[str, np.ndarray]  # (finished,) each metric on the first episode's last step
 
 
-def make_rollout(env: MjxEnv, network: NetworkSettings, steps: int) -> Any:
+def make_rollout(env: JaxEnv, network: NetworkSettings, steps: int) -> Any:
     """A compiled function (params, normalizer, key) -> per-step arrays of a `steps`-long rollout of the
     deterministic policy of the network `network` describes."""
     net = make_network(env, network)
