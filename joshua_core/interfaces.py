@@ -84,9 +84,6 @@ class Engine(ABC):
         self.close()
 
 
-ENV_AXIS = "envs"  # the device-mesh axis that JAX environments are spread over (EnvKind.JAX)
-
-
 class EnvKind(enum.Enum):
     """The kinds of batched task environments a backend can provide and a trainer can need.
 
@@ -110,7 +107,7 @@ class EnvKind(enum.Enum):
     `commands`, `data.qpos` (for drawing) and `episode`, the finished-episode record (`done`, `return_`,
     `length`, `reward_terms`, `metrics`; valid where `done`). Attributes: `num_envs`, `observation_size`,
     `action_size`, `task` (the built `Task`), `model` (the host `mujoco.MjModel`, for rendering), `source`
-    (the model file), `mesh` (a `jax.sharding.Mesh` with one axis, `ENV_AXIS`, that the environments are
+    (the model file), `mesh` (a `jax.sharding.Mesh` with one axis, of any name, that the environments are
     spread over), `sharding` (the state's `NamedSharding` over it) and `replicated` (the mesh's
     replicated sharding, for parameters).
     """

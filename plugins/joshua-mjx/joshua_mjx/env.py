@@ -31,7 +31,7 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from joshua_core.errors import ConfigError
-from joshua_core.interfaces import ENV_AXIS, EnvSpec
+from joshua_core.interfaces import EnvSpec
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import (
@@ -48,6 +48,7 @@ from joshua_mjx.engine import mjx_variant, put_model
 from joshua_mjx.physics import mjx
 from joshua_mujoco import compile_model
 
+ENV_AXIS = "envs"  # name of the device-mesh axis the environments are spread over
 # Context fields that must describe the state after the step: kinematics are recomputed at its end.
 _KINEMATIC_FIELDS = frozenset({"xpos", "xquat", "site_xpos"})
 
