@@ -39,11 +39,13 @@ import jax
 import numpy as np
 
 from joshua_core.config import apply_override, finalize, load_preset
+from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.interfaces import EnvKind, EnvSpec
 from joshua_core.plugins import PluginHost
-from joshua_mjx.env import MjxEnv
+from joshua_mjx import MjxBackend, MjxEnv
 from joshua_mjx.physics import mjx
 from joshua_ppo.config_settings import PpoSettings
-from joshua_ppo.envs import environment
+from joshua_ppo.envs import DEFAULT_NUM_ENVS
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.rollout import collect, make_rollout, mean_results
 from joshua_ppo.state import TrainingState
@@ -156,12 +158,18 @@ def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snaps
 
 
 def scaled(settings: PpoSettings, factor: int) -> PpoSettings:
-    """`settings` with `factor` times the environments and the minibatch (the same number of gradient steps)."""
-    rollout = dataclasses.replace(settings.rollout, num_envs=settings.rollout.num_envs * factor)
+    """`settings` with `factor` times the minibatch: with `factor` times the environments, the same number of
+    gradient steps."""
     optimization = dataclasses.replace(
         settings.optimization, minibatch_size=settings.optimization.minibatch_size * factor
     )
-    return dataclasses.replace(settings, rollout=rollout, optimization=optimization)
+    return dataclasses.replace(settings, optimization=optimization)
+
+
+def environment(config: TrainingConfig, plugins: PluginHost, num_envs: int, devices: list[jax.Device]) -> MjxEnv:
+    """The mjx backend's environments of the config's task, spread over `devices`."""
+    spec = dataclasses.replace(EnvSpec.from_training(config, num_envs=num_envs), devices=devices)
+    return MjxBackend().create_envs(spec, EnvKind.JAX, plugins)
 
 
 def main() -> None:
@@ -199,10 +207,11 @@ def main() -> None:
     device_sets = [jax.devices()[:1], jax.devices()] if args.scaling else [jax.devices()]
     print(f"devices: {jax.devices()}  preset {args.preset}: {settings.rollout} {settings.optimization}")
     results = []
+    num_envs = config.num_envs or DEFAULT_NUM_ENVS
     for devices in device_sets:
         if args.weak:
             settings = scaled(PpoSettings.from_config(config), len(devices))
-        env = environment(config, plugins, settings.rollout.num_envs, devices)
+        env = environment(config, plugins, num_envs * len(devices) if args.weak else num_envs, devices)
         outcome, snapshots = train(
             settings, env, args.target, args.max_seconds, args.iterations, args.snapshot_interval
         )

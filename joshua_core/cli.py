@@ -127,7 +127,9 @@ def list_plugins(host: PluginHost) -> int:
         if info.error:
             print(f"    error: {info.error}")
         for component in info.components:
-            print(f"    {component.kind.value:<8} {component.name:<14} {component.summary}")
+            verb = "provides" if component.kind is Kind.BACKEND else "needs"
+            kinds = f" [{verb} {', '.join(component.env_kinds)} envs]" if component.env_kinds else ""
+            print(f"    {component.kind.value:<8} {component.name:<14} {component.summary}{kinds}")
     for conflict in host.conflicts:
         print(f"conflict: {conflict}")
     return 0
@@ -159,9 +161,11 @@ def load(args: argparse.Namespace, options: OptionSet) -> LoadedConfig:
 
 
 def check_components(config: JoshuaConfig, host: PluginHost) -> None:
-    """Raise PluginNotFoundError naming what to install when the config needs plugins that are missing."""
+    """Raise PluginNotFoundError naming what to install when the config needs plugins that are missing, and
+    ConfigError when its trainer needs environments its backend does not provide (from the registrations alone)."""
+    needed = dict(required_components(config))
     missing = []
-    for kind, name in required_components(config):
+    for kind, name in needed.items():
         try:
             host.component(kind, name)
         except PluginNotFoundError as error:
@@ -170,6 +174,8 @@ def check_components(config: JoshuaConfig, host: PluginHost) -> None:
         raise PluginNotFoundError(missing[0])
     if missing:
         raise PluginNotFoundError("this config needs plugins that are not installed:\n- " + "\n- ".join(missing))
+    if Kind.TRAINER in needed:  # a trainer on a backend without the environments it needs: before heavy imports
+        host.check_env_kinds(needed[Kind.TRAINER], needed[Kind.BACKEND])
 
 
 def run(args: argparse.Namespace, host: PluginHost) -> int:

@@ -34,8 +34,7 @@ FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
 }
 DEFAULT_SIMULATION_BACKEND = "mujoco"
 DEFAULT_MODE = "INTERACTIVE"  # the seed's enum default: a config that names no mode
-NON_NEGATIVE_TRAINING_FIELDS = (
-    "num_envs",
+NON_NEGATIVE_TRAINING_FIELDS = (  # num_envs is checked where environments are made (EnvSpec)
     "total_timesteps",
     "num_steps",
     "num_epochs",

@@ -36,6 +36,7 @@ def joshua_register_backends(registry: Registrar) -> None:
 
     Called by PluginHost when it is built. `target` is a `joshua_core.interfaces.Backend` subclass
     or its "module:Class" path; `name` is what configs put in `backend` (e.g. "mujoco", "mjx").
+    `env_kinds=("numpy",)` declares the environment kinds (EnvKind values) its `create_envs` provides.
     """
 
 
@@ -55,6 +56,8 @@ def joshua_register_trainers(registry: Registrar) -> None:
 
     Called by PluginHost when it is built. `name` is what `TrainingConfig.trainer` names
     (e.g. "ppo", "sb3"); `target` is a `joshua_core.interfaces.Trainer` subclass or its path.
+    `env_kinds=("jax",)` declares the environment kinds (EnvKind values) it can train on, so that a
+    backend without them is reported before anything is imported.
     """
 
 

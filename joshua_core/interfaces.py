@@ -1,6 +1,7 @@
 """The small abstract classes plugins implement. Hooks only register these; the work happens here.
 
-- Backend: turns a model file into an Engine (one simulation you can step).
+- Backend: turns a model file into an Engine (one simulation you can step), and a task into batched
+  environments of the kinds it provides (EnvKind, described by an EnvSpec).
 - Mode: runs a SimulationConfig (viewer, replay, mirror, offscreen, headless).
 - Trainer: runs a TrainingConfig and leaves checkpoints behind.
 - Command: a `joshua` subcommand a plugin adds (e.g. `joshua mirror-replay`).
@@ -9,7 +10,9 @@
 
 from __future__ import annotations
 
+import enum
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, Self
@@ -22,7 +25,7 @@ from joshua_core.errors import ConfigError, UsageError
 if TYPE_CHECKING:
     import argparse
 
-    from joshua_core.config_pb2 import SimulationConfig, TrainingConfig
+    from joshua_core.config_pb2 import SimulationConfig, TaskConfig, TrainingConfig
     from joshua_core.plugins import PluginHost
 
 # The size of rendered images when a config leaves simulation.render_width/render_height at 0.
@@ -90,14 +93,93 @@ class Engine(ABC):
         self.close()
 
 
+class EnvKind(enum.Enum):
+    """The kinds of batched task environments a backend can provide and a trainer can need.
+
+    Both run `num_envs` copies of one task, reset every environment whose episode ended within the
+    step that ended it (same-step autoreset), and count episodes as `joshua_core.tasks.episodes` does:
+    `terminated` (the task's termination, or a non-finite state: zero reward) and `truncated` (the
+    task's episode length reached, only when not terminated).
+
+    NUMPY: a `gymnasium.vector.VectorEnv` with `metadata["autoreset_mode"] == AutoresetMode.SAME_STEP`,
+    float32 Box spaces (actions in [-1, 1]), `num_envs`, `task` (the built `Task`), `render_frame(env_index,
+    camera, width, height)` and these infos from `step`: "reward_terms" and "metrics" (name -> (N,)
+    arrays of this step); where an episode ended, "final_obs" (valid where "_final_obs") and "episode"
+    ("r" return, "l" length, "reward/<term>" the term's episode sum; valid where "_episode").
+
+    JAX: a functional environment whose methods are pure JAX functions of all environments at once:
+    `reset(key) -> state`, `step(state, action) -> state` (jit-compatible, and callable inside
+    `jax.shard_map` on each device's slice of the environments) and `redraw_starts(state) -> state`
+    (new start states for the next episodes; called between rollouts). `state` is a pytree with the
+    environments on every leaf's leading axis and the fields `observation`, `reward`, `terminated`,
+    `truncated`, `final_observation` (the last observation before an autoreset), `reward_terms`,
+    `commands`, `data.qpos` (for drawing) and `episode`, the finished-episode record (`done`, `return_`,
+    `length`, `reward_terms`, `metrics`; valid where `done`). Attributes: `num_envs`, `observation_size`,
+    `action_size`, `task` (the built `Task`), `model` (the host `mujoco.MjModel`, for rendering), `source`
+    (the model file), `mesh` (a `jax.sharding.Mesh` with one axis, of any name, that the environments are
+    spread over), `sharding` (the state's `NamedSharding` over it) and `replicated` (the mesh's
+    replicated sharding, for parameters).
+    """
+
+    NUMPY = "numpy"
+    JAX = "jax"
+
+
+@dataclass(frozen=True)
+class EnvSpec:
+    """What batched environments to create: `num_envs` copies of the registered `task`.
+
+    model_path: the model to simulate, already absolute (None: the task's own model, as the backend
+    picks it). task_config: overrides of the task's terms and lengths. nthread: threads stepping the
+    simulations on CPU backends (None: one per core). devices: the JAX devices to spread over
+    (None: every visible one). `num_envs` is checked here, once, for every backend.
+    """
+
+    task: str
+    num_envs: int
+    seed: int = 0
+    model_path: Path | None = None
+    task_config: TaskConfig | None = None
+    nthread: int | None = None
+    devices: Sequence[Any] | None = None
+
+    def __post_init__(self) -> None:
+        if self.num_envs < 1:
+            raise ConfigError(f"num_envs must be at least 1, got {self.num_envs}")
+
+    @classmethod
+    def from_training(
+        cls, training: TrainingConfig, *, num_envs: int | None = None, seed: int | None = None
+    ) -> EnvSpec:
+        """The environments a finalized training config describes; `num_envs` and `seed` replace its own."""
+        if not training.task:
+            raise ConfigError('training.task is empty; name a task, e.g. task: "ant_locomotion" (see `joshua plugins`)')
+        return cls(
+            task=training.task,
+            num_envs=training.num_envs if num_envs is None else num_envs,
+            seed=int(training.seed if seed is None else seed),
+            model_path=Path(training.model_path) if training.model_path else None,
+            task_config=training.task_config if training.HasField("task_config") else None,
+            nthread=training.nthread or None,
+        )
+
+
 class Backend(ABC):
-    """A physics backend registered under a name (e.g. "mujoco"); creates engines."""
+    """A physics backend registered under a name (e.g. "mujoco"); creates engines and batched environments.
+
+    The environment kinds a backend provides are declared where it is registered
+    (`registry.add(name, target, summary, env_kinds=("numpy",))`), so they are known without importing it.
+    """
 
     @abstractmethod
     def create_engine(
         self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
     ) -> Engine:
         """Load the model at `model_path`; a missing or invalid model raises ModelError."""
+
+    def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> Any:
+        """Batched environments of `kind` (see EnvKind) for `spec`, with tasks and terms from `plugins`."""
+        raise ConfigError(f"backend {type(self).__name__} provides no {kind.name} environments")
 
 
 @dataclass(frozen=True)
@@ -119,6 +201,18 @@ class RunContext:
             engine.close()
             raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
         return engine
+
+    def create_envs(
+        self, training: TrainingConfig, kind: EnvKind, *, num_envs: int | None = None, seed: int | None = None
+    ) -> Any:
+        """Environments of `kind` for a finalized training config, from the backend it names; a backend that
+        does not provide `kind` is a ConfigError naming those that do. `num_envs`, `seed` replace the config's."""
+        from joshua_core.config import training_plugins  # the config module imports this one
+
+        trainer, backend = training_plugins(training)
+        self.plugins.check_env_kinds(trainer, backend, needs=(kind,))
+        spec = EnvSpec.from_training(training, num_envs=num_envs, seed=seed)
+        return self.plugins.backend(backend).create_envs(spec, kind, self.plugins)
 
 
 class Mode(ABC):

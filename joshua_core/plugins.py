@@ -23,8 +23,8 @@ import pluggy
 from google.protobuf.descriptor import FieldDescriptor
 
 from joshua_core import hookspecs
-from joshua_core.errors import PluginLoadError, PluginNotFoundError, UsageError
-from joshua_core.interfaces import Backend, Command, Mode, Trainer
+from joshua_core.errors import ConfigError, PluginLoadError, PluginNotFoundError, UsageError
+from joshua_core.interfaces import Backend, Command, EnvKind, Mode, Trainer
 from joshua_core.options import OptionSet
 
 ENTRY_POINT_GROUP = "joshua"
@@ -86,13 +86,17 @@ class PluginInfo:
 @dataclass(frozen=True)
 class Component:
     """A registered backend, mode, trainer, task, term, command or option; `target` is the object or its
-    "module:attr" path."""
+    "module:attr" path.
+
+    `env_kinds`: the environment kinds (EnvKind values) a backend provides, or a trainer can train on.
+    """
 
     kind: Kind
     name: str
     target: object
     summary: str
     plugin: PluginInfo
+    env_kinds: tuple[str, ...] = ()
 
     def load(self) -> Any:
         """Import the target if it is still a path; a failure names the plugin and the cause."""
@@ -121,8 +125,12 @@ class Registrar:
         self.plugin = plugin
         self.added: list[Component] = []
 
-    def add(self, name: str, target: object, summary: str = "") -> None:
-        """Register `target` (an object, or a "module:attr" path imported on first use) as `name`."""
+    def add(self, name: str, target: object, summary: str = "", *, env_kinds: Iterable[str] = ()) -> None:
+        """Register `target` (an object, or a "module:attr" path imported on first use) as `name`.
+
+        `env_kinds` (backends and trainers only): the EnvKind values ("numpy", "jax") a backend provides,
+        or a trainer can train on; declared here so that they are checked without importing anything.
+        """
         if not isinstance(name, str) or not name:
             raise TypeError(f"{self.kind.value} name must be a non-empty string, got {name!r}")
         if isinstance(target, str) and ":" not in target:
@@ -131,7 +139,13 @@ class Registrar:
             )
         if any(component.name == name for component in self.added):
             raise ValueError(f"{self.kind.value} '{name}' registered twice by the same plugin")
-        self.added.append(Component(self.kind, name, target, summary, self.plugin))
+        kinds = (env_kinds,) if isinstance(env_kinds, str) else tuple(env_kinds)
+        known = [kind.value for kind in EnvKind]
+        if kinds and self.kind not in (Kind.BACKEND, Kind.TRAINER):
+            raise ValueError(f"{self.kind.value} '{name}': only backends and trainers declare env_kinds")
+        if unknown := [kind for kind in kinds if kind not in known]:
+            raise ValueError(f"{self.kind.value} '{name}': unknown env_kinds {unknown}; known: {', '.join(known)}")
+        self.added.append(Component(self.kind, name, target, summary, self.plugin, kinds))
 
 
 def _normalized(name: str) -> str:
@@ -277,6 +291,24 @@ class PluginHost:
                 message += f" Did you mean: {', '.join(close)}?"
         available = ", ".join(self.names(kind)) or "none"
         return f"{message}\nInstalled {kind.value}s: {available}"
+
+    def check_env_kinds(self, trainer: str, backend: str, needs: Iterable[EnvKind] | None = None) -> None:
+        """Raise ConfigError unless `backend` provides one of the environment kinds `trainer` needs (`needs`,
+        else those the trainer declared; a trainer that declared none is not checked), naming the backends
+        that do. Reads only the registrations: nothing is imported."""
+        wanted = [kind.value for kind in needs] if needs is not None else self._declared(Kind.TRAINER, trainer)
+        if not wanted or set(wanted) & set(self.component(Kind.BACKEND, backend).env_kinds):
+            return
+        kinds = " or ".join(kind.upper() for kind in wanted)
+        able = [name for name in self.names(Kind.BACKEND) if set(wanted) & set(self._declared(Kind.BACKEND, name))]
+        raise ConfigError(
+            f"trainer '{trainer}' needs {kinds} environments, which backend '{backend}' does not provide; "
+            f"backends that do: {', '.join(able) or 'none installed'}"
+        )
+
+    def _declared(self, kind: Kind, name: str) -> tuple[str, ...]:
+        component = self._components.get((kind, name))
+        return component.env_kinds if component else ()
 
     def create(self, kind: Kind, name: str, base: type[Any]) -> Any:
         """Instantiate the registered class `name`, checking that it implements `base` (an ABC)."""

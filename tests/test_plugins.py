@@ -15,8 +15,8 @@ import pytest
 
 from joshua_core import hookimpl
 from joshua_core.config_pb2 import SimulationConfig, TrainingConfig
-from joshua_core.errors import PluginLoadError, PluginNotFoundError, UsageError
-from joshua_core.interfaces import Backend, Mode
+from joshua_core.errors import ConfigError, PluginLoadError, PluginNotFoundError, UsageError
+from joshua_core.interfaces import Backend, EnvKind, EnvSpec, Mode, RunContext
 from joshua_core.plugins import Kind, PluginHost, PluginInfo
 
 
@@ -327,3 +327,90 @@ def test_a_third_party_plugin_adds_a_mode_and_its_options(tmp_path: Path, run_jo
     missing = run_joshua("--config", str(config))  # not installed: the mode is what to install, not a field error
     assert missing.returncode == 2 and "no mode named 'SAMPLE' is installed" in missing.stderr
     assert "levle" not in missing.stderr and "Traceback" not in missing.stderr
+
+
+def plugin_with_env_kinds(kind: str, *components: tuple[str, object, tuple[str, ...]]) -> ModuleType:
+    def register(registry) -> None:
+        for name, target, env_kinds in components:
+            registry.add(name, target, "test component", env_kinds=env_kinds)
+
+    return plugin_module(**{f"joshua_register_{kind}s": register})
+
+
+class EnginesOnly(Backend):
+    def create_engine(self, model_path, *, render_width=640, render_height=480):
+        raise NotImplementedError
+
+
+def test_env_kinds_are_declared_at_registration_and_checked_without_importing_anything() -> None:
+    host = host_of(  # the targets do not exist: checking must not import them
+        ("backends", plugin_with_env_kinds(
+            "backend", ("cpu", "no_such_module:Cpu", ("numpy",)), ("gpu", "no_such_module:Gpu", ("jax",)),
+            ("both", "no_such_module:Both", ("numpy", "jax")),
+        )),
+        ("trainers", plugin_with_env_kinds(
+            "trainer", ("needs_jax", "no_such_module:T", ("jax",)), ("any", "no_such_module:A", ()),
+        )),
+    )  # fmt: skip
+    assert host.component(Kind.BACKEND, "both").env_kinds == ("numpy", "jax")
+    host.check_env_kinds("needs_jax", "gpu")
+    host.check_env_kinds("any", "cpu")  # a trainer that declares nothing is not checked
+    with pytest.raises(ConfigError) as caught:
+        host.check_env_kinds("needs_jax", "cpu")
+    assert str(caught.value) == (
+        "trainer 'needs_jax' needs JAX environments, which backend 'cpu' does not provide; backends that do: both, gpu"
+    )
+    with pytest.raises(ConfigError, match="trainer 'any' needs NUMPY environments.*backends that do: both, cpu"):
+        host.check_env_kinds("any", "gpu", needs=[EnvKind.NUMPY])
+    with pytest.raises(PluginNotFoundError, match="no backend named 'usd'"):
+        host.check_env_kinds("needs_jax", "usd")
+
+
+def test_env_kinds_must_be_known_and_only_backends_and_trainers_declare_them() -> None:
+    host = host_of(
+        ("typo", plugin_with_env_kinds("backend", ("cpu", EnginesOnly, ("numpyy",)))),
+        ("mode", plugin_with_env_kinds("mode", ("GOOD", GoodMode, ("numpy",)))),
+    )
+    assert "unknown env_kinds ['numpyy']; known: numpy, jax" in host.problems[0]
+    assert "only backends and trainers declare env_kinds" in host.problems[1]
+
+
+def test_environments_come_from_the_backend_the_training_config_names(tmp_path: Path) -> None:
+    made: list[tuple[EnvSpec, EnvKind]] = []
+
+    class Provider(EnginesOnly):
+        def create_envs(self, spec, kind, plugins):
+            made.append((spec, kind))
+            return "environments"
+
+    host = host_of(
+        ("provider", plugin_with_env_kinds("backend", ("provider", Provider, ("numpy",)))),
+        ("plain", plugin_with_env_kinds("backend", ("plain", EnginesOnly, ()))),
+    )
+    context = RunContext(host, tmp_path)
+    training = TrainingConfig(trainer="mine", backend="provider", task="t", num_envs=3, seed=5, model_path="/m.xml")
+    assert context.create_envs(training, EnvKind.NUMPY, num_envs=8) == "environments"
+    assert made == [(EnvSpec("t", 8, seed=5, model_path=Path("/m.xml")), EnvKind.NUMPY)]
+    with pytest.raises(ConfigError, match="trainer 'mine' needs JAX environments, which backend 'provider' does not"):
+        context.create_envs(training, EnvKind.JAX)
+    training.backend = "plain"
+    with pytest.raises(ConfigError, match="backend 'plain' does not provide; backends that do: provider$"):
+        context.create_envs(training, EnvKind.NUMPY)
+    with pytest.raises(ConfigError, match="backend EnginesOnly provides no NUMPY environments"):
+        EnginesOnly().create_envs(EnvSpec("t", 1), EnvKind.NUMPY, host)
+    with pytest.raises(ConfigError, match="^num_envs must be at least 1, got 0$"):
+        EnvSpec("t", 0)
+    with pytest.raises(ConfigError, match="training.task is empty"):
+        EnvSpec.from_training(TrainingConfig(num_envs=1))
+
+
+def test_a_trainer_on_a_backend_without_its_environments_is_a_config_error_before_any_import(run_joshua) -> None:
+    listing = run_joshua("plugins")
+    assert "[provides numpy envs]" in listing.stdout and "[provides jax envs]" in listing.stdout
+    assert "[needs numpy envs]" in listing.stdout and "[needs jax envs]" in listing.stdout
+    run = run_joshua("--preset", "so_arm100_reach_sb3", "--set", "training.backend=mjx")
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.strip().splitlines()[-1] == (
+        "joshua: error: trainer 'sb3' needs NUMPY environments, which backend 'mjx' does not provide; "
+        "backends that do: mujoco"
+    )

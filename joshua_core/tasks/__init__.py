@@ -6,6 +6,7 @@ namespace `ctx.xp`), so the same task runs on numpy (joshua-mujoco) and inside `
 """
 
 from joshua_core.tasks.context import STATE_FIELDS, JaxRandom, NumpyRandom, RandomSource, TermContext, set_columns
+from joshua_core.tasks.episodes import Episode, EpisodeSums, StepOutcome, account_step, nonfinite
 from joshua_core.tasks.handles import Body, Joint, Joints, Sensor, Site
 from joshua_core.tasks.spec import ActionSpec, TaskSpec, TermKind, TermSpec, parse_param, with_config
 from joshua_core.tasks.task import BoundTerm, Task, build_task, load_task_spec
@@ -15,6 +16,8 @@ __all__ = [
     "ActionSpec",
     "Body",
     "BoundTerm",
+    "Episode",
+    "EpisodeSums",
     "JaxRandom",
     "Joint",
     "Joints",
@@ -22,13 +25,16 @@ __all__ = [
     "RandomSource",
     "Sensor",
     "Site",
+    "StepOutcome",
     "Task",
     "TaskSpec",
     "TermContext",
     "TermKind",
     "TermSpec",
+    "account_step",
     "build_task",
     "load_task_spec",
+    "nonfinite",
     "parse_param",
     "set_columns",
     "with_config",

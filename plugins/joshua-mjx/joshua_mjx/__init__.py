@@ -1,5 +1,33 @@
 """JOSHUA's MJX backend: JOSHUA tasks on thousands of MuJoCo XLA simulations inside `jax.jit`.
 
-Import `joshua_mjx.env` (`MjxEnv`, `make_mjx_env`) or `joshua_mjx.engine` (`MjxEngine`); this
-package module stays light because the plugin entry point imports it.
+`MjxEnv` (EnvKind.JAX; made by `make_mjx_env`, or by the backend's `create_envs`) and `MjxEngine` are
+exported here; this package module stays light because the plugin entry point imports it: jax and
+mujoco are imported the first time one of the names below is used.
 """
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from joshua_mjx.engine import MJX_SUFFIX, MjxBackend, MjxEngine
+    from joshua_mjx.env import EnvState, MjxEnv, make_mjx_env
+
+__all__ = [
+    "MJX_SUFFIX",
+    "MjxBackend",
+    "MjxEngine",
+    "EnvState",
+    "MjxEnv",
+    "make_mjx_env",
+]
+_IN_ENV = {"EnvState", "MjxEnv", "make_mjx_env"}  # the others are in engine.py
+
+
+def __getattr__(name: str) -> Any:
+    if name in __all__:
+        import importlib
+
+        module = "env" if name in _IN_ENV else "engine"
+        return getattr(importlib.import_module(f"joshua_mjx.{module}"), name)
+    raise AttributeError(f"module 'joshua_mjx' has no attribute '{name}'")

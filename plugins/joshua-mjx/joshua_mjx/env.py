@@ -12,7 +12,9 @@ with numpy, so rewards and observations match the `mujoco` backend's.
   over the whole batch on every step. `state.final_observation` keeps the last observation of the
   ended episode (for bootstrapping truncated episodes), `state.episode` its return, length,
   per-term reward sums and final metrics.
-- A simulation whose state becomes non-finite is terminated with zero reward, never propagated.
+- Rewards, terminations, truncations and the episode records follow `joshua_core.tasks.episodes`
+  (the same code as the `mujoco` backend's): a simulation whose state becomes non-finite is
+  terminated with zero reward, never propagated.
 - `MjxEnv.sharding` spreads the environments over every visible device (`jax.sharding`);
   `reset` returns a state laid out that way.
 """
@@ -29,26 +31,26 @@ import numpy as np
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
 from joshua_core.errors import ConfigError
+from joshua_core.interfaces import EnvSpec
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
-from joshua_core.tasks import Task, TermContext, build_task, load_task_spec
+from joshua_core.tasks import (
+    Episode,
+    EpisodeSums,
+    Task,
+    TermContext,
+    account_step,
+    build_task,
+    load_task_spec,
+    nonfinite,
+)
 from joshua_mjx.engine import mjx_variant, put_model
 from joshua_mjx.physics import mjx
-from joshua_mujoco.engine import compile_model
+from joshua_mujoco import compile_model
 
 ENV_AXIS = "envs"  # name of the device-mesh axis the environments are spread over
 # Context fields that must describe the state after the step: kinematics are recomputed at its end.
 _KINEMATIC_FIELDS = frozenset({"xpos", "xquat", "site_xpos"})
-
-
-class Episode(NamedTuple):
-    """Statistics of the episodes that ended on this step; entries are valid where `done`."""
-
-    done: jax.Array  # (N,) bool
-    return_: jax.Array  # (N,) undiscounted return
-    length: jax.Array  # (N,) steps
-    reward_terms: dict[str, jax.Array]  # per reward term, the weighted sum over the episode
-    metrics: dict[str, jax.Array]  # the task's metrics on the episode's last step
 
 
 class EnvState(NamedTuple):
@@ -65,15 +67,14 @@ class EnvState(NamedTuple):
     commands: dict[str, jax.Array]  # task commands (targets, goals) of the current episode
     start: mjx.Data  # where each environment's next episode starts (reset terms applied, forward done)
     start_commands: dict[str, jax.Array]  # the commands of each environment's next episode
-    running_return: jax.Array  # (N,) return of the current episode so far
-    running_terms: dict[str, jax.Array]  # per reward term, the current episode's weighted sum so far
+    sums: EpisodeSums  # the current episodes' return and per-term reward sums so far
     reward_terms: dict[str, jax.Array]  # per reward term, its weighted value on the last step
-    episode: Episode
+    episode: Episode  # the episodes that ended on the last step
     key: jax.Array  # (N, 2) uint32 random keys of the reset terms, one per environment
 
 
 class MjxEnv:
-    """A task on `num_envs` MJX simulations; see the module docstring."""
+    """A task on `num_envs` MJX simulations (EnvKind.JAX); see the module docstring."""
 
     def __init__(
         self,
@@ -84,9 +85,7 @@ class MjxEnv:
         source: str | Path = "<model>",
         devices: list[jax.Device] | None = None,
     ) -> None:
-        if num_envs < 1:
-            raise ConfigError(f"num_envs must be at least 1, got {num_envs}")
-        devices = devices or jax.devices()
+        devices = list(devices or jax.devices())
         if num_envs % len(devices):
             raise ConfigError(
                 f"num_envs {num_envs} must be a multiple of the {len(devices)} devices it is spread over "
@@ -139,7 +138,7 @@ class MjxEnv:
         action = jnp.zeros((n, self.action_size), jnp.float32)
         episode_step = jnp.zeros(n, jnp.int32)
         observation = self._observe(data, data.qpos, action, action, episode_step, commands)
-        term_zeros = {term.name: zeros for term in self.task.reward_terms}
+        sums = EpisodeSums.zeros(jnp, self.task, n, jnp.float32)
         return EnvState(
             data=data,
             observation=observation,
@@ -152,16 +151,9 @@ class MjxEnv:
             commands=commands,
             start=data,
             start_commands=commands,
-            running_return=zeros,
-            running_terms=term_zeros,
-            reward_terms=term_zeros,
-            episode=Episode(
-                done=jnp.zeros(n, bool),
-                return_=zeros,
-                length=episode_step,
-                reward_terms=term_zeros,
-                metrics={term.name: zeros for term in self.task.metric_terms},
-            ),
+            sums=sums,
+            reward_terms=sums.reward_terms,
+            episode=Episode.none(jnp, self.task, n, jnp.float32),
             key=keys,
         )
 
@@ -180,23 +172,9 @@ class MjxEnv:
             data = jax.vmap(mjx.rne_postconstraint, (None, 0))(self.mjx_model, data)
         episode_step = state.episode_step + 1
         ctx = self._context(data, state.data.qpos, action, state.action, episode_step, state.commands)
-        finite = jnp.isfinite(data.qpos).all(axis=1) & jnp.isfinite(data.qvel).all(axis=1)
-        total, weighted = task.rewards(ctx)
-        reward = jnp.where(finite, total, 0.0).astype(jnp.float32)
-        reward_terms = {name: jnp.where(finite, value, 0.0).astype(jnp.float32) for name, value in weighted.items()}
-        terminated = task.terminated(ctx) | ~finite
-        truncated = (episode_step >= task.episode_length) & ~terminated
-        done = terminated | truncated
+        outcome = account_step(task, ctx, nonfinite(jnp, data.qpos, data.qvel), state.sums, jnp.float32)
+        done = outcome.episode.done
         final_observation = jnp.nan_to_num(task.observe(ctx).astype(jnp.float32), posinf=0.0, neginf=0.0)
-        running_return = state.running_return + reward
-        running_terms = {name: state.running_terms[name] + value for name, value in reward_terms.items()}
-        episode = Episode(
-            done=done,
-            return_=running_return,
-            length=episode_step,
-            reward_terms=running_terms,
-            metrics={name: value.astype(jnp.float32) for name, value in task.metrics(ctx).items()},
-        )
 
         data = _where_env(done, state.start, data)  # autoreset
         commands = _where_env(done, state.start_commands, state.commands)
@@ -208,19 +186,18 @@ class MjxEnv:
         return EnvState(
             data=data,
             observation=observation,
-            reward=reward,
-            terminated=terminated,
-            truncated=truncated,
+            reward=outcome.reward,
+            terminated=outcome.terminated,
+            truncated=outcome.truncated,
             final_observation=final_observation,
             action=action,
             episode_step=episode_step,
             commands=commands,
             start=state.start,
             start_commands=state.start_commands,
-            running_return=jnp.where(done, 0.0, running_return),
-            running_terms={name: jnp.where(done, 0.0, value) for name, value in running_terms.items()},
-            reward_terms=reward_terms,
-            episode=episode,
+            sums=outcome.sums,
+            reward_terms=outcome.reward_terms,
+            episode=outcome.episode,
             key=state.key,
         )
 
@@ -322,9 +299,15 @@ def make_mjx_env(
     variant (`scene_mjx.xml` beside `scene.xml`) when there is one. `task_config` is a `joshua.TaskConfig`;
     the environments are spread over `devices` (default: every visible device).
     """
-    host = plugins or PluginHost.discover()
-    spec = load_task_spec(task, host)
-    path = resolve_data_path(model_path) if model_path else mjx_variant(spec.model_path)
+    path = resolve_data_path(model_path) if model_path else None
+    spec = EnvSpec(task, num_envs, model_path=path, task_config=task_config, devices=devices)
+    return mjx_envs(spec, plugins or PluginHost.discover())
+
+
+def mjx_envs(spec: EnvSpec, plugins: PluginHost) -> MjxEnv:
+    """The MjxEnv an EnvSpec describes (the `mjx` backend's EnvKind.JAX environments)."""
+    task_spec = load_task_spec(spec.task, plugins)
+    path = spec.model_path or mjx_variant(task_spec.model_path)
     model = compile_model(path)
-    built = build_task(spec, model, host, task_config)
-    return MjxEnv(built, model, num_envs, source=path, devices=devices)
+    built = build_task(task_spec, model, plugins, spec.task_config)
+    return MjxEnv(built, model, spec.num_envs, source=path, devices=spec.devices)

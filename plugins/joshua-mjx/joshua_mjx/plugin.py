@@ -9,5 +9,8 @@ from joshua_core.plugins import Registrar
 @hookimpl
 def joshua_register_backends(registry: Registrar) -> None:
     registry.add(
-        "mjx", "joshua_mjx.engine:MjxBackend", "MuJoCo XLA (JAX): batched task environments on every GPU, or the CPU"
+        "mjx",
+        "joshua_mjx.engine:MjxBackend",
+        "MuJoCo XLA (JAX): batched task environments on every GPU, or the CPU",
+        env_kinds=("jax",),
     )

@@ -142,14 +142,14 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> N
         print("max difference", float(np.abs(results[0] - results[1]).max()))
         for recompute in (False, True):  # minibatches of steps, or of whole unrolls
             reports = []
-            train_ppo(env, rollout=RolloutSettings(4, 5, 1), returns=ReturnSettings(recompute_advantages=recompute),
+            train_ppo(env, rollout=RolloutSettings(5, 1), returns=ReturnSettings(recompute_advantages=recompute),
                       optimization=OptimizationSettings(num_epochs=1, minibatch_size=10),
                       network=NetworkSettings(hidden_sizes=(16,)), total_timesteps=40,
                       on_progress=lambda report, state: reports.append(report))
             print("losses finite", all(np.isfinite(r.metrics["loss"]) for r in reports), len(reports))
         # zero-size arrays (the ant has no tendons, mocap bodies...) stay out of the per-device computation:
         # jaxlib 0.11's GPU compiler crashes on them there
-        settings = dict(rollout=RolloutSettings(4, 5, 1), optimization=OptimizationSettings(1, 10),
+        settings = dict(rollout=RolloutSettings(5, 1), optimization=OptimizationSettings(1, 10),
                         returns=ReturnSettings(), network=NetworkSettings(hidden_sizes=(16,)))
         state = init_state(env, seed=0, network=settings["network"], optimization=settings["optimization"])
         lowered = make_iteration(env, **settings).lower(state).as_text()

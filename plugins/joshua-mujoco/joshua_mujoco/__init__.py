@@ -1,7 +1,8 @@
-"""JOSHUA's MuJoCo backend: `MuJoCoEngine`, one MuJoCo simulation behind the seed's API.
+"""JOSHUA's MuJoCo backend: `MuJoCoEngine`, one MuJoCo simulation behind the seed's API, and batched
+CPU environments of any task (`BatchedVectorEnv`, EnvKind.NUMPY).
 
 The package itself stays light (the `joshua` entry point imports `joshua_mujoco.plugin`);
-mujoco is imported the first time `MuJoCoEngine` or `MuJoCoBackend` is used.
+mujoco is imported the first time one of the names below is used.
 """
 
 from __future__ import annotations
@@ -9,14 +10,24 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine
+    from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine, compile_model
+    from joshua_mujoco.vector import BatchedVectorEnv, make_vector_env, vector_env_from_config
 
-__all__ = ["MuJoCoBackend", "MuJoCoEngine"]
+__all__ = [
+    "MuJoCoBackend",
+    "MuJoCoEngine",
+    "compile_model",
+    "BatchedVectorEnv",
+    "make_vector_env",
+    "vector_env_from_config",
+]
+_IN_VECTOR = {"BatchedVectorEnv", "make_vector_env", "vector_env_from_config"}  # the others are in engine.py
 
 
 def __getattr__(name: str) -> Any:
     if name in __all__:
-        from joshua_mujoco import engine
+        import importlib
 
-        return getattr(engine, name)
+        module = "vector" if name in _IN_VECTOR else "engine"
+        return getattr(importlib.import_module(f"joshua_mujoco.{module}"), name)
     raise AttributeError(f"module 'joshua_mujoco' has no attribute '{name}'")

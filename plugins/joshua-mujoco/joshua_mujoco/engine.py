@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from joshua_render import choose_headless_gl
 
@@ -13,10 +14,14 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from numpy.typing import ArrayLike, NDArray  # noqa: E402
 
-from joshua_core.errors import ModelError  # noqa: E402
-from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, Engine  # noqa: E402
+from joshua_core.errors import ConfigError, ModelError, UsageError  # noqa: E402
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, Engine, EnvKind, EnvSpec  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
 from joshua_render import camera_id, create_renderer  # noqa: E402
+
+if TYPE_CHECKING:
+    from joshua_core.plugins import PluginHost
+    from joshua_mujoco.vector import BatchedVectorEnv
 
 # MuJoCo warnings that mean the state went non-finite (MuJoCo then silently resets the data).
 _INSTABILITY_WARNINGS = (
@@ -45,7 +50,8 @@ class MuJoCoEngine(Engine):
     ) -> None:
         if (model_path is None) == (xml is None):
             raise TypeError("MuJoCoEngine needs exactly one of model_path= or xml=")
-        self.model = compile_model(model_path, xml=xml, assets=assets)
+        path = resolve_data_path(model_path) if model_path is not None else None
+        self.model = compile_model(path, xml=xml, assets=assets)
         self.data = mujoco.MjData(self.model)
         self.render_width = render_width
         self.render_height = render_height
@@ -133,24 +139,27 @@ class MuJoCoEngine(Engine):
 
 
 class MuJoCoBackend(Backend):
-    """The `mujoco` backend: a MuJoCoEngine per model."""
+    """The `mujoco` backend: a MuJoCoEngine per model, and `BatchedVectorEnv`s (EnvKind.NUMPY) for training."""
 
     def create_engine(
         self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
     ) -> MuJoCoEngine:
         return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height)
 
+    def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> BatchedVectorEnv:
+        if kind is not EnvKind.NUMPY:
+            raise ConfigError(f"backend mujoco provides NUMPY environments, not {kind.name}")
+        from joshua_mujoco.vector import vector_envs
+
+        return vector_envs(spec, plugins)
+
 
 def compile_model(
-    model_path: str | Path | None, *, xml: str | None = None, assets: Mapping[str, bytes] | None = None
+    model_path: Path | None, *, xml: str | None = None, assets: Mapping[str, bytes] | None = None
 ) -> mujoco.MjModel:
-    """Compile a model file (relative paths also resolve against the shipped models) or XML string,
-    turning MuJoCo's errors into ModelError that names the file."""
-    if model_path is not None:
-        path = resolve_data_path(model_path)
-        source = str(path)
-    else:
-        source = "<xml string>"
+    """Compile a model file (an existing path, as `resolve_data_path` gives it) or XML string, turning
+    MuJoCo's errors into ModelError that names the file."""
+    source = str(model_path) if model_path is not None else "<xml string>"
     try:
         if model_path is not None:
             return mujoco.MjModel.from_xml_path(source)

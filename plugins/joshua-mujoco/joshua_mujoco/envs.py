@@ -17,6 +17,8 @@ from numpy.typing import NDArray
 
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH
 from joshua_core.plugins import PluginHost
+from joshua_core.resources import resolve_data_path
+from joshua_core.tasks import EpisodeSums, account_step
 from joshua_mujoco.vector import (
     BatchedSimulation,
     BatchedVectorEnv,
@@ -49,9 +51,9 @@ class TaskEnv(gymnasium.Env):
         plugins: PluginHost | None = None,
         **task_options: Any,
     ) -> None:
-        built, model = load_task_model(
-            task, model_path, plugins or PluginHost.discover(), task_config_from_options(task_options)
-        )
+        path = resolve_data_path(model_path) if model_path else None
+        config = task_config_from_options(task_options)
+        built, model = load_task_model(task, path, plugins or PluginHost.discover(), config)
         self.simulation = BatchedSimulation(built, model, 1, nthread=1)
         self.task = built
         self.render_mode = render_mode
@@ -70,17 +72,15 @@ class TaskEnv(gymnasium.Env):
 
     def step(self, action: Any) -> tuple[NDArray[np.float32], float, bool, bool, dict[str, Any]]:
         simulation, task = self.simulation, self.task
-        failed = bool(simulation.step(np.asarray(action).reshape(1, -1))[0])
+        failed = simulation.step(np.asarray(action).reshape(1, -1))
         ctx = simulation.context()
-        reward, terms = task.rewards(ctx)
-        terminated = bool(task.terminated(ctx)[0]) or failed
-        truncated = not terminated and int(simulation.episode_step[0]) >= task.episode_length
+        outcome = account_step(task, ctx, failed, EpisodeSums.zeros(np, task, 1, np.float64), np.float64)
         info = {
-            "reward_terms": {name: float(value[0]) for name, value in terms.items()},
-            "metrics": {name: float(value[0]) for name, value in task.metrics(ctx).items()},
+            "reward_terms": {name: float(value[0]) for name, value in outcome.reward_terms.items()},
+            "metrics": {name: float(value[0]) for name, value in outcome.metrics.items()},
         }
         observation = task.observe(ctx)[0].astype(np.float32)
-        return observation, 0.0 if failed else float(reward[0]), terminated, truncated, info
+        return observation, float(outcome.reward[0]), bool(outcome.terminated[0]), bool(outcome.truncated[0]), info
 
     def render(self) -> NDArray[np.uint8] | None:
         if self.render_mode != "rgb_array":

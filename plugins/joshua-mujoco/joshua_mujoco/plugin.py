@@ -8,4 +8,9 @@ from joshua_core.plugins import Registrar
 
 @hookimpl
 def joshua_register_backends(registry: Registrar) -> None:
-    registry.add("mujoco", "joshua_mujoco.engine:MuJoCoBackend", "MuJoCo 4 on the CPU, one simulation per engine")
+    registry.add(
+        "mujoco",
+        "joshua_mujoco.engine:MuJoCoBackend",
+        "MuJoCo 4 on the CPU, one simulation per engine",
+        env_kinds=("numpy",),
+    )

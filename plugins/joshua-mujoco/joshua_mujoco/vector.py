@@ -7,6 +7,7 @@ on top of it, with same-step autoreset; `joshua_mujoco.envs` registers single en
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -25,11 +26,20 @@ from mujoco.batch import Batch, SimulationError  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
 from joshua_core.config_pb2 import TaskConfig, TrainingConfig  # noqa: E402
-from joshua_core.errors import ConfigError, ModelError  # noqa: E402
-from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH  # noqa: E402
+from joshua_core.errors import ModelError  # noqa: E402
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, EnvSpec  # noqa: E402
 from joshua_core.plugins import PluginHost  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
-from joshua_core.tasks import NumpyRandom, Task, TermContext, build_task, load_task_spec  # noqa: E402
+from joshua_core.tasks import (  # noqa: E402
+    EpisodeSums,
+    NumpyRandom,
+    Task,
+    TermContext,
+    account_step,
+    build_task,
+    load_task_spec,
+    nonfinite,
+)
 from joshua_render import camera_id, create_renderer, render_with_commands  # noqa: E402
 
 _T = TypeVar("_T")
@@ -45,15 +55,15 @@ _CONTACT_FORCE_SENSOR = "joshua_contact_forces"
 
 
 def load_task_model(
-    task: str, model_path: str | Path | None, plugins: PluginHost, config: TaskConfig | None
+    task: str, model_path: Path | None, plugins: PluginHost, config: TaskConfig | None
 ) -> tuple[Task, mujoco.MjModel]:
-    """The built task and its compiled model (the task's own model when `model_path` is None).
+    """The built task and its compiled model (`model_path` is resolved already; None: the task's own model).
 
     If the task reads contact forces, a sensor is added that makes every step compute them, as
     Gymnasium's mujoco environments do by calling mj_rnePostConstraint after each step.
     """
     spec = load_task_spec(task, plugins)
-    path = resolve_data_path(model_path or spec.model_path)
+    path = model_path or resolve_data_path(spec.model_path)
     model_spec = _compiled(path, lambda: mujoco.MjSpec.from_file(str(path)))
     model = _compiled(path, model_spec.compile)
     built = build_task(spec, model, plugins, config)
@@ -89,8 +99,6 @@ class BatchedSimulation:
     def __init__(
         self, task: Task, model: mujoco.MjModel, num_envs: int, *, seed: int = 0, nthread: int | None = None
     ) -> None:
-        if num_envs < 1:
-            raise ValueError(f"num_envs must be at least 1, got {num_envs}")
         self.task = task
         self.model = model
         self.num_envs = num_envs
@@ -177,8 +185,7 @@ class BatchedSimulation:
         except SimulationError as error:
             failed[error.ids] = True
         self.episode_step += 1
-        failed |= ~(np.isfinite(self.qpos).all(axis=1) & np.isfinite(self.qvel).all(axis=1))
-        return failed
+        return failed | nonfinite(np, self.qpos, self.qvel)
 
     def render(self, env_index: int, camera: str | int | None, width: int, height: int) -> NDArray[np.uint8]:
         """An RGB image of one environment, with its 3-d commands (targets, goals) drawn (see render_with_commands)."""
@@ -202,7 +209,7 @@ class BatchedSimulation:
 
 
 class BatchedVectorEnv(VectorEnv):
-    """A Gymnasium VectorEnv over `mujoco.batch`, running any registered task.
+    """A Gymnasium VectorEnv over `mujoco.batch`, running any registered task (EnvKind.NUMPY).
 
     - Spaces: float32 Boxes; actions in [-1, 1] (values outside are clipped).
     - Autoreset: same step. For an environment that finished, step() returns the first
@@ -212,6 +219,7 @@ class BatchedVectorEnv(VectorEnv):
     - infos["metrics"]: the task's metrics (e.g. "distance", "success") of this step.
     - infos["episode"]: on the step an episode ends, "r" (return), "l" (length) and
       "reward/<term>" (sum of that term over the episode), valid where infos["_episode"].
+    - Rewards, terminations, truncations and the episode records follow `joshua_core.tasks.episodes`.
     """
 
     metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": ["rgb_array"]}
@@ -226,8 +234,7 @@ class BatchedVectorEnv(VectorEnv):
         self.single_action_space = gymnasium.spaces.Box(-1.0, 1.0, (self.task.action_size,), np.float32)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._returns = np.zeros(self.num_envs)
-        self._term_sums = {term.name: np.zeros(self.num_envs) for term in self.task.reward_terms}
+        self._sums = EpisodeSums.zeros(np, self.task, self.num_envs, np.float64)
 
     @property
     def nthread(self) -> int:
@@ -243,12 +250,9 @@ class BatchedVectorEnv(VectorEnv):
         mask = np.ones(self.num_envs, dtype=bool)
         if options and "reset_mask" in options:
             mask = np.asarray(options["reset_mask"], dtype=bool)
-        ids = np.flatnonzero(mask)
-        self.simulation.reset(ids)
+        self.simulation.reset(np.flatnonzero(mask))
         observation = self.task.observe(self.simulation.context()).astype(np.float32)
-        self._returns[ids] = 0.0
-        for sums in self._term_sums.values():
-            sums[ids] = 0.0
+        self._sums = self._sums.restart(np, mask)
         return observation, {}
 
     def step(
@@ -258,30 +262,21 @@ class BatchedVectorEnv(VectorEnv):
         failed = simulation.step(actions)
         ctx = simulation.context()
         observation = task.observe(ctx).astype(np.float32)
-        reward, reward_terms = task.rewards(ctx)
-        reward = np.where(failed, 0.0, reward)
-        terminated = task.terminated(ctx) | failed
-        truncated = (simulation.episode_step >= task.episode_length) & ~terminated
-        infos: dict[str, Any] = {
-            "reward_terms": {name: np.asarray(value, dtype=np.float64) for name, value in reward_terms.items()},
-            "metrics": {name: np.asarray(value, dtype=np.float64) for name, value in task.metrics(ctx).items()},
-        }
-        self._returns += reward
-        for name, value in reward_terms.items():
-            self._term_sums[name] += value
-        done = terminated | truncated
-        if done.any():
-            ids = np.flatnonzero(done)
+        outcome = account_step(task, ctx, failed, self._sums, np.float64)
+        self._sums = outcome.sums
+        infos: dict[str, Any] = {"reward_terms": outcome.reward_terms, "metrics": outcome.metrics}
+        episode = outcome.episode
+        if episode.done.any():
+            done = episode.done
             infos["final_obs"] = np.where(done[:, None], observation, 0.0).astype(np.float32)
             infos["_final_obs"] = done
-            episode = {"r": np.where(done, self._returns, 0.0), "l": np.where(done, simulation.episode_step, 0)}
-            for name, sums in self._term_sums.items():
-                episode[f"reward/{name}"] = np.where(done, sums, 0.0)
-                sums[ids] = 0.0
-            infos["episode"], infos["_episode"] = episode, done
-            self._returns[ids] = 0.0
+            record = {"r": np.where(done, episode.return_, 0.0), "l": np.where(done, episode.length, 0)}
+            for name, sums in episode.reward_terms.items():
+                record[f"reward/{name}"] = np.where(done, sums, 0.0)
+            infos["episode"], infos["_episode"] = record, done
+            ids = np.flatnonzero(done)
             observation[ids] = simulation.reset(ids)
-        return observation, reward, terminated, truncated, infos
+        return observation, outcome.reward, outcome.terminated, outcome.truncated, infos
 
     def render_frame(
         self,
@@ -330,7 +325,7 @@ def make_vector_env(
     num_envs: int,
     *,
     seed: int = 0,
-    model_path: str | None = None,
+    model_path: str | Path | None = None,
     nthread: int | None = None,
     plugins: PluginHost | None = None,
     render_mode: str | None = None,
@@ -343,23 +338,31 @@ def make_vector_env(
     task_options are episode_length, frame_skip, terms={name: {"weight": .., "params": {..}}} or
     task_config (a joshua.TaskConfig).
     """
-    host = plugins or PluginHost.discover()
-    built, model = load_task_model(task, model_path, host, task_config_from_options(task_options))
-    env = BatchedVectorEnv(BatchedSimulation(built, model, num_envs, seed=seed, nthread=nthread), render_mode)
-    env.reset(seed=seed)
-    return env
+    spec = EnvSpec(
+        task,
+        num_envs,
+        seed=seed,
+        model_path=resolve_data_path(model_path) if model_path else None,
+        task_config=task_config_from_options(task_options),
+        nthread=nthread,
+    )
+    return vector_envs(spec, plugins or PluginHost.discover(), render_mode=render_mode)
 
 
 def vector_env_from_config(training: TrainingConfig, plugins: PluginHost) -> BatchedVectorEnv:
-    """The vector env a training config describes: task, model_path, num_envs, seed, nthread, task_config."""
-    if not training.task:
-        raise ConfigError('training.task is empty; name a task, e.g. task: "so_arm100_reach" (see `joshua plugins`)')
-    return make_vector_env(
-        training.task,
-        training.num_envs or DEFAULT_NUM_ENVS,
-        seed=int(training.seed),
-        model_path=training.model_path or None,
-        nthread=training.nthread or None,
-        plugins=plugins,
-        task_config=training.task_config if training.HasField("task_config") else None,
-    )
+    """The vector env a training config describes: task, model_path (resolved here if relative), num_envs
+    (default DEFAULT_NUM_ENVS), seed, nthread, task_config."""
+    spec = EnvSpec.from_training(training, num_envs=training.num_envs or DEFAULT_NUM_ENVS)
+    if spec.model_path is not None:
+        spec = dataclasses.replace(spec, model_path=resolve_data_path(spec.model_path))
+    return vector_envs(spec, plugins)
+
+
+def vector_envs(spec: EnvSpec, plugins: PluginHost, *, render_mode: str | None = None) -> BatchedVectorEnv:
+    """The BatchedVectorEnv an EnvSpec describes (the `mujoco` backend's EnvKind.NUMPY environments), reset
+    with its seed."""
+    built, model = load_task_model(spec.task, spec.model_path, plugins, spec.task_config)
+    simulation = BatchedSimulation(built, model, spec.num_envs, seed=spec.seed, nthread=spec.nthread)
+    env = BatchedVectorEnv(simulation, render_mode)
+    env.reset(seed=spec.seed)
+    return env

@@ -15,7 +15,7 @@ from joshua_core.options import parse_dict
 from joshua_core.plugins import Kind, PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import load_task_spec
-from joshua_mjx.engine import MJX_SUFFIX
+from joshua_mjx import MJX_SUFFIX
 from joshua_ppo.trainer import PpoTrainer
 
 DEFAULT_CHECKPOINT_DIR = "checkpoints"

@@ -26,7 +26,7 @@ from joshua_core.atomic import atomic_directory, atomic_write_json
 from joshua_core.errors import JoshuaError, UsageError
 from joshua_core.evaluation import read_run_config
 from joshua_ppo.config_settings import PpoSettings
-from joshua_ppo.envs import MjxEnv
+from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings
 from joshua_ppo.state import Progress, TrainingState, init_state
@@ -107,7 +107,7 @@ def read_json(path: Path) -> dict[str, Any]:
     return document
 
 
-def load_params(checkpoint: Path, env: MjxEnv, network: NetworkSettings) -> tuple[Any, RunningStatistics]:
+def load_params(checkpoint: Path, env: JaxEnv, network: NetworkSettings) -> tuple[Any, RunningStatistics]:
     """A checkpoint's network parameters and observation normaliser, checked against the network's shapes."""
     template = init_state(env, seed=0, network=network, optimization=OptimizationSettings())
     saved = read_payload(
@@ -116,7 +116,7 @@ def load_params(checkpoint: Path, env: MjxEnv, network: NetworkSettings) -> tupl
     return saved["params"], RunningStatistics(**saved["normalizer"])
 
 
-def load_state(checkpoint: Path, env: MjxEnv, settings: PpoSettings) -> tuple[TrainingState, Progress]:
+def load_state(checkpoint: Path, env: JaxEnv, settings: PpoSettings) -> tuple[TrainingState, Progress]:
     """The full training state of a checkpoint (environments freshly reset), for resuming."""
     template = init_state(env, seed=settings.seed, network=settings.network, optimization=settings.optimization)
     params, normalizer = load_params(checkpoint, env, settings.network)

@@ -39,14 +39,13 @@ class PpoSettings:
             raise ConfigError(f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}")
         if options.desired_kl < 0:
             raise ConfigError(f"training.ppo.desired_kl must not be negative, got {options.desired_kl}")
-        for name in ("num_envs", "num_steps", "num_epochs", "minibatch_size", "total_timesteps"):
+        for name in ("num_steps", "num_epochs", "minibatch_size", "total_timesteps"):  # num_envs: by EnvSpec
             if getattr(config, name) < 0:
                 raise ConfigError(f"training.{name} must not be negative")
         total = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
         max_grad_norm = options.max_grad_norm or 1.0
         return cls(
             rollout=RolloutSettings(
-                num_envs=config.num_envs or 2048,
                 num_steps=config.num_steps or 10,
                 unrolls_per_iteration=options.unrolls_per_iteration or 1,
             ),

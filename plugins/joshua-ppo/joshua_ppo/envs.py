@@ -1,40 +1,33 @@
-"""The environments PPO trains on: MJX's functional batched environment, in one place for the whole package.
+"""The environments PPO trains on: EnvKind.JAX environments from the backend the training config names
+(`mjx`, or any other backend that provides that kind), asked for in one place for the whole package.
 
 PPO needs `reset(key)`, `step(state, action)`, `redraw_starts(state)`, the sizes, the task, the model
-and the device mesh the environments are spread over (its one axis is the one gradients are averaged on).
+and the device mesh the environments are spread over (its one axis is the one gradients are averaged on);
+`joshua_core.interfaces.EnvKind` documents them.
 """
 
 from __future__ import annotations
 
-import jax
+from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.errors import ConfigError
-from joshua_core.plugins import PluginHost
-from joshua_mjx.env import EnvState, MjxEnv, make_mjx_env
+from joshua_core.interfaces import EnvKind, RunContext
 
-__all__ = ["EnvState", "MjxEnv", "environment", "env_axis"]
+__all__ = ["DEFAULT_NUM_ENVS", "EnvState", "JaxEnv", "environment", "env_axis"]
+
+JaxEnv = Any  # an EnvKind.JAX environment (e.g. joshua_mjx.MjxEnv)
+EnvState = Any  # the state pytree of one (e.g. joshua_mjx.EnvState)
+DEFAULT_NUM_ENVS = 2048  # when training.num_envs is 0
 
 
-def env_axis(env: MjxEnv) -> str:
+def env_axis(env: JaxEnv) -> str:
     """The name of the device-mesh axis the environments are spread over."""
     (axis,) = env.mesh.axis_names
     return axis
 
 
-def environment(
-    config: TrainingConfig, plugins: PluginHost | None, num_envs: int, devices: list[jax.Device] | None = None
-) -> MjxEnv:
-    """The MJX environment of a training config's task, model and task_config, over `devices` (default: all)."""
-    if config.backend and config.backend != "mjx":
-        raise ConfigError(f"trainer ppo runs on the backend 'mjx', not '{config.backend}'")
-    if not config.task:
-        raise ConfigError('training.task is empty; name a task, e.g. task: "ant_locomotion" (see `joshua plugins`)')
-    return make_mjx_env(
-        config.task,
-        num_envs,
-        model_path=config.model_path or None,
-        plugins=plugins,
-        task_config=config.task_config if config.HasField("task_config") else None,
-        devices=devices,
-    )
+def environment(config: TrainingConfig, context: RunContext, num_envs: int | None = None) -> JaxEnv:
+    """The JAX environments of a training config's task, model and task_config, from its backend: `num_envs`
+    of them (default: the config's num_envs, else DEFAULT_NUM_ENVS), over every visible device."""
+    count = num_envs if num_envs is not None else config.num_envs or DEFAULT_NUM_ENVS
+    return context.create_envs(config, EnvKind.JAX, num_envs=count)

@@ -22,7 +22,7 @@ from jax.sharding import PartitionSpec
 
 from joshua_ppo.advantages import estimate_advantages
 from joshua_ppo.batches import Sample, Transition, Unroll
-from joshua_ppo.envs import EnvState, MjxEnv, env_axis
+from joshua_ppo.envs import EnvState, JaxEnv, env_axis
 from joshua_ppo.losses import ppo_loss
 from joshua_ppo.networks import gaussian_log_prob
 from joshua_ppo.normalizer import RunningStatistics, normalize, update_statistics
@@ -47,7 +47,7 @@ class _Iteration:
 
     def __init__(
         self,
-        env: MjxEnv,
+        env: JaxEnv,
         rollout: RolloutSettings,
         optimization: OptimizationSettings,
         returns: ReturnSettings,
@@ -64,7 +64,9 @@ class _Iteration:
         self.axis = env_axis(env)
         self.devices = env.mesh.size
         self.recompute = returns.recompute_advantages
-        self.num_minibatches = check_settings(rollout, optimization, self.devices, whole_unrolls=self.recompute)
+        self.num_minibatches = check_settings(
+            rollout, optimization, env.num_envs, self.devices, whole_unrolls=self.recompute
+        )
         self.local_minibatch = (
             optimization.minibatch_size // self.devices // (rollout.num_steps if self.recompute else 1)
         )
@@ -188,7 +190,7 @@ class _Iteration:
 
 
 def make_iteration(
-    env: MjxEnv,
+    env: JaxEnv,
     *,
     rollout: RolloutSettings,
     optimization: OptimizationSettings,
@@ -228,7 +230,7 @@ class EmptyLeaves(NamedTuple):
     shapes: list[jax.ShapeDtypeStruct | None]  # of each empty leaf; None where a leaf holds values
 
     @staticmethod
-    def of(env: MjxEnv) -> EmptyLeaves:
+    def of(env: JaxEnv) -> EmptyLeaves:
         leaves, treedef = jax.tree.flatten(jax.eval_shape(env.reset, jax.random.PRNGKey(0)))
         return EmptyLeaves(treedef, [leaf if math.prod(leaf.shape) == 0 else None for leaf in leaves])
 

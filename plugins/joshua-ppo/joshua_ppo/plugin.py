@@ -8,7 +8,12 @@ from joshua_core.plugins import Registrar
 
 @hookimpl
 def joshua_register_trainers(registry: Registrar) -> None:
-    registry.add("ppo", "joshua_ppo.trainer:PpoTrainer", "PPO in JAX/Flax on MJX: thousands of environments per GPU")
+    registry.add(
+        "ppo",
+        "joshua_ppo.trainer:PpoTrainer",
+        "PPO in JAX/Flax on JAX environments (MJX): thousands of environments per GPU",
+        env_kinds=("jax",),
+    )
 
 
 @hookimpl

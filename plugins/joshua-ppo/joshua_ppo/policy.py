@@ -7,13 +7,13 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from joshua_ppo.envs import MjxEnv
+from joshua_ppo.envs import JaxEnv
 from joshua_ppo.networks import ActorCritic, SeparateActorCritic
 from joshua_ppo.normalizer import RunningStatistics, normalize
 from joshua_ppo.settings import NetworkSettings
 
 
-def make_network(env: MjxEnv, network: NetworkSettings) -> ActorCritic | SeparateActorCritic:
+def make_network(env: JaxEnv, network: NetworkSettings) -> ActorCritic | SeparateActorCritic:
     """The actor-critic network for the environment's action size."""
     shape = {"activation": network.activation, "state_dependent_std": network.state_dependent_std}
     if network.value_hidden_sizes:

@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH
-from joshua_ppo.envs import MjxEnv
+from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.policy import make_network, policy_actions
 from joshua_ppo.settings import NetworkSettings
@@ -35,7 +35,7 @@ class Rollout:
     metrics: dict[str, np.ndarray]  # (finished,) each metric on the first episode's last step
 
 
-def make_rollout(env: MjxEnv, network: NetworkSettings, steps: int) -> Any:
+def make_rollout(env: JaxEnv, network: NetworkSettings, steps: int) -> Any:
     """A compiled function (params, normalizer, key) -> per-step arrays of a `steps`-long rollout of the
     deterministic policy of the network `network` describes."""
     net = make_network(env, network)

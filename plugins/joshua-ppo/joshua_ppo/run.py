@@ -16,6 +16,7 @@ import numpy as np
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.curves import write_training_curves
+from joshua_core.interfaces import RunContext
 from joshua_core.options import message_to_dict, options_of
 from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import (
@@ -27,7 +28,7 @@ from joshua_ppo.checkpoints import (
     write_checkpoint,
 )
 from joshua_ppo.config_settings import PpoSettings
-from joshua_ppo.envs import MjxEnv, environment
+from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.rollout import collect, make_rollout, render_video
 from joshua_ppo.state import Progress, TrainingState
 from joshua_ppo.train import IterationReport
@@ -65,13 +66,16 @@ class ScalarLog:
 class Run:
     """One run being trained: its folder, history and monitors; the callbacks `train_ppo` calls."""
 
-    def __init__(self, config: TrainingConfig, settings: PpoSettings, env: MjxEnv, root: Path, name: str) -> None:
+    def __init__(
+        self, config: TrainingConfig, settings: PpoSettings, env: JaxEnv, context: RunContext, name: str
+    ) -> None:
         self.config = config
         self.settings = settings
         self.env = env
-        self.root = root
+        self.context = context
+        self.root = context.output_dir
         self.name = name
-        self.folder = root / name
+        self.folder = self.root / name
         self.history: list[dict[str, float]] = []
         self.last_return = float("nan")
         self.compile_seconds = 0.0
@@ -79,7 +83,7 @@ class Run:
         self.bar: Any = None
         self.scalars: ScalarLog | None = None
         self.viewer: LiveViewer | None = None
-        self._rollout: tuple[MjxEnv, Any] | None = None
+        self._rollout: tuple[JaxEnv, Any] | None = None
 
     def config_document(self) -> dict[str, Any]:
         settings = asdict(self.settings)
@@ -160,7 +164,7 @@ class Run:
     def record_video(self, state: TrainingState, step: int) -> None:
         """Roll out the current deterministic policy for one episode and render it to videos/step_<N>.mp4."""
         if self._rollout is None:
-            env = environment(self.config, None, len(jax.devices()))
+            env = environment(self.config, self.context, len(jax.devices()))
             steps = options_of(self.config, options_pb2.ppo).video_steps or env.task.episode_length
             self._rollout = env, make_rollout(env, self.settings.network, steps)
         env, rollout = self._rollout

@@ -17,9 +17,9 @@ ADVANTAGE_ESTIMATORS = ("gae", "lambda_return")  # ReturnSettings.advantage
 
 @dataclass(frozen=True)
 class RolloutSettings:
-    """How much experience one iteration collects: num_envs x num_steps x unrolls_per_iteration transitions."""
+    """How much experience one iteration collects: num_envs x num_steps x unrolls_per_iteration transitions,
+    where num_envs is the environments' own (`env.num_envs`)."""
 
-    num_envs: int = 2048
     num_steps: int = 10  # unroll length: steps per environment between bootstraps
     unrolls_per_iteration: int = 1
 
@@ -72,14 +72,18 @@ class NetworkSettings:
 
 
 def check_settings(
-    rollout: RolloutSettings, optimization: OptimizationSettings, devices: int, whole_unrolls: bool = False
+    rollout: RolloutSettings,
+    optimization: OptimizationSettings,
+    num_envs: int,
+    devices: int,
+    whole_unrolls: bool = False,
 ) -> int:
-    """Validate the batch arithmetic and the learning-rate options; returns the number of minibatches per epoch.
+    """Validate the batch arithmetic of `num_envs` environments (checked where they are made) on `devices`
+    and the learning-rate options; returns the number of minibatches per epoch.
 
     whole_unrolls: minibatches are made of whole unrolls (for recomputing advantages), not single steps.
     """
     for name, value in (
-        ("num_envs", rollout.num_envs),
         ("num_steps", rollout.num_steps),
         ("unrolls_per_iteration", rollout.unrolls_per_iteration),
         ("num_epochs", optimization.num_epochs),
@@ -87,7 +91,7 @@ def check_settings(
     ):
         if value < 1:
             raise ConfigError(f"PPO setting {name} must be at least 1, got {value}")
-    batch = rollout.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
+    batch = num_envs * rollout.num_steps * rollout.unrolls_per_iteration
     if batch % optimization.minibatch_size:
         raise ConfigError(
             f"minibatch_size {optimization.minibatch_size} must divide the iteration's "

@@ -7,7 +7,7 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 
-from joshua_ppo.envs import EnvState, MjxEnv
+from joshua_ppo.envs import EnvState, JaxEnv
 from joshua_ppo.normalizer import RunningStatistics, fresh_statistics
 from joshua_ppo.optimizer import make_optimizer
 from joshua_ppo.policy import make_network
@@ -32,7 +32,7 @@ class Progress(NamedTuple):
 
 
 def init_state(
-    env: MjxEnv, *, seed: int, network: NetworkSettings, optimization: OptimizationSettings
+    env: JaxEnv, *, seed: int, network: NetworkSettings, optimization: OptimizationSettings
 ) -> TrainingState:
     """Fresh parameters, optimiser and normaliser, and freshly reset environments."""
     key = jax.random.PRNGKey(seed)
@@ -43,12 +43,12 @@ def init_state(
     return jax.device_put(state, state_shardings(env))
 
 
-def state_shardings(env: MjxEnv) -> TrainingState:
+def state_shardings(env: JaxEnv) -> TrainingState:
     """Where a training state lives (a prefix of its tree): environments split over devices, the rest replicated."""
     return TrainingState(env.replicated, env.replicated, env.replicated, env.sharding, env.replicated)
 
 
-def abstract_state(env: MjxEnv, *, network: NetworkSettings, optimization: OptimizationSettings) -> TrainingState:
+def abstract_state(env: JaxEnv, *, network: NetworkSettings, optimization: OptimizationSettings) -> TrainingState:
     """Shapes, dtypes and shardings of `init_state`'s result, computing nothing: enough to compile the iteration."""
     shapes = jax.eval_shape(lambda: init_state(env, seed=0, network=network, optimization=optimization))
 

@@ -1,4 +1,4 @@
-"""`train_ppo`: PPO in JAX/Flax/Optax on a functional batched environment (`joshua_mjx.env.MjxEnv`).
+"""`train_ppo`: PPO in JAX/Flax/Optax on a functional batched environment (EnvKind.JAX, e.g. `joshua_mjx.MjxEnv`).
 
 The whole algorithm: settings in four groups (`joshua_ppo.settings`), a seed, and callbacks for
 progress and checkpoints. Each iteration is one compiled function (`joshua_ppo.iteration`); this
@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import jax
 
 from joshua_core.errors import ConfigError, JoshuaError
-from joshua_ppo.envs import MjxEnv
+from joshua_ppo.envs import JaxEnv
 from joshua_ppo.iteration import make_iteration
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
 from joshua_ppo.state import Progress, TrainingState, abstract_state, init_state
@@ -53,7 +53,7 @@ CheckpointCallback = Callable[[TrainingState, Progress, IterationReport | None],
 
 
 def train_ppo(
-    env: MjxEnv,
+    env: JaxEnv,
     *,
     rollout: RolloutSettings,
     optimization: OptimizationSettings,
@@ -90,7 +90,7 @@ def train_ppo(
         )
         compiled = compiling.result()
     compile_seconds = time.perf_counter() - started
-    steps_per_iteration = rollout.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
+    steps_per_iteration = env.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
     iterations = max(0, math.ceil((total_timesteps - progress.env_steps) / steps_per_iteration))
     total_steps = progress.env_steps + iterations * steps_per_iteration
     if resume is None and on_checkpoint is not None:

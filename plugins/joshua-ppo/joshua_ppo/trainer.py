@@ -1,4 +1,5 @@
-"""Trainer `ppo`: a TrainingConfig turned into `train_ppo` on an MJX environment, with run folders,
+"""Trainer `ppo`: a TrainingConfig turned into `train_ppo` on JAX environments (EnvKind.JAX, from the backend
+the config names: `mjx`, or another that provides them), with run folders,
 checkpoints, resume and monitoring (`joshua_ppo.run`), and the evaluation of a saved run."""
 
 from __future__ import annotations
@@ -68,18 +69,17 @@ def _newest_run(root: Path) -> str:
 
 
 class PpoTrainer(Trainer):
-    """PPO on MJX; see the plugin README."""
+    """PPO on the JAX environments of the configured backend; see the plugin README."""
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
         settings = PpoSettings.from_config(config)
-        env = environment(config, context.plugins, settings.rollout.num_envs)
+        env = environment(config, context)
         # a bad batch layout is a config error before anything is written
-        check_settings(
-            settings.rollout, settings.optimization, env.mesh.size, whole_unrolls=settings.returns.recompute_advantages
-        )
+        recompute = settings.returns.recompute_advantages
+        check_settings(settings.rollout, settings.optimization, env.num_envs, env.mesh.size, whole_unrolls=recompute)
         root = context.output_dir
         name, resume_from = _run_name(config, root)
-        run = Run(config, settings, env, root, name)
+        run = Run(config, settings, env, context, name)
         resume = None
         if resume_from is not None:
             resume = load_state(resume_from, env, settings)
@@ -95,7 +95,7 @@ class PpoTrainer(Trainer):
         run.scalars = ScalarLog(run.folder / "tensorboard")
         run.viewer = open_viewer(options_of(config, options_pb2.ppo), env.model)
         devices = ", ".join(str(device) for device in jax.devices())
-        run.bar.write(f"ppo: {settings.rollout.num_envs} environments on {devices}; compiling the training iteration")
+        run.bar.write(f"ppo: {env.num_envs} environments on {devices}; compiling the training iteration")
         try:
             _, progress = train_ppo(
                 env,
@@ -143,7 +143,7 @@ class PpoTrainer(Trainer):
             raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
         settings = PpoSettings.from_config(config)
         devices = len(jax.devices())
-        env = environment(config, context.plugins, -(-episodes // devices) * devices)
+        env = environment(config, context, -(-episodes // devices) * devices)
         params, normalizer = load_params(checkpoint, env, settings.network)
         print(f"ppo: evaluating {checkpoint} ({checkpoint_step(checkpoint)} steps) over {episodes} episodes")
         rollout = make_rollout(env, settings.network, env.task.episode_length)

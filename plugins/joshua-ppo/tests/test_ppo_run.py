@@ -199,7 +199,7 @@ def test_bad_settings_are_config_errors(tmp_path: Path) -> None:
         train_mjx(model_path="ant/ant_mjx.xml", config={"no_such_field": 1}, checkpoint_dir=tmp_path)
     assert not any(tmp_path.iterdir())  # no run folder left behind by a rejected config
     training = TrainingConfig(task="ant_locomotion", backend="mujoco")
-    with pytest.raises(ConfigError, match="backend 'mjx'"):
+    with pytest.raises(ConfigError, match="backend 'mujoco' does not provide; backends that do: mjx"):
         PpoTrainer().train(training, RunContext(PluginHost.discover(), tmp_path))
 
 

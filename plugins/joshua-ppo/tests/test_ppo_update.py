@@ -24,7 +24,7 @@ from joshua_ppo.settings import (
 )
 from joshua_ppo.state import init_state
 
-ROLLOUT = RolloutSettings(num_envs=4, num_steps=5, unrolls_per_iteration=2)
+ROLLOUT = RolloutSettings(num_steps=5, unrolls_per_iteration=2)  # of the 4 environments of `env`
 # without observation normalisation: the statistics change between collecting and updating, and with
 # them the values the advantages are computed from
 NETWORK = NetworkSettings(hidden_sizes=(16,), value_hidden_sizes=(16,), normalize_observations=False)

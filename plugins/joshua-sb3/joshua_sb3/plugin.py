@@ -11,7 +11,8 @@ def joshua_register_trainers(registry: Registrar) -> None:
     registry.add(
         "sb3",
         "joshua_sb3.trainer:Sb3Trainer",
-        "stable-baselines3 PPO (SAC, TD3) on the CPU vectorized MuJoCo environments",
+        "stable-baselines3 PPO (SAC, TD3) on NumPy vector environments (the CPU MuJoCo ones)",
+        env_kinds=("numpy",),
     )
 
 

@@ -13,7 +13,7 @@ from joshua_sb3 import options_pb2
 
 ALGORITHMS = ("PPO", "SAC", "TD3")
 ON_POLICY_ONLY = ("gae_lambda", "clip_epsilon")  # PPO fields SAC and TD3 have no use for
-DEFAULT_NUM_ENVS = 16
+DEFAULT_NUM_ENVS = 16  # when training.num_envs is 0; the environments hold the number (env.num_envs)
 DEFAULT_TOTAL_TIMESTEPS = 1_000_000
 DEFAULT_HIDDEN_SIZES = (256, 256)
 DEFAULT_REPLAY_BUFFER_SIZE = 1_000_000  # SB3's default, transitions of all environments together
@@ -23,10 +23,10 @@ CHECKPOINTS_PER_RUN = 10  # default checkpoint_interval: a tenth of total_timest
 @dataclass(frozen=True)
 class Settings:
     """Resolved hyper-parameters; `num_steps` and `num_epochs` mean per-env rollout length and epochs for PPO,
-    steps between updates (train_freq) and gradient steps per update for SAC/TD3."""
+    steps between updates (train_freq) and gradient steps per update for SAC/TD3. The number of environments
+    is not among them: the environments hold it."""
 
     algorithm: str
-    num_envs: int
     total_timesteps: int
     checkpoint_interval: int
     num_steps: int
@@ -60,7 +60,6 @@ class Settings:
         total_timesteps = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
         return cls(
             algorithm=algorithm,
-            num_envs=config.num_envs or DEFAULT_NUM_ENVS,
             total_timesteps=total_timesteps,
             checkpoint_interval=options.checkpoint_interval or max(1, total_timesteps // CHECKPOINTS_PER_RUN),
             num_steps=config.num_steps or (64 if on_policy else 1),

@@ -1,4 +1,5 @@
-"""Trainer `sb3`: stable-baselines3 PPO, SAC or TD3 on the batched MuJoCo environments of a task.
+"""Trainer `sb3`: stable-baselines3 PPO, SAC or TD3 on the NUMPY environments (EnvKind.NUMPY) of a task, from
+the backend the config names (`mujoco`, or any other that provides them).
 
 The run folder layout and the checkpoint trust rules are in `joshua_sb3.run_folder`.
 """
@@ -13,6 +14,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+import gymnasium
 import numpy as np
 from google.protobuf import json_format
 from stable_baselines3 import PPO, SAC, TD3
@@ -26,10 +28,9 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.evaluation import read_run_config
-from joshua_core.interfaces import RunContext, Trainer
+from joshua_core.interfaces import EnvKind, RunContext, Trainer
 from joshua_core.options import message_to_dict, options_of, parse_dict
 from joshua_core.progress import progress_bar
-from joshua_mujoco.vector import BatchedVectorEnv, vector_env_from_config
 from joshua_render import VideoWriter
 from joshua_sb3 import options_pb2
 from joshua_sb3.run_folder import (
@@ -45,7 +46,7 @@ from joshua_sb3.run_folder import (
     verify_checkpoint,
     write_checkpoint,
 )
-from joshua_sb3.settings import Settings
+from joshua_sb3.settings import DEFAULT_NUM_ENVS, Settings
 from joshua_sb3.vec_env import METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv
 
 TRAINER_NAME = "sb3"
@@ -56,11 +57,10 @@ TRAIN_TRUST_HINT = "--set training.sb3.trust_checkpoint=true"
 EVAL_TRUST_HINT = "joshua eval RUN --trust-checkpoint"
 
 
-def make_vec_env(training: TrainingConfig, context: RunContext) -> tuple[BatchedVectorEnv, VecEnv]:
-    """The task's batched environment, and the SB3 view of it (without normalisation)."""
-    if training.backend and training.backend != "mujoco":
-        raise ConfigError(f"trainer sb3 runs on the CPU backend 'mujoco', not '{training.backend}'")
-    environments = vector_env_from_config(training, context.plugins)
+def make_vec_env(training: TrainingConfig, context: RunContext) -> tuple[gymnasium.vector.VectorEnv, VecEnv]:
+    """The task's NUMPY environments from the backend the config names, and the SB3 view of them (without
+    normalisation)."""
+    environments = context.create_envs(training, EnvKind.NUMPY)
     return environments, SameStepVecEnv(environments)
 
 
@@ -219,14 +219,14 @@ def _load_model(
 
 
 class Sb3Trainer(Trainer):
-    """stable-baselines3 on the CPU vectorized environments; see the plugin README."""
+    """stable-baselines3 on the NUMPY environments of the configured backend; see the plugin README."""
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
         settings = Settings.from_config(config)
         run_dir, resume_from = _run_dir(config, context, settings)
         training = TrainingConfig()
         training.CopyFrom(config)
-        training.num_envs = settings.num_envs
+        training.num_envs = config.num_envs or DEFAULT_NUM_ENVS
         environments, vec_env = make_vec_env(training, context)
         if resume_from is not None:
             model, normalizer = _load_model(
@@ -322,7 +322,7 @@ class Sb3Trainer(Trainer):
 def _roll_out(
     model: BaseAlgorithm,
     vec_env: VecEnv,
-    environments: BatchedVectorEnv,
+    environments: gymnasium.vector.VectorEnv,
     episodes: int,
     video_path: Path | None,
 ) -> dict[str, float]:
