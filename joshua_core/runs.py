@@ -106,7 +106,7 @@ def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunF
             if (root / name).is_dir():
                 open_run(root, name).close()  # raises RunInUseError while another process trains it
             raise ConfigError(
-                f"run '{name}' exists in {root}; continue it with --set {options}.resume=true, "
+                f"run folder {root / name} exists; continue it with --set {options}.resume=true, "
                 f"or choose another {options}.run_name"
             )
         return run
@@ -185,11 +185,12 @@ def run_checkpoints(root: Path, name: str) -> list[Path]:
 
 
 def list_runs(root: Path, trainer: str | None = None) -> list[Path]:
-    """The run folders in `root` (those with a config.json), of `trainer` when given, oldest first."""
+    """The run folders in `root` (those with a config.json, not checkpoints), of `trainer` when given, oldest
+    first."""
     runs = []
     for config in root.glob(f"*/{CONFIG_FILE}") if root.is_dir() else []:
-        if _STEP_SUFFIX.search(config.parent.name):
-            continue
+        if config.parent.name.startswith(".") or _STEP_SUFFIX.search(config.parent.name):
+            continue  # a checkpoint, or one being written
         if trainer is None or _trainer_of(config) == trainer:
             runs.append(config.parent)
     return sorted(runs, key=lambda run: (run / CONFIG_FILE).stat().st_mtime)

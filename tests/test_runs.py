@@ -89,7 +89,7 @@ def test_the_same_name_at_once_one_wins_and_the_other_learns_who_holds_it(tmp_pa
         _finish(processes, release)
     with open_run(tmp_path, "mine") as run:  # free once its holder ended
         assert (run.path / runs.LOCK_FILE).read_text().strip() == str(os.getpid())
-    with pytest.raises(ConfigError, match=r"run 'mine' exists .* --set training.x.resume=true"):
+    with pytest.raises(ConfigError, match=r"run folder .*mine exists; continue it with --set training.x.resume=true"):
         create_run(tmp_path, "mine", stem="walk", options="training.x")
 
 
@@ -154,6 +154,9 @@ def test_listing_newest_and_resume(tmp_path: Path) -> None:
     old = _run_with_config(tmp_path, "old", "ppo", 1_000, steps=(0, 9, 10))
     other = _run_with_config(tmp_path, "other", "sb3", 3_000)
     new = _run_with_config(tmp_path, "new", "ppo", 2_000)
+    being_written = tmp_path / ".old_step_11.x1y2.tmp"  # a checkpoint being published
+    being_written.mkdir()
+    (being_written / CONFIG_FILE).write_text(json.dumps({"trainer": "ppo"}))
     assert list_runs(tmp_path) == [old, new, other]  # checkpoint folders are not runs
     assert list_runs(tmp_path, "ppo") == [old, new] and newest_run(tmp_path, "ppo") == new
     assert newest_run(tmp_path / "missing") is None

@@ -1,15 +1,13 @@
-"""Run folders: where an SB3 run keeps its checkpoints, and how a checkpoint proves it was written here.
+"""SB3 checkpoints in the core's run-folder layout (`joshua_core.runs`), and how one proves it was written here.
 
-    <checkpoint_dir>/<run>/
-        config.json                      trainer "sb3", algorithm, task, the TrainingConfig, versions
-        metrics.json                     logged scalars per iteration, steps/s, wall time
-        tensorboard/                     TensorBoard event files
-        checkpoints/step_<N>/            one folder per checkpoint, written atomically
-            model.zip                    SB3 model with optimizer state (unpickled on load)
-            vecnormalize.pkl             observation/reward normalisation statistics (unpickled on load)
-            replay_buffer.pkl            SAC/TD3 only, newest checkpoint only (unpickled on load)
-            config.json, metrics.json    copies, so one checkpoint folder stands on its own
-            manifest.json                SHA-256 of every file, signed with this user's checkpoint key
+    <checkpoint_dir>/<run>/              config.json (trainer "sb3", algorithm, task, the TrainingConfig,
+                                         versions), metrics.json, training_curves.png, tensorboard/
+    <checkpoint_dir>/<run>_step_<N>/     one folder per checkpoint, published atomically
+        model.zip                        SB3 model with optimizer state (unpickled on load)
+        vecnormalize.pkl                 observation/reward normalisation statistics (unpickled on load)
+        replay_buffer.pkl                SAC/TD3 only, newest checkpoint only (unpickled on load)
+        config.json, metrics.json        copies, so one checkpoint folder stands on its own
+        manifest.json                    SHA-256 of every file, signed with this user's checkpoint key
 
 SB3 checkpoints unpickle on load, so loading one from an untrusted source runs its code. A
 checkpoint is loaded only when its manifest carries a valid HMAC-SHA256 made with the key in
@@ -25,20 +23,16 @@ import hashlib
 import hmac
 import json
 import os
-import re
 import secrets
-import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from joshua_core.atomic import atomic_directory, atomic_write_json
+from joshua_core.atomic import atomic_write_json
 from joshua_core.curves import write_training_curves
 from joshua_core.errors import UsageError
+from joshua_core.runs import METRICS_FILE, RunFolder
 
-CHECKPOINTS = "checkpoints"
-CONFIG_FILE = "config.json"
-METRICS_FILE = "metrics.json"
 CURVES_FILE = "training_curves.png"
 MANIFEST_FILE = "manifest.json"
 MODEL_FILE = "model.zip"
@@ -47,7 +41,6 @@ REPLAY_BUFFER_FILE = "replay_buffer.pkl"
 MANIFEST_FORMAT = "joshua-sb3-checkpoint/1"
 KEY_ENV_VAR = "JOSHUA_CHECKPOINT_KEY_FILE"
 KEY_BYTES = 32
-STEP_FOLDER = re.compile(r"^step_(\d+)$")
 
 
 class UntrustedCheckpointError(UsageError):
@@ -95,34 +88,8 @@ def _signature(key: bytes, manifest: dict[str, Any]) -> str:
     return hmac.new(key, json.dumps(unsigned, sort_keys=True).encode(), hashlib.sha256).hexdigest()
 
 
-def checkpoint_folders(run_dir: Path) -> list[Path]:
-    """The run's checkpoint folders, oldest (fewest steps) first."""
-    folder = run_dir / CHECKPOINTS
-    if not folder.is_dir():
-        return []
-    found = [(int(match[1]), path) for path in folder.iterdir() if (match := STEP_FOLDER.match(path.name))]
-    return [path for _, path in sorted(found)]
-
-
-def checkpoint_step(checkpoint: Path) -> int:
-    match = STEP_FOLDER.match(checkpoint.name)
-    if match is None:
-        raise UsageError(f"'{checkpoint}' is not a checkpoint folder (step_<N>)")
-    return int(match[1])
-
-
-def resolve_checkpoint(path: Path) -> Path:
-    """`path` if it is a checkpoint folder, else the newest checkpoint of the run folder `path`."""
-    if (path / MANIFEST_FILE).is_file() or STEP_FOLDER.match(path.name):
-        return path
-    folders = checkpoint_folders(path)
-    if not folders:
-        raise UsageError(f"run folder '{path}' has no checkpoint yet (no {CHECKPOINTS}/step_<N> folder)")
-    return folders[-1]
-
-
 def write_checkpoint(
-    run_dir: Path, step: int, save: Callable[[Path], None], documents: dict[str, Any], *, keep_replay_buffer: bool
+    run: RunFolder, step: int, save: Callable[[Path], None], documents: dict[str, Any], *, keep_replay_buffer: bool
 ) -> Path:
     """Write checkpoint `step` atomically: `save(folder)` writes the model files, `documents` the JSON files.
 
@@ -131,8 +98,7 @@ def write_checkpoint(
     """
     key = signing_key(create=True)
     assert key is not None
-    target = run_dir / CHECKPOINTS / f"step_{step:012d}"
-    with atomic_directory(target) as folder:
+    with run.publish(step) as folder:
         save(folder)
         for name, document in documents.items():
             (folder / name).write_text(json.dumps(document, indent=2, sort_keys=True) + "\n", encoding="utf-8")
@@ -141,11 +107,9 @@ def write_checkpoint(
         manifest["signature"] = _signature(key, manifest)
         (folder / MANIFEST_FILE).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n", encoding="utf-8")
     if not keep_replay_buffer:
-        for older in checkpoint_folders(run_dir)[:-1]:
+        for older in run.checkpoints()[:-1]:
             (older / REPLAY_BUFFER_FILE).unlink(missing_ok=True)
-    for leftover in (run_dir / CHECKPOINTS).glob(".step_*"):  # from a run killed while writing
-        shutil.rmtree(leftover, ignore_errors=True)
-    return target
+    return run.checkpoint_path(step)
 
 
 def verify_checkpoint(checkpoint: Path, names: list[str], *, trust: bool, trust_hint: str) -> None:

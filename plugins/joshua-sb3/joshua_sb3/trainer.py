@@ -9,7 +9,6 @@ from __future__ import annotations
 import contextlib
 import json
 import time
-from datetime import datetime
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -27,21 +26,25 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
-from joshua_core.evaluation import read_run_config
 from joshua_core.interfaces import EnvKind, RunContext, Trainer
 from joshua_core.options import message_to_dict, options_of, parse_dict
 from joshua_core.progress import progress_bar
+from joshua_core.runs import (
+    CONFIG_FILE,
+    METRICS_FILE,
+    RunFolder,
+    checkpoint_step,
+    create_run,
+    read_run_config,
+    resolve_checkpoint,
+    resume_run,
+)
 from joshua_render import VideoWriter
 from joshua_sb3 import options_pb2
 from joshua_sb3.run_folder import (
-    CONFIG_FILE,
-    METRICS_FILE,
     MODEL_FILE,
     NORMALIZATION_FILE,
     REPLAY_BUFFER_FILE,
-    checkpoint_folders,
-    checkpoint_step,
-    resolve_checkpoint,
     update_run_metrics,
     verify_checkpoint,
     write_checkpoint,
@@ -53,6 +56,7 @@ TRAINER_NAME = "sb3"
 RUN_FORMAT = "joshua-sb3-run/1"
 ALGORITHM_CLASSES: dict[str, type[BaseAlgorithm]] = {"PPO": PPO, "SAC": SAC, "TD3": TD3}
 DEVICE = "cpu"  # small MLP policies: the CPU beats a GPU round trip per environment step
+OPTIONS = "training.sb3"  # where the run options live, for hints
 TRAIN_TRUST_HINT = "--set training.sb3.trust_checkpoint=true"
 EVAL_TRUST_HINT = "joshua eval RUN --trust-checkpoint"
 
@@ -113,8 +117,9 @@ class TrainingMonitor(BaseCallback):
 class RunWriter:
     """One run folder being trained: its settings, environments and the history of logged metrics."""
 
-    def __init__(self, run_dir: Path, config: TrainingConfig, settings: Settings, normalizer: VecNormalize | None):
-        self.run_dir = run_dir
+    def __init__(self, run: RunFolder, config: TrainingConfig, settings: Settings, normalizer: VecNormalize | None):
+        self.run = run
+        self.run_dir = run.path
         self.config = config
         self.settings = settings
         self.normalizer = normalizer
@@ -154,7 +159,7 @@ class RunWriter:
 
         metrics = self.metrics_document(step)
         documents = {CONFIG_FILE: self.config_document(), METRICS_FILE: metrics}
-        checkpoint = write_checkpoint(self.run_dir, step, save, documents, keep_replay_buffer=False)
+        checkpoint = write_checkpoint(self.run, step, save, documents, keep_replay_buffer=False)
         update_run_metrics(self.run_dir, metrics, title=f"{self.config.task}: sb3 {self.settings.algorithm}")
         return checkpoint
 
@@ -166,38 +171,24 @@ def _version(distribution: str) -> str:
         return "unknown"
 
 
-def _run_dir(config: TrainingConfig, context: RunContext, settings: Settings) -> tuple[Path, Path | None]:
-    """The run folder to write, and the checkpoint to resume from (None for a new run)."""
+def _open_run(config: TrainingConfig, context: RunContext, settings: Settings) -> tuple[RunFolder, Path | None]:
+    """The run folder to write, locked, and the checkpoint to resume from (None for a new run, or for a
+    resumed run killed before its first checkpoint)."""
     root = context.output_dir
     options = options_of(config, options_pb2.sb3)
-    if options.resume:
-        run_dir = root / options.run_name if options.run_name else _newest_run(root)
-        if not (run_dir / CONFIG_FILE).is_file():
-            raise ConfigError(f"training.sb3.resume: there is no run '{run_dir.name}' in {root} to resume")
-        saved = read_run_config(run_dir)
-        for key, value in (("trainer", TRAINER_NAME), ("algorithm", settings.algorithm), ("task", config.task)):
-            if saved.get(key) != value:
-                raise ConfigError(
-                    f"training.sb3.resume: run {run_dir} was trained with {key} '{saved.get(key)}', "
-                    f"this config asks for '{value}'"
-                )
-        folders = checkpoint_folders(run_dir)
-        return run_dir, folders[-1] if folders else None
-    name = options.run_name or f"{config.task}_{settings.algorithm.lower()}_{datetime.now():%Y%m%d-%H%M%S}"
-    run_dir = root / name
-    if run_dir.exists():
-        raise ConfigError(
-            f"run folder {run_dir} exists; continue it with --set training.sb3.resume=true, "
-            "or choose another training.sb3.run_name"
-        )
-    return run_dir, None
-
-
-def _newest_run(root: Path) -> Path:
-    runs = [path.parent for path in root.glob(f"*/{CONFIG_FILE}")]
-    if not runs:
-        raise ConfigError(f"training.sb3.resume: {root} has no run folder to resume")
-    return max(runs, key=lambda path: (path / CONFIG_FILE).stat().st_mtime)
+    if not options.resume:
+        stem = f"{config.task}_{settings.algorithm.lower()}"
+        return create_run(root, options.run_name or None, stem=stem, options=OPTIONS), None
+    run, saved = resume_run(root, options.run_name or None, trainer=TRAINER_NAME, options=OPTIONS)
+    for key, value in (("algorithm", settings.algorithm), ("task", config.task)):
+        if saved.get(key) != value:
+            run.close()
+            raise ConfigError(
+                f"training.sb3.resume: run {run.path} was trained with {key} '{saved.get(key)}', "
+                f"this config asks for '{value}'"
+            )
+    checkpoints = run.checkpoints()
+    return run, checkpoints[-1] if checkpoints else None
 
 
 def _load_model(
@@ -223,7 +214,19 @@ class Sb3Trainer(Trainer):
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
         settings = Settings.from_config(config)
-        run_dir, resume_from = _run_dir(config, context, settings)
+        folder, resume_from = _open_run(config, context, settings)
+        with folder:  # locked while training; a new run that fails before writing anything leaves no folder
+            return self._train(config, context, settings, folder, resume_from)
+
+    def _train(
+        self,
+        config: TrainingConfig,
+        context: RunContext,
+        settings: Settings,
+        folder: RunFolder,
+        resume_from: Path | None,
+    ) -> Path:
+        run_dir = folder.path
         training = TrainingConfig()
         training.CopyFrom(config)
         training.num_envs = config.num_envs or DEFAULT_NUM_ENVS
@@ -244,9 +247,8 @@ class Sb3Trainer(Trainer):
             model = ALGORITHM_CLASSES[settings.algorithm](
                 "MlpPolicy", normalizer or vec_env, seed=settings.seed, device=DEVICE, **settings.algorithm_kwargs()
             )
-        run = RunWriter(run_dir, training, settings, normalizer)
-        if resume_from is None:
-            run_dir.mkdir(parents=True, exist_ok=True)  # exists when resuming a run killed before its first checkpoint
+        run = RunWriter(folder, training, settings, normalizer)
+        if resume_from is None:  # also a resumed run killed before its first checkpoint: its config is rewritten
             atomic_write_json(run_dir / CONFIG_FILE, run.config_document())
         else:
             previous = json.loads((run_dir / METRICS_FILE).read_text()) if (run_dir / METRICS_FILE).is_file() else {}

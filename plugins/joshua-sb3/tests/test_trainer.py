@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 import torch
 
-from joshua_sb3.run_folder import KEY_ENV_VAR, MANIFEST_FILE, MODEL_FILE, checkpoint_folders
+from joshua_core.runs import checkpoint_step, list_runs, run_checkpoints
+from joshua_sb3.run_folder import KEY_ENV_VAR, MANIFEST_FILE, MODEL_FILE
 
 JOSHUA = Path(sys.executable).parent / "joshua"
 PRESET = "so_arm100_reach_sb3"
@@ -38,6 +39,11 @@ def joshua(*args: str, cwd: Path, key: Path, timeout: float = 300) -> subprocess
         text=True,
         timeout=timeout,
     )
+
+
+def checkpoint_folders(run_dir: Path) -> list[Path]:
+    """The run's checkpoints, `<checkpoint_dir>/<run>_step_<N>/`, oldest first."""
+    return run_checkpoints(run_dir.parent, run_dir.name)
 
 
 def evaluation(process: subprocess.CompletedProcess[str]) -> dict[str, float]:
@@ -87,13 +93,16 @@ def test_run_folder_layout(trained: tuple[Path, Path]) -> None:
     assert list((run_dir / "tensorboard").glob("events.out.tfevents.*"))
     curves = matplotlib.image.imread(run_dir / "training_curves.png")  # return and distance panels
     assert curves.shape[0] > 400 and len(np.unique(curves.reshape(-1, curves.shape[-1]), axis=0)) > 10
-    steps = [int(folder.name.removeprefix("step_")) for folder in checkpoint_folders(run_dir)]
+    steps = [checkpoint_step(folder) for folder in checkpoint_folders(run_dir)]
     assert steps[0] == 0 and steps[-1] == LEARNING_STEPS and steps == sorted(set(steps)) and len(steps) >= 5
     newest = checkpoint_folders(run_dir)[-1]
     assert {path.name for path in newest.iterdir()} == {
         "config.json", "metrics.json", "manifest.json", "model.zip", "vecnormalize.pkl"
     }  # fmt: skip
-    assert not list((run_dir / "checkpoints").glob(".*")), "a temporary checkpoint folder was left behind"
+    assert not list(run_dir.parent.glob(".*")), "a temporary checkpoint folder was left behind"
+    names = {path.name for path in run_dir.iterdir()}
+    assert names >= {".lock", "config.json", "metrics.json", "training_curves.png", "tensorboard"}, names
+    assert "checkpoints" not in names  # they lie beside the run folder: <checkpoint_dir>/<run>_step_<N>/
 
 
 def test_eval_prints_the_return_and_writes_a_video(
@@ -115,8 +124,10 @@ def test_eval_prints_the_return_and_writes_a_video(
 
 def test_checkpoints_this_user_did_not_write_are_refused(trained: tuple[Path, Path], tmp_path: Path) -> None:
     run_dir, key = trained
-    copy = tmp_path / "copy"
+    copy = tmp_path / "copy"  # the run folder and its checkpoints beside it, as another machine would get them
     shutil.copytree(run_dir, copy)
+    for folder in checkpoint_folders(run_dir):
+        shutil.copytree(folder, tmp_path / f"copy_step_{checkpoint_step(folder)}")
     checkpoint = checkpoint_folders(copy)[-1]
 
     other_key = joshua("eval", str(copy), "--no-video", cwd=tmp_path, key=tmp_path / "someone_else.key")
@@ -173,7 +184,7 @@ def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
     folders = checkpoint_folders(run_dir)
     assert len(folders) >= 3, "no checkpoints within 120 s"
     last = folders[-1]
-    killed_at = int(last.name.removeprefix("step_"))
+    killed_at = checkpoint_step(last)
     assert killed_at >= 800 and adam_steps(last) == killed_at // 200 * 4
 
     total = killed_at + 1000
@@ -186,7 +197,7 @@ def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
     assert resumed.returncode == 0, resumed.stderr
     assert f"resuming {run_dir.relative_to(tmp_path)} from {last.name} ({killed_at} steps)" in resumed.stdout
     final = checkpoint_folders(run_dir)[-1]
-    assert final.name == f"step_{total:012d}"
+    assert final.name == f"killed_step_{total}"
     assert adam_steps(final) == total // 200 * 4  # the optimizer continued: its step count did not restart
     history = json.loads((run_dir / "metrics.json").read_text())["history"]
     steps = [record["step"] for record in history]
@@ -204,11 +215,51 @@ def test_sac_keeps_its_replay_buffer_in_the_newest_checkpoint_and_resumes(tmp_pa
     first = joshua(*settings, "--set", "training.total_timesteps=400", cwd=tmp_path, key=key)
     assert first.returncode == 0, first.stderr
     folders = checkpoint_folders(tmp_path / "runs" / "sac")
-    assert [folder.name for folder in folders][-1] == "step_000000000400" and len(folders) == 3
+    assert [folder.name for folder in folders][-1] == "sac_step_400" and len(folders) == 3
     assert [(folder / "replay_buffer.pkl").exists() for folder in folders] == [False, False, True]
     resumed = joshua(
         *settings, "--set", "training.total_timesteps=600", "--set", "training.sb3.resume=true", cwd=tmp_path, key=key
     )
     assert resumed.returncode == 0, resumed.stderr
-    assert "from step_000000000400 (400 steps)" in resumed.stdout
-    assert checkpoint_folders(tmp_path / "runs" / "sac")[-1].name == "step_000000000600"
+    assert "from sac_step_400 (400 steps)" in resumed.stdout
+    assert checkpoint_folders(tmp_path / "runs" / "sac")[-1].name == "sac_step_600"
+
+
+def test_runs_started_together_get_their_own_folders_and_a_name_in_use_is_refused(tmp_path: Path) -> None:
+    """Two runs with the default name started at once train in two folders; a third asking for one of those
+    names while it trains fails at once, in one line naming the process that holds it, touching nothing."""
+    key = tmp_path / "checkpoint.key"
+    settings = [
+        "--preset",
+        PRESET,
+        "--set",
+        "training.checkpoint_dir=runs",
+        "--set",
+        "training.total_timesteps=10000000",
+    ]
+    environment = {**os.environ, KEY_ENV_VAR: str(key)}
+    first = [
+        subprocess.Popen([str(JOSHUA), *settings], cwd=tmp_path, env=environment, stderr=subprocess.DEVNULL)
+        for _ in range(2)
+    ]
+    try:
+        deadline = time.monotonic() + 120
+        while len(runs := list_runs(tmp_path / "runs")) < 2:  # both made their folder and wrote its config
+            assert all(process.poll() is None for process in first) and time.monotonic() < deadline
+            time.sleep(0.1)
+        assert all(run.name.startswith("so_arm100_reach_ppo_") for run in runs), runs
+        holders = {int((run / ".lock").read_text()): run for run in runs}
+        assert set(holders) == {process.pid for process in first}
+        taken = runs[0]
+        config = (taken / "config.json").read_bytes()
+        third = joshua(*settings, "--set", f"training.sb3.run_name={taken.name}", cwd=tmp_path, key=key)
+        errors = [line for line in third.stderr.splitlines() if line.startswith("joshua: error:")]
+        assert third.returncode == 2 and "Traceback" not in third.stderr, third.stderr[-2000:]
+        holder = next(pid for pid, run in holders.items() if run == taken)
+        assert len(errors) == 1 and f"run '{taken.name}'" in errors[0] and f"process {holder}" in errors[0], errors
+        assert (taken / "config.json").read_bytes() == config and (taken / ".lock").read_text().strip() == str(holder)
+        assert all(process.poll() is None for process in first)  # both still training
+    finally:
+        for process in first:
+            process.kill()
+            process.wait()
