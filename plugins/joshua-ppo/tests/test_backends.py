@@ -14,12 +14,14 @@ import pytest
 
 import joshua_ppo.plugin
 from joshua_core import builtin_plugin, hookimpl
-from joshua_core.config_pb2 import PpoOptions, TrainingConfig
+from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import Backend, EnvKind, EnvSpec, RunContext
 from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import build_task, load_task_spec
+from joshua_ppo import options_pb2
+from joshua_ppo.options_pb2 import PpoOptions
 
 MADE: list[EnvSpec] = []  # every EnvSpec the test backend was asked for
 
@@ -79,11 +81,12 @@ def training(backend: str) -> TrainingConfig:
         total_timesteps=40,
     )
     config.task_config.episode_length = 3
-    config.ppo.run_name = "third_party"
-    config.ppo.hidden_sizes.extend([16])
-    config.ppo.video_interval = 2
-    config.ppo.video_steps = 4
-    config.ppo.viewer = PpoOptions.OFF
+    options = config.Extensions[options_pb2.ppo]
+    options.run_name = "third_party"
+    options.hidden_sizes.extend([16])
+    options.video_interval = 2
+    options.video_steps = 4
+    options.viewer = PpoOptions.OFF
     return config
 
 

@@ -19,6 +19,7 @@ from joshua_core.errors import ConfigError
 from joshua_core.interfaces import Backend, EnvKind, EnvSpec, RunContext
 from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import resolve_data_path
+from joshua_sb3 import options_pb2
 
 
 class ThirdPartyEnvs(gymnasium.vector.VectorWrapper):
@@ -81,8 +82,9 @@ def training(backend: str, run_name: str) -> TrainingConfig:
         minibatch_size=32,
     )
     config.task_config.episode_length = 10
-    config.sb3.run_name = run_name
-    config.sb3.hidden_sizes.extend([16])
+    options = config.Extensions[options_pb2.sb3]
+    options.run_name = run_name
+    options.hidden_sizes.extend([16])
     return config
 
 
