@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command, RunContext
@@ -17,7 +17,6 @@ from joshua_core.runs import read_run_config
 
 if TYPE_CHECKING:
     from joshua_core.plugins import PluginHost
-
 
 
 class EvalCommand(Command):

@@ -18,8 +18,8 @@ import fcntl
 import json
 import os
 import re
+import secrets
 import shutil
-import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import datetime
@@ -134,7 +134,8 @@ def open_run(root: Path, name: str) -> RunFolder:
 
 def _claim(root: Path, name: str) -> RunFolder | None:
     """Make `<root>/<name>` with its lock already held, or None when that name exists."""
-    temporary = Path(tempfile.mkdtemp(dir=root, prefix=f".{name}.", suffix=".new"))
+    temporary = root / f".{name}.{secrets.token_hex(6)}.new"
+    temporary.mkdir()  # with the mode a plain mkdir gives (mkdtemp's is owner-only)
     descriptor = os.open(temporary / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
     try:
         _lock(descriptor, root, name)

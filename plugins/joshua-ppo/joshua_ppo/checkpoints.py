@@ -1,4 +1,4 @@
-"""PPO checkpoints, laid out as the product description shows:
+"""PPO checkpoints in the core's run-folder layout (`joshua_core.runs`), as the product description shows:
 
     <checkpoint_dir>/<run>_step_<N>/
         params.msgpack       {"params": network parameters, "normalizer": {count, mean, variance}} (Flax msgpack)
@@ -8,23 +8,22 @@
     <checkpoint_dir>/<run>/  the run's own folder: config.json, metrics.json, training_curves.png,
                              tensorboard/, videos/
 
-Each checkpoint folder is written to a temporary folder and renamed into place, so a crash leaves
-either the whole checkpoint or none. msgpack holds only arrays and numbers: loading one never runs code.
+Each checkpoint folder is published atomically (`RunFolder.publish`), so a crash leaves either the
+whole checkpoint or none. msgpack holds only arrays and numbers: loading one never runs code.
 """
 
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 from typing import Any
 
 import jax
 from flax import serialization
 
-from joshua_core.atomic import atomic_directory, atomic_write_json
-from joshua_core.errors import JoshuaError, UsageError
-from joshua_core.evaluation import read_run_config
+from joshua_core.atomic import atomic_write_json
+from joshua_core.errors import JoshuaError
+from joshua_core.runs import RunFolder
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics
@@ -33,54 +32,20 @@ from joshua_ppo.state import Progress, TrainingState, init_state
 
 PARAMS_FILE = "params.msgpack"
 TRAIN_STATE_FILE = "train_state.msgpack"
-CONFIG_FILE = "config.json"
-METRICS_FILE = "metrics.json"
-CHECKPOINT_FILES = (PARAMS_FILE, TRAIN_STATE_FILE, CONFIG_FILE, METRICS_FILE)
-_STEP_SUFFIX = re.compile(r"_step_(\d+)$")
 
 
 class CorruptCheckpointError(JoshuaError):
     """A checkpoint file is missing, truncated or does not fit the network it is loaded into."""
 
 
-def checkpoint_dir(root: Path, run: str, step: int) -> Path:
-    return root / f"{run}_step_{step}"
-
-
-def checkpoint_step(folder: Path) -> int:
-    match = _STEP_SUFFIX.search(folder.name)
-    if match is None:
-        raise UsageError(f"'{folder}' is not a checkpoint folder (<run>_step_<N>)")
-    return int(match.group(1))
-
-
-def run_checkpoints(root: Path, run: str) -> list[Path]:
-    """The run's complete checkpoint folders, oldest first."""
-    name = re.compile(rf"^{re.escape(run)}_step_\d+$")
-    folders = [path for path in root.iterdir() if name.match(path.name)] if root.is_dir() else []
-    complete = [path for path in folders if all((path / file).is_file() for file in CHECKPOINT_FILES)]
-    return sorted(complete, key=checkpoint_step)
-
-
-def resolve_checkpoint(path: Path) -> Path:
-    """A checkpoint folder itself, or the newest checkpoint of a run folder `<root>/<run>`."""
-    if _STEP_SUFFIX.search(path.name) and (path / PARAMS_FILE).exists():
-        return path
-    read_run_config(path)  # a clear error when `path` is neither
-    checkpoints = run_checkpoints(path.parent, path.name)
-    if not checkpoints:
-        raise UsageError(f"run '{path}' has no checkpoint yet (looked for {path.parent}/{path.name}_step_<N>/)")
-    return checkpoints[-1]
-
-
-def write_checkpoint(folder: Path, payloads: dict[str, Any], documents: dict[str, Any]) -> Path:
-    """Write the msgpack payloads and JSON documents into `folder`, atomically."""
-    with atomic_directory(folder) as temporary:
+def write_checkpoint(run: RunFolder, step: int, payloads: dict[str, Any], documents: dict[str, Any]) -> Path:
+    """Publish checkpoint `step` of the run: the msgpack payloads and JSON documents, atomically."""
+    with run.publish(step) as folder:
         for name, tree in payloads.items():
-            (temporary / name).write_bytes(serialization.to_bytes(tree))
+            (folder / name).write_bytes(serialization.to_bytes(tree))
         for name, document in documents.items():
-            atomic_write_json(temporary / name, document)
-    return folder
+            atomic_write_json(folder / name, document)
+    return run.checkpoint_path(step)
 
 
 def read_payload(folder: Path, name: str, target: Any) -> Any:

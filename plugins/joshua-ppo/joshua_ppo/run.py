@@ -18,15 +18,9 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.curves import write_training_curves
 from joshua_core.interfaces import RunContext
 from joshua_core.options import message_to_dict, options_of
+from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
 from joshua_ppo import options_pb2
-from joshua_ppo.checkpoints import (
-    CONFIG_FILE,
-    METRICS_FILE,
-    PARAMS_FILE,
-    TRAIN_STATE_FILE,
-    checkpoint_dir,
-    write_checkpoint,
-)
+from joshua_ppo.checkpoints import PARAMS_FILE, TRAIN_STATE_FILE, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.rollout import collect, make_rollout, render_video
@@ -67,15 +61,15 @@ class Run:
     """One run being trained: its folder, history and monitors; the callbacks `train_ppo` calls."""
 
     def __init__(
-        self, config: TrainingConfig, settings: PpoSettings, env: JaxEnv, context: RunContext, name: str
+        self, config: TrainingConfig, settings: PpoSettings, env: JaxEnv, context: RunContext, run: RunFolder
     ) -> None:
         self.config = config
         self.settings = settings
         self.env = env
         self.context = context
-        self.root = context.output_dir
-        self.name = name
-        self.folder = self.root / name
+        self.run_folder = run
+        self.name = run.name
+        self.folder = run.path
         self.history: list[dict[str, float]] = []
         self.last_return = float("nan")
         self.compile_seconds = 0.0
@@ -149,11 +143,9 @@ class Run:
             "env_steps": progress.env_steps,
         }
         metrics = self.metrics_document(progress)
-        folder = checkpoint_dir(self.root, self.name, progress.env_steps)
         documents = {CONFIG_FILE: self.config_document(), METRICS_FILE: metrics}
-        write_checkpoint(
-            folder, {PARAMS_FILE: jax.device_get(params), TRAIN_STATE_FILE: jax.device_get(train_state)}, documents
-        )
+        payloads = {PARAMS_FILE: jax.device_get(params), TRAIN_STATE_FILE: jax.device_get(train_state)}
+        write_checkpoint(self.run_folder, progress.env_steps, payloads, documents)
         atomic_write_json(self.folder / METRICS_FILE, metrics)
         write_training_curves(
             self.history, self.folder / "training_curves.png", title=f"{self.config.task}: ppo", series=CURVE_SERIES

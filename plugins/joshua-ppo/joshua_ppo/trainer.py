@@ -5,7 +5,6 @@ checkpoints, resume and monitoring (`joshua_ppo.run`), and the evaluation of a s
 from __future__ import annotations
 
 import sys
-from datetime import datetime
 from pathlib import Path
 
 import jax
@@ -17,55 +16,45 @@ from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import RunContext, Trainer
 from joshua_core.options import options_of, parse_dict
 from joshua_core.progress import progress_bar
-from joshua_ppo import options_pb2
-from joshua_ppo.checkpoints import (
+from joshua_core.runs import (
     CONFIG_FILE,
     METRICS_FILE,
+    RunFolder,
     checkpoint_step,
-    load_params,
-    load_state,
-    read_json,
+    create_run,
     resolve_checkpoint,
-    run_checkpoints,
+    resume_run,
 )
+from joshua_ppo import options_pb2
+from joshua_ppo.checkpoints import load_params, load_state, read_json
 from joshua_ppo.config_settings import PpoSettings
-from joshua_ppo.envs import environment
+from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.rollout import collect, make_rollout, mean_results, render_video
 from joshua_ppo.run import RUN_FORMAT, TRAINER_NAME, Run, ScalarLog
 from joshua_ppo.settings import check_settings
 from joshua_ppo.train import train_ppo
 from joshua_ppo.viewer import open_viewer
 
+OPTIONS = "training.ppo"  # where the run options live, for hints
 
-def _run_name(config: TrainingConfig, root: Path) -> tuple[str, Path | None]:
-    """The run's name and the checkpoint to resume from (None for a new run)."""
+
+def _open_run(config: TrainingConfig, root: Path) -> tuple[RunFolder, Path | None]:
+    """The run folder, locked, and the checkpoint to resume from (None for a new run)."""
     options = options_of(config, options_pb2.ppo)
-    if options.resume:
-        name = options.run_name or _newest_run(root)
-        checkpoints = run_checkpoints(root, name)
-        if not (root / name / CONFIG_FILE).is_file() or not checkpoints:
-            raise ConfigError(f"training.ppo.resume: there is no run '{name}' with a checkpoint in {root} to resume")
-        saved = read_json(root / name / CONFIG_FILE)
-        if saved.get("task") != config.task:
-            raise ConfigError(
-                f"training.ppo.resume: run '{name}' trained task '{saved.get('task')}', "
-                f"this config asks for '{config.task}'"
-            )
-        return name, checkpoints[-1]
-    name = options.run_name or f"{config.task}_{datetime.now():%Y%m%d-%H%M%S}"
-    if (root / name).exists() or run_checkpoints(root, name):
+    if not options.resume:
+        return create_run(root, options.run_name or None, stem=config.task, options=OPTIONS), None
+    run, saved = resume_run(root, options.run_name or None, trainer=TRAINER_NAME, options=OPTIONS)
+    if saved.get("task") != config.task:
+        run.close()
         raise ConfigError(
-            f"run '{name}' exists in {root}; continue it with --set training.ppo.resume=true, "
-            "or choose another training.ppo.run_name"
+            f"{OPTIONS}.resume: run '{run.name}' trained task '{saved.get('task')}', "
+            f"this config asks for '{config.task}'"
         )
-    return name, None
-
-
-def _newest_run(root: Path) -> str:
-    runs = [path.parent for path in root.glob(f"*/{CONFIG_FILE}") if read_json(path).get("trainer") == TRAINER_NAME]
-    if not runs:
-        raise ConfigError(f"training.ppo.resume: {root} has no ppo run to resume")
-    return max(runs, key=lambda path: (path / CONFIG_FILE).stat().st_mtime).name
+    checkpoints = run.checkpoints()
+    if not checkpoints:
+        run.close()
+        raise ConfigError(f"{OPTIONS}.resume: run '{run.name}' in {root} has no checkpoint to resume from")
+    return run, checkpoints[-1]
 
 
 class PpoTrainer(Trainer):
@@ -77,18 +66,21 @@ class PpoTrainer(Trainer):
         # a bad batch layout is a config error before anything is written
         recompute = settings.returns.recompute_advantages
         check_settings(settings.rollout, settings.optimization, env.num_envs, env.mesh.size, whole_unrolls=recompute)
-        root = context.output_dir
-        name, resume_from = _run_name(config, root)
-        run = Run(config, settings, env, context, name)
+        folder, resume_from = _open_run(config, context.output_dir)
+        with folder:  # locked while training
+            return self._train(config, settings, env, Run(config, settings, env, context, folder), resume_from)
+
+    def _train(
+        self, config: TrainingConfig, settings: PpoSettings, env: JaxEnv, run: Run, resume_from: Path | None
+    ) -> Path:
         resume = None
         if resume_from is not None:
             resume = load_state(resume_from, env, settings)
             previous = read_json(resume_from / METRICS_FILE)
             run.history = [record for record in previous.get("history", []) if record["step"] <= resume[1].env_steps]
             run.last_return = float(previous.get("mean_return", float("nan")))
-            print(f"ppo: resuming {name} from {resume_from.name} ({resume[1].env_steps} steps)")
+            print(f"ppo: resuming {run.name} from {resume_from.name} ({resume[1].env_steps} steps)")
         else:
-            run.folder.mkdir(parents=True, exist_ok=True)
             atomic_write_json(run.folder / CONFIG_FILE, run.config_document())
         start = resume[1].env_steps if resume else 0
         run.bar = progress_bar(settings.total_timesteps, description=f"ppo {config.task}", unit="steps", initial=start)
@@ -115,7 +107,7 @@ class PpoTrainer(Trainer):
             run.scalars.close()
             if run.viewer is not None:
                 run.viewer.close()
-        checkpoint = run_checkpoints(root, name)[-1]
+        checkpoint = run.run_folder.checkpoints()[-1]
         print(
             f"ppo: {progress.env_steps} steps in {run.wall_seconds:.1f} s (compile {run.compile_seconds:.1f} s), "
             f"mean return {run.last_return:.4g}; checkpoint {checkpoint}"

@@ -22,8 +22,9 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import RunContext
 from joshua_core.plugins import PluginHost
+from joshua_core.runs import list_runs, run_checkpoints
 from joshua_ppo import train_mjx
-from joshua_ppo.checkpoints import CorruptCheckpointError, run_checkpoints
+from joshua_ppo.checkpoints import CorruptCheckpointError
 from joshua_ppo.train import TrainingDiverged
 from joshua_ppo.trainer import PpoTrainer
 
@@ -252,3 +253,43 @@ def test_live_viewer_shows_the_training_ants_and_closing_it_lets_training_finish
 def ant_pixels(rgb: NDArray[np.uint8]) -> int:
     r, g, b = (rgb[..., i].astype(int) for i in range(3))
     return int(np.count_nonzero((r > 90) & (r - b > 50) & (g - b > 20) & (r - g > 15)))
+
+
+def test_runs_started_together_get_their_own_folders_and_a_name_in_use_is_refused(tmp_path: Path) -> None:
+    """Two runs with the default name started at once train in two folders; a third asking for one of those
+    names while it trains fails at once, in one line naming the process that holds it, touching nothing."""
+    settings = {
+        "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1, "total_timesteps": 10**9,
+        "checkpoint_dir": str(tmp_path), "ppo.viewer": "OFF", "ppo.video_interval": -1, "ppo.hidden_sizes": "[16]",
+    }  # fmt: skip
+    overrides = [arg for name, value in settings.items() for arg in ("--set", f"training.{name}={value}")]
+    command = [*JOSHUA, "--preset", "ant_train_mjx", *overrides]
+    environment = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    first = [
+        subprocess.Popen(command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        for _ in range(2)
+    ]
+    try:
+        for process in first:  # printed once the run folder and its config.json are written
+            assert process.stdout is not None
+            lines = iter(process.stdout.readline, "")
+            assert any("compiling the training iteration" in line for line in lines), process.poll()
+        folders = list_runs(tmp_path)
+        assert len(folders) == 2 and all(folder.name.startswith("ant_locomotion_") for folder in folders), folders
+        holders = {int((folder / ".lock").read_text()): folder for folder in folders}
+        assert set(holders) == {process.pid for process in first}
+        taken = folders[0]
+        config = (taken / "config.json").read_bytes()
+        third = subprocess.run(
+            [*command, "--set", f"training.ppo.run_name={taken.name}"], capture_output=True, text=True, timeout=300
+        )
+        errors = [line for line in third.stderr.splitlines() if line.startswith("joshua: error:")]
+        assert third.returncode == 2 and "Traceback" not in third.stderr, third.stderr[-2000:]
+        holder = next(pid for pid, folder in holders.items() if folder == taken)
+        assert len(errors) == 1 and f"run '{taken.name}'" in errors[0] and f"process {holder}" in errors[0], errors
+        assert (taken / "config.json").read_bytes() == config and (taken / ".lock").read_text().strip() == str(holder)
+        assert all(process.poll() is None for process in first)  # both still training
+    finally:
+        for process in first:
+            process.kill()
+            process.communicate()
