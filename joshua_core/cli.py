@@ -181,11 +181,11 @@ def check_components(config: JoshuaConfig, host: PluginHost) -> None:
 def run(args: argparse.Namespace, host: PluginHost) -> int:
     """Run (or print) the config: first check that its plugins are installed, reading it leniently, since
     installing them comes before any other problem (their options would be unknown); then parse it strictly."""
+    options = host.options()  # first: a plugin whose options are broken is then reported like any broken plugin
     if not args.print_config:
         for problem in host.problems:
             print(f"joshua: warning: {problem}", file=sys.stderr)
     check_components(load(args, LENIENT).message, host)
-    options = host.options()
     loaded = load(args, options)
     if args.strict:
         apply_override(loaded.message, STRICT_OVERRIDE, options)

@@ -335,17 +335,32 @@ class PluginHost:
 
     def options(self) -> OptionSet:
         """The registered options, their `_pb2` modules imported (light: they import only protobuf and the core
-        schema). A target that is not an extension of that short name is a PluginLoadError naming the plugin."""
+        schema). A plugin whose option is not an extension of its short name (or does not import) is marked broken
+        with a message naming it, and everything it registered is dropped, as for any broken plugin."""
         if self._options is None:
-            self._options = OptionSet(tuple(self._option(name) for name in self.names(Kind.OPTIONS)))
+            loaded = []
+            for name in self.names(Kind.OPTIONS):
+                component = self.component(Kind.OPTIONS, name)
+                try:
+                    loaded.append((component.plugin, _extension_of(component)))
+                except PluginLoadError as error:
+                    self._drop_broken(component.plugin, str(error))
+            self._options = OptionSet(tuple(option for plugin, option in loaded if not plugin.error))
         return self._options
 
-    def _option(self, name: str) -> FieldDescriptor:
-        component = self.component(Kind.OPTIONS, name)
-        target = component.load()
-        if not (isinstance(target, FieldDescriptor) and target.is_extension and target.name == name):
-            raise PluginLoadError(
-                f"option '{name}' from plugin '{component.plugin.name}' ({component.plugin.distribution}) is "
-                f"{target!r}, not a protobuf extension named '{name}' (e.g. \"my_plugin.options_pb2:{name}\")"
-            )
-        return target
+    def _drop_broken(self, plugin: PluginInfo, error: str) -> None:
+        """Record `plugin` as broken and forget everything it registered."""
+        plugin.error = error
+        self._components = {key: c for key, c in self._components.items() if c.plugin is not plugin}
+
+
+def _extension_of(component: Component) -> FieldDescriptor:
+    """The protobuf extension an option component names; anything else is a PluginLoadError naming the plugin."""
+    target = component.load()
+    name = component.name
+    if not (isinstance(target, FieldDescriptor) and target.is_extension and target.name == name):
+        raise PluginLoadError(
+            f"option '{name}' from plugin '{component.plugin.name}' ({component.plugin.distribution}) is "
+            f"{target!r}, not a protobuf extension named '{name}' (e.g. \"my_plugin.options_pb2:{name}\")"
+        )
+    return target

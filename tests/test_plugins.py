@@ -289,10 +289,39 @@ def test_options_are_loaded_from_their_registered_extensions() -> None:
         ("joshua_no_such_module.options_pb2:odd", "names module 'joshua_no_such_module.options_pb2'"),
     ],
 )
-def test_an_option_that_is_not_an_extension_of_its_name_names_the_plugin(target: str, problem: str) -> None:
-    host = host_of(("odd", plugin_registering("option", "odd", target)))
-    with pytest.raises(PluginLoadError, match=rf"option 'odd' from plugin 'odd' \(dist-odd\).*{re.escape(problem)}"):
-        host.options()
+def test_an_option_that_is_not_an_extension_of_its_name_breaks_only_its_plugin(target: str, problem: str) -> None:
+    host = host_of(("odd", plugin_registering("option", "odd", target)), ("good", plugin_registering("mode", "GOOD", GoodMode)))
+    options = host.options()  # the other plugins' options and components stay usable
+    assert "odd" not in options.names(SimulationConfig.DESCRIPTOR)
+    assert isinstance(host.mode("GOOD"), GoodMode)
+    (line,) = host.problems
+    assert re.search(rf"plugin 'odd' \(dist-odd .*\) is broken: option 'odd' .*{re.escape(problem)}", line), line
+
+
+BROKEN_OPTIONS_PLUGIN = """
+    from joshua_core import hookimpl
+
+    @hookimpl
+    def joshua_register_modes(registry):
+        registry.add("ODD", "joshua_odd_plugin:nothing", "a mode of a plugin with broken options")
+
+    @hookimpl
+    def joshua_register_options(registry):
+        registry.add("odd", "joshua_core.config_pb2:SimulationConfig", "not an extension")
+"""
+
+
+def test_a_plugin_with_broken_options_breaks_only_itself_on_the_command_line(tmp_path: Path, run_joshua) -> None:
+    site = tmp_path / "site"
+    install_fake_distribution(site, "joshua-odd", "odd", "joshua_odd_plugin", BROKEN_OPTIONS_PLUGIN)
+    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")]))}
+    run = run_joshua("--set", "simulation.duration=0.1", env=env)  # the embedded default, another plugin's mode
+    assert run.returncode == 0, run.stderr
+    assert "joshua: warning: plugin 'odd' (joshua-odd 0.3) is broken: option 'odd'" in run.stderr
+    odd = run_joshua("--set", "simulation.mode=ODD", env=env)
+    assert odd.returncode == 2 and "Traceback" not in odd.stderr
+    assert "plugin 'odd' (joshua-odd 0.3) is broken: option 'odd'" in odd.stderr
+    assert "joshua: error: no mode named 'ODD' is installed." in odd.stderr  # its mode went with it
 
 
 SAMPLE_CONFIG = """\
