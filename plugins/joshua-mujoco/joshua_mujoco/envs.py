@@ -61,6 +61,11 @@ class TaskEnv(gymnasium.Env):
         self.observation_space = gymnasium.spaces.Box(-np.inf, np.inf, (built.observation_size,), np.float32)
         self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (built.action_size,), np.float32)
 
+    @property
+    def dt(self) -> float:
+        """Seconds of simulated time per step (frame skip x timestep), as Gymnasium's MuJoCo envs expose it."""
+        return float(self.task.dt)
+
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
@@ -92,13 +97,20 @@ class TaskEnv(gymnasium.Env):
 
 
 def make_vector(task: str, num_envs: int = 1, **kwargs: Any) -> BatchedVectorEnv:
-    """Gymnasium's vector entry point: make_vector_env with Gymnasium's keyword arguments."""
+    """Gymnasium's vector entry point: make_vector_env with Gymnasium's keyword arguments; its
+    `max_episode_steps` (the registered episode length, or the caller's) becomes the task's episode length."""
     kwargs.pop("vectorization_mode", None)
+    max_episode_steps = kwargs.pop("max_episode_steps", None)
+    if max_episode_steps is not None and not {"episode_length", "task_config"} & kwargs.keys():
+        kwargs["episode_length"] = max_episode_steps
     return make_vector_env(task, num_envs, **kwargs)
 
 
 def register_envs() -> None:
-    """Register the built-in tasks with Gymnasium (idempotent)."""
+    """Register the built-in tasks with Gymnasium (idempotent); `max_episode_steps` is the task's episode
+    length, so `env.spec` says where episodes are truncated (the env truncates there itself too)."""
+    from joshua_core.tasks.builtin import BUILTIN_TASKS
+
     for env_id, task in ENV_IDS.items():
         if env_id not in gymnasium.registry:
             gymnasium.register(
@@ -106,6 +118,7 @@ def register_envs() -> None:
                 entry_point="joshua_mujoco.envs:TaskEnv",
                 vector_entry_point="joshua_mujoco.envs:make_vector",
                 kwargs={"task": task},
+                max_episode_steps=BUILTIN_TASKS[task].episode_length,
             )
 
 

@@ -136,6 +136,20 @@ def test_gymnasium_make_for_every_registered_task() -> None:
     assert isinstance(vector, BatchedVectorEnv) and vector.num_envs == 2
 
 
+def test_gymnasium_make_sets_the_time_limit_and_dt_of_the_task() -> None:
+    env = gymnasium.make("joshua/AntLocomotion-v0")
+    spec = BUILTIN_TASKS["ant_locomotion"]
+    assert env.spec.max_episode_steps == spec.episode_length == 1000
+    assert env.unwrapped.dt == pytest.approx(0.05)  # frame skip 5 x 0.01 s, as Ant-v5
+    env.reset(seed=0)
+    steps, truncated, terminated = 0, False, False
+    while not (truncated or terminated):  # zero actions: the ant stands, so the time limit ends the episode
+        _, _, terminated, truncated, _ = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+        steps += 1
+    assert truncated and not terminated and steps == 1000
+    env.close()
+
+
 def test_render_frame_draws_the_target(plugins: PluginHost) -> None:
     env = make_vector_env("so_arm100_reach", 2, seed=0, plugins=plugins)
     env.simulation.commands["target"][1] = env.simulation.commands["target"][0]
