@@ -7,7 +7,8 @@ For each number of environments, in the same run and interleaved: Gymnasium's ow
 down), all from a reset and with uniform random actions; the two environments autoreset. Each is
 timed `--repeats` times and the fastest run counts. Both environments simulate the Ant-v5 task:
 same geometry, frame skip 5 (dt = 0.05 s), 105-d observation with contact forces, the same reward
-terms and termination.
+terms and termination; but stock Ant-v5 integrates with RK4 (four force evaluations a step) and
+models/ant/ant.xml with MuJoCo's default Euler, which accounts for part of the ratio.
 Goal: ours / Gymnasium >= 5 at 256 environments.
 Usage: python bench/cpu_env_throughput.py [--envs 1 16 256] [--seconds 1.5] [--repeats 3] [--nthread N]
 """

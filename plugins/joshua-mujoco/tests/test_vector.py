@@ -3,7 +3,10 @@ Gymnasium registration, rendering, and the Ant task against Gymnasium's own Ant-
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import gymnasium
+import mujoco
 import numpy as np
 import pytest
 from google.protobuf import text_format
@@ -94,6 +97,16 @@ def test_actions_are_clipped_and_bad_actions_rejected(plugins: PluginHost) -> No
         clipped.step(np.zeros(7))
     with pytest.raises(ValueError, match=r"NaN or infinity for environments \[1\]"):
         clipped.step(np.array([[0.0] * 8, [np.nan] + [0.0] * 7]))
+
+
+def test_the_docs_say_our_ant_integrates_unlike_stock_ant_v5() -> None:
+    """Stock Ant-v5 sets RK4 and ant.xml keeps MuJoCo's Euler: tasks.md must state it, not call returns comparable."""
+    stock = gymnasium.make("Ant-v5").unwrapped.model.opt.integrator
+    ours = mujoco.MjModel.from_xml_path(str(resolve_data_path("ant/ant.xml"))).opt.integrator
+    assert (stock, ours) == (mujoco.mjtIntegrator.mjINT_RK4, mujoco.mjtIntegrator.mjINT_EULER)
+    tasks = " ".join((Path(__file__).parents[3] / "docs" / "tasks.md").read_text().split())
+    assert "comparable with published Ant-v5 results" not in tasks.replace("not comparable with published", "")
+    assert 'integrator="RK4"' in tasks and "semi-implicit Euler" in tasks
 
 
 def test_ant_matches_gymnasium_ant_v5_on_the_same_model(plugins: PluginHost) -> None:
