@@ -31,7 +31,7 @@ STRICT_OVERRIDE = "simulation.replay.strict=true"  # what --strict means
 
 EPILOG = f"""\
 examples:
-  joshua                                   run the embedded default (headless SO-ARM100 physics check)
+  joshua                                   run the embedded default: validate the example trajectory, record its replay
   joshua --preset sim_offscreen            run a shipped preset
   joshua --preset sim_passive --set simulation.trajectory_path=my_motion.csv --strict
   joshua --config my_run.pbtxt             run a text-format JoshuaConfig (it may `extends: "PRESET"`)
@@ -43,6 +43,15 @@ examples:
 Relative model and trajectory paths resolve against the config file's folder, the working
 directory, then the models shipped with JOSHUA. {DISABLE_ENV_VAR}=a,b skips plugins by name.
 exit status: 0 ok, 1 runtime failure, 2 usage or config error."""
+
+# Printed after the embedded default run (`joshua` alone): what a newcomer can try next.
+NEXT_STEPS = """\
+next:
+  joshua --preset sim_passive                the same replay in the MuJoCo viewer (with a display)
+  joshua --preset so_arm100_sim_interactive  the viewer on the live arm, held at home
+  joshua --preset sim_offscreen              render at 640x480; PNG, depth, segmentation on request
+  joshua --preset so_arm100_reach_sb3        train a reaching policy (after ./setup.sh --all)
+  joshua presets                             every shipped preset, with what it does"""
 
 
 def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.ArgumentParser:
@@ -197,6 +206,8 @@ def run(args: argparse.Namespace, host: PluginHost) -> int:
         simulation = config.simulation
         context = RunContext(host, Path(simulation.output_dir or DEFAULT_OUTPUT_DIR))
         host.mode(simulation_mode(simulation)).run(simulation, context)
+        if not (args.preset or args.config):
+            print(NEXT_STEPS)
     else:
         training = config.training
         context = RunContext(host, Path(training.checkpoint_dir or DEFAULT_OUTPUT_DIR))

@@ -266,15 +266,19 @@ def training_plugins(training: TrainingConfig) -> tuple[str, str]:
     return training.trainer or trainer, training.backend or backend
 
 
-# What `joshua` runs when given neither --preset nor --config: a headless smoke run of the arm at home.
+# What `joshua` runs when given neither --preset nor --config: the representative job, headless and short.
+# It validates the example trajectory against the SO-ARM100 and records its replay (PASSIVE of joshua-modes,
+# which ./setup.sh installs; without it, `joshua` says to install it). The CLI then prints what to try next.
 DEFAULT_CONFIG_TEXT = """
-description: "Headless physics run of the SO-ARM100 held at home for 5 s: checks the model and reports speed"
+description: "Validates the SO-ARM100's example trajectory and records its replay headless: joshua_output/passive_replay.mp4 and passive_report.json"
 operation_mode: SIMULATION
 simulation {
-  mode: HEADLESS
+  mode: PASSIVE
   model_path: "so_arm100/scene.xml"
-  keyframe: "home"
-  duration: 5.0
+  trajectory_path: "trajectories/so_arm100_example.csv"
+  render_width: 320
+  render_height: 240
+  viewer { display: RECORD fps: 15 }
 }
 """
 

@@ -1,4 +1,4 @@
-"""The `joshua` command end to end: exit codes, messages, the embedded default run."""
+"""The `joshua` command end to end: exit codes, messages, the embedded default run and what it prints next."""
 
 from __future__ import annotations
 
@@ -70,8 +70,33 @@ def test_print_config_shows_resolved_paths(run_joshua) -> None:
     assert 'model_path: "/' in result.stdout and "so_arm100/scene.xml" in result.stdout
 
 
-def test_default_run_steps_the_arm_headless_and_writes_a_summary(run_joshua, tmp_path: Path) -> None:
-    result = run_joshua("--set", "simulation.duration=2")
+HEADLESS = ("--set", "simulation.mode=HEADLESS")  # the embedded default's model as a quick physics run
+
+
+def test_default_run_validates_and_records_the_example_and_says_what_next(run_joshua, tmp_path: Path) -> None:
+    result = run_joshua(env={"DISPLAY": ""})  # exactly what a newcomer types after ./setup.sh, no display
+    assert result.returncode == 0, result.stderr
+    output = tmp_path / "joshua_output"
+    report = json.loads((output / "passive_report.json").read_text())
+    assert report["ok"] and report["trajectory"].endswith("so_arm100_example.csv"), report
+    video = (output / "passive_replay.mp4").read_bytes()
+    assert video[4:8] == b"ftyp" and len(video) > 10_000
+    for printed in ("validation report: joshua_output/passive_report.json", "video: joshua_output/passive_replay.mp4"):
+        assert printed in result.stdout, result.stdout
+    steps = result.stdout[result.stdout.index("next:") :]
+    for command in ("--preset sim_passive", "--preset so_arm100_sim_interactive", "_sb3", "joshua presets"):
+        assert command in steps
+    assert report["replayed_rows"] == report["rows"] > 0
+
+
+def test_default_run_without_joshua_modes_says_to_install_it(run_joshua) -> None:
+    result = run_joshua(env={"JOSHUA_DISABLE_PLUGINS": "modes"})
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "no mode named 'PASSIVE' is installed. It comes from joshua-modes" in result.stderr
+
+
+def test_headless_run_steps_the_arm_and_writes_a_summary(run_joshua, tmp_path: Path) -> None:
+    result = run_joshua(*HEADLESS, "--set", "simulation.keyframe=home", "--set", "simulation.duration=2")
     assert result.returncode == 0, result.stderr
     summary = json.loads((tmp_path / "joshua_output" / "headless_summary.json").read_text())
     assert summary["sim_seconds"] >= 2.0 and summary["steps"] > 0
@@ -87,13 +112,13 @@ def test_diverging_model_is_a_runtime_failure(run_joshua, tmp_path: Path) -> Non
         '<geom size="0.1" mass="1e-6"/></body></worldbody>'
         '<keyframe><key name="start" qpos="1"/></keyframe></mujoco>'
     )
-    result = run_joshua("--set", f"simulation.model_path={model}", "--set", "simulation.keyframe=start")
+    result = run_joshua(*HEADLESS, "--set", f"simulation.model_path={model}", "--set", "simulation.keyframe=start")
     assert result.returncode == 1
     assert "simulation diverged" in result.stderr
 
 
 def test_unknown_keyframe_is_a_config_error(run_joshua) -> None:
-    result = run_joshua("--set", "simulation.keyframe=nope")
+    result = run_joshua(*HEADLESS, "--set", "simulation.keyframe=nope")
     assert result.returncode == 2
     assert "simulation.keyframe: no keyframe 'nope' in the model; keyframes: home" in result.stderr
     assert "Traceback" not in result.stderr
@@ -148,7 +173,7 @@ def test_a_config_of_a_missing_mode_plugin_says_what_to_install_before_its_optio
         assert "no mode named 'OFFSCREEN' is installed. It comes from joshua-modes" in result.stderr, result.stderr
     training = run_joshua("--preset", "ant_train_mjx_tuned", "--set", "training.ppo.entropy_coef=0", env=disabled)
     assert training.returncode == 2 and "It comes from joshua-ppo, which is disabled" in training.stderr
-    headless = run_joshua("--set", "simulation.offscreen.fps=60", env=disabled)  # HEADLESS needs no joshua-modes
-    assert headless.returncode == 2 and "'offscreen' is an option of joshua-modes" in headless.stderr
+    headless = run_joshua(*HEADLESS, "--set", "simulation.offscreen.fps=60", env=disabled)  # needs no joshua-modes
+    assert headless.returncode == 2 and "is an option of joshua-modes" in headless.stderr, headless.stderr
     presets = run_joshua("presets", env={"JOSHUA_DISABLE_PLUGINS": "modes,mirror,ppo,sb3"})
     assert presets.returncode == 0 and "ant_train_mjx_tuned " in presets.stdout and "sim_offscreen " in presets.stdout

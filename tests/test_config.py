@@ -220,10 +220,11 @@ def test_negative_sizes_are_rejected() -> None:
         finalize(loaded)
 
 
-def test_default_config_is_a_headless_run() -> None:
+def test_default_config_validates_and_records_the_example_trajectory() -> None:
     config = finalize(config_module.load_default())
     assert config.operation_mode == JoshuaConfig.SIMULATION
-    assert config.simulation.mode == "HEADLESS"
+    assert config.simulation.mode == "PASSIVE" and config.simulation.trajectory_path.endswith("so_arm100_example.csv")
+    assert "display: RECORD" in config_module.DEFAULT_CONFIG_TEXT  # a video, never a window: also with a display
 
 
 def test_extends_is_applied_and_cannot_be_set_from_the_command_line(tmp_path: Path) -> None:

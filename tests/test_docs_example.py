@@ -111,6 +111,8 @@ def test_plugins_lists_the_rk4_backend_mode_and_options(example_site: Path, run_
 def test_a_run_on_the_rk4_backend_succeeds(example_site: Path, run_joshua, tmp_path: Path) -> None:
     result = run_joshua(
         "--set",
+        "simulation.mode=HEADLESS",
+        "--set",
         "simulation.backend=mujoco_rk4",
         "--set",
         "simulation.duration=0.2",

@@ -46,7 +46,7 @@ def test_wheels_work_from_any_directory(tmp_path: Path) -> None:
     assert f'trajectory_path: "{site}/joshua_core/models/trajectories/so_arm100_example.csv"' in printed.stdout
     tuned = joshua("--preset", "ant_train_mjx_tuned", "--print-config")  # the plugins' options modules ship too
     assert tuned.returncode == 0 and "\n  ppo {\n" in tuned.stdout, tuned.stderr
-    run = joshua("--set", "simulation.duration=0.2")
+    run = joshua("--set", "simulation.mode=HEADLESS", "--set", "simulation.duration=0.2")
     assert run.returncode == 0, run.stderr
     assert (elsewhere / "joshua_output" / "headless_summary.json").is_file()
     listing = joshua("plugins").stdout
