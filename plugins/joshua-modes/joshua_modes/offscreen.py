@@ -18,7 +18,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.config_pb2 import SimulationConfig
-from joshua_core.errors import ConfigError
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, RunContext, render_size
 from joshua_core.options import options_of
 from joshua_core.progress import progress_bar
@@ -165,8 +164,6 @@ class OffscreenMode(Mode):
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         options = options_of(config, options_pb2.offscreen)
         fps = options.fps or DEFAULT_FPS
-        if fps < 0:
-            raise ConfigError(f"simulation.offscreen.fps must be positive, got {fps:g}")
         width, height = render_size(config)
         outputs = OffscreenOutputs(context.output_dir)
         with context.create_engine(config) as engine:
