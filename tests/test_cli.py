@@ -171,7 +171,7 @@ def test_non_finite_and_huge_numbers_exit_2_before_running(run_joshua, tmp_path:
         (("--preset", "ant_train_mjx", "--set", "training.learning_rate=nan"), "learning_rate: must be finite"),
         (("--preset", "sim_offscreen", "--set", "simulation.offscreen.fps=1e9"), "fps: must be at most 1000, got 1e+"),
         (
-            ("--preset", "sim_offscreen", "--set", "simulation.render_width=100000", "--set", "simulation.render_height=8"),
+            ("--preset", "sim_offscreen", "--set", "simulation.render_width=100000"),
             "simulation.render_width: must be at most 8192, got 100000",
         ),
         (("mirror-replay", "--rate", "nan", "motion.csv"), "--rate and --speed must be finite and positive (got nan"),
