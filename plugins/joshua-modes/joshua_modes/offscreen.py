@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.config_pb2 import SimulationConfig
+from joshua_core.errors import ConfigError
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, RunContext, render_size
 from joshua_core.options import options_of
 from joshua_core.progress import progress_bar
@@ -32,6 +33,7 @@ from joshua_render import VideoWriter, camera_id, create_renderer, write_png
 
 DEFAULT_FPS = 30.0
 DEFAULT_DURATION_S = 5.0  # rendered when there is no trajectory: the model at its keyframe under physics
+MAX_FRAMES = 10_000_000  # frames one render may have: 3.8 days of video at 30 fps
 VIDEO_NAME = "offscreen.mp4"
 REPORT_NAME = "offscreen_report.json"
 
@@ -81,8 +83,16 @@ class FrameRenderer:
 
 
 def frame_times(start: float, end: float, fps: float) -> NDArray[np.float64]:
-    """Times from `start` to `end` (inclusive, within a microsecond) one 1/fps apart."""
-    count = math.floor((end - start) * fps + 1e-6) + 1
+    """Times from `start` to `end` (inclusive, within a microsecond) one 1/fps apart. More than MAX_FRAMES
+    is a ConfigError: each field may be within its bounds while their product (duration x fps / speed)
+    would exhaust memory before the first frame."""
+    frames = (end - start) * fps
+    if not frames < MAX_FRAMES:  # also NaN
+        raise ConfigError(
+            f"{end - start:g} s at {fps:g} frames per second of replayed time is {frames:.3g} frames, more than "
+            f"{MAX_FRAMES:,}: shorten the duration or lower the fps (or raise simulation.replay.speed)"
+        )
+    count = math.floor(frames + 1e-6) + 1
     return start + np.arange(count) / fps
 
 
