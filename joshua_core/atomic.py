@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -40,8 +41,22 @@ def _umask() -> int:
 
 
 def atomic_write_json(path: Path, document: Any) -> None:
-    """Write `document` as indented JSON, atomically."""
-    atomic_write_bytes(path, (json.dumps(document, indent=2, sort_keys=True) + "\n").encode())
+    """Write `document` as indented JSON, atomically. NaN and infinities are refused (ValueError), since
+    `NaN`/`Infinity` are not JSON and break every strict reader: pass `json_safe(document)` where a value
+    may legitimately be non-finite."""
+    text = json.dumps(document, indent=2, sort_keys=True, allow_nan=False)
+    atomic_write_bytes(path, (text + "\n").encode())
+
+
+def json_safe(value: Any) -> Any:
+    """A copy of `value` (dicts, lists, tuples, numbers) with each NaN or infinite float replaced by None (null)."""
+    if isinstance(value, dict):
+        return {key: json_safe(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(item) for item in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 @contextmanager

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,7 +22,7 @@ from joshua_core.config import (
     simulation_mode,
 )
 from joshua_core.config_pb2 import JoshuaConfig
-from joshua_core.errors import JoshuaError, PluginNotFoundError
+from joshua_core.errors import JoshuaError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import RunContext
 from joshua_core.options import LENIENT, OptionSet
 from joshua_core.plugins import DISABLE_ENV_VAR, KNOWN_PROVIDERS, Kind, PluginHost
@@ -204,15 +205,31 @@ def run(args: argparse.Namespace, host: PluginHost) -> int:
         return 0
     if config.operation_mode == JoshuaConfig.SIMULATION:
         simulation = config.simulation
-        context = RunContext(host, Path(simulation.output_dir or DEFAULT_OUTPUT_DIR))
+        folder = writable_folder(simulation.output_dir or DEFAULT_OUTPUT_DIR, "simulation.output_dir")
+        context = RunContext(host, folder)
         host.mode(simulation_mode(simulation)).run(simulation, context)
         if not (args.preset or args.config):
             print(NEXT_STEPS)
     else:
         training = config.training
-        context = RunContext(host, Path(training.checkpoint_dir or DEFAULT_OUTPUT_DIR))
+        folder = writable_folder(training.checkpoint_dir or DEFAULT_OUTPUT_DIR, "training.checkpoint_dir")
+        context = RunContext(host, folder)
         host.trainer(training.trainer).train(training, context)
     return 0
+
+
+def writable_folder(name: str, field: str) -> Path:
+    """The output folder `name`, created if missing; a file there or no permission is a UsageError, before any work."""
+    folder = Path(name)
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"{field} '{name}' is a file, not a folder; choose another path")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise UsageError(f"{field} '{name}' cannot be created: {error.strerror}") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UsageError(f"{field} '{name}' is not writable")
+    return folder
 
 
 if __name__ == "__main__":

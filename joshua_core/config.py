@@ -21,6 +21,7 @@ from google.protobuf.message import Message
 from joshua_core import config_text
 from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig, TrainingConfig
 from joshua_core.errors import ConfigError, UsageError
+from joshua_core.limits import check_numbers
 from joshua_core.options import OptionSet, close_names, field_or_option, installed_options, sub_message
 from joshua_core.plugins import Kind
 from joshua_core.resources import presets_dir, resolve_data_path
@@ -34,16 +35,6 @@ FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
 }
 DEFAULT_SIMULATION_BACKEND = "mujoco"
 DEFAULT_MODE = "INTERACTIVE"  # the seed's enum default: a config that names no mode
-NON_NEGATIVE_TRAINING_FIELDS = (  # num_envs is checked where environments are made (EnvSpec)
-    "total_timesteps",
-    "num_steps",
-    "num_epochs",
-    "minibatch_size",
-    "learning_rate",
-    "gamma",
-    "gae_lambda",
-    "clip_epsilon",
-)
 
 
 @dataclass(frozen=True)
@@ -80,6 +71,8 @@ def load_preset(name: str, options: OptionSet | None = None) -> LoadedConfig:
 def load_file(path: str | Path, options: OptionSet | None = None) -> LoadedConfig:
     """Parse a `.pbtxt` config (following its `extends`); `options` as for `load_preset`."""
     file = Path(path)
+    if file.is_dir():
+        raise UsageError(f"config file '{path}' is a directory; give a .pbtxt file in it")
     if not file.is_file():
         raise UsageError(f"config file '{path}' not found")
     options = installed_options() if options is None else options
@@ -88,7 +81,12 @@ def load_file(path: str | Path, options: OptionSet | None = None) -> LoadedConfi
 
 def _parse_file(path: Path, seen: tuple[str, ...], options: OptionSet) -> JoshuaConfig:
     """Parse `path`; if it `extends` a preset, parse that first and lay this file over it."""
-    text = path.read_text(encoding="utf-8")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise ConfigError(f"{path}: not a text config (byte {error.start} is not UTF-8); expected a .pbtxt") from None
+    except OSError as error:
+        raise ConfigError(f"{path}: cannot read the config: {error.strerror}") from None
     own = parse_text(text, str(path), options)
     if not own.extends:
         return own
@@ -167,8 +165,13 @@ def apply_override(config: JoshuaConfig, assignment: str, options: OptionSet | N
                 raise UsageError(f"--set {assignment}: '{path}' is a message; set one of its fields instead")
             _merge_field(message, field, value.strip(), assignment)
             return
+        if last and field.is_repeated and field.type != FieldDescriptor.TYPE_MESSAGE:
+            _set_item(message, field, int(match["index"]), value.strip(), assignment)
+            return
         if field.type != FieldDescriptor.TYPE_MESSAGE or last:
-            raise UsageError(f"--set {assignment}: '{part}' cannot be indexed or descended into")
+            raise UsageError(
+                f"--set {assignment}: '{field.name}' is not a list or message: it cannot be indexed or descended into"
+            )
         message = _descend(message, field, match["index"], assignment)
 
 
@@ -198,6 +201,20 @@ def _descend(message: Message, field: FieldDescriptor, index: str | None, assign
     return items.add() if position == len(items) else items[position]
 
 
+def _set_item(message: Message, field: FieldDescriptor, position: int, value: str, assignment: str) -> None:
+    """Set item `position` of a list of scalars (`hidden_sizes[1]=8`); one past the end appends."""
+    items = sub_message(message, field)
+    if position > len(items):
+        raise UsageError(f"--set {assignment}: {field.name} has {len(items)} items; use an index up to {len(items)}")
+    scratch = type(message)()  # parse the value alone, with the field's type, enums and quoting
+    _merge_field(scratch, field, value, assignment)
+    parsed = sub_message(scratch, field)[0]
+    if position == len(items):
+        items.append(parsed)
+    else:
+        items[position] = parsed
+
+
 def _merge_field(message: Message, field: FieldDescriptor, value: str, assignment: str) -> None:
     """Set one scalar field by letting protobuf's text parser read `name: value` (types, enums, quoting)."""
     if field.type == FieldDescriptor.TYPE_STRING and not value.startswith(('"', "'")):
@@ -214,6 +231,7 @@ def _merge_field(message: Message, field: FieldDescriptor, value: str, assignmen
 def finalize(loaded: LoadedConfig) -> JoshuaConfig:
     """Check the config makes sense and resolve its file paths to absolute ones; return the message."""
     config = loaded.message
+    check_numbers(config, loaded.source)  # every number, options included: finite and within bounds
     base_dirs = (loaded.base_dir,) if loaded.base_dir else ()
     if config.operation_mode == JoshuaConfig.SIMULATION:
         simulation = config.simulation
@@ -224,10 +242,6 @@ def finalize(loaded: LoadedConfig) -> JoshuaConfig:
             simulation.trajectory_path = str(
                 resolve_data_path(simulation.trajectory_path, base_dirs=base_dirs, what="trajectory")
             )
-        if simulation.render_width < 0 or simulation.render_height < 0:
-            raise ConfigError(f"{loaded.source}: render_width and render_height must not be negative")
-        if simulation.duration < 0:
-            raise ConfigError(f"{loaded.source}: simulation.duration must not be negative")
         simulation.backend = simulation_backend(simulation)
         simulation.mode = simulation_mode(simulation)
     else:
@@ -235,9 +249,6 @@ def finalize(loaded: LoadedConfig) -> JoshuaConfig:
         if not training.model_path:
             raise ConfigError(f"{loaded.source}: training.model_path is required")
         training.model_path = str(resolve_data_path(training.model_path, base_dirs=base_dirs))
-        for name in NON_NEGATIVE_TRAINING_FIELDS:
-            if getattr(training, name) < 0:
-                raise ConfigError(f"{loaded.source}: training.{name} must not be negative")
         training.trainer, training.backend = training_plugins(training)
     return config
 

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from joshua_core.atomic import atomic_write_json
+from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import JoshuaError
 from joshua_core.interfaces import Engine, Mode, RunContext
@@ -32,7 +32,7 @@ class HeadlessMode(Mode):
         summary["model_path"] = config.model_path
         summary["keyframe"] = config.keyframe
         path = context.output_dir / SUMMARY_FILE
-        atomic_write_json(path, summary)
+        atomic_write_json(path, json_safe(summary))  # a zero wall time makes the rates inf: null
         print(
             f"simulated {summary['sim_seconds']:.2f} s in {summary['wall_seconds']:.2f} s "
             f"({summary['realtime_factor']:.1f}x real time, {summary['steps_per_second']:.0f} steps/s); "

@@ -290,7 +290,7 @@ class PluginHost:
             if close:
                 message += f" Did you mean: {', '.join(close)}?"
         available = ", ".join(self.names(kind)) or "none"
-        return f"{message}\nInstalled {kind.value}s: {available}"
+        return f"{message} Installed {kind.value}s: {available}"  # one line, as every user error
 
     def check_env_kinds(self, trainer: str, backend: str, needs: Iterable[EnvKind] | None = None) -> None:
         """Raise ConfigError unless `backend` provides one of the environment kinds `trainer` needs (`needs`,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import difflib
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +20,10 @@ from numpy.typing import NDArray
 from joshua_core.errors import UsageError
 
 TIME_COLUMN = "timestamp"
+# Largest magnitude a finite timestamp (s) or joint position (rad, m) may have: beyond it a value is a
+# corrupt file, and differences of such values overflow (1e308 - -1e308 is inf). NaN and inf are read
+# and left to validation, which reports and skips their rows.
+MAX_MAGNITUDE = 1e9
 
 
 class TrajectoryError(UsageError):
@@ -96,11 +101,17 @@ def read_trajectory(path: str | Path, known_joints: Sequence[str] | None = None)
             )
         for column, field in enumerate(fields):
             try:
-                values[row, column] = float(field)
+                value = float(field)
             except ValueError:
                 raise TrajectoryError(
                     f"{file}:{number}: column '{columns[column]}' has '{field.strip()}', which is not a number"
                 ) from None
+            if abs(value) > MAX_MAGNITUDE and math.isfinite(value):
+                raise TrajectoryError(
+                    f"{file}:{number}: column '{columns[column]}' has {value:g}, beyond ±{MAX_MAGNITUDE:g}: "
+                    "not a plausible time or joint position"
+                )
+            values[row, column] = value
         lines[row] = number
     return Trajectory(file, tuple(joints), values[:, time_index], values[:, joint_indices], lines)
 

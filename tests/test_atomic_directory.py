@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
 import pytest
 
-from joshua_core.atomic import atomic_directory, atomic_write_bytes
+from joshua_core.atomic import atomic_directory, atomic_write_bytes, atomic_write_json, json_safe
 
 
 def test_folder_appears_only_when_the_block_succeeds(tmp_path: Path) -> None:
@@ -40,3 +41,15 @@ def test_atomic_file_gets_the_permissions_of_a_plain_open(tmp_path: Path) -> Non
     finally:
         os.umask(previous)
     assert (tmp_path / "report.json").stat().st_mode & 0o777 == 0o640
+
+
+def test_json_is_never_written_with_nan_or_infinity(tmp_path: Path) -> None:
+    """NaN/Infinity are not JSON: writing them is refused (the old file stays); json_safe makes them null."""
+    path = tmp_path / "report.json"
+    atomic_write_json(path, {"ok": True})
+    with pytest.raises(ValueError, match="not JSON compliant"):
+        atomic_write_json(path, {"worst": float("inf")})
+    assert json.loads(path.read_text()) == {"ok": True}
+    atomic_write_json(path, json_safe({"rates": [1.0, float("nan")], "worst": (float("-inf"), 2)}))
+    assert json.loads(path.read_text()) == {"rates": [1.0, None], "worst": [None, 2]}
+    assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind

@@ -177,3 +177,55 @@ def test_a_config_of_a_missing_mode_plugin_says_what_to_install_before_its_optio
     assert headless.returncode == 2 and "is an option of joshua-modes" in headless.stderr, headless.stderr
     presets = run_joshua("presets", env={"JOSHUA_DISABLE_PLUGINS": "modes,mirror,ppo,sb3"})
     assert presets.returncode == 0 and "ant_train_mjx_tuned " in presets.stdout and "sim_offscreen " in presets.stdout
+
+
+def _one_line_error(result, expected: str) -> None:
+    """Exit 2 with `expected` on the single `joshua: error:` line, and no traceback."""
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    lines = [line for line in result.stderr.splitlines() if line.startswith("joshua: error: ")]
+    assert len(lines) == 1 and expected in lines[0], result.stderr
+
+
+def test_non_finite_and_huge_numbers_exit_2_before_running(run_joshua, tmp_path: Path) -> None:
+    cases = [
+        (("--set", "simulation.duration=nan"), "embedded default: simulation.duration: must be finite, got nan"),
+        (("--set", "simulation.duration=inf"), "simulation.duration: must be finite, got inf"),
+        (("--preset", "sim_offscreen", "--set", "simulation.offscreen.fps=nan"), "offscreen.fps: must be finite"),
+        (("--preset", "sim_passive", "--set", "simulation.replay.speed=nan"), "replay.speed: must be finite"),
+        (("--preset", "ant_train_mjx", "--set", "training.learning_rate=nan"), "learning_rate: must be finite"),
+        (("--preset", "sim_offscreen", "--set", "simulation.offscreen.fps=1e9"), "fps: must be at most 1000, got 1e+"),
+        (
+            ("--preset", "sim_offscreen", "--set", "simulation.render_width=100000"),
+            "simulation.render_width: must be at most 8192, got 100000",
+        ),
+        (("mirror-replay", "--rate", "nan", "motion.csv"), "--rate and --speed must be finite and positive (got nan"),
+    ]
+    for args, expected in cases:
+        _one_line_error(run_joshua(*args), expected)
+    assert not (tmp_path / "joshua_output").exists()  # nothing ran
+
+
+def test_bad_config_files_and_modes_exit_2_in_one_line(run_joshua, tmp_path: Path) -> None:
+    binary = tmp_path / "blob.pbtxt"
+    binary.write_bytes(bytes(range(256)))
+    _one_line_error(run_joshua("--config", str(binary)), "blob.pbtxt: not a text config (byte 128 is not UTF-8)")
+    _one_line_error(run_joshua("--config", str(tmp_path)), f"config file '{tmp_path}' is a directory")
+    mode = run_joshua("--set", "simulation.mode=99")
+    _one_line_error(mode, "no mode named '99' is installed. Installed modes: HEADLESS, INTERACTIVE")
+
+
+def test_an_output_dir_that_is_a_file_or_cannot_be_made_exits_2(run_joshua, tmp_path: Path) -> None:
+    (tmp_path / "taken").write_text("a file, not a folder\n")
+    result = run_joshua("--set", "simulation.output_dir=taken")
+    _one_line_error(result, "simulation.output_dir 'taken' is a file, not a folder")
+    below = run_joshua("--set", "simulation.output_dir=taken/runs")
+    _one_line_error(below, "simulation.output_dir 'taken/runs' cannot be created: Not a directory")
+    assert (tmp_path / "taken").read_text() == "a file, not a folder\n"
+
+
+def test_an_item_of_a_list_of_numbers_is_set_by_index(run_joshua) -> None:
+    result = run_joshua("--preset", "so_arm100_reach_sb3", "--set", "training.sb3.hidden_sizes[1]=8", "--print-config")
+    assert result.returncode == 0, result.stderr
+    sizes = [line.split(":")[1].strip() for line in result.stdout.splitlines() if "hidden_sizes:" in line]
+    assert sizes[1] == "8" and len(sizes) == 2

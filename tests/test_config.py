@@ -216,7 +216,7 @@ def test_relative_model_path_in_a_custom_file_resolves_beside_it(tmp_path: Path)
 def test_negative_sizes_are_rejected() -> None:
     loaded = load_preset("sim_offscreen")
     apply_override(loaded.message, "simulation.render_width=-5")
-    with pytest.raises(ConfigError, match="must not be negative"):
+    with pytest.raises(ConfigError, match="simulation.render_width: must be at least 0, got -5"):
         finalize(loaded)
 
 
@@ -238,7 +238,7 @@ def test_extends_is_applied_and_cannot_be_set_from_the_command_line(tmp_path: Pa
 def test_negative_hyper_parameters_are_rejected() -> None:
     loaded = load_preset("ant_train_mjx")
     apply_override(loaded.message, "training.learning_rate=-0.1")
-    with pytest.raises(ConfigError, match="learning_rate must not be negative"):
+    with pytest.raises(ConfigError, match="training.learning_rate: must be at least 0"):
         finalize(loaded)
 
 
@@ -394,3 +394,65 @@ def test_run_config_dicts_name_options_by_short_name() -> None:
     bracketed = TrainingConfig()
     parse_dict({"[joshua_ppo.ppo]": {"entropy_coef": 0.5}}, bracketed, installed_options())
     assert options_of(bracketed, ppo_options.ppo).entropy_coef == 0.5
+
+
+# Finite numbers and bounds: one generic walk over the finalized config (joshua_core.limits).
+
+
+@pytest.mark.parametrize(
+    ("preset", "assignment", "expected"),
+    [
+        ("sim_offscreen", "simulation.duration=nan", "simulation.duration: must be finite, got nan"),
+        ("sim_offscreen", "simulation.duration=-inf", "simulation.duration: must be finite, got -inf"),
+        ("sim_offscreen", "simulation.offscreen.fps=nan", "simulation.offscreen.fps: must be finite, got nan"),
+        ("sim_passive", "simulation.replay.speed=inf", "simulation.replay.speed: must be finite, got inf"),
+        ("sim_passive", "simulation.replay.speed=-2", "simulation.replay.speed: must be at least 0, got -2"),
+        ("sim_offscreen", "simulation.offscreen.fps=1e9", "simulation.offscreen.fps: must be at most 1000, got 1e+09"),
+        ("sim_offscreen", "simulation.render_height=100000", "simulation.render_height: must be at most 8192"),
+        ("sim_mirror", "simulation.mirror.display_fps=5000", "simulation.mirror.display_fps: must be at most 1000"),
+        ("ant_train_mjx", "training.learning_rate=nan", "training.learning_rate: must be finite, got nan"),
+        ("ant_train_mjx", "training.ppo.entropy_coef=inf", "training.ppo.entropy_coef: must be finite, got inf"),
+    ],
+)
+def test_non_finite_and_absurd_numbers_are_config_errors(preset: str, assignment: str, expected: str) -> None:
+    loaded = load_preset(preset)
+    apply_override(loaded.message, assignment)
+    with pytest.raises(ConfigError, match=re.escape(f"preset {preset}: {expected}")):
+        finalize(loaded)
+
+
+def test_non_finite_items_of_lists_are_named_by_index() -> None:
+    loaded = load_preset("sim_mirror")
+    apply_override(loaded.message, "simulation.mirror_topic_mappings.mappings[1].offset=nan")
+    with pytest.raises(ConfigError, match=r"simulation.mirror_topic_mappings.mappings\[1\].offset: must be finite"):
+        finalize(loaded)
+
+
+def test_bounds_at_their_limit_are_accepted() -> None:
+    loaded = load_preset("sim_offscreen")
+    for assignment in ("simulation.offscreen.fps=1000", "simulation.render_width=8192", "simulation.duration=0"):
+        apply_override(loaded.message, assignment)
+    assert options_of(finalize(loaded).simulation, modes_options.offscreen).fps == 1000
+
+
+def test_items_of_a_list_of_numbers_are_set_by_index() -> None:
+    loaded = load_preset("ant_train_mjx_tuned")
+    apply_override(loaded.message, "training.ppo.hidden_sizes=[64, 64]")
+    apply_override(loaded.message, "training.ppo.hidden_sizes[1]=8")
+    apply_override(loaded.message, "training.ppo.hidden_sizes[2]=4")  # one past the end appends
+    assert list(options_of(loaded.message.training, ppo_options.ppo).hidden_sizes) == [64, 8, 4]
+    with pytest.raises(UsageError, match=r"hidden_sizes has 3 items; use an index up to 3"):
+        apply_override(loaded.message, "training.ppo.hidden_sizes[7]=8")
+    with pytest.raises(UsageError, match=r"Couldn't parse integer: x"):
+        apply_override(loaded.message, "training.ppo.hidden_sizes[0]=x")
+    with pytest.raises(UsageError, match=r"'duration' is not a list or message: it cannot be indexed"):
+        apply_override(loaded.message, "simulation.duration[0]=1")
+
+
+def test_a_binary_file_or_a_folder_as_config_is_a_usage_error(tmp_path: Path) -> None:
+    binary = tmp_path / "model.pbtxt"
+    binary.write_bytes(b"\x7fELF\x02\x01\x01\x00\xd0\xff\xfe")
+    with pytest.raises(ConfigError, match=r"model.pbtxt: not a text config \(byte 8 is not UTF-8\)"):
+        load_file(binary)
+    with pytest.raises(UsageError, match=r"is a directory; give a .pbtxt file in it"):
+        load_file(tmp_path)

@@ -15,7 +15,7 @@ from typing import Any
 
 import mujoco
 
-from joshua_core.atomic import atomic_write_json
+from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.interfaces import Engine, Mode, RunContext
@@ -63,7 +63,7 @@ class MirrorMode(Mode):
             ros.close()  # no callback may change the state while it is reported
             report = _report(config, mirror, loop, stopped_by)
         path = context.output_dir / REPORT_FILE
-        atomic_write_json(path, report)
+        atomic_write_json(path, json_safe(report))  # NaN/inf are not JSON: null
         accepted = sum(joint["accepted"] for joint in report["joints"].values())
         rejected = sum(
             joint["rejected_non_finite"] + joint["rejected_out_of_range"] for joint in report["joints"].values()

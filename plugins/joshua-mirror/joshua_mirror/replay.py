@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import math
 import sys
 import time
 from pathlib import Path
@@ -67,8 +68,11 @@ class MirrorReplayCommand(Command):
         )
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
-        if args.rate <= 0 or args.speed <= 0 or args.loops < 1:
-            raise UsageError("--rate and --speed must be positive and --loops at least 1")
+        if not (0 < args.rate < math.inf and 0 < args.speed < math.inf) or args.loops < 1:  # also refuses NaN
+            raise UsageError(
+                f"--rate and --speed must be finite and positive (got {args.rate:g}, {args.speed:g}) "
+                "and --loops at least 1"
+            )
         if not args.preset and not args.config:
             args.preset = DEFAULT_PRESET
         config = finalize(load(args, plugins.options())).simulation

@@ -33,6 +33,7 @@ from joshua_render import VideoWriter, camera_id, create_renderer, write_png
 
 DEFAULT_FPS = 30.0
 DEFAULT_DURATION_S = 5.0  # rendered when there is no trajectory: the model at its keyframe under physics
+MAX_FRAMES = 10_000_000  # frames one render may have: 3.8 days of video at 30 fps
 VIDEO_NAME = "offscreen.mp4"
 REPORT_NAME = "offscreen_report.json"
 
@@ -82,8 +83,16 @@ class FrameRenderer:
 
 
 def frame_times(start: float, end: float, fps: float) -> NDArray[np.float64]:
-    """Times from `start` to `end` (inclusive, within a microsecond) one 1/fps apart."""
-    count = math.floor((end - start) * fps + 1e-6) + 1
+    """Times from `start` to `end` (inclusive, within a microsecond) one 1/fps apart. More than MAX_FRAMES
+    is a ConfigError: each field may be within its bounds while their product (duration x fps / speed)
+    would exhaust memory before the first frame."""
+    frames = (end - start) * fps
+    if not frames < MAX_FRAMES:  # also NaN
+        raise ConfigError(
+            f"{end - start:g} s at {fps:g} frames per second of replayed time is {frames:.3g} frames, more than "
+            f"{MAX_FRAMES:,}: shorten the duration or lower the fps (or raise simulation.replay.speed)"
+        )
+    count = math.floor(frames + 1e-6) + 1
     return start + np.arange(count) / fps
 
 
@@ -165,8 +174,6 @@ class OffscreenMode(Mode):
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         options = options_of(config, options_pb2.offscreen)
         fps = options.fps or DEFAULT_FPS
-        if fps < 0:
-            raise ConfigError(f"simulation.offscreen.fps must be positive, got {fps:g}")
         width, height = render_size(config)
         outputs = OffscreenOutputs(context.output_dir)
         with context.create_engine(config) as engine:

@@ -44,8 +44,6 @@ class PassiveMode(Mode):
         replay, viewer = options_of(config, options_pb2.replay), options_of(config, options_pb2.viewer)
         speed = replay.speed or 1.0
         fps = viewer.fps or DEFAULT_FPS
-        if speed < 0 or fps < 0:
-            raise ConfigError("simulation.replay.speed and simulation.viewer.fps must be positive")
         with context.create_engine(config) as engine:
             report_path = context.output_dir / REPORT_NAME
             replayer, report = validated_replayer(

@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from joshua_core.atomic import atomic_write_json
+from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Engine
@@ -69,7 +69,7 @@ class ValidationReport:
         document = asdict(self)
         document["ok"] = self.ok
         document["issue_counts"] = {kind: sum(i.kind == kind for i in self.issues) for kind in _kinds(self.issues)}
-        return document
+        return json_safe(document)  # a non-finite worst value (a NaN row, an overflowing speed) is null
 
     def write(self, path: Path) -> None:
         atomic_write_json(path, self.to_json())

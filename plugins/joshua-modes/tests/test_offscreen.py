@@ -120,3 +120,12 @@ def test_no_working_gl_names_the_debian_packages(run_joshua) -> None:
     message = result.stderr.strip().splitlines()[-1]
     assert message.startswith("joshua: error: rendering failed with MUJOCO_GL=egl")
     assert "libegl1 libgl1-mesa-dri libopengl0" in message and "libosmesa6" in message
+
+
+def test_too_many_frames_is_a_usage_error_before_any_allocation(run_joshua, tmp_path: Path) -> None:
+    """duration and fps each within bounds, their product 3e10 frames: refused, not a 240 GB np.arange."""
+    args = ("--preset", "sim_offscreen", "--set", "simulation.trajectory_path=", "--set", "simulation.duration=1e9")
+    result = run_joshua(*args)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "1e+09 s at 30 frames per second of replayed time is 3e+10 frames, more than 10,000,000" in result.stderr
+    assert not (tmp_path / "joshua_output" / "offscreen.mp4").exists()

@@ -151,6 +151,8 @@ def test_cli_reports_and_replays_unless_strict(run_joshua, write_csv, tmp_path: 
         (["joint_1,joint_2", "0,0"], ":1: the header has no 'timestamp' column"),
         (["timestamp,joint_9", "0,0"], ":1: column 'joint_9' (did you mean: joint_6, joint_5?)"),
         ([], ":1: no header line"),
+        ([HEADER, f"1e300,{HOME}"], ":2: column 'timestamp' has 1e+300, beyond ±1e+09"),
+        ([HEADER, f"0,{HOME}", "0.1,1e308,-1e308,0,0,0,0"], ":3: column 'joint_1' has 1e+308, beyond ±1e+09"),
     ],
 )
 def test_cli_unreadable_trajectory_is_one_line_exit_2(run_joshua, write_csv, lines, expected: str) -> None:
@@ -159,3 +161,31 @@ def test_cli_unreadable_trajectory_is_one_line_exit_2(run_joshua, write_csv, lin
     assert result.returncode == 2
     assert result.stderr.startswith("joshua: error: ") and expected in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
+
+
+def _strict_json(text: str) -> object:
+    """Parse `text` as JSON proper: NaN and Infinity (which Python's json would accept) fail the test."""
+
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"not JSON: {constant}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_huge_values_are_one_line_errors_with_their_line(write_csv) -> None:
+    with pytest.raises(TrajectoryError, match=r"motion.csv:3: column 'timestamp' has 1e\+300, beyond"):
+        read_trajectory(write_csv([HEADER, f"0,{HOME}", f"1e300,{HOME}"]))
+    with pytest.raises(TrajectoryError, match=r"motion.csv:2: column 'joint_6' has -1e\+308, beyond"):
+        read_trajectory(write_csv([HEADER, "0,0,0,0,0,0,-1e308"]))
+
+
+def test_report_of_non_finite_rows_is_valid_json(engine, write_csv, tmp_path: Path) -> None:
+    path = write_csv([HEADER, f"0,{HOME}", "inf,0,0,0,0,0,0", "0.1,0,nan,0,0,0,-inf", "1e-300,0,0,0,0,0,0"])
+    report, usable = check(engine, path)
+    assert usable.tolist() == [True, False, False, True]
+    report.write(tmp_path / "report.json")
+    document = _strict_json((tmp_path / "report.json").read_text())
+    non_finite = [issue for issue in document["issues"] if issue["kind"] == "non_finite"]
+    assert [issue["first_line"] for issue in non_finite] == [3, 4]
+    assert all(issue["worst_value"] is None for issue in non_finite)
+    assert "timestamp=inf" in non_finite[0]["message"] and "joint_6=-inf" in non_finite[1]["message"]

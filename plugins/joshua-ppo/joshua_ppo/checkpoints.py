@@ -21,7 +21,7 @@ from typing import Any
 import jax
 from flax import serialization
 
-from joshua_core.atomic import atomic_write_json
+from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.errors import JoshuaError
 from joshua_core.runs import RunFolder
 from joshua_ppo.config_settings import PpoSettings
@@ -44,7 +44,7 @@ def write_checkpoint(run: RunFolder, step: int, payloads: dict[str, Any], docume
         for name, tree in payloads.items():
             (folder / name).write_bytes(serialization.to_bytes(tree))
         for name, document in documents.items():
-            atomic_write_json(folder / name, document)
+            atomic_write_json(folder / name, json_safe(document))  # NaN/inf are not JSON: null
     return run.checkpoint_path(step)
 
 

@@ -13,7 +13,7 @@ from typing import Any
 import jax
 import numpy as np
 
-from joshua_core.atomic import atomic_write_json
+from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.curves import write_training_curves
 from joshua_core.interfaces import RunContext
@@ -146,7 +146,7 @@ class Run:
         documents = {CONFIG_FILE: self.config_document(), METRICS_FILE: metrics}
         payloads = {PARAMS_FILE: jax.device_get(params), TRAIN_STATE_FILE: jax.device_get(train_state)}
         write_checkpoint(self.run_folder, progress.env_steps, payloads, documents)
-        atomic_write_json(self.folder / METRICS_FILE, metrics)
+        atomic_write_json(self.folder / METRICS_FILE, json_safe(metrics))
         write_training_curves(
             self.history, self.folder / "training_curves.png", title=f"{self.config.task}: ppo", series=CURVE_SERIES
         )

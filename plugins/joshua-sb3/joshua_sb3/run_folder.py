@@ -28,7 +28,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from joshua_core.atomic import atomic_write_json
+from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.curves import write_training_curves
 from joshua_core.errors import UsageError
 from joshua_core.runs import METRICS_FILE, RunFolder
@@ -152,7 +152,7 @@ def _untrusted_reason(checkpoint: Path, names: list[str]) -> str | None:
 
 def update_run_metrics(run_dir: Path, metrics: dict[str, Any], *, title: str) -> None:
     """Rewrite the run's metrics.json and its training-curve PNG (atomically)."""
-    atomic_write_json(run_dir / METRICS_FILE, metrics)
+    atomic_write_json(run_dir / METRICS_FILE, json_safe(metrics))  # a NaN loss is written as null
     series = ["rollout/ep_rew_mean"] + sorted(
         {name for record in metrics["history"] for name in record if name.startswith("metrics/")}
     )
