@@ -24,6 +24,7 @@ from joshua_core.runs import (
     RunFolder,
     checkpoint_step,
     create_run,
+    read_run_config,
     resolve_checkpoint,
     resume_run,
 )
@@ -150,7 +151,7 @@ class PpoTrainer(Trainer):
         trust_checkpoint: bool = False,
     ) -> dict[str, float]:
         checkpoint = resolve_checkpoint(run_dir)
-        saved = read_json(checkpoint / CONFIG_FILE)
+        saved = read_run_config(checkpoint)  # unreadable: a one-line error, exit 2 (as for sb3)
         if saved.get("format") != RUN_FORMAT:
             raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
         config = TrainingConfig()
