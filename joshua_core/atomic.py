@@ -1,10 +1,15 @@
-"""Atomic file writes: a crash mid-write leaves the previous file, never a truncated one."""
+"""Atomic file writes: a crash mid-write leaves the previous file, never a truncated one.
+
+Temporary names carry the writer's pid (`.NAME.<pid>.<random><suffix>`), so that a later writer of the same
+path can remove what a killed one (SIGKILL cannot be caught) left behind, and nothing a live process owns.
+"""
 
 from __future__ import annotations
 
 import json
 import math
 import os
+import re
 import shutil
 import tempfile
 from collections.abc import Iterator
@@ -20,7 +25,7 @@ def atomic_write_bytes(path: Path, payload: bytes) -> None:
     owner-only ones of the temporary file.
     """
     path.parent.mkdir(parents=True, exist_ok=True)
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=temporary_prefix(path), suffix=".tmp")
     try:
         with os.fdopen(descriptor, "wb") as handle:
             os.fchmod(handle.fileno(), 0o666 & ~_umask())
@@ -68,7 +73,9 @@ def atomic_directory(path: Path) -> Iterator[Path]:
     temporary folder is removed and `path` is untouched.
     """
     path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
+    for suffix in (".tmp", ".old"):
+        remove_stale_temporaries(path, suffix)
+    temporary = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path), suffix=".tmp"))
     try:
         yield temporary
         for file in temporary.rglob("*"):
@@ -76,7 +83,7 @@ def atomic_directory(path: Path) -> Iterator[Path]:
                 with open(file, "rb") as handle:
                     os.fsync(handle.fileno())
         if path.exists():
-            stale = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".old"))
+            stale = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path), suffix=".old"))
             os.replace(path, stale / path.name)
             os.replace(temporary, path)
             shutil.rmtree(stale)
@@ -86,6 +93,39 @@ def atomic_directory(path: Path) -> Iterator[Path]:
     except BaseException:
         shutil.rmtree(temporary, ignore_errors=True)
         raise
+
+
+def temporary_prefix(path: Path) -> str:
+    """The start of the name of a temporary file or folder that this process writes to become `path`."""
+    return f".{path.name}.{os.getpid()}."
+
+
+def remove_stale_temporaries(path: Path, suffix: str) -> list[Path]:
+    """Remove the temporaries of `path` (named `temporary_prefix(path)`...`suffix`) whose writer has died;
+    returns them."""
+    pattern = re.compile(rf"^\.{re.escape(path.name)}\.(\d+)\.[^.]+{re.escape(suffix)}$")
+    removed = []
+    for candidate in path.parent.iterdir() if path.parent.is_dir() else []:
+        match = pattern.match(candidate.name)
+        if match is None or _alive(int(match.group(1))):
+            continue
+        if candidate.is_dir() and not candidate.is_symlink():
+            shutil.rmtree(candidate, ignore_errors=True)
+        else:
+            candidate.unlink(missing_ok=True)
+        removed.append(candidate)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    """Whether process `pid` exists (one of another user counts as alive: its files are not ours)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _fsync_directory(folder: Path) -> None:

@@ -24,6 +24,7 @@ from joshua_core.config import (
 from joshua_core.config_pb2 import JoshuaConfig
 from joshua_core.errors import JoshuaError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import RunContext
+from joshua_core.interrupts import exit_code, install_sigterm_handler
 from joshua_core.options import LENIENT, OptionSet
 from joshua_core.plugins import DISABLE_ENV_VAR, KNOWN_PROVIDERS, Kind, PluginHost
 
@@ -105,6 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args, command_argv = parser.parse_known_args(argv)
     if command_argv and args.command not in plugin_commands:
         parser.error(f"unrecognized arguments: {' '.join(command_argv)}")
+    install_sigterm_handler()
     try:
         if args.command == "presets":
             return list_presets()
@@ -116,9 +118,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except JoshuaError as error:
         print(f"joshua: error: {error}", file=sys.stderr)
         return error.exit_code
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as interrupt:
         print("joshua: interrupted", file=sys.stderr)
-        return 130
+        return exit_code(interrupt)
 
 
 def list_presets() -> int:

@@ -216,11 +216,12 @@ def resume_run(root: Path, name: str | None, *, trainer: str, options: str) -> t
 
 
 def resolve_checkpoint(path: Path) -> Path:
-    """A checkpoint folder itself, or the newest checkpoint of the run folder `path`."""
+    """A checkpoint folder itself, or the newest checkpoint of the run folder `path` (skipping stray folders
+    named like a checkpoint that have no config.json: a trainer never publishes one without it)."""
     if _STEP_SUFFIX.search(path.name) and (path / CONFIG_FILE).is_file():
         return path
     read_run_config(path)  # a clear error when `path` is neither
-    checkpoints = run_checkpoints(path.parent, path.name)
+    checkpoints = [folder for folder in run_checkpoints(path.parent, path.name) if (folder / CONFIG_FILE).is_file()]
     if not checkpoints:
         raise UsageError(f"run '{path}' has no checkpoint yet (looked for {path.parent}/{path.name}_step_<N>/)")
     return checkpoints[-1]

@@ -161,6 +161,8 @@ def test_listing_newest_and_resume(tmp_path: Path) -> None:
     assert list_runs(tmp_path, "ppo") == [old, new] and newest_run(tmp_path, "ppo") == new
     assert newest_run(tmp_path / "missing") is None
     assert resolve_checkpoint(old) == tmp_path / "old_step_10"  # by step, not by name
+    (tmp_path / "old_step_50").mkdir()  # a stray empty folder: no checkpoint, skipped
+    assert resolve_checkpoint(old) == tmp_path / "old_step_10"
     assert resolve_checkpoint(tmp_path / "old_step_9") == tmp_path / "old_step_9"
     with pytest.raises(UsageError, match="has no checkpoint yet"):
         resolve_checkpoint(new)

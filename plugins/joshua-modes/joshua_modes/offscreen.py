@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from joshua_core.atomic import atomic_directory
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, RunContext, render_size
@@ -213,11 +214,16 @@ class OffscreenMode(Mode):
         fps: float,
         outputs: OffscreenOutputs,
     ) -> list[str]:
-        """Render every frame time to the requested files; returns what was written."""
+        """Render every frame time to the requested files; returns what was written.
+
+        Each PNG folder is written beside its place and swapped in whole at the end (`atomic_directory`): a
+        render that is shorter, of another size or stopped part way never leaves old frames among new ones."""
         want_video = options.output in (OffscreenOptions.MP4, OffscreenOptions.MP4_AND_PNG)
         want_png = options.output in (OffscreenOptions.PNG, OffscreenOptions.MP4_AND_PNG)
         with contextlib.ExitStack() as stack:
             video = stack.enter_context(VideoWriter(outputs.video, fps)) if want_video else None
+            wanted = [folder for folder, on in _folders(outputs, want_png, options) if on]
+            folders = {folder: stack.enter_context(atomic_directory(folder)) for folder in wanted}
             bar = stack.enter_context(progress_bar(len(times), description="offscreen", unit="frames"))
             for index, t in enumerate(times):
                 if replayer is not None:
@@ -229,11 +235,11 @@ class OffscreenMode(Mode):
                 if video is not None:
                     video.write(rgb)
                 if want_png:
-                    write_png(outputs.frames / name, rgb)
+                    write_png(folders[outputs.frames] / name, rgb)
                 if options.depth:
-                    write_png(outputs.depth / name, renderer.depth_mm(engine.data))
+                    write_png(folders[outputs.depth] / name, renderer.depth_mm(engine.data))
                 if options.segmentation:
-                    write_png(outputs.segmentation / name, renderer.segmentation(engine.data))
+                    write_png(folders[outputs.segmentation] / name, renderer.segmentation(engine.data))
                 bar.update(1)
         written = [str(outputs.video)] if want_video else []
         written += [f"{folder}/" for folder, on in _folders(outputs, want_png, options) if on]

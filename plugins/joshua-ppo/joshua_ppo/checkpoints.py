@@ -22,7 +22,7 @@ import jax
 from flax import serialization
 
 from joshua_core.atomic import atomic_write_json, json_safe
-from joshua_core.errors import JoshuaError
+from joshua_core.errors import JoshuaError, UsageError
 from joshua_core.runs import RunFolder
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv
@@ -36,6 +36,10 @@ TRAIN_STATE_FILE = "train_state.msgpack"
 
 class CorruptCheckpointError(JoshuaError):
     """A checkpoint file is missing, truncated or does not fit the network it is loaded into."""
+
+
+class NetworkMismatchError(CorruptCheckpointError, UsageError):
+    """The parameters saved in a checkpoint have other shapes than the network its config describes (exit 2)."""
 
 
 def write_checkpoint(run: RunFolder, step: int, payloads: dict[str, Any], documents: dict[str, Any]) -> Path:
@@ -75,10 +79,26 @@ def read_json(path: Path) -> dict[str, Any]:
 def load_params(checkpoint: Path, env: JaxEnv, network: NetworkSettings) -> tuple[Any, RunningStatistics]:
     """A checkpoint's network parameters and observation normaliser, checked against the network's shapes."""
     template = init_state(env, seed=0, network=network, optimization=OptimizationSettings())
-    saved = read_payload(
-        checkpoint, PARAMS_FILE, {"params": template.params, "normalizer": template.normalizer._asdict()}
-    )
+    target = {"params": template.params, "normalizer": template.normalizer._asdict()}
+    raw = read_payload(checkpoint, PARAMS_FILE, None)  # the saved arrays as they are
+    if not isinstance(raw, dict) or _shapes(raw.get("params")) != _shapes(serialization.to_state_dict(template.params)):
+        # msgpack restores any shapes; the network would fail deep inside flax (ScopeParamShapeError)
+        raise NetworkMismatchError(
+            f"{checkpoint / PARAMS_FILE} holds a network of other sizes than its config.json describes "
+            f"(hidden_sizes {list(network.hidden_sizes)}); was the config edited?"
+        )
+    try:
+        saved = serialization.from_state_dict(target, raw)
+    except Exception as error:  # flax raises many types for a normaliser of another size
+        path = checkpoint / PARAMS_FILE
+        raise CorruptCheckpointError(f"cannot load {path}: {type(error).__name__}: {error}") from None
     return saved["params"], RunningStatistics(**saved["normalizer"])
+
+
+def _shapes(tree: Any) -> list[tuple[str, tuple[int, ...]]]:
+    """Each array of a state dict: its path and shape."""
+    leaves, _ = jax.tree_util.tree_flatten_with_path(tree)
+    return [(jax.tree_util.keystr(path), tuple(jax.numpy.shape(leaf))) for path, leaf in leaves]
 
 
 def load_state(checkpoint: Path, env: JaxEnv, settings: PpoSettings) -> tuple[TrainingState, Progress]:

@@ -65,12 +65,14 @@ def train_ppo(
     resume: tuple[TrainingState, Progress] | None = None,
     on_progress: ProgressCallback | None = None,
     on_checkpoint: CheckpointCallback | None = None,
+    should_stop: Callable[[], bool] | None = None,
 ) -> tuple[TrainingState, Progress]:
     """Train until `total_timesteps` environment steps (rounded up to whole iterations).
 
     `on_progress` gets a report after every iteration; `on_checkpoint` gets the state every
     `checkpoint_interval` environment steps (0: never), before the first iteration of a new run
     (the untrained policy) and at the end. `resume` continues from a saved state and its counters.
+    `should_stop` is asked after every iteration: True ends training there, with a checkpoint (Ctrl-C).
     Raises TrainingDiverged, without calling `on_checkpoint`, when a loss or parameter stops being finite.
     """
     if resume is not None and resume[0].env_state.observation.shape[0] != env.num_envs:
@@ -119,10 +121,13 @@ def train_ppo(
         if on_progress is not None:
             on_progress(report, state)
         due = next_checkpoint is not None and progress.env_steps >= next_checkpoint
-        if on_checkpoint is not None and (due or progress.env_steps >= total_steps):
+        stopping = should_stop is not None and should_stop()
+        if on_checkpoint is not None and (due or stopping or progress.env_steps >= total_steps):
             on_checkpoint(state, progress, report)
             while next_checkpoint is not None and next_checkpoint <= progress.env_steps:
                 next_checkpoint += checkpoint_interval
+        if stopping:
+            break
     return state, progress
 
 

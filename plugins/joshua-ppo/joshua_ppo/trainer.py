@@ -5,6 +5,7 @@ checkpoints, resume and monitoring (`joshua_ppo.run`), and the evaluation of a s
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import jax
@@ -14,6 +15,7 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import RunContext, Trainer
+from joshua_core.interrupts import resume_command, stop_requests
 from joshua_core.options import options_of, parse_dict
 from joshua_core.progress import progress_bar
 from joshua_core.runs import (
@@ -22,6 +24,7 @@ from joshua_core.runs import (
     RunFolder,
     checkpoint_step,
     create_run,
+    read_run_config,
     resolve_checkpoint,
     resume_run,
 )
@@ -32,6 +35,7 @@ from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.rollout import collect, make_rollout, mean_results, render_video
 from joshua_ppo.run import RUN_FORMAT, TRAINER_NAME, Run, ScalarLog
 from joshua_ppo.settings import check_settings
+from joshua_ppo.state import Progress, TrainingState
 from joshua_ppo.train import train_ppo
 from joshua_ppo.viewer import open_viewer
 
@@ -88,6 +92,32 @@ class PpoTrainer(Trainer):
         run.viewer = open_viewer(options_of(config, options_pb2.ppo), env.model)
         devices = ", ".join(str(device) for device in jax.devices())
         run.bar.write(f"ppo: {env.num_envs} environments on {devices}; compiling the training iteration")
+        sys.stdout.flush()  # the line that says training started, for whoever waits on it
+        with stop_requests() as stop:
+            progress = self._run(settings, env, run, resume, should_stop=lambda: stop.requested)
+        checkpoint = run.run_folder.checkpoints()[-1]
+        if stop.requested:
+            print(
+                f"ppo: stopped at {progress.env_steps} steps; checkpoint {checkpoint}\n"
+                f"resume with: {resume_command(OPTIONS, run.name)}",
+                flush=True,
+            )
+            raise stop.interrupted()
+        print(
+            f"ppo: {progress.env_steps} steps in {run.wall_seconds:.1f} s (compile {run.compile_seconds:.1f} s), "
+            f"mean return {run.last_return:.4g}; checkpoint {checkpoint}"
+        )
+        return checkpoint
+
+    @staticmethod
+    def _run(
+        settings: PpoSettings,
+        env: JaxEnv,
+        run: Run,
+        resume: tuple[TrainingState, Progress] | None,
+        should_stop: Callable[[], bool],
+    ) -> Progress:
+        """`train_ppo` with the run's callbacks; the progress bar, logs and viewer are closed however it ends."""
         try:
             _, progress = train_ppo(
                 env,
@@ -101,18 +131,14 @@ class PpoTrainer(Trainer):
                 resume=resume,
                 on_progress=run.on_progress,
                 on_checkpoint=run.on_checkpoint,
+                should_stop=should_stop,
             )
         finally:
             run.bar.close()
             run.scalars.close()
             if run.viewer is not None:
                 run.viewer.close()
-        checkpoint = run.run_folder.checkpoints()[-1]
-        print(
-            f"ppo: {progress.env_steps} steps in {run.wall_seconds:.1f} s (compile {run.compile_seconds:.1f} s), "
-            f"mean return {run.last_return:.4g}; checkpoint {checkpoint}"
-        )
-        return checkpoint
+        return progress
 
     def evaluate(
         self,
@@ -125,7 +151,7 @@ class PpoTrainer(Trainer):
         trust_checkpoint: bool = False,
     ) -> dict[str, float]:
         checkpoint = resolve_checkpoint(run_dir)
-        saved = read_json(checkpoint / CONFIG_FILE)
+        saved = read_run_config(checkpoint)  # unreadable: a one-line error, exit 2 (as for sb3)
         if saved.get("format") != RUN_FORMAT:
             raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
         config = TrainingConfig()

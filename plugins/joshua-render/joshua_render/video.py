@@ -11,11 +11,12 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from joshua_core.atomic import atomic_write_bytes
+from joshua_core.atomic import atomic_write_bytes, remove_stale_temporaries, temporary_prefix
 from joshua_core.errors import JoshuaError
 
 # MPEG-4 Part 2: the codec the opencv-python-headless wheels can always write (their FFmpeg has no H.264 encoder).
 FOURCC = "mp4v"
+TEMPORARY_SUFFIX = ".tmp.mp4"  # `.offscreen.mp4.<pid>.<random>.tmp.mp4` while being written
 
 
 class VideoWriter:
@@ -53,7 +54,9 @@ class VideoWriter:
 
     def _open(self, size: tuple[int, int]) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        descriptor, name = tempfile.mkstemp(dir=self.path.parent, prefix=f".{self.path.stem}.", suffix=".tmp.mp4")
+        remove_stale_temporaries(self.path, TEMPORARY_SUFFIX)  # left by a writer that was killed (SIGKILL)
+        prefix = temporary_prefix(self.path)
+        descriptor, name = tempfile.mkstemp(dir=self.path.parent, prefix=prefix, suffix=TEMPORARY_SUFFIX)
         os.close(descriptor)
         os.chmod(name, 0o644)  # mkstemp makes it private; a finished video is an ordinary output file
         self._temporary = Path(name)

@@ -27,6 +27,7 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.interfaces import EnvKind, RunContext, Trainer
+from joshua_core.interrupts import StopRequest, resume_command, stop_requests
 from joshua_core.options import message_to_dict, options_of, parse_dict
 from joshua_core.progress import progress_bar
 from joshua_core.runs import (
@@ -85,15 +86,16 @@ class MetricsHistory(KVWriter):
 class TrainingMonitor(BaseCallback):
     """Progress bar, per-term reward and task-metric logging, and periodic checkpoints."""
 
-    def __init__(self, run: RunWriter, bar: Any, next_checkpoint: int) -> None:
+    def __init__(self, run: RunWriter, bar: Any, next_checkpoint: int, stop: StopRequest) -> None:
         super().__init__()
         self.run = run
+        self.stop = stop
         self.bar = bar
         self.next_checkpoint = next_checkpoint
 
     def _on_step(self) -> bool:
         self.bar.update(self.model.num_timesteps - self.bar.n)
-        return True
+        return not self.stop.requested  # SB3 ends learn() cleanly: the checkpoint after it is consistent
 
     def _on_rollout_start(self) -> None:
         # Here the previous rollout has been learned from: a consistent point to save.
@@ -257,24 +259,11 @@ class Sb3Trainer(Trainer):
         model.set_logger(
             Logger(str(run_dir), [TensorBoardOutputFormat(str(run_dir / "tensorboard")), MetricsHistory(run.records)])
         )
-        remaining = settings.total_timesteps - model.num_timesteps
         bar = progress_bar(
             settings.total_timesteps, description=f"sb3 {settings.algorithm}", unit="steps", initial=run.start_step
         )
         try:
-            if resume_from is None:
-                run.save_checkpoint(model)  # step 0: the untrained policy, to compare against
-            if remaining > 0:
-                next_checkpoint = run.start_step + settings.checkpoint_interval
-                model.learn(
-                    remaining,
-                    callback=TrainingMonitor(run, bar, next_checkpoint),
-                    reset_num_timesteps=False,
-                    progress_bar=False,
-                )
-                checkpoint = run.save_checkpoint(model)
-            else:
-                checkpoint = resolve_checkpoint(run_dir)
+            checkpoint = _learn(run, model, bar, first_leg=resume_from is None)
         finally:
             bar.close()
             environments.close()
@@ -319,6 +308,34 @@ class Sb3Trainer(Trainer):
             return _roll_out(model, normalizer or vec_env, environments, episodes, video_path)
         finally:
             environments.close()
+
+
+def _learn(run: RunWriter, model: BaseAlgorithm, bar: Any, *, first_leg: bool) -> Path:
+    """Train up to the total, saving checkpoints; the last one is returned. A SIGINT or SIGTERM stops
+    training at the next environment step: a checkpoint is saved, the command that resumes is printed and
+    `Interrupted` raised (the CLI exits 130 or 143)."""
+    with stop_requests() as stop:
+        if first_leg:
+            run.save_checkpoint(model)  # step 0: the untrained policy, to compare against
+        print(f"sb3: training {run.run_dir}; Ctrl-C saves a checkpoint and stops", flush=True)
+        remaining = run.settings.total_timesteps - model.num_timesteps
+        if remaining <= 0:
+            return resolve_checkpoint(run.run_dir)
+        model.learn(
+            remaining,
+            callback=TrainingMonitor(run, bar, run.start_step + run.settings.checkpoint_interval, stop),
+            reset_num_timesteps=False,
+            progress_bar=False,
+        )
+        checkpoint = run.save_checkpoint(model)
+        if stop.requested:
+            print(
+                f"sb3: stopped at {model.num_timesteps} steps; checkpoint {checkpoint}\n"
+                f"resume with: {resume_command(OPTIONS, run.run.name)}",
+                flush=True,
+            )
+            raise stop.interrupted()
+    return checkpoint
 
 
 def _roll_out(

@@ -1,0 +1,98 @@
+"""Ctrl-C and SIGTERM as exceptions that unwind cleanly, and a way for a trainer to finish its step first.
+
+The CLI turns SIGTERM into `Terminated` (a KeyboardInterrupt, so every `finally` and cleanup that runs on
+Ctrl-C runs on SIGTERM too) and exits 128 + the signal's number (130 for SIGINT, 143 for SIGTERM),
+printing one line, no traceback. A trainer wraps its loop in `stop_requests()`: the first signal only
+asks it to stop, so it can save a checkpoint at a consistent point; a second one interrupts at once.
+"""
+
+from __future__ import annotations
+
+import shlex
+import signal
+import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from types import FrameType
+
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class Interrupted(KeyboardInterrupt):
+    """The run was stopped by a signal; the CLI exits with `exit_code` (128 + the signal's number)."""
+
+    def __init__(self, signum: int = signal.SIGINT) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.exit_code = 128 + signum
+
+
+class Terminated(Interrupted):
+    """SIGTERM, raised where the process is, like Ctrl-C's KeyboardInterrupt."""
+
+    def __init__(self) -> None:
+        super().__init__(signal.SIGTERM)
+
+
+def exit_code(error: KeyboardInterrupt) -> int:
+    """128 + the signal that stopped the run (130 for a plain Ctrl-C)."""
+    return error.exit_code if isinstance(error, Interrupted) else 128 + signal.SIGINT
+
+
+def _raise_terminated(signum: int, frame: FrameType | None) -> None:
+    raise Terminated()
+
+
+def install_sigterm_handler() -> None:
+    """Make SIGTERM raise `Terminated` in the main thread (elsewhere signals cannot be handled)."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _raise_terminated)
+
+
+class StopRequest:
+    """Which signal asked the run to stop, if any."""
+
+    def __init__(self) -> None:
+        self.signum: int | None = None
+
+    @property
+    def requested(self) -> bool:
+        return self.signum is not None
+
+    def handle(self, signum: int, frame: FrameType | None) -> None:
+        """The first signal is recorded; a second one of either kind interrupts at once."""
+        if self.signum is not None:
+            raise Terminated() if signum == signal.SIGTERM else Interrupted(signum)
+        self.signum = signum
+        print(f"\njoshua: {signal.Signals(signum).name}: stopping after this step (again to stop now)", file=sys.stderr)
+
+    def interrupted(self) -> Interrupted:
+        """The exception to raise once the run has saved what it could."""
+        assert self.signum is not None
+        return Terminated() if self.signum == signal.SIGTERM else Interrupted(self.signum)
+
+
+@contextmanager
+def stop_requests() -> Iterator[StopRequest]:
+    """Inside the block SIGINT and SIGTERM only set `StopRequest.signum` (the first time); the handlers
+    in place before come back after it. Outside the main thread nothing is installed."""
+    request = StopRequest()
+    if threading.current_thread() is not threading.main_thread():
+        yield request
+        return
+    previous = {signum: signal.signal(signum, request.handle) for signum in SIGNALS}
+    try:
+        yield request
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def resume_command(options: str, run_name: str) -> str:
+    """The command line that continues this run: this one plus `--set <options>.resume=true` and its name."""
+    added = [f"{options}.resume=true", f"{options}.run_name={run_name}"]
+    argv = ["joshua", *sys.argv[1:]]
+    for setting in added:
+        if setting not in argv:
+            argv += ["--set", setting]
+    return shlex.join(argv)

@@ -1,0 +1,85 @@
+"""OFFSCREEN outputs are never mixed or left half-written: a re-render replaces the PNG folders whole, and a
+render stopped by SIGINT or SIGTERM (or killed, then run again) leaves no temporary files behind."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import cv2
+import pytest
+from modes_testing import JOSHUA_SCRIPT, SMALL, headless_env
+
+PNG = ("--preset", "sim_offscreen", "--set", "simulation.offscreen.output=PNG")
+
+
+def frames_of(out: Path) -> list[tuple[str, tuple[int, ...]]]:
+    """(name, shape) of each PNG in the frames folder."""
+    pngs = sorted((out / "offscreen_frames").glob("*.png"))
+    return [(png.name, cv2.imread(str(png)).shape) for png in pngs]
+
+
+def temporaries(out: Path) -> list[str]:
+    """The hidden files and folders in the output folder: temporaries of outputs being written."""
+    return sorted(path.name for path in out.iterdir() if path.name.startswith("."))
+
+
+def test_a_shorter_smaller_render_replaces_the_frames(run_joshua, tmp_path: Path) -> None:
+    first = run_joshua(*PNG, *SMALL, "--set", "simulation.offscreen.fps=4")
+    assert first.returncode == 0, first.stderr
+    out = tmp_path / "joshua_output"
+    assert len(frames_of(out)) == 25
+    second = run_joshua(
+        *PNG, "--set", "simulation.render_width=80", "--set", "simulation.render_height=60",
+        "--set", "simulation.offscreen.fps=2",
+    )  # fmt: skip
+    assert second.returncode == 0, second.stderr
+    frames = frames_of(out)
+    assert [name for name, _ in frames] == [f"frame_{index:06d}.png" for index in range(13)]
+    assert {shape for _, shape in frames} == {(60, 80, 3)} and temporaries(out) == []
+
+
+def start_long_render(tmp_path: Path) -> tuple[subprocess.Popen[str], Path]:
+    """A render of thousands of frames to MP4 and PNG, returned once it has written some of both."""
+    process = subprocess.Popen(
+        [str(JOSHUA_SCRIPT), "--preset", "sim_offscreen", *SMALL, "--set", "simulation.offscreen.fps=500",
+         "--set", "simulation.offscreen.output=MP4_AND_PNG"],
+        cwd=tmp_path, env=headless_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    out = tmp_path / "joshua_output"
+    deadline = time.monotonic() + 120
+    while process.poll() is None and time.monotonic() < deadline:
+        names = temporaries(out) if out.is_dir() else []
+        video = [name for name in names if name.endswith(".tmp.mp4")]
+        folders = [out / name for name in names if name.startswith(".offscreen_frames.")]
+        if video and folders and any(folders[0].glob("*.png")):
+            return process, out
+        time.sleep(0.05)
+    process.kill()
+    raise AssertionError(f"the render wrote no temporary video and frames: {process.communicate()}")
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_signalled_render_leaves_no_temporaries_and_the_old_frames(run_joshua, tmp_path: Path, signum: int) -> None:
+    before = run_joshua(*PNG, *SMALL, "--set", "simulation.offscreen.fps=2")
+    assert before.returncode == 0, before.stderr
+    process, out = start_long_render(tmp_path)
+    process.send_signal(signum)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 128 + signum and "Traceback" not in stderr, stderr[-2000:]
+    assert temporaries(out) == []
+    assert len(frames_of(out)) == 13  # the previous render's frames, not a mix
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+
+
+def test_the_next_render_removes_what_a_killed_one_left(run_joshua, tmp_path: Path) -> None:
+    process, out = start_long_render(tmp_path)
+    process.send_signal(signal.SIGKILL)
+    process.communicate(timeout=60)
+    assert temporaries(out) != []  # SIGKILL cannot be caught
+    both = ("--set", "simulation.offscreen.output=MP4_AND_PNG")
+    after = run_joshua(*PNG, *SMALL, "--set", "simulation.offscreen.fps=2", *both)
+    assert after.returncode == 0, after.stderr
+    assert temporaries(out) == [] and len(frames_of(out)) == 13

@@ -1,0 +1,60 @@
+"""Ctrl-C while the ppo trainer trains: the iteration in progress ends, a checkpoint is saved, the command that
+resumes the run is printed, the exit status is 130 with no traceback, and that command continues the run."""
+
+from __future__ import annotations
+
+import os
+import shlex
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+from joshua_core.runs import checkpoint_step, run_checkpoints
+
+JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
+SETTINGS = {  # 4 environments x 5 steps per iteration: compiles in seconds on the CPU
+    "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1, "total_timesteps": 10**9,
+    "checkpoint_dir": "runs", "ppo.viewer": "OFF", "ppo.video_interval": -1, "ppo.hidden_sizes": "[16]",
+    "ppo.run_name": "stopped",
+}  # fmt: skip
+OVERRIDES = [arg for name, value in SETTINGS.items() for arg in ("--set", f"training.{name}={value}")]
+ARGS = ["--preset", "ant_train_mjx", *OVERRIDES]
+
+
+def test_ctrl_c_saves_a_checkpoint_and_says_how_to_resume(tmp_path: Path) -> None:
+    environment = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    process = subprocess.Popen(
+        [*JOSHUA, *ARGS], cwd=tmp_path, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert process.stdout is not None
+    watchdog = threading.Timer(300, process.kill)  # a run that never says it started fails, not hangs
+    watchdog.start()
+    for line in process.stdout:
+        if "compiling the training iteration" in line:
+            break
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=300)
+    watchdog.cancel()
+    assert process.returncode == 130, stderr[-2000:]
+    assert "Traceback" not in stderr and stderr.strip().endswith("joshua: interrupted")
+    run_dir = tmp_path / "runs" / "stopped"
+    stopped_at = checkpoint_step(run_checkpoints(run_dir.parent, run_dir.name)[-1])
+    assert stopped_at > 0 and f"ppo: stopped at {stopped_at} steps; checkpoint runs/stopped_step_{stopped_at}" in stdout
+    command = next(line for line in stdout.splitlines() if line.startswith("resume with: "))
+    argv = shlex.split(command.removeprefix("resume with: "))
+    assert argv[1:] == [*ARGS, "--set", "training.ppo.resume=true"]
+
+    total = stopped_at + 20
+    resumed = subprocess.run(
+        [*JOSHUA, *argv[1:], "--set", f"training.total_timesteps={total}"],
+        cwd=tmp_path,
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert resumed.returncode == 0, resumed.stderr[-2000:]
+    assert f"from stopped_step_{stopped_at} ({stopped_at} steps)" in resumed.stdout
+    assert run_checkpoints(run_dir.parent, run_dir.name)[-1].name == f"stopped_step_{total}"
