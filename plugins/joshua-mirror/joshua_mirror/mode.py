@@ -57,7 +57,7 @@ class MirrorMode(Mode):
                 stale_timeout=options.stale_timeout or DEFAULT_STALE_TIMEOUT_S,
             )
             watcher = _subscribe(ros, mirror, options)
-            display = _open_display(stack, config, context)
+            display = _open_display(stack, config, context, mirror)
             loop = _MainLoop(engine, mirror, watcher, display, options)
             stopped_by = loop.run(config.duration)
             ros.close()  # no callback may change the state while it is reported
@@ -159,8 +159,13 @@ def _float64_callback(mirror: Mirror, index: int) -> Any:
     return on_float64
 
 
-def _open_display(stack: ExitStack, config: SimulationConfig, context: RunContext) -> _DisplayFeed | None:
-    """The display the options ask for (None for NONE), on an engine of its own from the config's backend."""
+def _open_display(
+    stack: ExitStack, config: SimulationConfig, context: RunContext, mirror: Mirror
+) -> _DisplayFeed | None:
+    """The display the options ask for (None for NONE), on an engine of its own from the config's backend.
+
+    It shows its first frame (the start pose) before it is announced, so "display: ..." means it is up.
+    """
     options = options_of(config, options_pb2.mirror)
     choice = options.display
     if choice == MirrorOptions.NONE:
@@ -179,8 +184,10 @@ def _open_display(stack: ExitStack, config: SimulationConfig, context: RunContex
             viewer=viewer,
         )
     )
+    feed = _DisplayFeed(shadow, display, options.display_fps or DEFAULT_DISPLAY_FPS)
+    feed.show(mirror, 0.0)
     print(f"joshua: mirror: display: {display.description}", file=sys.stderr)
-    return _DisplayFeed(shadow, display, options.display_fps or DEFAULT_DISPLAY_FPS)
+    return feed
 
 
 class _DisplayFeed:
@@ -190,6 +197,7 @@ class _DisplayFeed:
         self.shadow = shadow
         self.display = display
         self.period = 1.0 / fps
+        self.shown = 0  # frames shown so far (the status line says it: one can tell a frame came after an event)
 
     def show(self, mirror: Mirror, elapsed: float) -> bool:
         """Render the current state; False once the user closed the viewer."""
@@ -201,7 +209,9 @@ class _DisplayFeed:
             target.act[:] = source.act
             target.time = source.time
         mujoco.mj_forward(self.shadow.model, target)
-        return bool(self.display.update(elapsed))
+        still_open = bool(self.display.update(elapsed))
+        self.shown += 1
+        return still_open
 
 
 class _MainLoop:
@@ -258,7 +268,7 @@ class _MainLoop:
                 if self.watcher is not None:
                     self.watcher.poll()
                 if self.print_status:
-                    print(self.mirror.status_line(self.status_period), file=sys.stderr, flush=True)
+                    print(self._status_line(), file=sys.stderr, flush=True)
             if self.display is not None and now >= next_frame:
                 next_frame = now + self.display.period
                 if not self.display.show(self.mirror, now - start):
@@ -267,6 +277,10 @@ class _MainLoop:
             if self.mirror.actuated:
                 wake = min(wake, start + (self.steps + self.skipped_steps + 1) * timestep)
             time.sleep(max(0.0, wake - time.monotonic()))
+
+    def _status_line(self) -> str:
+        line = self.mirror.status_line(self.status_period)
+        return line if self.display is None else f"{line} | display {self.display.shown} frames"
 
     def _step_physics(self, elapsed: float, timestep: float) -> None:
         """Step until simulated time catches up with wall time, one step per lock so messages wait at most one."""
