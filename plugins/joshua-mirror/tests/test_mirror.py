@@ -186,6 +186,77 @@ def test_actuator_tracking_reports_sim_vs_real_error(tmp_path: Path, ros_env: di
         assert abs(entry["final_qpos"] - entry["final_ctrl"]) < 0.1, joint  # followed by physics, not written
 
 
+def hold_publishers(env: dict[str, str], messages: list[dict[str, Any]]) -> subprocess.Popen[str]:
+    """A publisher process that keeps `messages`' publishers in the graph until SIGINT; returns once they exist."""
+    plan = json.dumps({"hold": True, "messages": messages})
+    holder = subprocess.Popen([sys.executable, str(PUBLISHER), plan], env=env, stdout=subprocess.PIPE, text=True)
+    assert holder.stdout is not None and holder.stdout.readline() == "ready\n"
+    return holder
+
+
+def release(holder: subprocess.Popen[str]) -> None:
+    holder.send_signal(signal.SIGINT)
+    holder.communicate(timeout=30)
+
+
+def test_float64_topics_published_with_another_type_are_reported(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    """Float32, String or JointState on a topic mapped as Float64: seen in the graph, said, exit 2 at the end."""
+    mirror = start_mirror(tmp_path, ros_env)
+    wait_for_line(mirror, lambda line: line.startswith("[mirror"))  # running: the publishers come later
+    wrong = {"/encoder/joint_1": "std_msgs/msg/Float32", "/encoder/joint_2": "std_msgs/msg/String"}
+    holder = hold_publishers(
+        ros_env,
+        [
+            {"topic": "/encoder/joint_1", "type": "Float32", "value": 0.1},
+            {"topic": "/encoder/joint_2", "type": "String", "value": 0.1},
+            {"topic": "/encoder/joint_3", "names": ["joint_3"], "positions": [0.1]},
+        ],
+    )
+    wrong["/encoder/joint_3"] = "sensor_msgs/msg/JointState"
+    try:
+        unsaid = {f"wrong message type: {topic} is published as {kind}" for topic, kind in wrong.items()}
+        while unsaid:  # in any order: each topic's publisher is discovered on its own
+            line = wait_for_line(mirror, lambda line: "wrong message type" in line)
+            unsaid -= {warning for warning in unsaid if warning in line}
+        status = wait_for_line(mirror, lambda line: line.startswith("[mirror"))
+        assert all(f"WRONG TYPE {topic}: {kind}" in status for topic, kind in wrong.items())
+        mirror.send_signal(signal.SIGINT)
+        _, err = mirror.communicate(timeout=30)
+    finally:
+        release(holder)
+    assert mirror.returncode == 2 and "Traceback" not in err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("joshua: error: mirror: wrong message type: /encoder/joint_1 is published as")
+    report = json.loads((tmp_path / "joshua_output" / "mirror_report.json").read_text())
+    assert {topic: entry["published_as"] for topic, entry in report["type_mismatches"].items()} == {
+        topic: [kind] for topic, kind in wrong.items()
+    }
+    assert report["type_mismatches"]["/encoder/joint_1"]["publishers"] == ["/joshua_mirror_test_publisher"]
+
+
+def test_joint_state_topic_of_another_type_fails_a_bounded_run(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    holder = hold_publishers(ros_env, [{"topic": "/joint_states", "value": 0.1}])  # Float64
+    try:
+        result = subprocess.run(
+            [str(JOSHUA), "--preset", "sim_mirror", *FAST, "--set", "simulation.mirror.message_type=JOINT_STATE"]
+            + ["--set", "simulation.duration=5"],
+            cwd=tmp_path,
+            env=ros_env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    finally:
+        release(holder)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert result.stderr.strip().splitlines()[-1] == (
+        "joshua: error: mirror: wrong message type: /joint_states is published as std_msgs/msg/Float64 by "
+        "/joshua_mirror_test_publisher, but the mirror reads sensor_msgs/msg/JointState: those messages never arrive"
+    )
+    report = json.loads((tmp_path / "joshua_output" / "mirror_report.json").read_text())
+    assert report["stopped_by"] == "duration" and list(report["type_mismatches"]) == ["/joint_states"]
+
+
 def test_replay_tool_drives_the_mirror_end_to_end(tmp_path: Path, ros_env: dict[str, str]) -> None:
     rows = [(0.02 * i, *motion(i).values()) for i in range(26)]
     csv = tmp_path / "motion.csv"
