@@ -20,9 +20,10 @@ class TypeChecker:
         self.expected = expected
         self.seen: dict[str, dict[str, Any]] = {}  # every mismatch of the run, by topic
         self.current: dict[str, str] = {}  # topic -> the wrong types published now
+        self.said: dict[str, str] = {}  # topic -> the last line said about it, while its mismatch lasts
 
     def poll(self) -> list[str]:
-        """Check the graph now; return one line per topic whose mismatch was not there at the last check."""
+        """Check the graph now; one line per topic whose mismatch is new or changed (a new type or publisher name)."""
         graph = dict(self.node.get_topic_names_and_types())
         current: dict[str, str] = {}
         new = []
@@ -39,9 +40,12 @@ class TypeChecker:
                     name = f"{info.node_namespace.rstrip('/')}/{info.node_name}"
                     entry["publishers"] = sorted({*entry["publishers"], name})
             current[topic] = ", ".join(sorted({info.topic_type for info in wrong}))
-            if topic not in self.current:
-                new.append(self.describe(topic))
+            line = self.describe(topic)
+            if self.said.get(topic) != line:
+                new.append(line)
+                self.said[topic] = line
         self.current = current
+        self.said = {topic: line for topic, line in self.said.items() if topic in current}
         return new
 
     def describe(self, topic: str) -> str:
