@@ -21,6 +21,7 @@ from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.interfaces import Engine, Mode, RunContext
 from joshua_core.options import options_of
 from joshua_mirror import options_pb2
+from joshua_mirror.graph import TypeChecker
 from joshua_mirror.joints import MAPPINGS_FIELD, MirroredJoint, resolve_joints
 from joshua_mirror.mirror import Mirror
 from joshua_mirror.options_pb2 import MirrorOptions
@@ -37,6 +38,7 @@ QUEUE_DEPTH = 100  # messages kept per subscription if the callback thread falls
 MAX_CATCH_UP_S = 0.25  # physics further behind the wall clock than this skips ahead instead of racing
 GIL_SWITCH_INTERVAL_S = 2e-4  # the executor thread gets the GIL within this while the main thread runs Python
 FLOAT64_TYPE = "std_msgs/msg/Float64"
+JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
 
 
 class MirrorMode(Mode):
@@ -57,11 +59,13 @@ class MirrorMode(Mode):
                 stale_timeout=options.stale_timeout or DEFAULT_STALE_TIMEOUT_S,
             )
             watcher = _subscribe(ros, mirror, options)
-            display = _open_display(stack, config, context)
-            loop = _MainLoop(engine, mirror, watcher, display, options)
+            types = TypeChecker(ros.node, _expected_types(ros, mirror, options))
+            display = _open_display(stack, config, context, mirror)
+            loop = _MainLoop(engine, mirror, watcher, display, options, types)
             stopped_by = loop.run(config.duration)
+            _warn_types(types.poll())  # a last look: a publisher that came during the final status period
             ros.close()  # no callback may change the state while it is reported
-            report = _report(config, mirror, loop, stopped_by)
+            report = {**_report(config, mirror, loop, stopped_by), "type_mismatches": types.seen}
         path = context.output_dir / REPORT_FILE
         atomic_write_json(path, json_safe(report))  # NaN/inf are not JSON: null
         accepted = sum(joint["accepted"] for joint in report["joints"].values())
@@ -73,6 +77,9 @@ class MirrorMode(Mode):
             f"mirrored {len(joints)} joints for {report['wall_seconds']:.1f} s ({stopped_by}): {accepted} values "
             f"applied, {rejected} rejected, stale at the end: {', '.join(stale) or 'none'}; report: {path}"
         )
+        problem = types.error()
+        if problem:
+            raise ConfigError(problem)
 
 
 def _check_mujoco(engine: Engine) -> None:
@@ -152,6 +159,19 @@ def _subscribe(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> _Unkn
     return _UnknownTopicWatcher(ros, mirror, mapped, float64)
 
 
+def _expected_types(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> dict[str, str]:
+    """Each subscribed topic (resolved name) -> the message type the mirror reads from it."""
+    node = ros.node
+    if options.message_type == MirrorOptions.JOINT_STATE:
+        return {node.resolve_topic_name(options.joint_state_topic or DEFAULT_JOINT_STATE_TOPIC): JOINT_STATE_TYPE}
+    return {node.resolve_topic_name(joint.source): FLOAT64_TYPE for joint in mirror.joints}
+
+
+def _warn_types(lines: list[str]) -> None:
+    for line in lines:
+        print(f"joshua: mirror: wrong message type: {line}", file=sys.stderr, flush=True)
+
+
 def _float64_callback(mirror: Mirror, index: int) -> Any:
     def on_float64(message: Any) -> None:
         mirror.receive(((index, message.data),), time.perf_counter_ns())
@@ -159,8 +179,13 @@ def _float64_callback(mirror: Mirror, index: int) -> Any:
     return on_float64
 
 
-def _open_display(stack: ExitStack, config: SimulationConfig, context: RunContext) -> _DisplayFeed | None:
-    """The display the options ask for (None for NONE), on an engine of its own from the config's backend."""
+def _open_display(
+    stack: ExitStack, config: SimulationConfig, context: RunContext, mirror: Mirror
+) -> _DisplayFeed | None:
+    """The display the options ask for (None for NONE), on an engine of its own from the config's backend.
+
+    It shows its first frame (the start pose) before it is announced, so "display: ..." means it is up.
+    """
     options = options_of(config, options_pb2.mirror)
     choice = options.display
     if choice == MirrorOptions.NONE:
@@ -179,8 +204,10 @@ def _open_display(stack: ExitStack, config: SimulationConfig, context: RunContex
             viewer=viewer,
         )
     )
+    feed = _DisplayFeed(shadow, display, options.display_fps or DEFAULT_DISPLAY_FPS)
+    feed.show(mirror, 0.0)
     print(f"joshua: mirror: display: {display.description}", file=sys.stderr)
-    return _DisplayFeed(shadow, display, options.display_fps or DEFAULT_DISPLAY_FPS)
+    return feed
 
 
 class _DisplayFeed:
@@ -190,6 +217,7 @@ class _DisplayFeed:
         self.shadow = shadow
         self.display = display
         self.period = 1.0 / fps
+        self.shown = 0  # frames shown so far (the status line says it: one can tell a frame came after an event)
 
     def show(self, mirror: Mirror, elapsed: float) -> bool:
         """Render the current state; False once the user closed the viewer."""
@@ -201,7 +229,9 @@ class _DisplayFeed:
             target.act[:] = source.act
             target.time = source.time
         mujoco.mj_forward(self.shadow.model, target)
-        return bool(self.display.update(elapsed))
+        still_open = bool(self.display.update(elapsed))
+        self.shown += 1
+        return still_open
 
 
 class _MainLoop:
@@ -214,8 +244,10 @@ class _MainLoop:
         watcher: _UnknownTopicWatcher | None,
         display: _DisplayFeed | None,
         options: MirrorOptions,
+        types: TypeChecker,
     ) -> None:
         self.engine = engine
+        self.types = types
         self.mirror = mirror
         self.watcher = watcher
         self.display = display
@@ -243,6 +275,7 @@ class _MainLoop:
         timestep = self.engine.timestep
         next_stale_check = start + STALE_CHECK_PERIOD_S
         next_status = start + self.status_period
+        _warn_types(self.types.poll())
         next_frame = start
         while True:
             now = time.monotonic()
@@ -257,8 +290,9 @@ class _MainLoop:
                 next_status = now + self.status_period
                 if self.watcher is not None:
                     self.watcher.poll()
+                _warn_types(self.types.poll())
                 if self.print_status:
-                    print(self.mirror.status_line(self.status_period), file=sys.stderr, flush=True)
+                    print(self._status_line(), file=sys.stderr, flush=True)
             if self.display is not None and now >= next_frame:
                 next_frame = now + self.display.period
                 if not self.display.show(self.mirror, now - start):
@@ -267,6 +301,10 @@ class _MainLoop:
             if self.mirror.actuated:
                 wake = min(wake, start + (self.steps + self.skipped_steps + 1) * timestep)
             time.sleep(max(0.0, wake - time.monotonic()))
+
+    def _status_line(self) -> str:
+        line = self.mirror.status_line(self.status_period) + self.types.status()
+        return line if self.display is None else f"{line} | display {self.display.shown} frames"
 
     def _step_physics(self, elapsed: float, timestep: float) -> None:
         """Step until simulated time catches up with wall time, one step per lock so messages wait at most one."""

@@ -1,8 +1,10 @@
 """A real ROS 2 publisher process for the tests: publishes the messages of a JSON plan, then exits.
 
 Plan: {"wait_for": TOPIC, "messages": [{"topic": T, "value": V} | {"topic": T, "names": [...],
-"positions": [...]} | {"sleep": S}, ...]}. Values may be "nan"/"inf". It first waits until TOPIC has
-a subscriber (the mirror), so no message is published before the mirror listens.
+"positions": [...]} | {"topic": T, "type": "Float32" | "String", "value": V} | {"sleep": S}, ...]}. Values may
+be "nan"/"inf". It first waits until TOPIC has a subscriber (the mirror), so no message is published before the
+mirror listens. With "hold": true instead of "wait_for" it creates the publishers, prints "ready" and stays
+until SIGINT (for publishers of a type the mirror does not read, which no subscriber ever matches).
 """
 
 from __future__ import annotations
@@ -12,12 +14,14 @@ import sys
 import time
 
 import rclpy
+import rclpy.executors
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
+from std_msgs.msg import Float32, Float64, String
 
 MATCH_TIMEOUT_S = 30.0
 GAP_S = 0.002  # between messages, so a best-effort subscriber keeps up
+OTHER_TYPES = {"Float32": Float32, "String": String}
 
 
 def main() -> None:
@@ -34,7 +38,15 @@ def main() -> None:
 
     for message in plan["messages"]:  # create them all first, so discovery happens once
         if "topic" in message:
-            publisher(message["topic"], JointState if "names" in message else Float64)
+            kind = JointState if "names" in message else OTHER_TYPES.get(message.get("type", ""), Float64)
+            publisher(message["topic"], kind)
+    if plan.get("hold"):
+        print("ready", flush=True)
+        try:
+            rclpy.spin(node)
+        except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+            pass
+        return
     watched = publishers[plan["wait_for"]]
     deadline = time.monotonic() + MATCH_TIMEOUT_S
     while watched.get_subscription_count() == 0:

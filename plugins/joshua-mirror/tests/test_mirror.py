@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -185,6 +186,78 @@ def test_actuator_tracking_reports_sim_vs_real_error(tmp_path: Path, ros_env: di
         assert abs(entry["final_qpos"] - entry["final_ctrl"]) < 0.1, joint  # followed by physics, not written
 
 
+def hold_publishers(env: dict[str, str], messages: list[dict[str, Any]]) -> subprocess.Popen[str]:
+    """A publisher process that keeps `messages`' publishers in the graph until SIGINT; returns once they exist."""
+    plan = json.dumps({"hold": True, "messages": messages})
+    holder = subprocess.Popen([sys.executable, str(PUBLISHER), plan], env=env, stdout=subprocess.PIPE, text=True)
+    assert holder.stdout is not None and holder.stdout.readline() == "ready\n"
+    return holder
+
+
+def release(holder: subprocess.Popen[str]) -> None:
+    holder.send_signal(signal.SIGINT)
+    holder.communicate(timeout=30)
+
+
+def test_float64_topics_published_with_another_type_are_reported(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    """Float32, String or JointState on a topic mapped as Float64: seen in the graph, said, exit 2 at the end."""
+    mirror = start_mirror(tmp_path, ros_env)
+    wait_for_line(mirror, lambda line: line.startswith("[mirror"))  # running: the publishers come later
+    wrong = {"/encoder/joint_1": "std_msgs/msg/Float32", "/encoder/joint_2": "std_msgs/msg/String"}
+    publisher_node = "/joshua_mirror_test_publisher"
+    holder = hold_publishers(
+        ros_env,
+        [
+            {"topic": "/encoder/joint_1", "type": "Float32", "value": 0.1},
+            {"topic": "/encoder/joint_2", "type": "String", "value": 0.1},
+            {"topic": "/encoder/joint_3", "names": ["joint_3"], "positions": [0.1]},
+        ],
+    )
+    wrong["/encoder/joint_3"] = "sensor_msgs/msg/JointState"
+    try:
+        unsaid = {f"type: {topic} is published as {kind} by {publisher_node}," for topic, kind in wrong.items()}
+        while unsaid:  # in any order: each publisher is discovered on its own, its node's name maybe later
+            line = wait_for_line(mirror, lambda line: "wrong message type" in line)
+            unsaid -= {warning for warning in unsaid if warning in line}
+        status = wait_for_line(mirror, lambda line: line.startswith("[mirror"))
+        assert all(f"WRONG TYPE {topic}: {kind}" in status for topic, kind in wrong.items())
+        mirror.send_signal(signal.SIGINT)
+        _, err = mirror.communicate(timeout=30)
+    finally:
+        release(holder)
+    assert mirror.returncode == 2 and "Traceback" not in err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("joshua: error: mirror: wrong message type: /encoder/joint_1 is published as")
+    report = json.loads((tmp_path / "joshua_output" / "mirror_report.json").read_text())
+    assert {topic: entry["published_as"] for topic, entry in report["type_mismatches"].items()} == {
+        topic: [kind] for topic, kind in wrong.items()
+    }
+    assert all(entry["publishers"] == [publisher_node] for entry in report["type_mismatches"].values())
+
+
+def test_joint_state_topic_of_another_type_fails_a_bounded_run(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    holder = hold_publishers(ros_env, [{"topic": "/joint_states", "value": 0.1}])  # Float64
+    try:
+        result = subprocess.run(
+            [str(JOSHUA), "--preset", "sim_mirror", *FAST, "--set", "simulation.mirror.message_type=JOINT_STATE"]
+            + ["--set", "simulation.duration=5"],
+            cwd=tmp_path,
+            env=ros_env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    finally:
+        release(holder)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    last = result.stderr.strip().splitlines()[-1]  # the publisher's node name may not be known yet
+    assert last.startswith("joshua: error: mirror: wrong message type: /joint_states is published as std_msgs/msg/")
+    assert "as std_msgs/msg/Float64 by" in last or "as std_msgs/msg/Float64, but" in last
+    assert last.endswith(", but the mirror reads sensor_msgs/msg/JointState: those messages never arrive")
+    report = json.loads((tmp_path / "joshua_output" / "mirror_report.json").read_text())
+    assert report["stopped_by"] == "duration" and list(report["type_mismatches"]) == ["/joint_states"]
+
+
 def test_replay_tool_drives_the_mirror_end_to_end(tmp_path: Path, ros_env: dict[str, str]) -> None:
     rows = [(0.02 * i, *motion(i).values()) for i in range(26)]
     csv = tmp_path / "motion.csv"
@@ -275,21 +348,39 @@ def test_replay_reports_bad_csv_rows_and_missing_columns(tmp_path: Path, ros_env
 
 
 def test_headless_display_records_the_mirrored_motion(tmp_path: Path, ros_env: dict[str, str]) -> None:
-    """With no display, the mirror records what it shows to an MP4."""
+    """With no display, the mirror records what it shows to an MP4.
+
+    No timing is assumed: "display: recording to" comes after the first frame (the start pose) is recorded, and
+    the status line's frame count tells when a frame was recorded after every joint's values were applied.
+    """
     import cv2
 
     small = ("simulation.mirror.display=RECORD", "simulation.render_width=160", "simulation.render_height=120")
     mirror = start_mirror(tmp_path, {k: v for k, v in ros_env.items() if k != "DISPLAY"}, *small)
     assert mirror.stderr is not None
-    deadline = time.monotonic() + 30  # status lines every 0.2 s keep readline from blocking for long
-    while "display: recording to" not in (line := mirror.stderr.readline()):  # the first frame shows the start pose
-        assert line and time.monotonic() < deadline, "the mirror's display did not come up"
+    wait_for_line(mirror, lambda line: "display: recording to" in line)
     publish(ros_env, float64_plan(range(0, 30, 6)))
-    time.sleep(0.5)  # frames of the final pose
+    applied = wait_for_line(mirror, lambda line: line.startswith("[mirror") and "never" not in line)
+    frames_then = displayed_frames(applied)
+    wait_for_line(mirror, lambda line: line.startswith("[mirror") and displayed_frames(line) > frames_then)
     stop(mirror, tmp_path)
     video = cv2.VideoCapture(str(tmp_path / "joshua_output" / "mirror.mp4"))
     frames = []
     while (frame := video.read()[1]) is not None:
         frames.append(frame.astype(int))
-    assert len(frames) >= 10 and frames[0].shape == (120, 160, 3)
+    assert len(frames) >= 2 and frames[0].shape == (120, 160, 3)
     assert max(float(abs(frame - frames[0]).mean()) for frame in frames) > 1.0  # the arm moved on screen
+
+
+def wait_for_line(mirror: subprocess.Popen[str], wanted: Callable[[str], bool]) -> str:
+    """The mirror's next stderr line for which `wanted` is true (status lines keep readline from blocking long)."""
+    assert mirror.stderr is not None
+    deadline = time.monotonic() + 60
+    while not wanted(line := mirror.stderr.readline()):
+        assert line and time.monotonic() < deadline, "the mirror never printed the line waited for"
+    return line
+
+
+def displayed_frames(status_line: str) -> int:
+    """The frame count at the end of a status line: '... | display 42 frames'."""
+    return int(status_line.rsplit("| display ", 1)[1].split()[0])
