@@ -82,7 +82,8 @@ class PpoTrainer(Trainer):
             resume = load_state(resume_from, env, settings)
             previous = read_json(resume_from / METRICS_FILE)
             run.history = [record for record in previous.get("history", []) if record["step"] <= resume[1].env_steps]
-            run.last_return = float(previous.get("mean_return", float("nan")))
+            saved_return = previous.get("mean_return")  # null where it was not finite (json_safe)
+            run.last_return = float("nan") if saved_return is None else float(saved_return)
             print(f"ppo: resuming {run.name} from {resume_from.name} ({resume[1].env_steps} steps)")
         else:
             atomic_write_json(run.folder / CONFIG_FILE, run.config_document())
