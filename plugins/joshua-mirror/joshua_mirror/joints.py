@@ -26,6 +26,7 @@ class MirroredJoint:
     actuator_id: int
     joint: str
     qpos_address: int
+    dof_address: int
     offset: float  # sim joint position = encoder value + offset
     low: float  # the joint's range (-inf, inf when the joint is not limited)
     high: float
@@ -105,6 +106,7 @@ def _resolve(
         actuator_id=actuator_id,
         joint=joint_name,
         qpos_address=int(model.jnt_qposadr[joint_id]),
+        dof_address=int(model.jnt_dofadr[joint_id]),
         offset=float(mapping.offset),
         low=low,
         high=high,

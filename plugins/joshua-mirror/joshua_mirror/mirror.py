@@ -104,17 +104,20 @@ class Mirror:
                 accepted.append((index, value, target))
         if not accepted:
             return
+        placed_any = False
         with self.lock:
             for index, _, target in accepted:
                 joint = self.joints[index]
+                placed = self.kinematic or not self.stats[index].accepted
                 if self.actuated:
-                    stats = self.stats[index]
-                    if stats.accepted:  # before the first target the simulation had no chance to follow
-                        stats.add_error(float(self.data.qpos[joint.qpos_address]) - target)
+                    if not placed:
+                        self.stats[index].add_error(float(self.data.qpos[joint.qpos_address]) - target)
                     self.data.ctrl[joint.actuator_id] = target
-                if self.kinematic:
+                if placed:  # the twin starts where the real joint is, so tracking never counts a start-up jump
                     self.data.qpos[joint.qpos_address] = target
-            if self.kinematic:
+                    self.data.qvel[joint.dof_address] = 0.0
+                    placed_any = True
+            if placed_any:
                 mujoco.mj_forward(self.model, self.data)
         self._record_latency(entered_ns)
         for index, value, _ in accepted:

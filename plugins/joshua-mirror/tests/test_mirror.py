@@ -183,7 +183,11 @@ def test_actuator_tracking_reports_sim_vs_real_error(tmp_path: Path, ros_env: di
         assert abs(entry["final_ctrl"] - (value + OFFSETS[joint])) < 1e-12
         error = entry["tracking_error"]
         assert error["samples"] == 49 and 0 <= error["rms"] <= error["max_abs"]
-        assert abs(entry["final_qpos"] - entry["final_ctrl"]) < 0.1, joint  # followed by physics, not written
+        # followed by physics, not written: within the servo's sag under gravity (and its friction dead band)
+        assert 0 < abs(entry["final_qpos"] - entry["final_ctrl"]) < 0.25, joint
+    # The twin starts at each joint's first value, so no start-up jump from qpos 0 counts: the pan
+    # joint (vertical axis, no gravity load) holds its pose almost exactly.
+    assert report["joints"]["joint_1"]["tracking_error"]["max_abs"] < 0.01
 
 
 def hold_publishers(env: dict[str, str], messages: list[dict[str, Any]]) -> subprocess.Popen[str]:
