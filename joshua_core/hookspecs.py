@@ -104,3 +104,13 @@ def joshua_register_options(registry: Registrar) -> None:
     before it parses a config strictly, so a `_pb2` module must stay light: it imports only protobuf
     and `joshua_core.config_pb2`. See docs/configuration.md for the field numbers.
     """
+
+
+@hookspec
+def joshua_register_model_formats(registry: Registrar) -> None:
+    """Register model file readers: `registry.add(suffix, target, summary)`.
+
+    Called by PluginHost when it is built. `suffix` is the lower-case file suffix with its dot
+    (".usd"); `target` is a `joshua_core.interfaces.ModelReader` subclass or its path, imported only
+    when a model with that suffix is loaded. MJCF (.xml) is MuJoCo's own and is not registered.
+    """

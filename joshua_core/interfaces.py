@@ -262,6 +262,15 @@ class Command(ABC):
         """Do the work and return the exit status; raise JoshuaError subclasses for user-facing failures."""
 
 
+class ModelReader(ABC):
+    """Reads a model file format MuJoCo does not (e.g. USD) into a `mujoco.MjSpec`, registered under the
+    file suffix it reads (".usd"); every backend, mode and trainer then takes such files as `model_path`."""
+
+    @abstractmethod
+    def read(self, path: Path) -> Any:
+        """The `mujoco.MjSpec` of the file at `path` (absolute, existing); a file it cannot read raises ModelError."""
+
+
 class Term(Protocol):
     """A task term: `quantity_kernel(ctx, **params)` returns an array whose leading axis is environments.
 

@@ -24,7 +24,7 @@ from google.protobuf.descriptor import FieldDescriptor
 
 from joshua_core import hookspecs
 from joshua_core.errors import ConfigError, PluginLoadError, PluginNotFoundError, UsageError
-from joshua_core.interfaces import Backend, Command, EnvKind, Mode, Trainer
+from joshua_core.interfaces import Backend, Command, EnvKind, Mode, ModelReader, Trainer
 from joshua_core.options import OptionSet
 
 ENTRY_POINT_GROUP = "joshua"
@@ -42,6 +42,7 @@ class Kind(enum.Enum):
     TERM = "term"
     COMMAND = "command"
     OPTIONS = "option"
+    MODEL_FORMAT = "model_format"
 
     @property
     def hook_name(self) -> str:
@@ -67,6 +68,7 @@ KNOWN_PROVIDERS: dict[tuple[Kind, str], str] = {
     (Kind.OPTIONS, "mirror"): "joshua-mirror",
     (Kind.OPTIONS, "ppo"): "joshua-ppo",
     (Kind.OPTIONS, "sb3"): "joshua-sb3",
+    **{(Kind.MODEL_FORMAT, suffix): "joshua-usd" for suffix in (".usd", ".usda", ".usdc", ".usdz")},
 }
 
 
@@ -332,6 +334,9 @@ class PluginHost:
 
     def command(self, name: str) -> Command:
         return self.create(Kind.COMMAND, name, Command)
+
+    def model_reader(self, suffix: str) -> ModelReader:
+        return self.create(Kind.MODEL_FORMAT, suffix, ModelReader)
 
     def options(self) -> OptionSet:
         """The registered options, their `_pb2` modules imported (light: they import only protobuf and the core

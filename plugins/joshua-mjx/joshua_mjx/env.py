@@ -308,6 +308,6 @@ def mjx_envs(spec: EnvSpec, plugins: PluginHost) -> MjxEnv:
     """The MjxEnv an EnvSpec describes (the `mjx` backend's EnvKind.JAX environments)."""
     task_spec = load_task_spec(spec.task, plugins)
     path = spec.model_path or mjx_variant(task_spec.model_path)
-    model = compile_model(path)
+    model = compile_model(path, plugins=plugins)
     built = build_task(task_spec, model, plugins, spec.task_config)
     return MjxEnv(built, model, spec.num_envs, source=path, devices=spec.devices)

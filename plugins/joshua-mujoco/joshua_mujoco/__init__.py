@@ -10,24 +10,26 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine, compile_model
+    from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine
+    from joshua_mujoco.models import compile_model, read_spec
     from joshua_mujoco.vector import BatchedVectorEnv, make_vector_env, vector_env_from_config
 
 __all__ = [
     "MuJoCoBackend",
     "MuJoCoEngine",
     "compile_model",
+    "read_spec",
     "BatchedVectorEnv",
     "make_vector_env",
     "vector_env_from_config",
 ]
-_IN_VECTOR = {"BatchedVectorEnv", "make_vector_env", "vector_env_from_config"}  # the others are in engine.py
+_MODULES = {"compile_model": "models", "read_spec": "models", "MuJoCoBackend": "engine", "MuJoCoEngine": "engine"}
 
 
 def __getattr__(name: str) -> Any:
     if name in __all__:
         import importlib
 
-        module = "vector" if name in _IN_VECTOR else "engine"
+        module = _MODULES.get(name, "vector")
         return getattr(importlib.import_module(f"joshua_mujoco.{module}"), name)
     raise AttributeError(f"module 'joshua_mujoco' has no attribute '{name}'")

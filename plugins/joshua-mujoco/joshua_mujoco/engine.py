@@ -14,9 +14,10 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from numpy.typing import ArrayLike, NDArray  # noqa: E402
 
-from joshua_core.errors import ConfigError, ModelError, UsageError  # noqa: E402
+from joshua_core.errors import ConfigError  # noqa: E402
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, Engine, EnvKind, EnvSpec  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
+from joshua_mujoco.models import compile_model  # noqa: E402
 from joshua_render import camera_id, create_renderer  # noqa: E402
 
 if TYPE_CHECKING:
@@ -152,17 +153,3 @@ class MuJoCoBackend(Backend):
         from joshua_mujoco.vector import vector_envs
 
         return vector_envs(spec, plugins)
-
-
-def compile_model(
-    model_path: Path | None, *, xml: str | None = None, assets: Mapping[str, bytes] | None = None
-) -> mujoco.MjModel:
-    """Compile a model file (an existing path, as `resolve_data_path` gives it) or XML string, turning
-    MuJoCo's errors into ModelError that names the file."""
-    source = str(model_path) if model_path is not None else "<xml string>"
-    try:
-        if model_path is not None:
-            return mujoco.MjModel.from_xml_path(source)
-        return mujoco.MjModel.from_xml_string(xml, dict(assets or {}))
-    except ValueError as error:
-        raise ModelError(f"{source}: model does not compile: {error}") from None

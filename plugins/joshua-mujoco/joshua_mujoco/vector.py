@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 from joshua_render import choose_headless_gl
 
@@ -26,7 +26,6 @@ from mujoco.batch import Batch, SimulationError  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
 from joshua_core.config_pb2 import TaskConfig, TrainingConfig  # noqa: E402
-from joshua_core.errors import ModelError  # noqa: E402
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, EnvSpec  # noqa: E402
 from joshua_core.plugins import PluginHost  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
@@ -40,9 +39,9 @@ from joshua_core.tasks import (  # noqa: E402
     load_task_spec,
     nonfinite,
 )
+from joshua_mujoco.models import compiled, read_spec  # noqa: E402
 from joshua_render import camera_id, create_renderer, render_with_commands  # noqa: E402
 
-_T = TypeVar("_T")
 
 DEFAULT_NUM_ENVS = 16
 # Bound per-environment fields of mujoco.batch, by the TermContext field that reads them.
@@ -64,8 +63,8 @@ def load_task_model(
     """
     spec = load_task_spec(task, plugins)
     path = model_path or resolve_data_path(spec.model_path)
-    model_spec = _compiled(path, lambda: mujoco.MjSpec.from_file(str(path)))
-    model = _compiled(path, model_spec.compile)
+    model_spec = read_spec(path, plugins)
+    model = compiled(path, model_spec.compile)
     built = build_task(spec, model, plugins, config)
     if "cfrc_ext" in built.fields and model.nbody > 1:
         model_spec.add_sensor(
@@ -74,19 +73,11 @@ def load_task_model(
             objtype=mujoco.mjtObj.mjOBJ_BODY,
             objname=model.body(1).name,
         )
-        model = _compiled(path, model_spec.compile)
+        model = compiled(path, model_spec.compile)
         built = build_task(spec, model, plugins, config)
     # A diverging simulation becomes non-finite and is terminated, instead of MuJoCo resetting it silently.
     model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
     return built, model
-
-
-def _compiled(path: Path, compile_step: Callable[[], _T]) -> _T:
-    """Run a MuJoCo parse or compile step, turning its errors into ModelError naming the file."""
-    try:
-        return compile_step()
-    except ValueError as error:
-        raise ModelError(f"{path}: model does not compile: {error}") from None
 
 
 class BatchedSimulation:

@@ -1,0 +1,54 @@
+"""Loading model files: MJCF through MuJoCo, other formats (USD) through the `ModelReader` a plugin
+registers for the file suffix. Every engine, environment and trainer loads its model here."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, TypeVar
+
+import mujoco
+
+from joshua_core.errors import ModelError
+
+if TYPE_CHECKING:
+    from joshua_core.plugins import PluginHost
+
+MJCF_SUFFIXES = frozenset({".xml", ".mjcf"})
+_T = TypeVar("_T")
+
+
+def read_spec(path: Path, plugins: PluginHost | None = None) -> mujoco.MjSpec:
+    """The MjSpec of the model file at `path` (absolute, as `resolve_data_path` gives it). A suffix other
+    than MJCF's goes to the reader registered for it (`plugins`, else the installed plugins)."""
+    suffix = path.suffix.lower()
+    if suffix in MJCF_SUFFIXES:
+        return compiled(path, lambda: mujoco.MjSpec.from_file(str(path)))
+    if plugins is None:
+        from joshua_core.plugins import PluginHost
+
+        plugins = PluginHost.discover()
+    return plugins.model_reader(suffix).read(path)
+
+
+def compile_model(
+    model_path: Path | None,
+    *,
+    xml: str | None = None,
+    assets: Mapping[str, bytes] | None = None,
+    plugins: PluginHost | None = None,
+) -> mujoco.MjModel:
+    """Compile a model file (an existing path, as `resolve_data_path` gives it) or an MJCF string, turning
+    MuJoCo's errors into ModelError that names the file."""
+    if model_path is None:
+        return compiled(Path("<xml string>"), lambda: mujoco.MjModel.from_xml_string(xml, dict(assets or {})))
+    spec = read_spec(model_path, plugins)
+    return compiled(model_path, spec.compile)
+
+
+def compiled(path: Path, step: Callable[[], _T]) -> _T:
+    """Run a MuJoCo parse or compile step, turning its errors into ModelError naming the file."""
+    try:
+        return step()
+    except ValueError as error:
+        raise ModelError(f"{path}: model does not compile: {error}") from None

@@ -1,0 +1,37 @@
+"""`joshua usd inspect FILE` and `joshua usd export MODEL OUT.usd`."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from joshua_core.interfaces import Command
+from joshua_core.plugins import PluginHost
+from joshua_core.resources import resolve_data_path
+
+
+class UsdCommand(Command):
+    """What the importer understands of a USD robot, and MJCF -> USD for Isaac."""
+
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+        inspect = actions.add_parser(
+            "inspect", help="print the bodies, joints (limits in radians and degrees), drives in SI units, "
+            "colliders, masses and warnings the importer reads from a USD file"
+        )
+        inspect.add_argument("file", type=Path, help="a .usd/.usda/.usdc/.usdz stage")
+        export = actions.add_parser("export", help="write a MuJoCo model as a UsdPhysics articulation Isaac loads")
+        export.add_argument("model", type=Path, help="an MJCF model (.xml), e.g. so_arm100/so_arm100.xml")
+        export.add_argument("out", type=Path, help="the USD file to write (.usd, .usda or .usdc)")
+
+    def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        if args.action == "inspect":
+            from joshua_usd.inspect import describe
+
+            print(describe(resolve_data_path(args.file, what="USD file")))
+            return 0
+        from joshua_usd.exporter import export_model
+
+        written = export_model(resolve_data_path(args.model), args.out)
+        print(f"wrote {written}")
+        return 0
