@@ -234,5 +234,14 @@ def writable_folder(name: str, field: str) -> Path:
     return folder
 
 
+def writable_file(path: Path, option: str) -> Path:
+    """An output file's path, its folder created if missing; a folder there, or a folder that cannot be created
+    or written, is a UsageError before any work (the file itself is written atomically later)."""
+    if path.is_dir():
+        raise UsageError(f"{option} '{path}' is a folder; give a file name")
+    writable_folder(str(path.parent), option)
+    return path
+
+
 if __name__ == "__main__":
     sys.exit(main())

@@ -11,6 +11,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from joshua_core.cli import writable_file
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command, RunContext
 from joshua_core.runs import read_run_config
@@ -41,7 +42,7 @@ class EvalCommand(Command):
         run_dir: Path = args.run
         trainer_name = read_run_config(run_dir)["trainer"]
         trainer = plugins.trainer(trainer_name)
-        video_path = None if args.no_video else args.video or run_dir / "eval.mp4"
+        video_path = None if args.no_video else writable_file(args.video or run_dir / "eval.mp4", "--video")
         results = trainer.evaluate(
             run_dir,
             episodes=args.episodes,

@@ -28,12 +28,12 @@ class TrainOnlyPlugin:
         registry.add("train_only", TrainOnlyTrainer, "test")
 
 
-def run_eval(run_dir: Path) -> int:
+def run_eval(run_dir: Path, *video: str) -> int:
     command = EvalCommand()
     parser = argparse.ArgumentParser()
     command.add_arguments(parser)
     host = PluginHost([(PluginInfo("train_only", "joshua-train-only", "0.1", "test"), TrainOnlyPlugin())])
-    return command.run(parser.parse_args([str(run_dir), "--no-video"]), host)
+    return command.run(parser.parse_args([str(run_dir), *(video or ["--no-video"])]), host)
 
 
 def write_config(run_dir: Path, document: object) -> None:
@@ -64,6 +64,16 @@ def test_trainer_without_evaluate(tmp_path: Path) -> None:
     write_config(tmp_path / "run", {"trainer": "train_only"})
     with pytest.raises(UsageError, match="trainer TrainOnlyTrainer cannot evaluate a run"):
         run_eval(tmp_path / "run")
+
+
+def test_a_video_path_that_cannot_be_written_is_refused_before_the_rollout(tmp_path: Path) -> None:
+    write_config(tmp_path / "run", {"trainer": "train_only"})  # evaluating it would fail later, differently
+    with pytest.raises(UsageError, match=r"^--video '.*run' is a folder; give a file name$"):
+        run_eval(tmp_path / "run", "--video", str(tmp_path / "run"))
+    (tmp_path / "file").write_text("")
+    with pytest.raises(UsageError, match=r"^--video '.*file' is a file, not a folder"):
+        run_eval(tmp_path / "run", "--video", str(tmp_path / "file" / "eval.mp4"))
+    assert (tmp_path / "file").read_text() == ""
 
 
 def test_cli_prints_one_line(run_joshua, tmp_path: Path) -> None:
