@@ -3,6 +3,7 @@ registers for the file suffix. Every engine, environment and trainer loads its m
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
@@ -16,6 +17,20 @@ if TYPE_CHECKING:
 
 MJCF_SUFFIXES = frozenset({".xml", ".mjcf"})
 _T = TypeVar("_T")
+_warned: set[str] = set()
+
+
+def _print_warning(message: str) -> None:
+    """MuJoCo's warnings on stderr, each kind once per process: MuJoCo's own handler prints every one and
+    appends it to MUJOCO_LOG.TXT in the working directory, a file nobody asked for (mujoco.batch calls this
+    from its worker threads, for every simulation)."""
+    kind = message.split(" Time = ")[0]  # the same warning at another time is not news
+    if kind not in _warned:
+        _warned.add(kind)
+        print(f"mujoco: warning: {message}", file=sys.stderr)
+
+
+mujoco.set_mju_user_warning(_print_warning)
 
 
 def read_spec(path: Path, plugins: PluginHost | None = None) -> mujoco.MjSpec:

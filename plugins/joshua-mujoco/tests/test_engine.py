@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import mujoco
@@ -141,3 +143,21 @@ def test_missing_and_broken_models_are_clear_errors(tmp_path: Path) -> None:
         MuJoCoEngine(xml="<mujoco><nonsense/></mujoco>")
     with pytest.raises(TypeError, match="exactly one"):
         MuJoCoEngine()
+
+
+def test_mujoco_warnings_go_to_stderr_once_and_leave_no_log_file(tmp_path: Path) -> None:
+    """MuJoCo's own warning handler appends to MUJOCO_LOG.TXT in the working directory; ours only prints."""
+    unstable = """if True:
+        import numpy as np
+        from joshua_mujoco import MuJoCoEngine
+        engine = MuJoCoEngine(xml='<mujoco><worldbody><body><freejoint/><geom size="0.1"/></body></worldbody></mujoco>')
+        for _ in range(3):
+            engine.data.qvel[:] = np.nan
+            engine.step()
+        print(engine.instability())
+    """
+    result = subprocess.run([sys.executable, "-c", unstable], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert "non-finite state (mjWARN_BADQVEL" in result.stdout  # MuJoCo warned three times (it resets after each)
+    assert result.stderr.count("mujoco: warning: Nan, Inf or huge value in QVEL at DOF 0") == 1, result.stderr
+    assert list(tmp_path.iterdir()) == []
