@@ -88,13 +88,14 @@ class PpoTrainer(Trainer):
         else:
             atomic_write_json(run.folder / CONFIG_FILE, run.config_document())
         start = resume[1].env_steps if resume else 0
-        run.bar = progress_bar(settings.total_timesteps, description=f"ppo {config.task}", unit="steps", initial=start)
-        run.scalars = ScalarLog(run.folder / "tensorboard")
-        run.viewer = open_viewer(options_of(config, options_pb2.ppo), env.model)
-        devices = ", ".join(str(device) for device in jax.devices())
-        run.bar.write(f"ppo: {env.num_envs} environments on {devices}; compiling the training iteration")
-        sys.stdout.flush()  # the line that says training started, for whoever waits on it
+        # From here a signal only asks the run to stop: it ends after an iteration, with a checkpoint.
         with stop_requests() as stop:
+            run.bar = progress_bar(settings.total_timesteps, description=f"ppo {config.task}", unit="steps", initial=start)
+            run.scalars = ScalarLog(run.folder / "tensorboard")
+            run.viewer = open_viewer(options_of(config, options_pb2.ppo), env.model)
+            devices = ", ".join(str(device) for device in jax.devices())
+            run.bar.write(f"ppo: {env.num_envs} environments on {devices}; compiling the training iteration")
+            sys.stdout.flush()  # the line that says training started, for whoever waits on it
             progress = self._run(settings, env, run, resume, should_stop=lambda: stop.requested)
         checkpoint = run.run_folder.checkpoints()[-1]
         if stop.requested:

@@ -1,5 +1,6 @@
-"""Ctrl-C while the ppo trainer trains: the iteration in progress ends, a checkpoint is saved, the command that
-resumes the run is printed, the exit status is 130 with no traceback, and that command continues the run."""
+"""Ctrl-C (or SIGTERM) while the ppo trainer trains: the iteration in progress ends, a checkpoint is saved, the
+command that resumes the run is printed, the exit status is 130 (143) with no traceback, and that command
+continues the run."""
 
 from __future__ import annotations
 
@@ -21,12 +22,13 @@ SETTINGS = {  # 4 environments x 5 steps per iteration: compiles in seconds on t
 }  # fmt: skip
 OVERRIDES = [arg for name, value in SETTINGS.items() for arg in ("--set", f"training.{name}={value}")]
 ARGS = ["--preset", "ant_train_mjx", *OVERRIDES]
+ENVIRONMENT = {**os.environ, "PYTHONUNBUFFERED": "1"}
 
 
-def test_ctrl_c_saves_a_checkpoint_and_says_how_to_resume(tmp_path: Path) -> None:
-    environment = {**os.environ, "PYTHONUNBUFFERED": "1"}
+def stop_a_run(tmp_path: Path, signum: int) -> tuple[str, int]:
+    """Start a run, send `signum` once it compiles, check how it ended; its stdout and the step it stopped at."""
     process = subprocess.Popen(
-        [*JOSHUA, *ARGS], cwd=tmp_path, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        [*JOSHUA, *ARGS], cwd=tmp_path, env=ENVIRONMENT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
     assert process.stdout is not None
     watchdog = threading.Timer(300, process.kill)  # a run that never says it started fails, not hangs
@@ -34,14 +36,25 @@ def test_ctrl_c_saves_a_checkpoint_and_says_how_to_resume(tmp_path: Path) -> Non
     for line in process.stdout:
         if "compiling the training iteration" in line:
             break
-    process.send_signal(signal.SIGINT)
+    process.send_signal(signum)
     stdout, stderr = process.communicate(timeout=300)
     watchdog.cancel()
-    assert process.returncode == 130, stderr[-2000:]
+    assert process.returncode == 128 + signum, stderr[-2000:]
     assert "Traceback" not in stderr and stderr.strip().endswith("joshua: interrupted")
     run_dir = tmp_path / "runs" / "stopped"
     stopped_at = checkpoint_step(run_checkpoints(run_dir.parent, run_dir.name)[-1])
     assert stopped_at > 0 and f"ppo: stopped at {stopped_at} steps; checkpoint runs/stopped_step_{stopped_at}" in stdout
+    return stdout, stopped_at
+
+
+def test_sigterm_saves_a_checkpoint(tmp_path: Path) -> None:
+    """A job scheduler's SIGTERM ends the run like Ctrl-C, with exit status 143."""
+    stop_a_run(tmp_path, signal.SIGTERM)
+
+
+def test_ctrl_c_saves_a_checkpoint_and_says_how_to_resume(tmp_path: Path) -> None:
+    stdout, stopped_at = stop_a_run(tmp_path, signal.SIGINT)
+    run_dir = tmp_path / "runs" / "stopped"
     command = next(line for line in stdout.splitlines() if line.startswith("resume with: "))
     argv = shlex.split(command.removeprefix("resume with: "))
     assert argv[1:] == [*ARGS, "--set", "training.ppo.resume=true"]
@@ -50,7 +63,7 @@ def test_ctrl_c_saves_a_checkpoint_and_says_how_to_resume(tmp_path: Path) -> Non
     resumed = subprocess.run(
         [*JOSHUA, *argv[1:], "--set", f"training.total_timesteps={total}"],
         cwd=tmp_path,
-        env=environment,
+        env=ENVIRONMENT,
         capture_output=True,
         text=True,
         timeout=300,
