@@ -107,8 +107,8 @@ def joshua_register_options(registry: Registrar) -> None:
 
 
 @hookspec
-def joshua_register_model_formats(registry: Registrar) -> None:
-    """Register model file readers: `registry.add(suffix, target, summary)`.
+def joshua_register_readers(registry: Registrar) -> None:
+    """Register model file readers (formats MuJoCo does not read): `registry.add(suffix, target, summary)`.
 
     Called by PluginHost when it is built. `suffix` is the lower-case file suffix with its dot
     (".usd"); `target` is a `joshua_core.interfaces.ModelReader` subclass or its path, imported only

@@ -42,7 +42,7 @@ class Kind(enum.Enum):
     TERM = "term"
     COMMAND = "command"
     OPTIONS = "option"
-    MODEL_FORMAT = "model_format"
+    READER = "reader"
 
     @property
     def hook_name(self) -> str:
@@ -68,7 +68,7 @@ KNOWN_PROVIDERS: dict[tuple[Kind, str], str] = {
     (Kind.OPTIONS, "mirror"): "joshua-mirror",
     (Kind.OPTIONS, "ppo"): "joshua-ppo",
     (Kind.OPTIONS, "sb3"): "joshua-sb3",
-    **{(Kind.MODEL_FORMAT, suffix): "joshua-usd" for suffix in (".usd", ".usda", ".usdc", ".usdz")},
+    **{(Kind.READER, suffix): "joshua-usd" for suffix in (".usd", ".usda", ".usdc", ".usdz")},
 }
 
 
@@ -336,7 +336,7 @@ class PluginHost:
         return self.create(Kind.COMMAND, name, Command)
 
     def model_reader(self, suffix: str) -> ModelReader:
-        return self.create(Kind.MODEL_FORMAT, suffix, ModelReader)
+        return self.create(Kind.READER, suffix, ModelReader)
 
     def options(self) -> OptionSet:
         """The registered options, their `_pb2` modules imported (light: they import only protobuf and the core

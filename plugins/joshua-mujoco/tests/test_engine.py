@@ -10,9 +10,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from joshua_core.errors import ModelError
+from joshua_core import hookimpl
+from joshua_core.errors import ModelError, PluginNotFoundError
+from joshua_core.interfaces import ModelReader
+from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import models_dir
-from joshua_mujoco import MuJoCoEngine
+from joshua_mujoco import MuJoCoEngine, compile_model
 
 SCENE = "models/so_arm100/scene.xml"
 
@@ -161,3 +164,32 @@ def test_mujoco_warnings_go_to_stderr_once_and_leave_no_log_file(tmp_path: Path)
     assert "non-finite state (mjWARN_BADQVEL" in result.stdout  # MuJoCo warned three times (it resets after each)
     assert result.stderr.count("mujoco: warning: Nan, Inf or huge value in QVEL at DOF 0") == 1, result.stderr
     assert list(tmp_path.iterdir()) == []
+
+
+class ToyReader(ModelReader):
+    """Reads `.toy` files: one line, the radius of a free sphere."""
+
+    def read(self, path: Path) -> mujoco.MjSpec:
+        spec = mujoco.MjSpec()
+        body = spec.worldbody.add_body(name="ball")
+        body.add_freejoint()
+        body.add_geom(size=[float(path.read_text())])
+        return spec
+
+
+class ToyPlugin:
+    @hookimpl
+    def joshua_register_readers(self, registry):  # type: ignore[no-untyped-def]
+        registry.add(".toy", ToyReader, "toy models")
+
+
+def test_a_registered_reader_makes_its_suffix_a_model_file(tmp_path: Path) -> None:
+    model = tmp_path / "ball.TOY"
+    model.write_text("0.25")
+    host = PluginHost([(PluginInfo("toy", "joshua-toy", "0.1", "test"), ToyPlugin())])
+    compiled = compile_model(model, plugins=host)
+    assert compiled.nq == 7 and compiled.geom_size[0][0] == 0.25
+    with pytest.raises(PluginNotFoundError, match=r"no reader named '\.toy' is installed\. .*Installed readers: none"):
+        compile_model(model, plugins=PluginHost([]))
+    with pytest.raises(PluginNotFoundError, match=r"reader named '\.usd'.*pip install joshua-usd"):
+        compile_model(tmp_path / "robot.usd", plugins=PluginHost([]))

@@ -9,7 +9,7 @@ USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 
 
 @hookimpl
-def joshua_register_model_formats(registry: Registrar) -> None:
+def joshua_register_readers(registry: Registrar) -> None:
     for suffix in USD_SUFFIXES:
         registry.add(suffix, "joshua_usd.reader:UsdReader", "OpenUSD stage with UsdPhysics articulations")
 
