@@ -82,4 +82,4 @@ def joint_properties(prim: Usd.Prim, joint: mujoco.MjsJoint, frame: StageFrame, 
             break
     velocity = read(prim, "physxJoint:maxJointVelocity", report, allow_inf=True)
     if velocity is not None and velocity < UNLIMITED_VELOCITY:
-        report.warn(prim.GetPath(), f"physxJoint:maxJointVelocity {velocity} is not enforced by MuJoCo")
+        report.warn(prim.GetPath(), f"physxJoint:maxJointVelocity {velocity:.6g} is not enforced by MuJoCo")
