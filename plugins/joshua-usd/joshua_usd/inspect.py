@@ -9,7 +9,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from joshua_usd.importer import Imported, import_usd
+from joshua_usd.importer import Imported, compile_spec, import_usd
 
 JOINT_TYPES = {0: "free", 1: "ball (spherical)", 2: "prismatic (slide)", 3: "revolute (hinge)"}
 
@@ -17,10 +17,7 @@ JOINT_TYPES = {0: "free", 1: "ball (spherical)", 2: "prismatic (slide)", 3: "rev
 def describe(path: Path) -> str:
     """Bodies with masses, joints with limits, drives in SI units, colliders and the import's warnings."""
     imported = import_usd(path)
-    try:
-        model = imported.spec.compile()
-    except ValueError as error:
-        raise imported.report.error("/", "model", f"does not compile in MuJoCo: {' '.join(str(error).split())}") from None
+    model = compile_spec(imported.spec, imported.report)
     frame = imported.frame
     lines = [
         f"{path}: metersPerUnit {frame.meters_per_unit:g}, kilogramsPerUnit {frame.kilograms_per_unit:g}, "
@@ -72,7 +69,8 @@ def _joints(model: mujoco.MjModel, imported: Imported) -> list[str]:
             if kind == 2:
                 text += f", limits [{low:.6g}, {high:.6g}] m"
             else:
-                text += f", limits [{low:.6g}, {high:.6g}] rad = [{math.degrees(low):.6g}, {math.degrees(high):.6g}] deg"
+                degrees = f"[{math.degrees(low):.6g}, {math.degrees(high):.6g}] deg"
+                text += f", limits [{low:.6g}, {high:.6g}] rad = {degrees}"
         if model.dof_armature[model.jnt_dofadr[index]]:
             text += f", armature {model.dof_armature[model.jnt_dofadr[index]]:.6g}"
         if model.dof_frictionloss[model.jnt_dofadr[index]]:

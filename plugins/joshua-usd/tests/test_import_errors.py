@@ -7,7 +7,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from pxr import Gf, Sdf, Usd, UsdPhysics
+from pxr import Gf, Usd, UsdPhysics
 
 sys.path.insert(0, str(Path(__file__).parent))
 
@@ -17,19 +17,24 @@ from joshua_core.errors import ModelError  # noqa: E402
 from joshua_usd.importer import import_usd  # noqa: E402
 
 
+def two_bodies_and_a_hinge(stage: Usd.Stage) -> Usd.Prim:
+    first, second = body(stage, "/World/a"), body(stage, "/World/b")
+    return joint(stage, UsdPhysics.RevoluteJoint, "/World/hinge", first, second, (0, 0, 0))
+
+
 def missing_target(stage: Usd.Stage) -> None:
-    hinge = joint(stage, UsdPhysics.RevoluteJoint, "/World/hinge", body(stage, "/World/a"), body(stage, "/World/b"), (0, 0, 0))
+    hinge = two_bodies_and_a_hinge(stage)
     hinge.GetRelationship("physics:body1").SetTargets(["/World/nowhere"])
 
 
 def not_a_rigid_body(stage: Usd.Stage) -> None:
-    hinge = joint(stage, UsdPhysics.RevoluteJoint, "/World/hinge", body(stage, "/World/a"), body(stage, "/World/b"), (0, 0, 0))
+    hinge = two_bodies_and_a_hinge(stage)
     stage.DefinePrim("/World/plain", "Xform")
     hinge.GetRelationship("physics:body0").SetTargets(["/World/plain"])
 
 
 def not_finite(stage: Usd.Stage) -> None:
-    hinge = joint(stage, UsdPhysics.RevoluteJoint, "/World/hinge", body(stage, "/World/a"), body(stage, "/World/b"), (0, 0, 0))
+    hinge = two_bodies_and_a_hinge(stage)
     hinge.GetAttribute("physics:localPos1").Set(Gf.Vec3f(0, float("nan"), 0))
 
 
@@ -45,7 +50,7 @@ def loop(stage: Usd.Stage) -> None:
 
 
 def inverted_limits(stage: Usd.Stage) -> None:
-    hinge = joint(stage, UsdPhysics.RevoluteJoint, "/World/hinge", body(stage, "/World/a"), body(stage, "/World/b"), (0, 0, 0))
+    hinge = two_bodies_and_a_hinge(stage)
     UsdPhysics.RevoluteJoint(hinge).CreateLowerLimitAttr(30.0)
     UsdPhysics.RevoluteJoint(hinge).CreateUpperLimitAttr(-30.0)
 

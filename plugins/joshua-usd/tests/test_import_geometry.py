@@ -100,8 +100,17 @@ def test_visual_only_geometry_renders_without_colliding_or_weighing(tmp_path: Pa
     shell.CreateRadiusAttr(0.5)
     shell.CreateDisplayColorAttr([(0.8, 0.1, 0.2)])
     UsdGeom.Cube.Define(stage, "/World/part/hidden").CreateVisibilityAttr(UsdGeom.Tokens.invisible)
+    decal = UsdGeom.Mesh.Define(stage, "/World/part/decal")  # flat and open: no volume
+    decal.CreatePointsAttr([(0, 0, 0.06), (0.1, 0, 0.06), (0.1, 0.1, 0.06), (0, 0.1, 0.06)])
+    decal.CreateFaceVertexCountsAttr([4])
+    decal.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    collider(stage, UsdGeom.Plane, "/World/ground", axis="Y")
     stage.Save()
     model, _, _ = forward(tmp_path / "visual.usda")
+    assert model.geom("decal").type == GEOM.mjGEOM_MESH and model.geom("decal").contype[0] == 0
+    ground = model.geom("ground")
+    assert ground.type == GEOM.mjGEOM_PLANE and ground.bodyid[0] == 0 and ground.contype[0] == 1
+    np.testing.assert_allclose(ground.quat, [math.cos(math.pi / 4), -math.sin(math.pi / 4), 0, 0])  # normal +Y
     shell_geom = model.geom("shell")
     assert (shell_geom.contype[0], shell_geom.conaffinity[0], shell_geom.group[0]) == (0, 0, 2)
     np.testing.assert_allclose(shell_geom.rgba, [0.8, 0.1, 0.2, 1.0], atol=1e-6)

@@ -87,7 +87,9 @@ def expected_frames(stage: Usd.Stage, qpos: dict[str, float]) -> dict[str, tuple
 
 
 @pytest.mark.parametrize(("up", "meters_per_unit"), [("Z", 1.0), ("Y", 0.01)], ids=["z-up-metres", "y-up-cm"])
-def test_anchors_and_axes_match_the_stage_at_zero_and_random_poses(tmp_path: Path, up: str, meters_per_unit: float) -> None:
+def test_anchors_and_axes_match_the_stage_at_zero_and_random_poses(
+    tmp_path: Path, up: str, meters_per_unit: float
+) -> None:
     stage = arm(tmp_path / "arm.usda", up, meters_per_unit)
     model, data, warnings = compiled(tmp_path / "arm.usda")
     assert warnings == []

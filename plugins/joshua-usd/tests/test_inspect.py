@@ -24,8 +24,8 @@ def robot(path: Path) -> Path:
     stage = new_stage(path, "Z", 0.01)
     base = body(stage, "/World/robot/base", (0, 0, 50), size=10)
     arm = body(stage, "/World/robot/arm", (20, 0, 50), size=10)
-    hinge = UsdPhysics.RevoluteJoint(joint(stage, UsdPhysics.RevoluteJoint, "/World/robot/elbow", base, arm, (10, 0, 50),
-                                           axis="Y"))
+    elbow = joint(stage, UsdPhysics.RevoluteJoint, "/World/robot/elbow", base, arm, (10, 0, 50), axis="Y")
+    hinge = UsdPhysics.RevoluteJoint(elbow)
     hinge.CreateLowerLimitAttr(-45.0)
     hinge.CreateUpperLimitAttr(90.0)
     drive = UsdPhysics.DriveAPI.Apply(hinge.GetPrim(), "angular")
@@ -46,7 +46,8 @@ def test_describe_lists_bodies_joints_in_radians_and_degrees_and_drives_in_si(tm
     assert "upAxis Z" in text and "metersPerUnit 0.01" in text
     assert "base: mass 1 kg" in text and "floating" in text
     assert f"limits [{-math.pi / 4:.6g}, {math.pi / 2:.6g}] rad = [-45, 90] deg" in text
-    assert f"elbow: position, kp {1000 * 180 / math.pi * 1e-4:.6g} N m/rad, kv {10 * 180 / math.pi * 1e-4:.6g} N m s/rad" in text
+    per_degree_cm = 180 / math.pi * 1e-4  # N m/rad per (kg cm^2/s^2)/deg
+    assert f"elbow: position, kp {1000 * per_degree_cm:.6g} N m/rad, kv {10 * per_degree_cm:.6g} N m s/rad" in text
     assert "colliders (2, plus 0 visual-only geoms)" in text
     assert "warnings (1):\n  /World/robot/elbow: physxJoint:maxJointVelocity 100 is not enforced" in text
 

@@ -85,7 +85,8 @@ def _add_links(
     for link in links:
         placement = place(link, frame, report)
         parent = made[link.parent.prim.GetPath()].spec if link.parent is not None else spec.worldbody
-        body = parent.add_body(name=names[link.prim.GetPath()], pos=placement.in_parent.pos, quat=placement.in_parent.quat)
+        pose = placement.in_parent
+        body = parent.add_body(name=names[link.prim.GetPath()], pos=pose.pos, quat=pose.quat)
         made[link.prim.GetPath()] = _Body(body, *frame.world_pose(link.prim))
         if link.joint is None:
             if not read(link.prim, "physics:kinematicEnabled", report):

@@ -102,7 +102,8 @@ def _physics_material(prim: Usd.Prim, report: ImportReport) -> Usd.Prim | None:
             raise report.error(prim.GetPath(), f"physics:{name}", f"friction must not be negative, got {value}")
     if abs(static - dynamic) > 1e-9:
         report.warn(
-            prim.GetPath(), f"staticFriction {static:.6g} differs from dynamicFriction {dynamic:.6g}: MuJoCo uses dynamicFriction"
+            prim.GetPath(),
+            f"staticFriction {static:.6g} differs from dynamicFriction {dynamic:.6g}: MuJoCo uses dynamicFriction",
         )
     if read(prim, "physics:restitution", report):
         report.warn(prim.GetPath(), "restitution is not supported by MuJoCo's soft contacts: ignored")
