@@ -50,7 +50,7 @@ def _bodies(model: mujoco.MjModel, imported: Imported) -> list[str]:
         base = "floating" if model.body_jntnum[index] and model.jnt_type[model.body_jntadr[index]] == 0 else ""
         lines.append(
             f"  {name}: mass {model.body_mass[index]:.6g} kg, inertia {_vector(model.body_inertia[index])} kg m^2, "
-            f"parent {parent}{', ' + base if base else ''}  <{imported.report.sources.get(name, '?')}>"
+            f"parent {parent}{', ' + base if base else ''}  <{imported.report.sources['body', name]}>"
         )
     return lines
 
@@ -75,7 +75,8 @@ def _joints(model: mujoco.MjModel, imported: Imported) -> list[str]:
             text += f", armature {model.dof_armature[model.jnt_dofadr[index]]:.6g}"
         if model.dof_frictionloss[model.jnt_dofadr[index]]:
             text += f", frictionloss {model.dof_frictionloss[model.jnt_dofadr[index]]:.6g}"
-        lines.append(text + (f"  <{imported.report.sources[name]}>" if name in imported.report.sources else ""))
+        source = imported.report.sources.get(("joint", name))
+        lines.append(text + (f"  <{source}>" if source else ""))
     return lines
 
 
@@ -108,7 +109,7 @@ def _colliders(model: mujoco.MjModel, imported: Imported) -> list[str]:
         body = _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[index]))
         lines.append(
             f"  {name}: {kind}, body {body}, size {_vector(model.geom_size[index])} m, "
-            f"friction {model.geom_friction[index, 0]:.4g}  <{imported.report.sources.get(name, '?')}>"
+            f"friction {model.geom_friction[index, 0]:.4g}  <{imported.report.sources['geom', name]}>"
         )
     visuals = model.ngeom - len(lines)
     return [f"colliders ({len(lines)}, plus {visuals} visual-only geoms):", *lines]
