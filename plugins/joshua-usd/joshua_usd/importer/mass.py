@@ -44,7 +44,8 @@ def set_inertial(
     authored = prim.HasAPI(UsdPhysics.MassAPI)
     if not authored and not empty:
         return
-    mass = positive(prim, "physics:mass", read(prim, "physics:mass", report) or 0.0, report) * frame.kilograms_per_unit
+    authored_mass = read(prim, "physics:mass", report) or 0.0  # 0 (the default) means "from density"
+    mass = positive(prim, "physics:mass", authored_mass, report) * frame.kilograms_per_unit
     diagonal = np.asarray(read(prim, "physics:diagonalInertia", report) or np.zeros(3), dtype=np.float64)
     for value in diagonal:
         positive(prim, "physics:diagonalInertia", value, report)
