@@ -256,7 +256,7 @@ def test_site_sensors_are_documented_prims_at_their_sites(tmp_path: Path) -> Non
         np.testing.assert_allclose(_world(prim).ExtractTranslation(), data.site_xpos[site], atol=1e-9)
     assert sensors["gripper_touch_moving"].GetAttribute("joshua:sensor:type").Get() == "touch"
     assert sensors["wrist_gyro"].GetAttribute("joshua:sensor:type").Get() == "gyro"
-    schemas = stage.GetPrimAtPath("/so_arm100/moving_jaw").GetMetadata("apiSchemas").prependedItems
+    schemas = stage.GetPrimAtPath("/so_arm100/moving_jaw").GetMetadata("apiSchemas").GetAddedOrExplicitItems()
     assert "PhysxContactReportAPI" in schemas  # not a known schema to usd-core: only in the metadata
     notes = stage.GetDefaultPrim().GetAttribute("joshua:notExported").Get()
     assert len(notes) == 12 and all("only sensors at sites" in note for note in notes)
