@@ -1,0 +1,114 @@
+"""USD stage -> MjSpec: the tree of bodies and joints, drives, geoms, scene settings and mass properties."""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from pxr import Sdf
+
+from joshua_usd.importer.drives import add_drive, joint_properties
+from joshua_usd.importer.geoms import add_geom, shapes
+from joshua_usd.importer.joints import add_joint, place
+from joshua_usd.importer.mass import probe, set_inertial
+from joshua_usd.importer.pose import IDENTITY, Pose, Vec
+from joshua_usd.importer.report import ImportReport
+from joshua_usd.importer.scene import set_articulations, set_scene
+from joshua_usd.importer.stage import StageFrame, open_stage, read
+from joshua_usd.importer.topology import Link, build_tree, joint_prims, rigid_bodies, walk
+
+TARGETS_KEYFRAME = "drive_targets"  # qpos0 with every drive's target as ctrl
+
+
+@dataclass
+class Imported:
+    """The spec of a stage, what the import warned about, and the stage's units."""
+
+    spec: mujoco.MjSpec
+    report: ImportReport
+    frame: StageFrame
+
+
+@dataclass(frozen=True)
+class _Body:
+    """A MuJoCo body with the stage pose and scale of its prim (geoms are placed relative to these)."""
+
+    spec: mujoco.MjsBody
+    pose: Pose
+    scale: Vec
+
+
+def import_usd(path: Path) -> Imported:
+    """Read the composed stage at `path` into a MuJoCo spec (metres, Z up, radians, SI)."""
+    report = ImportReport(path)
+    stage = open_stage(path, report)
+    frame = StageFrame.of(stage, report)
+    bodies = rigid_bodies(stage, report)
+    body_paths = {body.GetPath() for body in bodies}
+    roots = build_tree(bodies, joint_prims(stage, body_paths, report), report)
+    links = [link for root in roots for link in walk(root)]
+    spec = mujoco.MjSpec()
+    spec.modelname = path.stem
+    spec.compiler.degree = False
+    names = unique_names((link.prim.GetPath() for link in links), reserved={"world"})
+    made, targets = _add_links(spec, links, names, frame, report)
+    found = shapes(stage, body_paths, report)
+    geom_names = unique_names(shape.prim.GetPath() for shape in found)
+    world = _Body(spec.worldbody, IDENTITY, np.ones(3))
+    for shape in found:
+        body = made[shape.owner.GetPath()] if shape.owner is not None else world
+        add_geom(spec, body.spec, body.pose, shape, geom_names[shape.prim.GetPath()], frame, report)
+    set_scene(spec, stage, frame, report)
+    set_articulations(spec, stage, roots, names, report)
+    model = probe(spec, report)
+    for link in links:
+        body = made[link.prim.GetPath()]
+        set_inertial(body.spec, link.prim, body.scale, model, frame, report)
+    if any(targets):
+        spec.add_key(name=TARGETS_KEYFRAME, qpos=model.qpos0, ctrl=targets)
+    report.sources.update({name: str(path) for path, name in {**names, **geom_names}.items()})
+    return Imported(spec, report, frame)
+
+
+def _add_links(
+    spec: mujoco.MjSpec, links: list[Link], names: dict[Sdf.Path, str], frame: StageFrame, report: ImportReport
+) -> tuple[dict[Sdf.Path, _Body], list[float]]:
+    """Add every link (parents first) as a body with its joint and drive; returns the bodies by prim path and
+    the drive targets in actuator order."""
+    joint_names = unique_names(link.joint.prim.GetPath() for link in links if link.joint is not None)
+    made: dict[Sdf.Path, _Body] = {}
+    targets: list[float] = []
+    for link in links:
+        placement = place(link, frame, report)
+        parent = made[link.parent.prim.GetPath()].spec if link.parent is not None else spec.worldbody
+        body = parent.add_body(name=names[link.prim.GetPath()], pos=placement.in_parent.pos, quat=placement.in_parent.quat)
+        made[link.prim.GetPath()] = _Body(body, *frame.world_pose(link.prim))
+        if link.joint is None:
+            if not read(link.prim, "physics:kinematicEnabled", report):
+                body.add_freejoint()
+            continue
+        joint_name = joint_names[link.joint.prim.GetPath()]
+        report.sources[joint_name] = str(link.joint.prim.GetPath())
+        joint = add_joint(body, link, placement, joint_name, frame, report)
+        if joint is not None:
+            joint_properties(link.joint.prim, joint, frame, report)
+            target = add_drive(spec, link.joint.prim, joint, frame, report)
+            targets += [] if target is None else [target]
+    return made, targets
+
+
+def unique_names(paths: Iterable[Sdf.Path], reserved: set[str] | None = None) -> dict[Sdf.Path, str]:
+    """MuJoCo names: each prim's name, or where names collide the shortest path tail that is unique."""
+    paths = list(paths)
+    taken = reserved or set()
+    names: dict[Sdf.Path, str] = {}
+    for depth in range(1, max((path.pathElementCount for path in paths), default=0) + 1):
+        pending = [path for path in paths if path not in names]
+        tails = {path: "/".join(str(path).split("/")[-depth:]) for path in pending}
+        counts = Counter(tails.values())
+        names.update({path: tail for path, tail in tails.items() if counts[tail] == 1 and tail not in taken})
+    return {path: names.get(path, str(path).lstrip("/")) for path in paths}

@@ -1,0 +1,109 @@
+"""The composed stage and its units: every prim's world transform in MuJoCo's frame (metres, Z up), and
+attribute readers that turn bad values into one-line ModelErrors."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from pxr import Tf, Usd, UsdGeom, UsdPhysics
+
+from joshua_usd.importer.pose import Pose, Vec, decompose
+from joshua_usd.importer.report import ImportReport
+
+
+def open_stage(path: Path, report: ImportReport) -> Usd.Stage:
+    """The composed stage (sublayers, references, payloads and variants resolved)."""
+    try:
+        stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
+    except Tf.ErrorException as error:
+        detail = " ".join(str(error).split())
+        raise report.error("/", "layer", f"cannot open the stage: {detail}") from None
+    if stage is None:
+        raise report.error("/", "layer", "cannot open the stage")
+    return stage
+
+
+def prims(stage: Usd.Stage) -> Iterator[Usd.Prim]:
+    """Every active, defined prim, instance proxies included (so instanced colliders and bodies count)."""
+    return iter(Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
+
+
+@dataclass(frozen=True)
+class StageFrame:
+    """How stage coordinates map to MuJoCo's: `to_mujoco` scales to metres and turns a Y-up world to Z-up."""
+
+    meters_per_unit: float
+    kilograms_per_unit: float
+    up_axis: str
+    to_mujoco: NDArray[np.float64]
+
+    @classmethod
+    def of(cls, stage: Usd.Stage, report: ImportReport) -> StageFrame:
+        """Read metersPerUnit, kilogramsPerUnit and upAxis of the stage."""
+        meters = float(UsdGeom.GetStageMetersPerUnit(stage))
+        kilograms = float(UsdPhysics.GetStageKilogramsPerUnit(stage))
+        for name, value in (("metersPerUnit", meters), ("kilogramsPerUnit", kilograms)):
+            if not math.isfinite(value) or value <= 0:
+                raise report.error("/", name, f"must be a positive number, got {value}")
+        up = str(UsdGeom.GetStageUpAxis(stage))
+        matrix = np.eye(4)
+        matrix[:3, :3] = meters * (np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]) if up == "Y" else np.eye(3))
+        return cls(meters, kilograms, up, matrix)
+
+    def world_matrix(self, prim: Usd.Prim | None) -> NDArray[np.float64]:
+        """The prim's local-to-world matrix in MuJoCo's world (column vectors); None is the world itself."""
+        if prim is None:
+            return self.to_mujoco
+        stage_matrix = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
+        return self.to_mujoco @ np.array(stage_matrix).T
+
+    def world_pose(self, prim: Usd.Prim | None) -> tuple[Pose, Vec]:
+        """The prim's rigid pose in MuJoCo's world and the scale (metres per local unit) along its axes."""
+        return decompose(self.world_matrix(prim))
+
+
+def read(prim: Usd.Prim, name: str, report: ImportReport, *, allow_inf: bool = False) -> Any:
+    """The value of attribute `name` (authored or the schema fallback), None when it has none; a NaN (or an
+    infinity unless `allow_inf`) is a ModelError naming the prim and attribute."""
+    attribute = prim.GetAttribute(name)
+    if not attribute or not attribute.HasValue():
+        return None
+    value = attribute.Get()
+    numbers = np.asarray(_numeric(value), dtype=np.float64)
+    if numbers.size and (np.isnan(numbers).any() or (not allow_inf and np.isinf(numbers).any())):
+        raise report.error(prim.GetPath(), name, f"is not a finite number: {value}")
+    return value
+
+
+def _numeric(value: Any) -> Any:
+    """The numbers in a USD value (quaternions as w, x, y, z), or [] for a non-numeric one."""
+    if hasattr(value, "GetReal"):
+        return [value.GetReal(), *value.GetImaginary()]
+    if isinstance(value, bool | str) or value is None or type(value).__name__ == "Token":
+        return []
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return []
+
+
+def read_quat(prim: Usd.Prim, name: str, report: ImportReport) -> Vec | None:
+    """A quaternion attribute as a normalized w-x-y-z array; None when unauthored or all zero."""
+    value = read(prim, name, report)
+    if value is None:
+        return None
+    q = np.asarray(_numeric(value), dtype=np.float64)
+    return q / np.linalg.norm(q) if np.linalg.norm(q) > 0 else None
+
+
+def positive(prim: Usd.Prim, name: str, value: float, report: ImportReport) -> float:
+    """`value` if not negative; a negative mass, density or inertia is a ModelError."""
+    if value < 0:
+        raise report.error(prim.GetPath(), name, f"must not be negative, got {value}")
+    return float(value)

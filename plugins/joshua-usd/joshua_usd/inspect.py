@@ -1,0 +1,116 @@
+"""`joshua usd inspect FILE`: what the importer makes of a USD robot, as plain text (SI units, radians and
+degrees), read back from the compiled MuJoCo model so it shows exactly what simulates."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from joshua_usd.importer import Imported, import_usd
+
+JOINT_TYPES = {0: "free", 1: "ball (spherical)", 2: "prismatic (slide)", 3: "revolute (hinge)"}
+
+
+def describe(path: Path) -> str:
+    """Bodies with masses, joints with limits, drives in SI units, colliders and the import's warnings."""
+    imported = import_usd(path)
+    try:
+        model = imported.spec.compile()
+    except ValueError as error:
+        raise imported.report.error("/", "model", f"does not compile in MuJoCo: {' '.join(str(error).split())}") from None
+    frame = imported.frame
+    lines = [
+        f"{path}: metersPerUnit {frame.meters_per_unit:g}, kilogramsPerUnit {frame.kilograms_per_unit:g}, "
+        f"upAxis {frame.up_axis} (imported in metres, kilograms, Z up)",
+        f"timestep {model.opt.timestep:g} s, gravity {_vector(model.opt.gravity)} m/s^2, "
+        f"solver iterations {model.opt.iterations}",
+        *_bodies(model, imported),
+        *_joints(model, imported),
+        *_actuators(model),
+        *_colliders(model, imported),
+        f"warnings ({len(imported.report.warnings)}):",
+        *(f"  {warning}" for warning in imported.report.warnings),
+    ]
+    return "\n".join(lines)
+
+
+def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, index: int) -> str:
+    return mujoco.mj_id2name(model, kind, index) or f"#{index}"
+
+
+def _vector(values: np.ndarray) -> str:
+    return "(" + ", ".join(f"{value:.4g}" for value in values) + ")"
+
+
+def _bodies(model: mujoco.MjModel, imported: Imported) -> list[str]:
+    lines = [f"bodies ({model.nbody - 1}):"]
+    for index in range(1, model.nbody):
+        name = _name(model, mujoco.mjtObj.mjOBJ_BODY, index)
+        parent = _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.body_parentid[index]))
+        base = "floating" if model.body_jntnum[index] and model.jnt_type[model.body_jntadr[index]] == 0 else ""
+        lines.append(
+            f"  {name}: mass {model.body_mass[index]:.6g} kg, inertia {_vector(model.body_inertia[index])} kg m^2, "
+            f"parent {parent}{', ' + base if base else ''}  <{imported.report.sources.get(name, '?')}>"
+        )
+    return lines
+
+
+def _joints(model: mujoco.MjModel, imported: Imported) -> list[str]:
+    lines = [f"joints ({model.njnt}):"]
+    for index in range(model.njnt):
+        kind = int(model.jnt_type[index])
+        name = _name(model, mujoco.mjtObj.mjOBJ_JOINT, index)
+        body = _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.jnt_bodyid[index]))
+        text = f"  {name}: {JOINT_TYPES[kind]}, body {body}"
+        if kind in (2, 3):
+            text += f", axis {_vector(model.jnt_axis[index])}"
+        if model.jnt_limited[index]:
+            low, high = model.jnt_range[index]
+            if kind == 2:
+                text += f", limits [{low:.6g}, {high:.6g}] m"
+            else:
+                text += f", limits [{low:.6g}, {high:.6g}] rad = [{math.degrees(low):.6g}, {math.degrees(high):.6g}] deg"
+        if model.dof_armature[model.jnt_dofadr[index]]:
+            text += f", armature {model.dof_armature[model.jnt_dofadr[index]]:.6g}"
+        if model.dof_frictionloss[model.jnt_dofadr[index]]:
+            text += f", frictionloss {model.dof_frictionloss[model.jnt_dofadr[index]]:.6g}"
+        lines.append(text + (f"  <{imported.report.sources[name]}>" if name in imported.report.sources else ""))
+    return lines
+
+
+def _actuators(model: mujoco.MjModel) -> list[str]:
+    lines = [f"drives ({model.nu}):"]
+    for index in range(model.nu):
+        joint = int(model.actuator_trnid[index, 0])
+        slide = model.jnt_type[joint] == 2
+        force, position = ("N", "m") if slide else ("N m", "rad")
+        kp, kv = model.actuator_gainprm[index, 0], -model.actuator_biasprm[index, 2]
+        kind = "position" if model.actuator_biasprm[index, 1] else "velocity" if kv else "motor"
+        text = f"  {_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, index)}: {kind}"
+        if kind == "position":
+            text += f", kp {kp:.6g} {force}/{position}, kv {kv:.6g} {force} s/{position}"
+        elif kind == "velocity":
+            text += f", kv {kp:.6g} {force} s/{position}"
+        if model.actuator_forcelimited[index]:
+            text += f", max force {model.actuator_forcerange[index, 1]:.6g} {force}"
+        lines.append(text)
+    return lines
+
+
+def _colliders(model: mujoco.MjModel, imported: Imported) -> list[str]:
+    lines = []
+    for index in range(model.ngeom):
+        if not (model.geom_contype[index] or model.geom_conaffinity[index]):
+            continue
+        name = _name(model, mujoco.mjtObj.mjOBJ_GEOM, index)
+        kind = mujoco.mjtGeom(int(model.geom_type[index])).name.removeprefix("mjGEOM_").lower()
+        body = _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[index]))
+        lines.append(
+            f"  {name}: {kind}, body {body}, size {_vector(model.geom_size[index])} m, "
+            f"friction {model.geom_friction[index, 0]:.4g}  <{imported.report.sources.get(name, '?')}>"
+        )
+    visuals = model.ngeom - len(lines)
+    return [f"colliders ({len(lines)}, plus {visuals} visual-only geoms):", *lines]

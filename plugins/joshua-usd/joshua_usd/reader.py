@@ -1,0 +1,22 @@
+"""The model reader for .usd/.usda/.usdc/.usdz: `MuJoCoEngine(model_path="robot.usd")` and every mode and
+trainer load USD stages through it."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import mujoco
+
+from joshua_core.interfaces import ModelReader
+from joshua_usd.importer import import_usd
+
+
+class UsdReader(ModelReader):
+    """Imports a UsdPhysics stage; its warnings go to stderr once, as `joshua: warning: ...`."""
+
+    def read(self, path: Path) -> mujoco.MjSpec:
+        imported = import_usd(path)
+        for warning in imported.report.warnings:
+            print(f"joshua: warning: {path}: {warning}", file=sys.stderr)
+        return imported.spec
