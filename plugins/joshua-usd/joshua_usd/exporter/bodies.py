@@ -6,7 +6,7 @@ import itertools
 
 import mujoco
 import numpy as np
-from pxr import Gf, Sdf, UsdGeom, UsdPhysics
+from pxr import Sdf, UsdGeom, UsdPhysics
 
 from joshua_usd.exporter.context import Context, set_pose, set_raw
 from joshua_usd.exporter.frames import gf_quatf, gf_vec3f
@@ -66,6 +66,6 @@ def write_bodies(ctx: Context) -> None:
             rigid.CreateKinematicEnabledAttr(True)
         mass = UsdPhysics.MassAPI.Apply(prim)
         mass.CreateMassAttr(float(model.body_mass[body]))
-        mass.CreateCenterOfMassAttr(Gf.Vec3f(gf_vec3f(model.body_ipos[body])))
+        mass.CreateCenterOfMassAttr(gf_vec3f(model.body_ipos[body]))
         mass.CreateDiagonalInertiaAttr(gf_vec3f(model.body_inertia[body]))
         mass.CreatePrincipalAxesAttr(gf_quatf(model.body_iquat[body]))

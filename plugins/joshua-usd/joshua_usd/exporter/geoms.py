@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, Vt
+from pxr import Sdf, Usd, UsdGeom, UsdPhysics, Vt
 
-from joshua_usd.exporter.context import Context, set_pose
+from joshua_usd.exporter.context import Context, set_pose, set_raw
 from joshua_usd.exporter.frames import gf_vec3f
 from joshua_usd.exporter.materials import Materials
 
@@ -43,10 +43,23 @@ def write_geoms(ctx: Context) -> None:
             gprim.CreateExtentAttr(extent)
         materials.bind_look(prim, geom)
         if collider:
-            UsdPhysics.CollisionAPI.Apply(prim)
-            if kind == G.mjGEOM_MESH:
-                UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(UsdPhysics.Tokens.convexHull)
+            _collider(ctx, prim, geom, name)
             materials.bind_friction(prim, geom)
+
+
+def _collider(ctx: Context, prim: Usd.Prim, geom: int, name: str) -> None:
+    """CollisionAPI (meshes collide as their convex hull, as in MuJoCo); a MuJoCo margin becomes PhysX's
+    restOffset margin - gap: the distance where MuJoCo's contact force starts, where PhysX shapes rest."""
+    model = ctx.model
+    UsdPhysics.CollisionAPI.Apply(prim)
+    if model.geom_type[geom] == G.mjGEOM_MESH:
+        UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(UsdPhysics.Tokens.convexHull)
+    if model.geom_margin[geom] > 0:
+        prim.AddAppliedSchema("PhysxCollisionAPI")
+        rest = float(model.geom_margin[geom] - model.geom_gap[geom])
+        set_raw(prim, "physxCollision:restOffset", Sdf.ValueTypeNames.Float, rest)
+    if model.geom_condim[geom] > 3:
+        ctx.note(f"geom '{name}': condim {model.geom_condim[geom]} (torsional and rolling friction)")
 
 
 def _rgba(model: mujoco.MjModel, geom: int) -> np.ndarray:
