@@ -204,6 +204,8 @@ def test_colliders_have_shapes_sizes_and_friction(exported) -> None:
             assert (prim.GetAttribute("radius").Get(), prim.GetAttribute("height").Get()) == pytest.approx((size[0], 2 * size[1]))
         elif kind == mujoco.mjtGeom.mjGEOM_PLANE:
             assert prim.IsA(UsdGeom.Plane) and str(prim.GetPath()).startswith("/Environment/")
+        rest = prim.GetAttribute("physxCollision:restOffset").Get()
+        assert rest == (pytest.approx(model.geom_margin[geom] - model.geom_gap[geom]) if model.geom_margin[geom] else None)
         material = UsdShade.MaterialBindingAPI(prim).GetDirectBinding("physics").GetMaterial()
         friction = UsdPhysics.MaterialAPI(material.GetPrim())
         assert friction.GetDynamicFrictionAttr().Get() == pytest.approx(model.geom_friction[geom, 0])
