@@ -134,7 +134,8 @@ def test_both_sides_of_every_joint_meet_at_mujocos_anchor_and_axis(exported) -> 
         if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_BALL:
             axis = rot0.TransformDir(AXIS[joint.GetPrim().GetAttribute("physics:axis").Get()])
             np.testing.assert_allclose(axis, data.xaxis[j], atol=1e-6)
-        expected_body1 = stage.GetDefaultPrim().GetPath().AppendChild(model.body(model.jnt_bodyid[j]).name.replace(" ", "_"))
+        body1 = model.body(model.jnt_bodyid[j]).name.replace(" ", "_")
+        expected_body1 = stage.GetDefaultPrim().GetPath().AppendChild(body1)
         assert joint.GetBody1Rel().GetTargets() == [expected_body1]
     for body in fixed:
         joint = joints[f"{model.body(body).name.replace(' ', '_')}_fixed"]
@@ -152,7 +153,8 @@ def test_limits_are_in_degrees_relative_to_the_reference_pose(exported) -> None:
             assert not prim
             continue
         if kind == mujoco.mjtJoint.mjJNT_BALL:
-            assert prim.GetAttribute("physics:coneAngle0Limit").Get() == pytest.approx(np.degrees(model.jnt_range[j, 1]))
+            cone = prim.GetAttribute("physics:coneAngle0Limit").Get()
+            assert cone == pytest.approx(np.degrees(model.jnt_range[j, 1]))
             continue
         ref = model.qpos0[model.jnt_qposadr[j]]
         expected = model.jnt_range[j] - ref
@@ -182,9 +184,10 @@ def test_drives_carry_the_actuators_in_per_degree_units(exported) -> None:
         kv = 0.0 if motor else -model.actuator_biasprm[actuator, 2]
         assert drive.GetStiffnessAttr().Get() == pytest.approx(gear**2 * kp * unit)
         assert drive.GetDampingAttr().Get() == pytest.approx(gear**2 * kv * unit)
-        limit = (np.abs(model.actuator_ctrlrange[actuator]) if motor else np.abs(model.actuator_forcerange[actuator])).max()
+        limit = np.abs(model.actuator_ctrlrange[actuator] if motor else model.actuator_forcerange[actuator]).max()
         assert drive.GetMaxForceAttr().Get() == pytest.approx(limit * gear)
-        damping = prim.GetAttribute(f"physxJointAxis:{'angular' if angular else 'linear'}:viscousFrictionCoefficient").Get()
+        axis = "angular" if angular else "linear"
+        damping = prim.GetAttribute(f"physxJointAxis:{axis}:viscousFrictionCoefficient").Get()
         assert damping == pytest.approx(model.dof_damping[model.jnt_dofadr[joint]] * unit)
 
 
@@ -201,11 +204,13 @@ def test_colliders_have_shapes_sizes_and_friction(exported) -> None:
             assert prim.GetAttribute("size").Get() == 2
             np.testing.assert_allclose(prim.GetAttribute("xformOp:scale").Get(), size, rtol=1e-12)
         elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
-            assert (prim.GetAttribute("radius").Get(), prim.GetAttribute("height").Get()) == pytest.approx((size[0], 2 * size[1]))
+            shape = prim.GetAttribute("radius").Get(), prim.GetAttribute("height").Get()
+            assert shape == pytest.approx((size[0], 2 * size[1]))
         elif kind == mujoco.mjtGeom.mjGEOM_PLANE:
             assert prim.IsA(UsdGeom.Plane) and str(prim.GetPath()).startswith("/Environment/")
         rest = prim.GetAttribute("physxCollision:restOffset").Get()
-        assert rest == (pytest.approx(model.geom_margin[geom] - model.geom_gap[geom]) if model.geom_margin[geom] else None)
+        margin = model.geom_margin[geom]
+        assert rest == (pytest.approx(margin - model.geom_gap[geom]) if margin else None)
         material = UsdShade.MaterialBindingAPI(prim).GetDirectBinding("physics").GetMaterial()
         friction = UsdPhysics.MaterialAPI(material.GetPrim())
         assert friction.GetDynamicFrictionAttr().Get() == pytest.approx(model.geom_friction[geom, 0])
@@ -229,8 +234,9 @@ def test_so100_visual_meshes_and_looks(tmp_path: Path) -> None:
         assert look.GetPrim().GetName() == model.material(matid).name
         np.testing.assert_allclose(shader.GetInput("diffuseColor").Get(), model.mat_rgba[matid, :3], rtol=1e-6)
         assert shader.GetInput("roughness").Get() == pytest.approx(1 - model.mat_shininess[matid])
-    guides = [prim for prim in _prims(stage, UsdPhysics.CollisionAPI) if UsdGeom.Imageable(prim).GetPurposeAttr().Get() == "guide"]
-    assert len(guides) == len(_prims(stage, UsdPhysics.CollisionAPI))  # group 3: hidden like in MuJoCo's viewer
+    colliders = _prims(stage, UsdPhysics.CollisionAPI)
+    purposes = {UsdGeom.Imageable(prim).GetPurposeAttr().Get() for prim in colliders}
+    assert purposes == {"guide"}  # group 3: hidden as in MuJoCo's viewer
 
 
 def test_cameras_keep_mujocos_vertical_field_of_view(exported) -> None:
@@ -240,10 +246,12 @@ def test_cameras_keep_mujocos_vertical_field_of_view(exported) -> None:
     mujoco.mj_forward(model, data)
     for cam, prim in enumerate(cameras):
         camera = UsdGeom.Camera(prim).GetCamera(Usd.TimeCode.Default())
-        assert 2 * math.degrees(math.atan(camera.verticalAperture / 2 / camera.focalLength)) == pytest.approx(model.cam_fovy[cam])
+        fovy = 2 * math.degrees(math.atan(camera.verticalAperture / 2 / camera.focalLength))
+        assert fovy == pytest.approx(model.cam_fovy[cam])
         world = _world(prim)
         np.testing.assert_allclose(world.ExtractTranslation(), data.cam_xpos[cam], atol=1e-9)
-        np.testing.assert_allclose(np.array(world.ExtractRotationMatrix()).T, data.cam_xmat[cam].reshape(3, 3), atol=1e-9)
+        rotation = np.array(world.ExtractRotationMatrix()).T
+        np.testing.assert_allclose(rotation, data.cam_xmat[cam].reshape(3, 3), atol=1e-9)
 
 
 def test_site_sensors_are_documented_prims_at_their_sites(tmp_path: Path) -> None:

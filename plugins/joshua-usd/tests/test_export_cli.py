@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import sys
@@ -20,7 +19,7 @@ ISAAC = models_dir() / "isaac"
 
 
 def _joshua(*args: str | Path, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([JOSHUA, *map(str, args)], cwd=cwd, capture_output=True, text=True, timeout=120, env=os.environ)
+    return subprocess.run([JOSHUA, *map(str, args)], cwd=cwd, capture_output=True, text=True, timeout=120)
 
 
 def test_cli_exports_a_shipped_model(tmp_path: Path) -> None:
@@ -56,10 +55,12 @@ def test_usdc_is_written_as_crate(tmp_path: Path) -> None:
 
 
 def test_generate_reproduces_the_committed_isaac_models(tmp_path: Path) -> None:
-    result = subprocess.run([sys.executable, str(ISAAC / "generate.py"), str(tmp_path)], capture_output=True, text=True, timeout=300)
+    command = [sys.executable, str(ISAAC / "generate.py"), str(tmp_path)]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     for name in ("so100.usd", "ant.usd", "trileg.usd"):
-        assert (tmp_path / name).read_bytes() == (ISAAC / name).read_bytes(), f"rerun models/isaac/generate.py: {name} is stale"
+        stale = f"rerun models/isaac/generate.py: {name} is stale"
+        assert (tmp_path / name).read_bytes() == (ISAAC / name).read_bytes(), stale
 
 
 def test_errors_are_one_line(tmp_path: Path) -> None:
@@ -71,6 +72,9 @@ def test_errors_are_one_line(tmp_path: Path) -> None:
     with pytest.raises(UsageError, match="write .usd, .usda or .usdc"):
         export_model(models_dir() / "ant" / "ant.xml", tmp_path / "ant.usdz")
     two = tmp_path / "two.xml"
-    two.write_text("<mujoco><worldbody><body><joint axis='1 0 0'/><joint axis='0 1 0'/><geom size='0.1'/></body></worldbody></mujoco>")
+    two.write_text(
+        "<mujoco><worldbody><body><joint axis='1 0 0'/><joint axis='0 1 0'/><geom size='0.1'/></body>"
+        "</worldbody></mujoco>"
+    )
     with pytest.raises(ModelError, match="has 2 joints"):
         export_model(two, tmp_path / "two.usd")

@@ -62,7 +62,8 @@ def build_stage(model: mujoco.MjModel) -> Usd.Stage:
     write_cameras(ctx)
     write_sensors(ctx)
     if ctx.notes:
-        set_raw(stage.GetPrimAtPath(root), NOTES_ATTR, Sdf.ValueTypeNames.StringArray, Vt.StringArray(ctx.notes), custom=True)
+        notes = Vt.StringArray(ctx.notes)
+        set_raw(stage.GetPrimAtPath(root), NOTES_ATTR, Sdf.ValueTypeNames.StringArray, notes, custom=True)
     return stage
 
 

@@ -44,8 +44,10 @@ def self_collides(model: mujoco.MjModel) -> bool:
     geoms = [g for g in range(model.ngeom) if weld[model.geom_bodyid[g]] != 0]
     for a, b in itertools.combinations(geoms, 2):
         body_a, body_b = weld[model.geom_bodyid[a]], weld[model.geom_bodyid[b]]
-        related = body_a == body_b or weld[model.body_parentid[body_a]] == body_b or weld[model.body_parentid[body_b]] == body_a
-        touching = model.geom_contype[a] & model.geom_conaffinity[b] or model.geom_contype[b] & model.geom_conaffinity[a]
+        parent_a, parent_b = weld[model.body_parentid[body_a]], weld[model.body_parentid[body_b]]
+        related = body_a == body_b or parent_a == body_b or parent_b == body_a
+        contype, conaffinity = model.geom_contype, model.geom_conaffinity
+        touching = contype[a] & conaffinity[b] or contype[b] & conaffinity[a]
         if touching and not related:
             return True
     return False

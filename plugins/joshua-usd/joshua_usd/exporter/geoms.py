@@ -26,14 +26,18 @@ def write_geoms(ctx: Context) -> None:
         body = int(model.geom_bodyid[geom])
         collider = bool(model.geom_contype[geom] or model.geom_conaffinity[geom])
         kind = G(model.geom_type[geom])
-        label = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MESH, model.geom_dataid[geom]) if kind == G.mjGEOM_MESH else None
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom) or label or kind.name[7:].lower()
+        label = kind.name[len("mjGEOM_"):].lower()
+        if kind == G.mjGEOM_MESH:
+            label = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MESH, model.geom_dataid[geom]) or label
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom) or label
         if kind not in SHAPES or (kind == G.mjGEOM_PLANE and body):
-            ctx.note(f"geom '{name}': {kind.name[7:].lower()} geoms{' on moving bodies' if body else ''} are not exported")
+            where = " on moving bodies" if body else ""
+            ctx.note(f"geom '{name}': {kind.name[len('mjGEOM_'):].lower()} geoms{where} are not exported")
             continue
         parent = _group(ctx, groups, body, collider)
         prim = SHAPES[kind](ctx, ctx.child_path(parent, name), geom)
-        set_pose(prim, model.geom_pos[geom], model.geom_quat[geom], model.geom_size[geom] if kind == G.mjGEOM_BOX else None)
+        scale = model.geom_size[geom] if kind == G.mjGEOM_BOX else None
+        set_pose(prim, model.geom_pos[geom], model.geom_quat[geom], scale)
         gprim = UsdGeom.Gprim(prim)
         gprim.CreateDisplayColorAttr(Vt.Vec3fArray([gf_vec3f(_rgba(model, geom)[:3])]))
         if model.geom_group[geom] >= HIDDEN_GROUP:
@@ -126,7 +130,8 @@ def _mesh(ctx: Context, path: Sdf.Path, geom: int) -> Usd.Prim:
     start, count = model.mesh_vertadr[mesh_id], model.mesh_vertnum[mesh_id]
     first, faces = model.mesh_faceadr[mesh_id], model.mesh_facenum[mesh_id]
     mesh = UsdGeom.Mesh.Define(ctx.stage, path)
-    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(model.mesh_vert[start:start + count], np.float32)))
+    points = np.ascontiguousarray(model.mesh_vert[start:start + count], np.float32)
+    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
     mesh.CreateFaceVertexCountsAttr(Vt.IntArray([3] * int(faces)))
     indices = np.ascontiguousarray(model.mesh_face[first:first + faces].ravel(), np.int32)
     mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(indices))

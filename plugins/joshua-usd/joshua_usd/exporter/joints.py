@@ -133,7 +133,8 @@ def write_drives(ctx: Context, joints: dict[int, Usd.Prim]) -> None:
         prim = joints[joint_id]
         set_raw(prim, "joshua:actuator", Sdf.ValueTypeNames.String, name, custom=True)
         set_raw(prim, "joshua:actuator:kind", Sdf.ValueTypeNames.Token, kind, custom=True)
-        set_raw(prim, "joshua:actuator:gear", Sdf.ValueTypeNames.Float, float(model.actuator_gear[actuator, 0]), custom=True)
+        gear = float(model.actuator_gear[actuator, 0])
+        set_raw(prim, "joshua:actuator:gear", Sdf.ValueTypeNames.Float, gear, custom=True)
         if model.actuator_ctrllimited[actuator]:
             ctrl = Gf.Vec2f(*(float(v) for v in model.actuator_ctrlrange[actuator]))
             set_raw(prim, "joshua:actuator:ctrlRange", Sdf.ValueTypeNames.Float2, ctrl, custom=True)

@@ -30,7 +30,8 @@ def write_cameras(ctx: Context) -> None:
         camera.CreateVerticalApertureAttr(float(vertical))
         camera.CreateFocalLengthAttr(float(vertical / (2 * math.tan(math.radians(model.cam_fovy[cam]) / 2))))
         extent = model.stat.extent
-        camera.CreateClippingRangeAttr(Gf.Vec2f(float(model.vis.map.znear * extent), float(model.vis.map.zfar * extent)))
+        clipping = Gf.Vec2f(float(model.vis.map.znear * extent), float(model.vis.map.zfar * extent))
+        camera.CreateClippingRangeAttr(clipping)
         mode = mujoco.mjtCamLight(model.cam_mode[cam]).name[len("mjCAMLIGHT_"):].lower()
         if mode != "fixed":
             set_raw(camera.GetPrim(), "joshua:camera:mode", Sdf.ValueTypeNames.Token, mode, custom=True)
@@ -57,7 +58,8 @@ def write_sensors(ctx: Context) -> None:
         prim = UsdGeom.Xform.Define(ctx.stage, ctx.child_path(groups[body], name)).GetPrim()
         set_pose(prim, model.site_pos[site], model.site_quat[site])
         set_raw(prim, "joshua:sensor:type", Sdf.ValueTypeNames.Token, kind, custom=True)
-        set_raw(prim, "joshua:sensor:site", Sdf.ValueTypeNames.String, ctx.name(mujoco.mjtObj.mjOBJ_SITE, site, "site"), custom=True)
+        site_name = ctx.name(mujoco.mjtObj.mjOBJ_SITE, site, "site")
+        set_raw(prim, "joshua:sensor:site", Sdf.ValueTypeNames.String, site_name, custom=True)
         for field in ("noise", "cutoff"):
             value = float(getattr(model, f"sensor_{field}")[sensor])
             if value > 0:
@@ -65,6 +67,7 @@ def write_sensors(ctx: Context) -> None:
         if kind in CONTACT_SENSORS:
             zone = mujoco.mjtGeom(model.site_type[site]).name[len("mjGEOM_"):].lower()
             set_raw(prim, "joshua:sensor:zoneType", Sdf.ValueTypeNames.Token, zone, custom=True)
-            set_raw(prim, "joshua:sensor:zoneSize", Sdf.ValueTypeNames.Float3, gf_vec3f(model.site_size[site]), custom=True)
+            size = gf_vec3f(model.site_size[site])
+            set_raw(prim, "joshua:sensor:zoneSize", Sdf.ValueTypeNames.Float3, size, custom=True)
             if body:
                 ctx.stage.GetPrimAtPath(ctx.body_paths[body]).AddAppliedSchema("PhysxContactReportAPI")
