@@ -76,8 +76,14 @@ def gf_quatf(quat: ArrayLike) -> Gf.Quatf:
     return Gf.Quatf(w, x, y, z)
 
 
+def _steady(value: float) -> float:
+    """A double rounded to 1e-12 (and -0 made 0), so the written file does not depend on the last bits
+    of the platform's arithmetic; far below every tolerance."""
+    return round(float(value), 12) + 0.0
+
+
 def gf_quatd(quat: ArrayLike) -> Gf.Quatd:
-    w, x, y, z = (float(v) for v in quat)
+    w, x, y, z = (_steady(v) for v in quat)
     return Gf.Quatd(w, x, y, z)
 
 
@@ -86,4 +92,4 @@ def gf_vec3f(vec: ArrayLike) -> Gf.Vec3f:
 
 
 def gf_vec3d(vec: ArrayLike) -> Gf.Vec3d:
-    return Gf.Vec3d(*(float(v) for v in vec))
+    return Gf.Vec3d(*(_steady(v) for v in vec))
