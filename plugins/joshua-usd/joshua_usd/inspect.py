@@ -9,7 +9,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from joshua_usd.importer import Imported, import_usd
+from joshua_usd.importer import Imported, compile_spec, import_usd
 
 JOINT_TYPES = {0: "free", 1: "ball (spherical)", 2: "prismatic (slide)", 3: "revolute (hinge)"}
 
@@ -17,10 +17,7 @@ JOINT_TYPES = {0: "free", 1: "ball (spherical)", 2: "prismatic (slide)", 3: "rev
 def describe(path: Path) -> str:
     """Bodies with masses, joints with limits, drives in SI units, colliders and the import's warnings."""
     imported = import_usd(path)
-    try:
-        model = imported.spec.compile()
-    except ValueError as error:
-        raise imported.report.error("/", "model", f"does not compile in MuJoCo: {' '.join(str(error).split())}") from None
+    model = compile_spec(imported.spec, imported.report)
     frame = imported.frame
     lines = [
         f"{path}: metersPerUnit {frame.meters_per_unit:g}, kilogramsPerUnit {frame.kilograms_per_unit:g}, "
@@ -53,7 +50,7 @@ def _bodies(model: mujoco.MjModel, imported: Imported) -> list[str]:
         base = "floating" if model.body_jntnum[index] and model.jnt_type[model.body_jntadr[index]] == 0 else ""
         lines.append(
             f"  {name}: mass {model.body_mass[index]:.6g} kg, inertia {_vector(model.body_inertia[index])} kg m^2, "
-            f"parent {parent}{', ' + base if base else ''}  <{imported.report.sources.get(name, '?')}>"
+            f"parent {parent}{', ' + base if base else ''}  <{imported.report.sources['body', name]}>"
         )
     return lines
 
@@ -72,12 +69,14 @@ def _joints(model: mujoco.MjModel, imported: Imported) -> list[str]:
             if kind == 2:
                 text += f", limits [{low:.6g}, {high:.6g}] m"
             else:
-                text += f", limits [{low:.6g}, {high:.6g}] rad = [{math.degrees(low):.6g}, {math.degrees(high):.6g}] deg"
+                degrees = f"[{math.degrees(low):.6g}, {math.degrees(high):.6g}] deg"
+                text += f", limits [{low:.6g}, {high:.6g}] rad = {degrees}"
         if model.dof_armature[model.jnt_dofadr[index]]:
             text += f", armature {model.dof_armature[model.jnt_dofadr[index]]:.6g}"
         if model.dof_frictionloss[model.jnt_dofadr[index]]:
             text += f", frictionloss {model.dof_frictionloss[model.jnt_dofadr[index]]:.6g}"
-        lines.append(text + (f"  <{imported.report.sources[name]}>" if name in imported.report.sources else ""))
+        source = imported.report.sources.get(("joint", name))
+        lines.append(text + (f"  <{source}>" if source else ""))
     return lines
 
 
@@ -110,7 +109,7 @@ def _colliders(model: mujoco.MjModel, imported: Imported) -> list[str]:
         body = _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[index]))
         lines.append(
             f"  {name}: {kind}, body {body}, size {_vector(model.geom_size[index])} m, "
-            f"friction {model.geom_friction[index, 0]:.4g}  <{imported.report.sources.get(name, '?')}>"
+            f"friction {model.geom_friction[index, 0]:.4g}  <{imported.report.sources['geom', name]}>"
         )
     visuals = model.ngeom - len(lines)
     return [f"colliders ({len(lines)}, plus {visuals} visual-only geoms):", *lines]

@@ -2,6 +2,7 @@
 `ImportReport` of warnings. See docs/usd.md (Import) for the attribute mapping."""
 
 from joshua_usd.importer.build import Imported, import_usd
+from joshua_usd.importer.mass import compile_spec
 from joshua_usd.importer.report import ImportReport
 
-__all__ = ["ImportReport", "Imported", "import_usd"]
+__all__ = ["ImportReport", "Imported", "compile_spec", "import_usd"]

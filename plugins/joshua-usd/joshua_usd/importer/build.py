@@ -70,7 +70,8 @@ def import_usd(path: Path) -> Imported:
         set_inertial(body.spec, link.prim, body.scale, model, frame, report)
     if any(targets):
         spec.add_key(name=TARGETS_KEYFRAME, qpos=model.qpos0, ctrl=targets)
-    report.sources.update({name: str(path) for path, name in {**names, **geom_names}.items()})
+    for kind, named in (("body", names), ("geom", geom_names)):
+        report.sources.update({(kind, name): str(path) for path, name in named.items()})
     return Imported(spec, report, frame)
 
 
@@ -85,14 +86,15 @@ def _add_links(
     for link in links:
         placement = place(link, frame, report)
         parent = made[link.parent.prim.GetPath()].spec if link.parent is not None else spec.worldbody
-        body = parent.add_body(name=names[link.prim.GetPath()], pos=placement.in_parent.pos, quat=placement.in_parent.quat)
+        pose = placement.in_parent
+        body = parent.add_body(name=names[link.prim.GetPath()], pos=pose.pos, quat=pose.quat)
         made[link.prim.GetPath()] = _Body(body, *frame.world_pose(link.prim))
         if link.joint is None:
             if not read(link.prim, "physics:kinematicEnabled", report):
                 body.add_freejoint()
             continue
         joint_name = joint_names[link.joint.prim.GetPath()]
-        report.sources[joint_name] = str(link.joint.prim.GetPath())
+        report.sources["joint", joint_name] = str(link.joint.prim.GetPath())
         joint = add_joint(body, link, placement, joint_name, frame, report)
         if joint is not None:
             joint_properties(link.joint.prim, joint, frame, report)

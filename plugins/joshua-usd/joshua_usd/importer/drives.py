@@ -52,7 +52,8 @@ def add_drive(
     target_position = read(prim, attribute + "targetPosition", report) * position_unit
     target_velocity = read(prim, attribute + "targetVelocity", report) * position_unit
     if stiffness > 0:
-        actuator.set_to_position(kp=stiffness, kv=damping, inheritrange=joint.limited == mujoco.mjtLimited.mjLIMITED_TRUE)
+        limited = joint.limited == mujoco.mjtLimited.mjLIMITED_TRUE
+        actuator.set_to_position(kp=stiffness, kv=damping, inheritrange=limited)
         if target_velocity:
             report.warn(prim.GetPath(), "targetVelocity of a drive with stiffness is not supported: ignored")
         return target_position
@@ -82,4 +83,4 @@ def joint_properties(prim: Usd.Prim, joint: mujoco.MjsJoint, frame: StageFrame, 
             break
     velocity = read(prim, "physxJoint:maxJointVelocity", report, allow_inf=True)
     if velocity is not None and velocity < UNLIMITED_VELOCITY:
-        report.warn(prim.GetPath(), f"physxJoint:maxJointVelocity {velocity} is not enforced by MuJoCo")
+        report.warn(prim.GetPath(), f"physxJoint:maxJointVelocity {velocity:.6g} is not enforced by MuJoCo")

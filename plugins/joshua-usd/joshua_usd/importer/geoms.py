@@ -101,7 +101,10 @@ def _physics_material(prim: Usd.Prim, report: ImportReport) -> Usd.Prim | None:
         if value < 0:
             raise report.error(prim.GetPath(), f"physics:{name}", f"friction must not be negative, got {value}")
     if abs(static - dynamic) > 1e-9:
-        report.warn(prim.GetPath(), f"staticFriction {static} differs from dynamicFriction {dynamic}: MuJoCo uses dynamicFriction")
+        report.warn(
+            prim.GetPath(),
+            f"staticFriction {static:.6g} differs from dynamicFriction {dynamic:.6g}: MuJoCo uses dynamicFriction",
+        )
     if read(prim, "physics:restitution", report):
         report.warn(prim.GetPath(), "restitution is not supported by MuJoCo's soft contacts: ignored")
     return prim

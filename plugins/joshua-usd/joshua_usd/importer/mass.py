@@ -22,8 +22,13 @@ def probe(spec: mujoco.MjSpec, report: ImportReport) -> mujoco.MjModel:
     trial = spec.copy()
     trial.compiler.boundmass = NEGLIGIBLE_MASS
     trial.compiler.boundinertia = NEGLIGIBLE_MASS
+    return compile_spec(trial, report)
+
+
+def compile_spec(spec: mujoco.MjSpec, report: ImportReport) -> mujoco.MjModel:
+    """Compile `spec`, turning MuJoCo's (multi-line) error into a one-line ModelError naming the file."""
     try:
-        return trial.compile()
+        return spec.compile()
     except ValueError as error:
         raise report.error("/", "model", f"does not compile in MuJoCo: {' '.join(str(error).split())}") from None
 

@@ -10,11 +10,12 @@ from joshua_core.errors import ModelError
 
 @dataclass
 class ImportReport:
-    """Warnings collected while importing `path`, and the prim each MuJoCo name came from (for `inspect`)."""
+    """Warnings collected while importing `path`, and the prim each MuJoCo element came from (for `inspect`),
+    keyed by (kind, name) with kind "body", "joint" or "geom"."""
 
     path: Path
     warnings: list[str] = field(default_factory=list)
-    sources: dict[str, str] = field(default_factory=dict)
+    sources: dict[tuple[str, str], str] = field(default_factory=dict)
 
     def warn(self, prim: object, message: str) -> None:
         """Record something approximated or not supported at `prim` (a path), once."""

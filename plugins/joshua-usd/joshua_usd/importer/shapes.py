@@ -98,7 +98,8 @@ def _mesh(
         radius = float(np.linalg.norm(vertices - center, axis=1).max())
         return body.add_geom(name=name, type=GeomType.mjGEOM_SPHERE, pos=center, size=[radius, 0, 0])
     mesh = spec.add_mesh(name=name, uservert=vertices.reshape(-1).tolist(), userface=_triangles(counts, indices))
-    mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_CONVEX if collider else mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+    inertia = mujoco.mjtMeshInertia  # visual meshes may be open or flat: a shell always has an inertia
+    mesh.inertia = inertia.mjMESH_INERTIA_CONVEX if collider else inertia.mjMESH_INERTIA_SHELL
     return body.add_geom(name=name, type=GeomType.mjGEOM_MESH, meshname=name)
 
 

@@ -1,0 +1,88 @@
+"""Broken stages: each is a ModelError of one line naming the file, the prim and the attribute."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+from pxr import Gf, Usd, UsdPhysics
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+from usd_stages import body, joint, new_stage  # noqa: E402
+
+from joshua_core.errors import ModelError  # noqa: E402
+from joshua_usd.importer import import_usd  # noqa: E402
+
+
+def two_bodies_and_a_hinge(stage: Usd.Stage) -> Usd.Prim:
+    first, second = body(stage, "/World/a"), body(stage, "/World/b")
+    return joint(stage, UsdPhysics.RevoluteJoint, "/World/hinge", first, second, (0, 0, 0))
+
+
+def missing_target(stage: Usd.Stage) -> None:
+    hinge = two_bodies_and_a_hinge(stage)
+    hinge.GetRelationship("physics:body1").SetTargets(["/World/nowhere"])
+
+
+def not_a_rigid_body(stage: Usd.Stage) -> None:
+    hinge = two_bodies_and_a_hinge(stage)
+    stage.DefinePrim("/World/plain", "Xform")
+    hinge.GetRelationship("physics:body0").SetTargets(["/World/plain"])
+
+
+def not_finite(stage: Usd.Stage) -> None:
+    hinge = two_bodies_and_a_hinge(stage)
+    hinge.GetAttribute("physics:localPos1").Set(Gf.Vec3f(0, float("nan"), 0))
+
+
+def negative_mass(stage: Usd.Stage) -> None:
+    UsdPhysics.MassAPI.Apply(body(stage, "/World/hinge")).CreateMassAttr(-2.0)
+
+
+def loop(stage: Usd.Stage) -> None:
+    a, b, c = (body(stage, f"/World/{name}") for name in "abc")
+    joint(stage, UsdPhysics.RevoluteJoint, "/World/ab", a, b, (0, 0, 0))
+    joint(stage, UsdPhysics.RevoluteJoint, "/World/hinge", b, c, (0, 0, 0))  # found last, breadth first from a
+    joint(stage, UsdPhysics.RevoluteJoint, "/World/ca", c, a, (0, 0, 0))
+
+
+def inverted_limits(stage: Usd.Stage) -> None:
+    hinge = two_bodies_and_a_hinge(stage)
+    UsdPhysics.RevoluteJoint(hinge).CreateLowerLimitAttr(30.0)
+    UsdPhysics.RevoluteJoint(hinge).CreateUpperLimitAttr(-30.0)
+
+
+CASES: list[tuple[Callable[[Usd.Stage], None], str, str, str]] = [
+    (missing_target, "/World/hinge", "physics:body1", "does not exist"),
+    (not_a_rigid_body, "/World/hinge", "physics:body0", "is not a rigid body"),
+    (not_finite, "/World/hinge", "physics:localPos1", "not a finite number"),
+    (negative_mass, "/World/hinge", "physics:mass", "must not be negative"),
+    (loop, "/World/hinge", "physics:body1", "kinematic loop"),
+    (inverted_limits, "/World/hinge", "physics:lowerLimit", "above upperLimit"),
+]
+
+
+@pytest.mark.parametrize(("author", "prim", "attribute", "reason"), CASES, ids=[case[0].__name__ for case in CASES])
+def test_broken_stage_is_one_line_naming_file_prim_and_attribute(
+    tmp_path: Path, author: Callable[[Usd.Stage], None], prim: str, attribute: str, reason: str
+) -> None:
+    path = tmp_path / "broken.usda"
+    stage = new_stage(path)
+    author(stage)
+    stage.Save()
+    with pytest.raises(ModelError) as caught:
+        import_usd(path)
+    message = str(caught.value)
+    assert "\n" not in message
+    assert message.startswith(f"{path}: {prim}: {attribute}: ") and reason in message
+
+
+def test_an_unreadable_file_is_a_model_error(tmp_path: Path) -> None:
+    path = tmp_path / "garbage.usda"
+    path.write_text("#usda 1.0\n(\n  this is not usd\n")
+    with pytest.raises(ModelError, match=f"^{path}: /: layer: cannot open the stage") as caught:
+        import_usd(path)
+    assert "\n" not in str(caught.value)
