@@ -180,8 +180,5 @@ def test_same_trajectory_once_the_passive_properties_in_the_usd_are_applied(pair
         dof = imported.jnt_dofadr[k]
         imported.dof_damping[dof] = prim.GetAttribute(f"physxJointAxis:{axis}:viscousFrictionCoefficient").Get() * unit
         imported.dof_frictionloss[dof] = prim.GetAttribute(f"physxJointAxis:{axis}:dynamicFrictionEffort").Get()
-    if not stage.GetDefaultPrim().GetAttribute("physxArticulation:enabledSelfCollisions").Get():
-        robot = imported.body_rootid[imported.geom_bodyid] != 0  # the robot's geoms touch only the world's
-        imported.geom_conaffinity[robot] = 0
     imported.geom_margin[:] = original.geom_margin  # written as physxCollision:restOffset (test_export checks it)
     assert _max_trajectory_difference(original, imported) < TRAJECTORY_TOLERANCE
