@@ -12,7 +12,6 @@ from joshua_usd.exporter.context import Context, per_degree, set_raw
 from joshua_usd.exporter.frames import WORLD, Pose, axis_frame, gf_quatf, gf_vec3f, quat_mul
 
 J = mujoco.mjtJoint
-IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 
 def write_joints(ctx: Context) -> dict[int, Usd.Prim]:
@@ -57,7 +56,7 @@ def _connect(ctx: Context, joint: UsdPhysics.Joint, body: int, frame: Pose) -> N
 def _fixed_joint(ctx: Context, scope: Sdf.Path, body: int) -> None:
     name = ctx.name(mujoco.mjtObj.mjOBJ_BODY, body, "body")
     joint = UsdPhysics.FixedJoint.Define(ctx.stage, ctx.child_path(scope, f"{name}_fixed"))
-    _connect(ctx, joint, body, Pose(np.zeros(3), IDENTITY))
+    _connect(ctx, joint, body, WORLD)  # the joint frame is the body frame
 
 
 def _moving_joint(ctx: Context, scope: Sdf.Path, body: int, joint_id: int) -> Usd.Prim:
@@ -71,7 +70,7 @@ def _moving_joint(ctx: Context, scope: Sdf.Path, body: int, joint_id: int) -> Us
     limited = bool(model.jnt_limited[joint_id])
     if kind == J.mjJNT_BALL:
         joint = UsdPhysics.SphericalJoint.Define(ctx.stage, path)
-        frame = Pose(model.jnt_pos[joint_id].copy(), IDENTITY)
+        frame = Pose(model.jnt_pos[joint_id].copy(), WORLD.quat)
         if limited:
             joint.CreateAxisAttr("X")
             joint.CreateConeAngle0LimitAttr(float(np.degrees(high)))
