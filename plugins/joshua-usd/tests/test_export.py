@@ -8,7 +8,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from pxr import Gf, Usd, UsdGeom, UsdPhysics, UsdShade
+from pxr import Gf, Usd, UsdGeom, UsdPhysics, UsdShade, UsdValidation
 
 from joshua_core.resources import models_dir
 from joshua_usd.exporter import export_model
@@ -100,6 +100,14 @@ def test_stage_has_units_scene_and_one_articulation(exported) -> None:
     (articulation,) = parsed[UsdPhysics.ObjectType.Articulation][1]
     assert len([path for path in articulation.articulatedBodies if not path.isEmpty]) == model.nbody - 1
     assert len(parsed[UsdPhysics.ObjectType.RigidBody][0]) == model.nbody - 1
+
+
+def test_openusd_validators_find_nothing(exported) -> None:
+    """All of OpenUSD's validators: stage metadata, UsdPhysics articulations, colliders, joints, rigid
+    bodies, material bindings, attribute types."""
+    validators = UsdValidation.ValidationRegistry().GetOrLoadAllValidators()
+    errors = UsdValidation.ValidationContext(validators).Validate(exported[2])
+    assert not [error.GetMessage() for error in errors]
 
 
 def test_bodies_have_mujoco_mass_inertia_and_world_pose(exported) -> None:
