@@ -105,8 +105,17 @@ def test_visual_only_geometry_renders_without_colliding_or_weighing(tmp_path: Pa
     decal.CreateFaceVertexCountsAttr([4])
     decal.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
     collider(stage, UsdGeom.Plane, "/World/ground", axis="Y")
+    floor = UsdGeom.Mesh.Define(stage, "/World/floor")  # a flat collider: a thin box in MuJoCo
+    floor.CreatePointsAttr([(-2, -1, -0.5), (2, -1, -0.5), (2, 1, -0.5), (-2, 1, -0.5)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    UsdPhysics.CollisionAPI.Apply(floor.GetPrim())
     stage.Save()
-    model, _, _ = forward(tmp_path / "visual.usda")
+    model, data, warnings = forward(tmp_path / "visual.usda")
+    assert model.geom("floor").type == GEOM.mjGEOM_BOX
+    np.testing.assert_allclose(np.sort(model.geom("floor").size), [5e-4, 1, 2])
+    np.testing.assert_allclose(data.geom("floor").xpos, [0, 0, -0.5], atol=1e-12)
+    assert any(w.startswith("/World/floor: a flat collider mesh") for w in warnings)
     assert model.geom("decal").type == GEOM.mjGEOM_MESH and model.geom("decal").contype[0] == 0
     ground = model.geom("ground")
     assert ground.type == GEOM.mjGEOM_PLANE and ground.bodyid[0] == 0 and ground.contype[0] == 1

@@ -104,7 +104,7 @@ def test_a_body_without_colliders_or_mass_gets_a_warned_fallback(tmp_path: Path)
     stage.Save()
     imported = import_usd(tmp_path / "empty.usda")
     assert imported.spec.compile().body("ghost").mass[0] == pytest.approx(1.0)
-    assert any(w.startswith("/World/ghost: no collider") for w in imported.report.warnings)
+    assert any(w.startswith("/World/ghost: no collider to weigh") for w in imported.report.warnings)
 
 
 def test_friction_comes_from_the_bound_physics_material(tmp_path: Path) -> None:

@@ -44,13 +44,14 @@ def set_inertial(
     authored = prim.HasAPI(UsdPhysics.MassAPI)
     if not authored and not empty:
         return
-    mass = positive(prim, "physics:mass", read(prim, "physics:mass", report) or 0.0, report) * frame.kilograms_per_unit
+    authored_mass = read(prim, "physics:mass", report) or 0.0  # 0 (the default) means "from density"
+    mass = positive(prim, "physics:mass", authored_mass, report) * frame.kilograms_per_unit
     diagonal = np.asarray(read(prim, "physics:diagonalInertia", report) or np.zeros(3), dtype=np.float64)
     for value in diagonal:
         positive(prim, "physics:diagonalInertia", value, report)
     center = read(prim, "physics:centerOfMass", report, allow_inf=True)
     if empty and (not mass or not diagonal.any()):
-        report.warn(prim.GetPath(), "no collider and no authored mass/inertia: 1 kg and a 10 cm sphere's inertia")
+        report.warn(prim.GetPath(), "no collider to weigh: its mass is 1 kg unless authored, its inertia a 10 cm sphere's")
     mass = mass or (FALLBACK_MASS if empty else geometric)
     body.explicitinertial = True
     body.mass = mass

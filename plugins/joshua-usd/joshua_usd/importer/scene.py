@@ -22,6 +22,8 @@ def set_scene(spec: mujoco.MjSpec, stage: Usd.Stage, frame: StageFrame, report: 
     """Gravity (direction and magnitude in stage units, default: Earth's along -up) and the time step
     (physxScene:timeStepsPerSecond; MuJoCo's default otherwise) of the first PhysicsScene."""
     scenes = [prim for prim in prims(stage) if prim.IsA(UsdPhysics.Scene)]
+    for group in (prim for prim in prims(stage) if prim.IsA(UsdPhysics.CollisionGroup)):
+        report.warn(group.GetPath(), "collision groups are not supported: every collider may touch every other")
     for extra in scenes[1:]:
         report.warn(extra.GetPath(), "only the first PhysicsScene is used: ignored")
     if not scenes:

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pxr import Usd, UsdGeom, UsdPhysics
 
-from joshua_usd.importer.pose import Pose, Vec, axis_angle, decompose, rotate
+from joshua_usd.importer.pose import Pose, Vec, axis_angle, decompose, matrix_quat, rotate
 from joshua_usd.importer.report import ImportReport
 from joshua_usd.importer.stage import read
 
@@ -20,6 +20,8 @@ AXIS_TURN = {"X": axis_angle([0, 1, 0], math.pi / 2), "Y": axis_angle([1, 0, 0],
 AXIS_INDEX = {"X": 0, "Y": 1, "Z": 2}
 # Mesh approximations MuJoCo collides exactly as asked; any other uses the mesh's convex hull (warned).
 EXACT_APPROXIMATIONS = {"convexHull", "boundingCube", "boundingSphere"}
+FLAT_RATIO = 1e-9  # points whose thinnest spread is this small against their widest lie in a plane
+THIN_HALF_THICKNESS = 5e-4  # metres: half the thickness of the box standing in for a flat collider mesh
 
 
 def add_shape(
@@ -93,6 +95,9 @@ def _mesh(
         center = pose.pos + rotate(pose.quat, (low + high) / 2)
         return body.add_geom(name=name, type=GeomType.mjGEOM_BOX, pos=center, quat=pose.quat, size=(high - low) / 2)
     vertices = points @ in_body[:3, :3].T + in_body[:3, 3]
+    if collider and _flat(vertices):
+        report.warn(prim.GetPath(), "a flat collider mesh has no convex hull in MuJoCo: a thin box instead")
+        return _thin_box(body, vertices, name)
     if approximation == "boundingSphere":
         center = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
         radius = float(np.linalg.norm(vertices - center, axis=1).max())
@@ -101,6 +106,25 @@ def _mesh(
     inertia = mujoco.mjtMeshInertia  # visual meshes may be open or flat: a shell always has an inertia
     mesh.inertia = inertia.mjMESH_INERTIA_CONVEX if collider else inertia.mjMESH_INERTIA_SHELL
     return body.add_geom(name=name, type=GeomType.mjGEOM_MESH, meshname=name)
+
+
+def _flat(vertices: NDArray[np.float64]) -> bool:
+    """Whether the points lie in a plane (MuJoCo cannot build their convex hull)."""
+    spread = np.linalg.svd(vertices - vertices.mean(axis=0), compute_uv=False)
+    return bool(spread[2] <= FLAT_RATIO * spread[0])
+
+
+def _thin_box(body: mujoco.MjsBody, vertices: NDArray[np.float64], name: str) -> mujoco.MjsGeom:
+    """The box bounding flat points in their plane, THIN_HALF_THICKNESS thick each side."""
+    center = vertices.mean(axis=0)
+    _, _, axes = np.linalg.svd(vertices - center)
+    if np.linalg.det(axes) < 0:
+        axes[2] = -axes[2]
+    local = (vertices - center) @ axes.T
+    low, high = local.min(axis=0), local.max(axis=0)
+    size = np.maximum((high - low) / 2, THIN_HALF_THICKNESS)
+    position = center + axes.T @ ((low + high) / 2)
+    return body.add_geom(name=name, type=GeomType.mjGEOM_BOX, pos=position, quat=matrix_quat(axes.T), size=size)
 
 
 def _approximation(prim: Usd.Prim, collider: bool, report: ImportReport) -> str:

@@ -85,7 +85,7 @@ def _numeric(value: Any) -> Any:
     """The numbers in a USD value (quaternions as w, x, y, z), or [] for a non-numeric one."""
     if hasattr(value, "GetReal"):
         return [value.GetReal(), *value.GetImaginary()]
-    if isinstance(value, bool | str) or value is None or type(value).__name__ == "Token":
+    if isinstance(value, bool | str) or value is None:
         return []
     try:
         return np.asarray(value, dtype=np.float64)
