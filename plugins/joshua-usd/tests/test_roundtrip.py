@@ -1,0 +1,184 @@
+"""MJCF -> USD (exporter) -> MuJoCo (importer): the same robot comes back.
+
+Compared: joint names, types and ranges; body masses and inertias; joint anchors and axes in the world at
+random poses; and the trajectory under the same controls for 1 s. UsdPhysics has no MuJoCo solver
+settings, so the imported model runs with the original's (SOLVER_OPTIONS) for the trajectory.
+"""
+
+from __future__ import annotations
+
+
+import mujoco
+import numpy as np
+import pytest
+from pxr import Usd
+
+from joshua_core.resources import models_dir
+from joshua_usd.exporter import export_model
+from joshua_usd.importer import import_usd
+
+MODELS = {"so100": "so_arm100/so_arm100.xml", "ant": "ant/ant.xml", "trileg": "trileg/trileg.xml"}
+SOLVER_OPTIONS = ("integrator", "cone", "impratio", "solver", "iterations", "tolerance", "ls_iterations")
+TRAJECTORY_TOLERANCE = 1e-6  # max |qpos| gap (m or rad) over 1 s; achieved: 5e-8 (SO-100, Ant), 1.1e-7 (trileg)
+WIDTHS = {int(mujoco.mjtJoint.mjJNT_FREE): (7, 6), int(mujoco.mjtJoint.mjJNT_BALL): (4, 3)}  # qpos, qvel sizes
+IMPORTER_GAPS = (
+    "the importer ignores physxJointAxis:<axis>:viscousFrictionCoefficient (MuJoCo's joint damping: 1.8-3.1 rad "
+    "apart without it), static/dynamicFrictionEffort (frictionloss: 0.03 rad on SO-100) and physxCollision:restOffset "
+    "(margin: 0.17 on Ant)"
+)
+
+
+@pytest.fixture(scope="module", params=list(MODELS))
+def pair(request, tmp_path_factory) -> tuple[mujoco.MjModel, mujoco.MjModel, Usd.Stage]:
+    """The original model, the one imported from its export, and the exported stage."""
+    original = models_dir() / MODELS[request.param]
+    usd = export_model(original, tmp_path_factory.mktemp(request.param) / f"{request.param}.usd")
+    return mujoco.MjModel.from_xml_path(str(original)), import_usd(usd).spec.compile(), Usd.Stage.Open(str(usd))
+
+
+def _joint_of(model: mujoco.MjModel, body_name: str) -> int:
+    """The joint of a body (each exported body has at most one), matched by body: free joints have no USD name."""
+    body = model.body(body_name).id
+    return int(model.body_jntadr[body]) if model.body_jntnum[body] else -1
+
+
+def _matched_joints(original: mujoco.MjModel, imported: mujoco.MjModel) -> list[tuple[int, int]]:
+    pairs = [(j, _joint_of(imported, original.body(original.jnt_bodyid[j]).name)) for j in range(original.njnt)]
+    assert all(k >= 0 for _, k in pairs) and original.njnt == imported.njnt
+    return pairs
+
+
+def test_joints_come_back_with_names_types_and_ranges(pair) -> None:
+    original, imported, _ = pair
+    for j, k in _matched_joints(original, imported):
+        assert imported.jnt_type[k] == original.jnt_type[j]
+        if original.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            continue
+        assert imported.joint(k).name == original.joint(j).name
+        assert imported.jnt_limited[k] == original.jnt_limited[j]
+        np.testing.assert_allclose(imported.jnt_range[k], original.jnt_range[j], atol=1e-6)
+        armature = imported.dof_armature[imported.jnt_dofadr[k]], original.dof_armature[original.jnt_dofadr[j]]
+        assert armature[0] == pytest.approx(armature[1], rel=1e-6)
+
+
+def test_masses_and_inertias_agree_within_0_1_percent(pair) -> None:
+    original, imported, _ = pair
+    names = [[model.body(b).name for b in range(model.nbody)] for model in (original, imported)]
+    assert names[0] == names[1]
+    np.testing.assert_allclose(imported.body_mass, original.body_mass, rtol=1e-3)
+    data = [mujoco.MjData(model) for model in (original, imported)]
+    for model, datum in zip((original, imported), data):
+        mujoco.mj_kinematics(model, datum)
+    for b in range(1, original.nbody):
+        tensors = [_world_inertia(m, d, b) for m, d in zip((original, imported), data)]
+        np.testing.assert_allclose(tensors[1], tensors[0], atol=1e-3 * np.abs(tensors[0]).max())
+        np.testing.assert_allclose(data[1].xipos[b], data[0].xipos[b], atol=1e-6)
+
+
+def test_anchors_and_axes_agree_at_random_poses(pair) -> None:
+    original, imported, _ = pair
+    joints = _matched_joints(original, imported)
+    rng = np.random.default_rng(7)
+    data = mujoco.MjData(original), mujoco.MjData(imported)
+    for _ in range(5):
+        data[0].qpos[:] = original.qpos0
+        for j, _k in joints:
+            address, kind = original.jnt_qposadr[j], original.jnt_type[j]
+            if kind == mujoco.mjtJoint.mjJNT_FREE:
+                data[0].qpos[address:address + 7] = [*rng.uniform(-1, 1, 3), *_unit(rng.normal(size=4))]
+            elif kind == mujoco.mjtJoint.mjJNT_BALL:
+                data[0].qpos[address:address + 4] = _unit(rng.normal(size=4))
+            else:
+                low, high = original.jnt_range[j] if original.jnt_limited[j] else (-np.pi, np.pi)
+                data[0].qpos[address] = rng.uniform(low, high)
+        _copy_state(original, imported, joints, data[0], data[1])
+        for model, datum in zip((original, imported), data):
+            mujoco.mj_kinematics(model, datum)
+        for j, k in joints:
+            np.testing.assert_allclose(data[1].xanchor[k], data[0].xanchor[j], atol=1e-6)
+            np.testing.assert_allclose(data[1].xaxis[k], data[0].xaxis[j], atol=1e-6)
+
+
+def _unit(vector: np.ndarray) -> np.ndarray:
+    return vector / np.linalg.norm(vector)
+
+
+def _world_inertia(model: mujoco.MjModel, data: mujoco.MjData, body: int) -> np.ndarray:
+    frame = data.ximat[body].reshape(3, 3)
+    return frame @ np.diag(model.body_inertia[body]) @ frame.T
+
+
+def _copy_state(
+    original: mujoco.MjModel,
+    imported: mujoco.MjModel,
+    joints: list[tuple[int, int]],
+    source: mujoco.MjData,
+    target: mujoco.MjData,
+) -> None:
+    """qpos and qvel of the original in the imported model's joint order (a joint's zero is qpos0 in both)."""
+    for j, k in joints:
+        width, dofs = WIDTHS.get(int(original.jnt_type[j]), (1, 1))
+        qj, qk = original.jnt_qposadr[j], imported.jnt_qposadr[k]
+        shift = (imported.qpos0[qk] - original.qpos0[qj]) if width == 1 else 0.0
+        target.qpos[qk:qk + width] = source.qpos[qj:qj + width] + shift
+        vj, vk = original.jnt_dofadr[j], imported.jnt_dofadr[k]
+        target.qvel[vk:vk + dofs] = source.qvel[vj:vj + dofs]
+
+
+def _control_map(original: mujoco.MjModel, imported: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """For each original actuator: the imported actuator on the same joint and the factor its ctrl takes
+    (USD drives carry joint torques: a gear-g motor comes back with gear 1 and ctrl in N*m)."""
+    index, scale = [], []
+    for a in range(original.nu):
+        name = original.joint(original.actuator_trnid[a, 0]).name
+        (b,) = [b for b in range(imported.nu) if imported.joint(imported.actuator_trnid[b, 0]).name == name]
+        gears = original.actuator_gear[a, 0], imported.actuator_gear[b, 0]
+        motor = original.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE
+        gains = original.actuator_gainprm[a, 0], imported.actuator_gainprm[b, 0]
+        index.append(b)
+        scale.append(gears[0] * gains[0] / (gears[1] * gains[1]) if motor else gears[1] / gears[0])
+    return np.array(index), np.array(scale)
+
+
+def _max_trajectory_difference(original: mujoco.MjModel, imported: mujoco.MjModel) -> float:
+    """Step both models for 1 s under the same random piecewise-constant controls; the largest |qpos| gap."""
+    for option in SOLVER_OPTIONS:
+        setattr(imported.opt, option, getattr(original.opt, option))
+    joints = _matched_joints(original, imported)
+    index, scale = _control_map(original, imported)
+    data = mujoco.MjData(original), mujoco.MjData(imported)
+    rng = np.random.default_rng(3)
+    worst = 0.0
+    mirrored = mujoco.MjData(imported)
+    for step in range(round(1.0 / original.opt.timestep)):
+        if step % 50 == 0:
+            ctrl = rng.uniform(*original.actuator_ctrlrange.T)
+            data[0].ctrl[:] = ctrl
+            data[1].ctrl[index] = ctrl * scale
+        for model, datum in zip((original, imported), data):
+            mujoco.mj_step(model, datum)
+        _copy_state(original, imported, joints, data[0], mirrored)
+        worst = max(worst, float(np.abs(mirrored.qpos - data[1].qpos).max()))
+    return worst
+
+
+@pytest.mark.xfail(strict=True, reason=IMPORTER_GAPS)
+def test_same_trajectory_under_the_same_controls(pair) -> None:
+    original, imported, _ = pair
+    assert _max_trajectory_difference(original, imported) < TRAJECTORY_TOLERANCE
+
+
+def test_same_trajectory_once_the_passive_properties_in_the_usd_are_applied(pair) -> None:
+    """What the exporter wrote for the importer's gaps, applied by hand: then the dynamics agree."""
+    original, imported, stage = pair
+    for j, k in _matched_joints(original, imported):
+        if original.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            continue
+        prim = stage.GetDefaultPrim().GetChild("joints").GetChild(imported.joint(k).name)
+        axis = "angular" if original.jnt_type[j] != mujoco.mjtJoint.mjJNT_SLIDE else "linear"
+        unit = 180 / np.pi if axis == "angular" else 1.0
+        dof = imported.jnt_dofadr[k]
+        imported.dof_damping[dof] = prim.GetAttribute(f"physxJointAxis:{axis}:viscousFrictionCoefficient").Get() * unit
+        imported.dof_frictionloss[dof] = prim.GetAttribute(f"physxJointAxis:{axis}:dynamicFrictionEffort").Get()
+    imported.geom_margin[:] = original.geom_margin  # written as physxCollision:restOffset (test_export checks it)
+    assert _max_trajectory_difference(original, imported) < TRAJECTORY_TOLERANCE
