@@ -1,8 +1,8 @@
 """MJCF -> USD (exporter) -> MuJoCo (importer): the same robot comes back.
 
-Compared: joint names, types and ranges; body masses and inertias; joint anchors and axes in the world at
-random poses; and the trajectory under the same controls for 1 s. UsdPhysics has no MuJoCo solver
-settings, so the imported model runs with the original's (SOLVER_OPTIONS) for the trajectory.
+Compared: joint names, types, ranges and passive properties; actuators; solver options; body masses and
+inertias; joint anchors and axes in the world at random poses; and the trajectory under the same controls
+for 1 s, all on the model exactly as imported.
 """
 
 from __future__ import annotations
@@ -19,13 +19,8 @@ from joshua_usd.importer import import_usd
 
 MODELS = {"so100": "so_arm100/so_arm100.xml", "ant": "ant/ant.xml", "trileg": "trileg/trileg.xml"}
 SOLVER_OPTIONS = ("integrator", "cone", "impratio", "solver", "iterations", "tolerance", "ls_iterations")
-TRAJECTORY_TOLERANCE = 1e-6  # max |qpos| gap (m or rad) over 1 s; achieved: 5e-8 (SO-100, Ant), 1.1e-7 (trileg)
+TRAJECTORY_TOLERANCE = 1e-6  # max |qpos| gap (m or rad) over 1 s; achieved: 4.6e-8 (SO-100), 4.9e-8 (Ant), 1.1e-7 (trileg)
 WIDTHS = {int(mujoco.mjtJoint.mjJNT_FREE): (7, 6), int(mujoco.mjtJoint.mjJNT_BALL): (4, 3)}  # qpos, qvel sizes
-IMPORTER_GAPS = (
-    "the importer ignores physxJointAxis:<axis>:viscousFrictionCoefficient (MuJoCo's joint damping: 1.8-3.1 rad "
-    "apart without it), static/dynamicFrictionEffort (frictionloss: 0.03 rad on SO-100) and physxCollision:restOffset "
-    "(margin: 0.17 on Ant)"
-)
 
 
 @pytest.fixture(scope="module", params=list(MODELS))
@@ -36,16 +31,10 @@ def pair(request, tmp_path_factory) -> tuple[mujoco.MjModel, mujoco.MjModel, Usd
     return mujoco.MjModel.from_xml_path(str(original)), import_usd(usd).spec.compile(), Usd.Stage.Open(str(usd))
 
 
-def _joint_of(model: mujoco.MjModel, body_name: str) -> int:
-    """The joint of a body (each exported body has at most one), matched by body: free joints have no USD name."""
-    body = model.body(body_name).id
-    return int(model.body_jntadr[body]) if model.body_jntnum[body] else -1
-
-
 def _matched_joints(original: mujoco.MjModel, imported: mujoco.MjModel) -> list[tuple[int, int]]:
-    pairs = [(j, _joint_of(imported, original.body(original.jnt_bodyid[j]).name)) for j in range(original.njnt)]
-    assert all(k >= 0 for _, k in pairs) and original.njnt == imported.njnt
-    return pairs
+    """(original, imported) joint ids, matched by name: every joint, the free joint included, keeps its name."""
+    assert original.njnt == imported.njnt
+    return [(j, imported.joint(original.joint(j).name).id) for j in range(original.njnt)]
 
 
 def test_joints_come_back_with_names_types_and_ranges(pair) -> None:
@@ -54,11 +43,36 @@ def test_joints_come_back_with_names_types_and_ranges(pair) -> None:
         assert imported.jnt_type[k] == original.jnt_type[j]
         if original.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
             continue
-        assert imported.joint(k).name == original.joint(j).name
         assert imported.jnt_limited[k] == original.jnt_limited[j]
         np.testing.assert_allclose(imported.jnt_range[k], original.jnt_range[j], atol=1e-6)
-        armature = imported.dof_armature[imported.jnt_dofadr[k]], original.dof_armature[original.jnt_dofadr[j]]
-        assert armature[0] == pytest.approx(armature[1], rel=1e-6)
+        dofs = imported.jnt_dofadr[k], original.jnt_dofadr[j]
+        for field in ("armature", "damping", "frictionloss"):  # float32 in USD
+            values = getattr(imported, f"dof_{field}")[dofs[0]], getattr(original, f"dof_{field}")[dofs[1]]
+            assert values[0] == pytest.approx(values[1], rel=1e-6), field
+
+
+def test_actuators_solver_options_and_margins_come_back(pair) -> None:
+    original, imported, _ = pair
+    index = _matched_actuators(original, imported)
+    for field in ("gear", "gainprm", "biasprm", "ctrlrange", "ctrllimited"):
+        np.testing.assert_allclose(getattr(imported, f"actuator_{field}")[index],
+                                   getattr(original, f"actuator_{field}"), rtol=1e-6, atol=1e-9, err_msg=field)
+    for a, b in enumerate(index):  # an unlimited motor comes back limited to what its control range gives
+        if original.actuator_forcelimited[a]:
+            np.testing.assert_allclose(imported.actuator_forcerange[b], original.actuator_forcerange[a], rtol=1e-6)
+    for option in SOLVER_OPTIONS:
+        assert getattr(imported.opt, option) == getattr(original.opt, option), option
+    margins = [sorted((model.body(model.geom_bodyid[g]).name, model.geom_margin[g], model.geom_gap[g])
+                      for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g])
+               for model in (original, imported)]
+    assert [m[0] for m in margins[1]] == [m[0] for m in margins[0]]
+    np.testing.assert_allclose([m[1:] for m in margins[1]], [m[1:] for m in margins[0]], atol=1e-9)
+
+
+def _matched_actuators(original: mujoco.MjModel, imported: mujoco.MjModel) -> np.ndarray:
+    """For each original actuator, the imported one of the same name (the importer adds them in joint order)."""
+    assert original.nu == imported.nu
+    return np.array([imported.actuator(original.actuator(a).name).id for a in range(original.nu)], dtype=int)
 
 
 def test_masses_and_inertias_agree_within_0_1_percent(pair) -> None:
@@ -125,27 +139,10 @@ def _copy_state(
         target.qvel[vk:vk + dofs] = source.qvel[vj:vj + dofs]
 
 
-def _control_map(original: mujoco.MjModel, imported: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
-    """For each original actuator: the imported actuator on the same joint and the factor its ctrl takes
-    (USD drives carry joint torques: a gear-g motor comes back with gear 1 and ctrl in N*m)."""
-    index, scale = [], []
-    for a in range(original.nu):
-        name = original.joint(original.actuator_trnid[a, 0]).name
-        (b,) = [b for b in range(imported.nu) if imported.joint(imported.actuator_trnid[b, 0]).name == name]
-        gears = original.actuator_gear[a, 0], imported.actuator_gear[b, 0]
-        motor = original.actuator_biastype[a] == mujoco.mjtBias.mjBIAS_NONE
-        gains = original.actuator_gainprm[a, 0], imported.actuator_gainprm[b, 0]
-        index.append(b)
-        scale.append(gears[0] * gains[0] / (gears[1] * gains[1]) if motor else gears[1] / gears[0])
-    return np.array(index), np.array(scale)
-
-
 def _max_trajectory_difference(original: mujoco.MjModel, imported: mujoco.MjModel) -> float:
     """Step both models for 1 s under the same random piecewise-constant controls; the largest |qpos| gap."""
-    for option in SOLVER_OPTIONS:
-        setattr(imported.opt, option, getattr(original.opt, option))
     joints = _matched_joints(original, imported)
-    index, scale = _control_map(original, imported)
+    index = _matched_actuators(original, imported)
     data = mujoco.MjData(original), mujoco.MjData(imported)
     rng = np.random.default_rng(3)
     worst = 0.0
@@ -153,8 +150,7 @@ def _max_trajectory_difference(original: mujoco.MjModel, imported: mujoco.MjMode
     for step in range(round(1.0 / original.opt.timestep)):
         if step % 50 == 0:
             ctrl = rng.uniform(*original.actuator_ctrlrange.T)
-            data[0].ctrl[:] = ctrl
-            data[1].ctrl[index] = ctrl * scale
+            data[0].ctrl[:] = data[1].ctrl[index] = ctrl
         for model, datum in zip((original, imported), data):
             mujoco.mj_step(model, datum)
         _copy_state(original, imported, joints, data[0], mirrored)
@@ -162,23 +158,6 @@ def _max_trajectory_difference(original: mujoco.MjModel, imported: mujoco.MjMode
     return worst
 
 
-@pytest.mark.xfail(strict=True, reason=IMPORTER_GAPS)
 def test_same_trajectory_under_the_same_controls(pair) -> None:
     original, imported, _ = pair
-    assert _max_trajectory_difference(original, imported) < TRAJECTORY_TOLERANCE
-
-
-def test_same_trajectory_once_the_passive_properties_in_the_usd_are_applied(pair) -> None:
-    """What the exporter wrote for the importer's gaps, applied by hand: then the dynamics agree."""
-    original, imported, stage = pair
-    for j, k in _matched_joints(original, imported):
-        if original.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
-            continue
-        prim = stage.GetDefaultPrim().GetChild("joints").GetChild(imported.joint(k).name)
-        axis = "angular" if original.jnt_type[j] != mujoco.mjtJoint.mjJNT_SLIDE else "linear"
-        unit = 180 / np.pi if axis == "angular" else 1.0
-        dof = imported.jnt_dofadr[k]
-        imported.dof_damping[dof] = prim.GetAttribute(f"physxJointAxis:{axis}:viscousFrictionCoefficient").Get() * unit
-        imported.dof_frictionloss[dof] = prim.GetAttribute(f"physxJointAxis:{axis}:dynamicFrictionEffort").Get()
-    imported.geom_margin[:] = original.geom_margin  # written as physxCollision:restOffset (test_export checks it)
     assert _max_trajectory_difference(original, imported) < TRAJECTORY_TOLERANCE

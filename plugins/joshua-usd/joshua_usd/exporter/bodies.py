@@ -6,12 +6,13 @@ import itertools
 
 import mujoco
 import numpy as np
-from pxr import Sdf, UsdGeom, UsdPhysics
+from pxr import Sdf, Usd, UsdGeom, UsdPhysics
 
 from joshua_usd.exporter.context import Context, set_pose, set_raw
 from joshua_usd.exporter.frames import gf_quatf, gf_vec3f
 
 SCENE_PATH = Sdf.Path("/PhysicsScene")
+OPTION_PREFIX = "joshua:option:"  # MuJoCo solver settings on the PhysicsScene
 
 
 def write_scene(ctx: Context) -> None:
@@ -26,6 +27,19 @@ def write_scene(ctx: Context) -> None:
     prim.AddAppliedSchema("PhysxSceneAPI")
     steps = int(round(1.0 / ctx.model.opt.timestep))
     set_raw(prim, "physxScene:timeStepsPerSecond", Sdf.ValueTypeNames.UInt, steps)
+    _write_options(ctx, prim)
+
+
+def _write_options(ctx: Context, prim: Usd.Prim) -> None:
+    """MuJoCo's solver settings that PhysX has no attribute for and the trajectory depends on, as custom
+    joshua:option:* attributes (Isaac ignores them; the importer restores them): integrator, friction cone
+    (lower-case names without MuJoCo's prefix) and impratio."""
+    option = ctx.model.opt
+    integrator = mujoco.mjtIntegrator(option.integrator).name.removeprefix("mjINT_").lower()
+    cone = mujoco.mjtCone(option.cone).name.removeprefix("mjCONE_").lower()
+    set_raw(prim, f"{OPTION_PREFIX}integrator", Sdf.ValueTypeNames.Token, integrator, custom=True)
+    set_raw(prim, f"{OPTION_PREFIX}cone", Sdf.ValueTypeNames.Token, cone, custom=True)
+    set_raw(prim, f"{OPTION_PREFIX}impratio", Sdf.ValueTypeNames.Double, float(option.impratio), custom=True)
 
 
 def write_root(ctx: Context) -> None:

@@ -16,7 +16,7 @@ J = mujoco.mjtJoint
 
 def write_joints(ctx: Context) -> dict[int, Usd.Prim]:
     """One USD joint per MuJoCo body (its joint, or a FixedJoint where it has none; none for a free
-    joint: a floating base). Returns the joint prims by MuJoCo joint id."""
+    joint: a floating base, whose body keeps the joint's name as joshua:freeJoint). Returns the joint prims by MuJoCo joint id."""
     model = ctx.model
     scope = ctx.scope("joints")
     prims: dict[int, Usd.Prim] = {}
@@ -34,6 +34,9 @@ def write_joints(ctx: Context) -> dict[int, Usd.Prim]:
         joint = model.body_jntadr[body]
         if model.jnt_type[joint] != J.mjJNT_FREE:
             prims[joint] = _moving_joint(ctx, scope, body, joint)
+        elif name := mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, joint):
+            prim = ctx.stage.GetPrimAtPath(ctx.body_paths[body])  # USD has no free joint: its name on the body
+            set_raw(prim, "joshua:freeJoint", Sdf.ValueTypeNames.String, name, custom=True)
     return prims
 
 

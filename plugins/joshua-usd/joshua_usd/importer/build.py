@@ -91,7 +91,7 @@ def _add_links(
         made[link.prim.GetPath()] = _Body(body, *frame.world_pose(link.prim))
         if link.joint is None:
             if not read(link.prim, "physics:kinematicEnabled", report):
-                body.add_freejoint()
+                body.add_freejoint(name=read(link.prim, "joshua:freeJoint", report) or "")
             continue
         joint_name = joint_names[link.joint.prim.GetPath()]
         report.sources["joint", joint_name] = str(link.joint.prim.GetPath())

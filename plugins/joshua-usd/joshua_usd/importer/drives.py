@@ -28,7 +28,9 @@ def add_drive(
     spec: mujoco.MjSpec, prim: Usd.Prim, joint: mujoco.MjsJoint, frame: StageFrame, report: ImportReport
 ) -> float | None:
     """Add the actuator of the joint's drive (position with stiffness, velocity with damping only, motor with
-    neither) and return its target (the ctrl that holds it), or None when the joint has no drive."""
+    neither) and return its target (the ctrl that holds it), or None when the joint has no drive. The
+    exporter's joshua:actuator* attributes, where present, restore the MuJoCo actuator's name, gear and
+    ctrlrange (the drive holds joint torques: gains / gear^2, force limit / gear, ctrl = gear x target)."""
     angular = joint.type == mujoco.mjtJoint.mjJNT_HINGE
     instance = "angular" if angular else "linear" if joint.type == mujoco.mjtJoint.mjJNT_SLIDE else "none"
     schemas = prim.GetAppliedSchemas()
@@ -37,50 +39,110 @@ def add_drive(
     if not prim.HasAPI(UsdPhysics.DriveAPI, instance):
         return None
     position_unit, force_unit = _units(angular, frame)
+    gear = _gear(prim, report)
     attribute = f"drive:{instance}:physics:"
     stiffness, damping = (
         positive(prim, attribute + key, read(prim, attribute + key, report), report) * force_unit / position_unit
+        / gear**2
         for key in ("stiffness", "damping")
     )
     if read(prim, attribute + "type", report) == "acceleration":
         report.warn(prim.GetPath(), "an acceleration drive's gains are used as force gains (not scaled by inertia)")
-    actuator = spec.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    name = read(prim, "joshua:actuator", report) or joint.name
+    actuator = spec.add_actuator(name=name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    actuator.gear[0] = gear
     max_force = read(prim, attribute + "maxForce", report, allow_inf=True)
     if max_force is not None and math.isfinite(max_force):
         actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-        actuator.forcerange = [-max_force * force_unit, max_force * force_unit]
-    target_position = read(prim, attribute + "targetPosition", report) * position_unit
-    target_velocity = read(prim, attribute + "targetVelocity", report) * position_unit
+        limit = max_force * force_unit / abs(gear)
+        actuator.forcerange = [-limit, limit]
+    target_position = read(prim, attribute + "targetPosition", report) * position_unit * gear
+    target_velocity = read(prim, attribute + "targetVelocity", report) * position_unit * gear
     if stiffness > 0:
         limited = joint.limited == mujoco.mjtLimited.mjLIMITED_TRUE
         actuator.set_to_position(kp=stiffness, kv=damping, inheritrange=limited)
         if target_velocity:
             report.warn(prim.GetPath(), "targetVelocity of a drive with stiffness is not supported: ignored")
-        return target_position
-    if damping > 0:
+        target = target_position
+    elif damping > 0:
         actuator.set_to_velocity(kv=damping)
-        return target_velocity
-    actuator.set_to_motor()
-    if max_force is not None and math.isfinite(max_force):
+        target = target_velocity
+    else:
+        actuator.set_to_motor()
+        if max_force is not None and math.isfinite(max_force):
+            actuator.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+            actuator.ctrlrange = actuator.forcerange
+        target = 0.0
+    ctrl_range = read(prim, "joshua:actuator:ctrlRange", report)
+    if ctrl_range is not None:
+        actuator.inheritrange = 0.0
         actuator.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
-        actuator.ctrlrange = actuator.forcerange
-    return 0.0
+        actuator.ctrlrange = [float(value) for value in ctrl_range]
+    return target
+
+
+def _gear(prim: Usd.Prim, report: ImportReport) -> float:
+    """joshua:actuator:gear (1 when absent); zero is a ModelError."""
+    gear = read(prim, "joshua:actuator:gear", report)
+    if gear == 0:
+        raise report.error(prim.GetPath(), "joshua:actuator:gear", "must not be zero")
+    return 1.0 if gear is None else float(gear)
 
 
 def joint_properties(prim: Usd.Prim, joint: mujoco.MjsJoint, frame: StageFrame, report: ImportReport) -> None:
-    """PhysX joint attributes: armature, joint friction (as MuJoCo's frictionloss), max velocity (warned)."""
+    """PhysX joint attributes, per axis (PhysxJointAxisAPI) before per joint (PhysxJointAPI): armature, viscous
+    friction (MuJoCo's damping), friction effort (frictionloss) and max velocity (warned)."""
     angular = joint.type != mujoco.mjtJoint.mjJNT_SLIDE
-    _, force_unit = _units(angular, frame)
-    armature = read(prim, "physxJoint:armature", report)
+    instances = ("angular", "rotX", "rotY", "rotZ") if angular else ("linear",)
+    position_unit, force_unit = _units(angular, frame)
+    armature = _joint_value(prim, instances, "armature", report)
     if armature:  # an inertia (kg unit^2) for angular joints, a mass for linear ones
         inertia_unit = frame.kilograms_per_unit * (frame.meters_per_unit**2 if angular else 1.0)
-        joint.armature = positive(prim, "physxJoint:armature", armature, report) * inertia_unit
+        joint.armature = positive(prim, armature[0], armature[1], report) * inertia_unit
+    viscous = _joint_value(prim, instances, "viscousFrictionCoefficient", report, joint_level=False)
+    if viscous:  # per degree on angular axes, like drive damping
+        joint.damping[0] = positive(prim, viscous[0], viscous[1], report) * force_unit / position_unit
+    friction = _friction_effort(prim, instances, report)
+    if friction:
+        joint.frictionloss = positive(prim, friction[0], friction[1], report) * force_unit
+    velocity = _joint_value(prim, instances, "maxJointVelocity", report, allow_inf=True)
+    if velocity and velocity[1] < UNLIMITED_VELOCITY:
+        report.warn(prim.GetPath(), f"{velocity[0]} {velocity[1]:.6g} is not enforced by MuJoCo")
+
+
+def _joint_value(
+    prim: Usd.Prim, instances: tuple[str, ...], key: str, report: ImportReport, *, joint_level: bool = True,
+    allow_inf: bool = False,
+) -> tuple[str, float] | None:
+    """(attribute, value) of physxJointAxis:<instance>:<key> for the joint's axis instances (the largest where a
+    ball joint's differ: MuJoCo has one value per joint, warned), else of physxJoint:<key>; None if unauthored."""
+    found = {
+        name: value
+        for name in (f"physxJointAxis:{instance}:{key}" for instance in instances)
+        if (value := read(prim, name, report, allow_inf=allow_inf)) is not None
+    }
+    if len(set(found.values())) > 1:
+        report.warn(prim.GetPath(), f"{key} differs between axes: MuJoCo uses the largest on every axis")
+    if found:
+        name = max(found, key=found.__getitem__)
+        return name, float(found[name])
+    value = read(prim, f"physxJoint:{key}", report, allow_inf=allow_inf) if joint_level else None
+    return None if value is None else (f"physxJoint:{key}", float(value))
+
+
+def _friction_effort(prim: Usd.Prim, instances: tuple[str, ...], report: ImportReport) -> tuple[str, float] | None:
+    """The joint's Coulomb friction torque (force): dynamicFrictionEffort, else staticFrictionEffort (warned where
+    both differ), else PhysX's joint friction coefficient taken as one (warned)."""
+    dynamic = _joint_value(prim, instances, "dynamicFrictionEffort", report, joint_level=False)
+    static = _joint_value(prim, instances, "staticFrictionEffort", report, joint_level=False)
+    if dynamic and static and abs(dynamic[1] - static[1]) > 1e-9:
+        report.warn(prim.GetPath(), f"staticFrictionEffort {static[1]:.6g} differs from dynamicFrictionEffort "
+                    f"{dynamic[1]:.6g}: MuJoCo's frictionloss is the dynamic one")
+    if dynamic or static:
+        return dynamic or static
     for name in FRICTION_ATTRIBUTES:
         friction = read(prim, name, report)
         if friction:
-            joint.frictionloss = positive(prim, name, friction, report) * force_unit
             report.warn(prim.GetPath(), f"{name} (a PhysX coefficient) is used as MuJoCo's frictionloss in SI units")
-            break
-    velocity = read(prim, "physxJoint:maxJointVelocity", report, allow_inf=True)
-    if velocity is not None and velocity < UNLIMITED_VELOCITY:
-        report.warn(prim.GetPath(), f"physxJoint:maxJointVelocity {velocity:.6g} is not enforced by MuJoCo")
+            return name, float(friction)
+    return None

@@ -3,6 +3,7 @@ the bound physics material, displayColor; visuals get contype = conaffinity = 0,
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -73,11 +74,28 @@ def add_geom(
     imageable = UsdGeom.Imageable(shape.prim)
     if imageable.ComputeVisibility() == UsdGeom.Tokens.invisible or imageable.ComputePurpose() == UsdGeom.Tokens.guide:
         geom.group = HIDDEN_COLLIDER_GROUP
+    _margin(geom, shape.prim, frame, report)
     material = _physics_material(shape.prim, report)
     _density(geom, shape, material, frame, report)
     if material is not None:
         geom.friction[0] = read(material, "physics:dynamicFriction", report)
     return geom
+
+
+def _margin(geom: mujoco.MjsGeom, prim: Usd.Prim, frame: StageFrame, report: ImportReport) -> None:
+    """PhysX's contact offset (where contacts start) as MuJoCo's margin and its rest offset (where shapes come to
+    rest) as margin - gap: margin = max(contactOffset, restOffset), gap = margin - restOffset. Unauthored, -inf
+    or a negative contactOffset is PhysX's automatic one: MuJoCo's margin 0."""
+    offsets = [read(prim, f"physxCollision:{name}Offset", report, allow_inf=True) for name in ("rest", "contact")]
+    rest, contact = (value if value is not None and math.isfinite(value) else None for value in offsets)
+    if contact is not None and contact < 0:
+        contact = None
+    if rest is None and contact is None:
+        return
+    rest = 0.0 if rest is None else float(rest)
+    margin = max(rest, rest if contact is None else float(contact))
+    geom.margin = margin * frame.meters_per_unit
+    geom.gap = (margin - rest) * frame.meters_per_unit
 
 
 def _color(geom: mujoco.MjsGeom, prim: Usd.Prim, report: ImportReport) -> None:

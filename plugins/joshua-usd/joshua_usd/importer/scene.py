@@ -16,11 +16,12 @@ from joshua_usd.importer.stage import StageFrame, prims, read
 from joshua_usd.importer.topology import Link, walk
 
 EARTH_GRAVITY = 9.80665  # m/s^2, UsdPhysics' default magnitude
+OPTION_PREFIX = "joshua:option:"  # MuJoCo solver settings the exporter writes on the PhysicsScene
 
 
 def set_scene(spec: mujoco.MjSpec, stage: Usd.Stage, frame: StageFrame, report: ImportReport) -> None:
-    """Gravity (direction and magnitude in stage units, default: Earth's along -up) and the time step
-    (physxScene:timeStepsPerSecond; MuJoCo's default otherwise) of the first PhysicsScene."""
+    """Gravity (direction and magnitude in stage units, default: Earth's along -up), the time step
+    (physxScene:timeStepsPerSecond; MuJoCo's default otherwise) and joshua:option:* of the first PhysicsScene."""
     scenes = [prim for prim in prims(stage) if prim.IsA(UsdPhysics.Scene)]
     for group in (prim for prim in prims(stage) if prim.IsA(UsdPhysics.CollisionGroup)):
         report.warn(group.GetPath(), "collision groups are not supported: every collider may touch every other")
@@ -43,6 +44,26 @@ def set_scene(spec: mujoco.MjSpec, stage: Usd.Stage, frame: StageFrame, report: 
         if steps <= 0:
             raise report.error(scene.GetPath(), "physxScene:timeStepsPerSecond", f"must be positive, got {steps}")
         spec.option.timestep = 1.0 / steps
+    _set_options(spec, scene, report)
+
+
+def _set_options(spec: mujoco.MjSpec, scene: Usd.Prim, report: ImportReport) -> None:
+    """The exporter's joshua:option:* (integrator, cone, impratio): MuJoCo settings UsdPhysics has no
+    attribute for; unknown names are warned about and MuJoCo's defaults kept."""
+    for name, enum, prefix in (("integrator", mujoco.mjtIntegrator, "mjINT_"), ("cone", mujoco.mjtCone, "mjCONE_")):
+        value = read(scene, OPTION_PREFIX + name, report)
+        if value is None:
+            continue
+        member = getattr(enum, prefix + str(value).upper(), None)
+        if member is None:
+            report.warn(scene.GetPath(), f"{OPTION_PREFIX}{name} {value!r} is not a MuJoCo {name}: ignored")
+        else:
+            setattr(spec.option, name, member)
+    impratio = read(scene, OPTION_PREFIX + "impratio", report)
+    if impratio is not None:
+        if impratio <= 0:
+            raise report.error(scene.GetPath(), OPTION_PREFIX + "impratio", f"must be positive, got {impratio}")
+        spec.option.impratio = float(impratio)
 
 
 def set_articulations(
