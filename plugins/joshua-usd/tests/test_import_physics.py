@@ -153,3 +153,69 @@ def test_physx_joint_and_articulation_attributes(tmp_path: Path) -> None:
                 for a, b in (divmod(int(signature), 1 << 16) for signature in model.exclude_signature)}
     assert excluded == {frozenset(pair) for pair in [("base", "arm"), ("base", "carriage"), ("arm", "carriage")]}
     assert any(w.startswith("/World/slider: physxJoint:maxJointVelocity 2") for w in imported.report.warnings)
+
+
+def test_physx_joint_axis_attributes_are_damping_frictionloss_and_armature(tmp_path: Path) -> None:
+    stage, hinge, slider = pendulum(tmp_path / "axis.usda", meters_per_unit=0.01)
+    values = {"viscousFrictionCoefficient": 0.01, "dynamicFrictionEffort": 2e4, "staticFrictionEffort": 3e4,
+              "armature": 500.0}  # per degree; torques in kg cm^2/s^2, inertia in kg cm^2
+    hinge.CreateAttribute("physxJoint:armature", Sdf.ValueTypeNames.Float).Set(9.0)  # the axis' value wins
+    for name, value in values.items():
+        hinge.CreateAttribute(f"physxJointAxis:angular:{name}", Sdf.ValueTypeNames.Float).Set(value)
+    slider.CreateAttribute("physxJointAxis:linear:viscousFrictionCoefficient", Sdf.ValueTypeNames.Float).Set(3.0)
+    slider.CreateAttribute("physxJointAxis:linear:staticFrictionEffort", Sdf.ValueTypeNames.Float).Set(40.0)
+    stage.Save()
+    imported = import_usd(tmp_path / "axis.usda")
+    model = imported.spec.compile()
+    dof = model.joint("hinge").dofadr[0]
+    assert model.dof_damping[dof] == pytest.approx(0.01 * DEG * 1e-4)
+    assert model.dof_frictionloss[dof] == pytest.approx(2.0)
+    assert model.dof_armature[dof] == pytest.approx(0.05)
+    dof = model.joint("slider").dofadr[0]
+    assert model.dof_damping[dof] == pytest.approx(3.0)  # kg/s in any length unit
+    assert model.dof_frictionloss[dof] == pytest.approx(0.4)  # N: 40 kg cm/s^2
+    assert [w for w in imported.report.warnings if "FrictionEffort" in w] == [
+        "/World/hinge: staticFrictionEffort 30000 differs from dynamicFrictionEffort 20000: MuJoCo's frictionloss "
+        "is the dynamic one"
+    ]
+
+
+def test_collision_offsets_become_margin_and_gap(tmp_path: Path) -> None:
+    stage = new_stage(tmp_path / "offsets.usda", "Z", 0.01)
+    offsets = {"rest": (1.0, None), "both": (0.5, 2.0), "contact": (None, 3.0), "auto": (None, float("-inf"))}
+    for name, (rest, contact) in offsets.items():
+        box = body(stage, f"/World/{name}", size=10).GetChild("box")
+        for kind, value in (("rest", rest), ("contact", contact)):
+            if value is not None:
+                box.CreateAttribute(f"physxCollision:{kind}Offset", Sdf.ValueTypeNames.Float).Set(value)
+    stage.Save()
+    model = import_usd(tmp_path / "offsets.usda").spec.compile()
+    margins = {name: (model.geom(f"{name}/box").margin[0], model.geom(f"{name}/box").gap[0]) for name in offsets}
+    expected = {"rest": (0.01, 0.0), "both": (0.02, 0.015), "contact": (0.03, 0.03), "auto": (0.0, 0.0)}
+    for name, value in expected.items():
+        np.testing.assert_allclose(margins[name], value, atol=1e-9, err_msg=name)
+
+
+def test_joshua_attributes_restore_solver_options_gear_and_free_joint_name(tmp_path: Path) -> None:
+    stage, hinge, _ = pendulum(tmp_path / "joshua.usda")
+    scene = stage.GetPrimAtPath("/World/physicsScene")
+    for name, kind, value in (("integrator", "Token", "implicitfast"), ("cone", "Token", "cone"),
+                              ("impratio", "Double", 10.0)):
+        scene.CreateAttribute(f"joshua:option:{name}", getattr(Sdf.ValueTypeNames, kind), custom=True).Set(value)
+    drive(hinge, "angular", stiffness=4 * 17.8 / DEG, damping=0.0, maxForce=6.0, targetPosition=30.0)
+    for name, kind, value in (("", "String", "servo"), (":gear", "Float", 2.0), (":ctrlRange", "Float2", (-1, 1))):
+        hinge.CreateAttribute(f"joshua:actuator{name}", getattr(Sdf.ValueTypeNames, kind), custom=True).Set(value)
+    floating = body(stage, "/World/float", (0, 0, 2))
+    floating.CreateAttribute("joshua:freeJoint", Sdf.ValueTypeNames.String, custom=True).Set("root")
+    stage.Save()
+    imported = import_usd(tmp_path / "joshua.usda")
+    model = imported.spec.compile()
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST and model.opt.impratio == 10.0
+    assert model.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL  # "cone" is no cone: warned, default kept
+    assert "/World/physicsScene: joshua:option:cone 'cone' is not a MuJoCo cone: ignored" in imported.report.warnings
+    servo = model.actuator("servo")
+    assert servo.gear[0] == 2.0 and servo.gainprm[0] == pytest.approx(17.8)
+    np.testing.assert_allclose(servo.ctrlrange, [-1, 1])
+    np.testing.assert_allclose(servo.forcerange, [-3, 3])
+    np.testing.assert_allclose(model.key("drive_targets").ctrl, [2 * math.radians(30)])
+    assert model.joint("root").type == mujoco.mjtJoint.mjJNT_FREE

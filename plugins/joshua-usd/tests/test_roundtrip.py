@@ -19,7 +19,8 @@ from joshua_usd.importer import import_usd
 
 MODELS = {"so100": "so_arm100/so_arm100.xml", "ant": "ant/ant.xml", "trileg": "trileg/trileg.xml"}
 SOLVER_OPTIONS = ("integrator", "cone", "impratio", "solver", "iterations", "tolerance", "ls_iterations")
-TRAJECTORY_TOLERANCE = 1e-6  # max |qpos| gap (m or rad) over 1 s; achieved: 4.6e-8 (SO-100), 4.9e-8 (Ant), 1.1e-7 (trileg)
+# The largest |qpos| gap (m or rad) over 1 s; achieved: 4.6e-8 (SO-100), 4.9e-8 (Ant), 1.1e-7 (trileg).
+TRAJECTORY_TOLERANCE = 1e-6
 WIDTHS = {int(mujoco.mjtJoint.mjJNT_FREE): (7, 6), int(mujoco.mjtJoint.mjJNT_BALL): (4, 3)}  # qpos, qvel sizes
 
 

@@ -16,7 +16,8 @@ J = mujoco.mjtJoint
 
 def write_joints(ctx: Context) -> dict[int, Usd.Prim]:
     """One USD joint per MuJoCo body (its joint, or a FixedJoint where it has none; none for a free
-    joint: a floating base, whose body keeps the joint's name as joshua:freeJoint). Returns the joint prims by MuJoCo joint id."""
+    joint: a floating base, whose body keeps the joint's name as joshua:freeJoint).
+    Returns the joint prims by MuJoCo joint id."""
     model = ctx.model
     scope = ctx.scope("joints")
     prims: dict[int, Usd.Prim] = {}
