@@ -23,7 +23,8 @@ def describe(path: Path) -> str:
         f"{path}: metersPerUnit {frame.meters_per_unit:g}, kilogramsPerUnit {frame.kilograms_per_unit:g}, "
         f"upAxis {frame.up_axis} (imported in metres, kilograms, Z up)",
         f"timestep {model.opt.timestep:g} s, gravity {_vector(model.opt.gravity)} m/s^2, "
-        f"solver iterations {model.opt.iterations}",
+        f"solver iterations {model.opt.iterations}, integrator {_enum(mujoco.mjtIntegrator, model.opt.integrator)}, "
+        f"cone {_enum(mujoco.mjtCone, model.opt.cone)}, impratio {model.opt.impratio:g}",
         *_bodies(model, imported),
         *_joints(model, imported),
         *_actuators(model),
@@ -36,6 +37,11 @@ def describe(path: Path) -> str:
 
 def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, index: int) -> str:
     return mujoco.mj_id2name(model, kind, index) or f"#{index}"
+
+
+def _enum(kind: type, value: int) -> str:
+    """A MuJoCo enum value as its lower-case name without the prefix (mjINT_IMPLICITFAST -> implicitfast)."""
+    return kind(int(value)).name.split("_", 1)[1].lower()
 
 
 def _vector(values: np.ndarray) -> str:
@@ -71,13 +77,20 @@ def _joints(model: mujoco.MjModel, imported: Imported) -> list[str]:
             else:
                 degrees = f"[{math.degrees(low):.6g}, {math.degrees(high):.6g}] deg"
                 text += f", limits [{low:.6g}, {high:.6g}] rad = {degrees}"
-        if model.dof_armature[model.jnt_dofadr[index]]:
-            text += f", armature {model.dof_armature[model.jnt_dofadr[index]]:.6g}"
-        if model.dof_frictionloss[model.jnt_dofadr[index]]:
-            text += f", frictionloss {model.dof_frictionloss[model.jnt_dofadr[index]]:.6g}"
+        if kind in (1, 2, 3):
+            text += _passive(model, index)
         source = imported.report.sources.get(("joint", name))
         lines.append(text + (f"  <{source}>" if source else ""))
     return lines
+
+
+def _passive(model: mujoco.MjModel, joint: int) -> str:
+    """Armature, damping and frictionloss of a hinge, slide or ball joint, where set, in SI units."""
+    dof = model.jnt_dofadr[joint]
+    force, position, inertia = ("N", "m", "kg") if model.jnt_type[joint] == 2 else ("N m", "rad", "kg m^2")
+    units = {"armature": inertia, "damping": f"{force} s/{position}", "frictionloss": force}
+    values = {name: getattr(model, f"dof_{name}")[dof] for name in units}
+    return "".join(f", {name} {value:.6g} {units[name]}" for name, value in values.items() if value)
 
 
 def _actuators(model: mujoco.MjModel) -> list[str]:
@@ -93,8 +106,13 @@ def _actuators(model: mujoco.MjModel) -> list[str]:
             text += f", kp {kp:.6g} {force}/{position}, kv {kv:.6g} {force} s/{position}"
         elif kind == "velocity":
             text += f", kv {kp:.6g} {force} s/{position}"
+        gear = model.actuator_gear[index, 0]
+        if gear != 1:
+            text += f", gear {gear:.6g}"
+        if model.actuator_ctrllimited[index]:
+            text += f", ctrl range {_vector(model.actuator_ctrlrange[index])}"
         if model.actuator_forcelimited[index]:
-            text += f", max force {model.actuator_forcerange[index, 1]:.6g} {force}"
+            text += f", max force {model.actuator_forcerange[index, 1] * abs(gear):.6g} {force} at the joint"
         lines.append(text)
     return lines
 
@@ -109,7 +127,14 @@ def _colliders(model: mujoco.MjModel, imported: Imported) -> list[str]:
         body = _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[index]))
         lines.append(
             f"  {name}: {kind}, body {body}, size {_vector(model.geom_size[index])} m, "
-            f"friction {model.geom_friction[index, 0]:.4g}  <{imported.report.sources['geom', name]}>"
+            f"friction {model.geom_friction[index, 0]:.4g}{_margin(model, index)}  "
+            f"<{imported.report.sources['geom', name]}>"
         )
     visuals = model.ngeom - len(lines)
     return [f"colliders ({len(lines)}, plus {visuals} visual-only geoms):", *lines]
+
+
+def _margin(model: mujoco.MjModel, geom: int) -> str:
+    """MuJoCo's contact margin and gap of a collider, where set."""
+    margin, gap = model.geom_margin[geom], model.geom_gap[geom]
+    return (f", margin {margin:.4g} m" if margin else "") + (f", gap {gap:.4g} m" if gap else "")

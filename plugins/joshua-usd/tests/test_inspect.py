@@ -83,3 +83,13 @@ def test_mujoco_engine_loads_and_steps_a_usd_model_path(tmp_path: Path, capfd: p
     assert engine.time == pytest.approx(500 * engine.timestep)
     assert engine.get_qpos()[2] < start[2] - 0.1  # the floating base falls
     assert engine.instability() is None and np.isfinite(engine.get_qpos()).all()
+
+
+def test_the_shipped_so100_describes_its_joint_physics_and_solver_without_warnings() -> None:
+    from joshua_core.resources import models_dir
+
+    text = describe(models_dir() / "isaac" / "so100.usd")
+    assert "integrator implicitfast, cone elliptic, impratio 10" in text
+    assert "armature 0.028 kg m^2, damping 0.6 N m s/rad, frictionloss 0.052 N m" in text
+    assert "joint_1_position: position, kp 17.8 N m/rad, kv 0 N m s/rad, ctrl range (-1.92, 1.92)" in text
+    assert text.endswith("warnings (0):")
