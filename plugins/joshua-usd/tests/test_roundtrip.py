@@ -162,3 +162,17 @@ def _max_trajectory_difference(original: mujoco.MjModel, imported: mujoco.MjMode
 def test_same_trajectory_under_the_same_controls(pair) -> None:
     original, imported, _ = pair
     assert _max_trajectory_difference(original, imported) < TRAJECTORY_TOLERANCE
+
+
+def test_ball_joint_damping_and_a_margin_with_a_gap_come_back(tmp_path) -> None:
+    """What the three robots do not have: a ball joint's passive properties, a slide's, and a gap (written as
+    contactOffset = margin beside restOffset = margin - gap)."""
+    xml = tmp_path / "passive.xml"
+    xml.write_text("""<mujoco><worldbody><body name="a" pos="0 0 1">
+      <joint name="slide" type="slide" damping="4" frictionloss="0.5" armature="0.2"/><geom size="0.1"/>
+      <body name="b" pos="0.3 0 0"><joint name="ball" type="ball" damping="0.3" frictionloss="0.1"/>
+        <geom size="0.05" margin="0.02" gap="0.005"/></body></body></worldbody></mujoco>""")
+    original = mujoco.MjModel.from_xml_path(str(xml))
+    imported = import_usd(export_model(xml, tmp_path / "passive.usda")).spec.compile()
+    for field in ("dof_damping", "dof_frictionloss", "dof_armature", "geom_margin", "geom_gap"):
+        np.testing.assert_allclose(getattr(imported, field), getattr(original, field), rtol=1e-6, err_msg=field)

@@ -53,15 +53,18 @@ def write_geoms(ctx: Context) -> None:
 
 def _collider(ctx: Context, prim: Usd.Prim, geom: int, name: str) -> None:
     """CollisionAPI (meshes collide as their convex hull, as in MuJoCo); a MuJoCo margin becomes PhysX's
-    restOffset margin - gap: the distance where MuJoCo's contact force starts, where PhysX shapes rest."""
+    restOffset margin - gap: the distance where MuJoCo's contact force starts, where PhysX shapes rest;
+    with a gap, contactOffset = margin, where both start generating contacts."""
     model = ctx.model
     UsdPhysics.CollisionAPI.Apply(prim)
     if model.geom_type[geom] == G.mjGEOM_MESH:
         UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(UsdPhysics.Tokens.convexHull)
-    if model.geom_margin[geom] > 0:
+    margin, gap = float(model.geom_margin[geom]), float(model.geom_gap[geom])
+    if margin > 0:
         prim.AddAppliedSchema("PhysxCollisionAPI")
-        rest = float(model.geom_margin[geom] - model.geom_gap[geom])
-        set_raw(prim, "physxCollision:restOffset", Sdf.ValueTypeNames.Float, rest)
+        set_raw(prim, "physxCollision:restOffset", Sdf.ValueTypeNames.Float, margin - gap)
+        if gap > 0:  # PhysX needs contactOffset > restOffset
+            set_raw(prim, "physxCollision:contactOffset", Sdf.ValueTypeNames.Float, margin)
     if model.geom_condim[geom] > 3:
         ctx.note(f"geom '{name}': condim {model.geom_condim[geom]} (torsional and rolling friction)")
 

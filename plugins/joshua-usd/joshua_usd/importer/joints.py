@@ -125,8 +125,9 @@ def _cone_limit(joint: mujoco.MjsJoint, prim: Usd.Prim, report: ImportReport) ->
     limit = max(finite)
     joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
     joint.range = [0.0, math.radians(limit)]
+    shown = "/".join("none" if angle is None else f"{angle:.6g}" for angle in cones)
     report.warn(
         prim.GetPath(),
-        f"cone limits {cones[0]}/{cones[1]} deg are approximated by MuJoCo's ball limit of {limit} deg on the "
+        f"cone limits {shown} deg are approximated by MuJoCo's ball limit of {limit:.6g} deg on the "
         "total rotation angle (twist included)",
     )
