@@ -1,5 +1,6 @@
-"""DriveAPI drives as MuJoCo actuators (named after their joint) and PhysX joint attributes MuJoCo has an
-equivalent of. USD angular drives are per degree; everything here is converted to SI."""
+"""DriveAPI drives as MuJoCo actuators (named after their joint, or as the exporter's joshua:actuator* say) and
+PhysX joint attributes MuJoCo has an equivalent of. USD angular drives are per degree; everything here is
+converted to SI."""
 
 from __future__ import annotations
 
@@ -14,6 +15,11 @@ from joshua_usd.importer.stage import StageFrame, positive, read
 # Above this (deg/s or units/s) PhysX's max joint velocity is Isaac's "unlimited" default: not warned about.
 UNLIMITED_VELOCITY = 1e6
 FRICTION_ATTRIBUTES = ("physxJoint:jointFriction", "physics:jointFriction")
+# The PhysxJointAxisAPI instances of a joint's motion (a revolute joint's is "angular").
+AXIS_INSTANCES = {
+    mujoco.mjtJoint.mjJNT_BALL: ("angular", "rotX", "rotY", "rotZ"),
+    mujoco.mjtJoint.mjJNT_SLIDE: ("linear",),
+}
 
 
 def _units(angular: bool, frame: StageFrame) -> tuple[float, float]:
@@ -93,7 +99,7 @@ def joint_properties(prim: Usd.Prim, joint: mujoco.MjsJoint, frame: StageFrame, 
     """PhysX joint attributes, per axis (PhysxJointAxisAPI) before per joint (PhysxJointAPI): armature, viscous
     friction (MuJoCo's damping), friction effort (frictionloss) and max velocity (warned)."""
     angular = joint.type != mujoco.mjtJoint.mjJNT_SLIDE
-    instances = ("angular", "rotX", "rotY", "rotZ") if angular else ("linear",)
+    instances = AXIS_INSTANCES.get(joint.type, ("angular",))
     position_unit, force_unit = _units(angular, frame)
     armature = _joint_value(prim, instances, "armature", report)
     if armature:  # an inertia (kg unit^2) for angular joints, a mass for linear ones

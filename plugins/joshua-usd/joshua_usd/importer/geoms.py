@@ -1,5 +1,6 @@
 """Colliders (CollisionAPI) and visual-only shapes of each body: collider mass/density (MassAPI), friction from
-the bound physics material, displayColor; visuals get contype = conaffinity = 0, no mass, group 2."""
+the bound physics material, margin and gap from PhysX's collision offsets, displayColor; visuals get
+contype = conaffinity = 0, no mass, group 2."""
 
 from __future__ import annotations
 
