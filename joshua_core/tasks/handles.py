@@ -10,6 +10,7 @@ the core does not import mujoco).
 from __future__ import annotations
 
 import difflib
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -61,11 +62,14 @@ class Joint:
 
 @dataclass(frozen=True)
 class Joints:
-    """Several joints (an empty name list means every hinge and slide joint): integer index tuples."""
+    """Several joints (an empty name list means every hinge and slide joint): integer index tuples, and
+    each qpos entry's position limits (`lower`, `upper`; -inf, inf where the joint has none)."""
 
     names: tuple[str, ...]
     qpos_index: tuple[int, ...]
     dof_index: tuple[int, ...]
+    lower: tuple[float, ...] = ()
+    upper: tuple[float, ...] = ()
 
 
 HANDLE_TYPES = (Body, Site, Sensor, Joint, Joints)
@@ -109,13 +113,24 @@ def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
         return _joint(model, _lookup(model, "joint", value))
     if handle_type is Joints:
         names = _joint_names(model, value)
-        joints = [_joint(model, _lookup(model, "joint", name)) for name in names]
+        ids = [_lookup(model, "joint", name) for name in names]
+        joints = [_joint(model, index) for index in ids]
+        limits = [_limits(model, index) for index, joint in zip(ids, joints) for _ in range(joint.qpos_size)]
         return Joints(
             tuple(names),
             tuple(j.qpos_adr + k for j in joints for k in range(j.qpos_size)),
             tuple(j.dof_adr + k for j in joints for k in range(j.dof_size)),
+            tuple(low for low, _ in limits),
+            tuple(high for _, high in limits),
         )
     raise TypeError(f"not a model handle type: {handle_type!r}")
+
+
+def _limits(model: Any, index: int) -> tuple[float, float]:
+    """(lower, upper) position limits of a joint; (-inf, inf) where it is not limited."""
+    if not bool(model.jnt_limited[index]):
+        return -math.inf, math.inf
+    return float(model.jnt_range[index][0]), float(model.jnt_range[index][1])
 
 
 def _joint_names(model: Any, value: Any) -> list[str]:
