@@ -43,7 +43,7 @@ class JaxVecEnv(VecEnv):
         self._next_seed = seed + 1
         self._state = self.env.reset(jax.random.PRNGKey(seed))
         self._reset_seeds()
-        return np.asarray(self._state.observation)
+        return np.array(self._state.observation)
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = actions
@@ -62,7 +62,8 @@ class JaxVecEnv(VecEnv):
             self._finish_episodes(state, np.flatnonzero(dones), infos, terminated, truncated)
             state = self.env.redraw_starts(state)
         self._state = state
-        return np.asarray(observation), np.asarray(reward, np.float32), dones, infos
+        # copies: device_get gives read-only arrays, and SB3 writes into rewards (bootstrapping truncations)
+        return np.array(observation), np.array(reward, np.float32), dones, infos
 
     def _finish_episodes(
         self,
@@ -96,7 +97,7 @@ class JaxVecEnv(VecEnv):
 
     # The batched environment is one object: its attributes and methods are shared by every index.
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        value = getattr(self.env, attr_name)
+        value = None if attr_name == "render_mode" else getattr(self.env, attr_name)  # JAX envs do not render
         return [value for _ in self._get_indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
