@@ -18,14 +18,19 @@ from typing import Any
 # MuJoCo joint types (mjtJoint) and how many qpos / qvel entries each has.
 _FREE, _BALL = 0, 1
 _JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
+_JOINT_TRANSMISSIONS = (0, 1)  # mjtTrn: an actuator driving a joint (mjTRN_JOINT, mjTRN_JOINTINPARENT)
 
 
 @dataclass(frozen=True)
 class Body:
-    """A body: `id` indexes xpos, xquat, cfrc_ext."""
+    """A body: `id` indexes xpos, xquat, cfrc_ext. A floating body (a robot's root) has a free joint whose
+    coordinates start at qpos `free_qpos_adr` and velocities at qvel `free_dof_adr` (-1 for other bodies),
+    whatever that joint is called (a USD floating base has no joint to name it after)."""
 
     name: str
     id: int
+    free_qpos_adr: int = -1
+    free_dof_adr: int = -1
 
 
 @dataclass(frozen=True)
@@ -72,11 +77,23 @@ class Joints:
     upper: tuple[float, ...] = ()
 
 
-HANDLE_TYPES = (Body, Site, Sensor, Joint, Joints)
+@dataclass(frozen=True)
+class Actuators:
+    """Several actuators (an empty name list means all, in actuator order) driving one joint each: the qpos
+    and qvel index of each one's joint, so that action i meets the velocity of the joint it drives."""
+
+    names: tuple[str, ...]
+    qpos_index: tuple[int, ...]
+    dof_index: tuple[int, ...]
+
+
+HANDLE_TYPES = (Body, Site, Sensor, Joint, Joints, Actuators)
 
 
 def _names(model: Any, kind: str) -> list[str]:
-    count = {"body": model.nbody, "site": model.nsite, "sensor": model.nsensor, "joint": model.njnt}[kind]
+    count = {"body": model.nbody, "site": model.nsite, "sensor": model.nsensor, "joint": model.njnt, "actuator": model.nu}[
+        kind
+    ]
     return [getattr(model, kind)(i).name for i in range(count)]
 
 
@@ -103,7 +120,7 @@ def _joint(model: Any, index: int) -> Joint:
 def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
     """The handle of `handle_type` for `value` (a name, or for Joints a list of names); ValueError if unknown."""
     if handle_type is Body:
-        return Body(value, _lookup(model, "body", value))
+        return _body(model, value)
     if handle_type is Site:
         return Site(value, _lookup(model, "site", value))
     if handle_type is Sensor:
@@ -123,7 +140,29 @@ def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
             tuple(low for low, _ in limits),
             tuple(high for _, high in limits),
         )
+    if handle_type is Actuators:
+        return _actuators(model, value)
     raise TypeError(f"not a model handle type: {handle_type!r}")
+
+
+def _body(model: Any, name: str) -> Body:
+    index = _lookup(model, "body", name)
+    free = [j for j in range(model.njnt) if int(model.jnt_bodyid[j]) == index and int(model.jnt_type[j]) == _FREE]
+    if not free:
+        return Body(name, index)
+    return Body(name, index, int(model.jnt_qposadr[free[0]]), int(model.jnt_dofadr[free[0]]))
+
+
+def _actuators(model: Any, value: Any) -> Actuators:
+    """The named actuators (all when empty), each of which must drive a joint."""
+    names = _name_list(value, "actuator") or [model.actuator(i).name for i in range(model.nu)]
+    joints = []
+    for name in names:
+        index = _lookup(model, "actuator", name)
+        if int(model.actuator_trntype[index]) not in _JOINT_TRANSMISSIONS:
+            raise ValueError(f"actuator '{name}' drives no joint (its transmission is not a joint)")
+        joints.append(_joint(model, int(model.actuator_trnid[index][0])))
+    return Actuators(tuple(names), tuple(j.qpos_adr for j in joints), tuple(j.dof_adr for j in joints))
 
 
 def _limits(model: Any, index: int) -> tuple[float, float]:
@@ -133,11 +172,15 @@ def _limits(model: Any, index: int) -> tuple[float, float]:
     return float(model.jnt_range[index][0]), float(model.jnt_range[index][1])
 
 
-def _joint_names(model: Any, value: Any) -> list[str]:
+def _name_list(value: Any, kind: str) -> list[str]:
+    """A name or a list of names, as a list (empty: the caller's default)."""
     if isinstance(value, str):
         return [value]
     if not isinstance(value, Sequence):
-        raise ValueError(f"expected a list of joint names, got {value!r}")
-    if len(value) == 0:
-        return [model.joint(i).name for i in range(model.njnt) if int(model.jnt_type[i]) not in (_FREE, _BALL)]
+        raise ValueError(f"expected a list of {kind} names, got {value!r}")
     return list(value)
+
+
+def _joint_names(model: Any, value: Any) -> list[str]:
+    names = _name_list(value, "joint")
+    return names or [model.joint(i).name for i in range(model.njnt) if int(model.jnt_type[i]) not in (_FREE, _BALL)]

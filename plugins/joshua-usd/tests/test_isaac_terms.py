@@ -4,15 +4,18 @@ target terms, up projection of a tilted torso, normalised joints and the joint-l
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import mujoco
 import numpy as np
 import pytest
 
+from joshua_core.errors import ConfigError
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
-from joshua_core.tasks import BoundTerm, Task, TermContext, build_task
+from joshua_core.tasks import BoundTerm, Task, TermContext, TermSpec, build_task
+from joshua_usd.tasks.specs import ISAAC_ANT_LOCOMOTION
 
 TILT = 0.3  # rad about the world x axis
 YAW = math.pi / 2  # then turned to face +y
@@ -97,19 +100,21 @@ def test_upright_bonus_needs_up_projection_above_0_93(ant: tuple[Task, mujoco.Mj
         assert by_name["upright"].weight * by_name["upright"](ctx)[0] == pytest.approx(bonus)
 
 
-def test_joint_terms_use_the_model_limits_and_actuator_order(ant: tuple[Task, mujoco.MjModel]) -> None:
+def test_joint_terms_use_the_model_limits_and_energy_pairs_actions_with_driven_joints(ant: tuple[Task, mujoco.MjModel]) -> None:
     task, model = ant
     data = state(model, quaternion(0.0, 0.0), np.zeros(3))
     action = np.linspace(-1.0, 1.0, 8)
     ctx = context(task, data, data.qpos.copy(), action)
     by_name = terms(task)
-    order = [model.joint(model.actuator_trnid[i, 0]).name for i in range(model.nu)]
-    expected = [{"hip_1": 1.0, "ankle_1": 0.0}.get(name, -1.0) for name in order]
+    hinges = range(1, model.njnt)  # every joint but the free one, in model order
+    expected = [{"hip_1": 1.0, "ankle_1": 0.0}.get(model.joint(j).name, -1.0) for j in hinges]
     np.testing.assert_allclose(by_name["joint_pos_normalized"](ctx), [expected], atol=1e-12)
-    dof = [model.jnt_dofadr[model.actuator_trnid[i, 0]] for i in range(model.nu)]
-    np.testing.assert_allclose(by_name["joint_vel"](ctx), [0.2 * data.qvel[dof]])
+    np.testing.assert_allclose(by_name["joint_vel"](ctx), [0.2 * data.qvel[6:]])
     assert by_name["joint_limit_cost"](ctx)[0] == 1.0  # only hip_1 is past 0.98 towards its upper limit
-    energy = np.sum(np.abs(action * data.qvel[dof] * 0.2))
+    # ant.xml lists its motors from leg 4 on: action i meets the velocity of the joint motor i drives
+    driven = [model.jnt_dofadr[model.actuator_trnid[i, 0]] for i in range(model.nu)]
+    assert driven != sorted(driven)
+    energy = np.sum(np.abs(action * data.qvel[driven] * 0.2))
     np.testing.assert_allclose(by_name["energy_cost"](ctx), [energy])
     np.testing.assert_allclose(by_name["action_cost"](ctx), [np.sum(action**2)])
 
@@ -138,3 +143,13 @@ def test_observation_layout_is_isaacs() -> None:
         "heading_projection",
     ]  # fmt: skip
     assert trileg.observation_size == 1 + 3 + 3 + 2 + 1 + 1 + 1 + 6 + 6 + 3 * 6 + 6
+
+
+def test_root_terms_need_the_floating_body(ant: tuple[Task, mujoco.MjModel]) -> None:
+    task, model = ant
+    body = next(term for term in task.observation_terms if term.name == "base_lin_vel").params["body"]
+    assert (body.free_qpos_adr, body.free_dof_adr) == (0, 0)  # found by the body, not by the joint's name
+    thigh = TermSpec("base_lin_vel", params={"body": "back_thigh"})
+    spec = dataclasses.replace(ISAAC_ANT_LOCOMOTION, observations=(thigh,))
+    with pytest.raises(ConfigError, match="body 'back_thigh' has no free joint"):
+        build_task(spec, model, PluginHost.discover())
