@@ -20,6 +20,7 @@ from joshua_core.plugins import PluginHost, PluginInfo, Registrar
 from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import BoundTerm, Task, TaskSpec, TermContext, TermKind, TermSpec, build_task, load_task_spec
 from joshua_core.tasks.builtin import BUILTIN_TASKS
+from joshua_core.tasks.handles import Actuators, Body, Joints, resolve_handle
 from joshua_core.tasks.terms import BUILTIN_TERMS
 
 NUM_ENVS = 4
@@ -240,6 +241,19 @@ def test_unknown_model_name_suggests_the_close_one(plugins: PluginHost) -> None:
     with pytest.raises(ConfigError) as error:
         build_reach(plugins, 'terms { name: "distance" params { key: "site" value: "griper" } }')
     assert "term 'distance', parameter 'site'" in str(error.value) and "Did you mean: gripper" in str(error.value)
+
+
+def test_handles_know_free_joints_limits_and_the_joints_actuators_drive() -> None:
+    model = compile_model(EXTRA_ANT_TERMS)
+    torso, thigh = resolve_handle(model, Body, "torso"), resolve_handle(model, Body, "back_thigh")
+    assert (torso.free_qpos_adr, torso.free_dof_adr, thigh.free_qpos_adr) == (0, 0, -1)
+    ankle = resolve_handle(model, Joints, ["ankle_1"])
+    np.testing.assert_allclose((ankle.lower[0], ankle.upper[0]), np.radians([30, 70]))
+    motors = resolve_handle(model, Actuators, [])  # ant.xml lists its motors from leg 4 on
+    assert motors.names[:2] == ("hip_4", "ankle_4")
+    assert motors.dof_index[:2] == (model.joint("hip_4").dofadr[0], model.joint("ankle_4").dofadr[0])
+    with pytest.raises(ValueError, match="no actuator named 'hip_9'. Did you mean: hip_4"):
+        resolve_handle(model, Actuators, ["hip_9"])
 
 
 def test_unknown_term_and_unknown_override_are_errors(plugins: PluginHost) -> None:
