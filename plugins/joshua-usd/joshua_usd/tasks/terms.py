@@ -46,6 +46,7 @@ def _wrap(ctx: TermContext, angle: Any) -> Any:
 
 
 def _yaw(ctx: TermContext, quat: Any) -> Any:
+    """Rotation about world z of the orientation `quat` (the yaw of x-y-z Euler angles), (N,)."""
     w, x, y, z = quat[:, 0], quat[:, 1], quat[:, 2], quat[:, 3]
     return ctx.xp.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
