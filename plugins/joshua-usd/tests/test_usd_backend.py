@@ -19,7 +19,7 @@ from joshua_core.resources import resolve_data_path
 from joshua_mujoco import MuJoCoEngine
 from joshua_mujoco.vector import task_config_from_options
 from joshua_usd.backend import UsdBackend
-from joshua_usd.tasks import AntEnv, TrilegEnv
+from joshua_usd.tasks import AntEnv, TrilegEnv, envs
 from joshua_usd.tasks.jax_vec_env import JaxVecEnv
 
 # Until models/isaac/*.usd are merged, the tasks run on the MJCF models the USD files are exported from.
@@ -110,6 +110,13 @@ def test_cuda_without_a_gpu_is_a_clear_error() -> None:
         TrilegEnv(num_envs=2, device="cuda", model_path=MODELS["isaac_trileg"])
     with pytest.raises(ConfigError, match="device must be one of cuda, cpu"):
         TrilegEnv(num_envs=2, device="tpu")
+
+
+def test_cuda_puts_the_environments_on_mjx_over_the_gpus(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(envs, "gpu_devices", jax.devices)  # the CPU stands in for the GPUs
+    env = AntEnv(num_envs=2, device="cuda", model_path=MODELS["isaac_ant_locomotion"])
+    assert isinstance(env, JaxVecEnv) and env.env.mesh.devices.tolist() == jax.devices()
+    assert (env.num_envs, env.observation_space.shape, env.action_space.shape) == (2, (60,), (8,))
 
 
 def test_jax_environments_without_joshua_mjx_say_to_install_it(
