@@ -441,5 +441,5 @@ def test_a_trainer_on_a_backend_without_its_environments_is_a_config_error_befor
     assert run.returncode == 2, run.stderr
     assert run.stderr.strip().splitlines()[-1] == (
         "joshua: error: trainer 'sb3' needs NUMPY environments, which backend 'mjx' does not provide; "
-        "backends that do: mujoco"
+        "backends that do: mujoco, usd"
     )

@@ -7,13 +7,14 @@ namespace `ctx.xp`), so the same task runs on numpy (joshua-mujoco) and inside `
 
 from joshua_core.tasks.context import STATE_FIELDS, JaxRandom, NumpyRandom, RandomSource, TermContext, set_columns
 from joshua_core.tasks.episodes import Episode, EpisodeSums, StepOutcome, account_step, nonfinite
-from joshua_core.tasks.handles import Body, Joint, Joints, Sensor, Site
+from joshua_core.tasks.handles import Actuators, Body, Joint, Joints, Sensor, Site
 from joshua_core.tasks.spec import ActionSpec, TaskSpec, TermKind, TermSpec, parse_param, with_config
 from joshua_core.tasks.task import BoundTerm, Task, build_task, load_task_spec
 
 __all__ = [
     "STATE_FIELDS",
     "ActionSpec",
+    "Actuators",
     "Body",
     "BoundTerm",
     "Episode",

@@ -10,6 +10,7 @@ the core does not import mujoco).
 from __future__ import annotations
 
 import difflib
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -17,14 +18,19 @@ from typing import Any
 # MuJoCo joint types (mjtJoint) and how many qpos / qvel entries each has.
 _FREE, _BALL = 0, 1
 _JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
+_JOINT_TRANSMISSIONS = (0, 1)  # mjtTrn: an actuator driving a joint (mjTRN_JOINT, mjTRN_JOINTINPARENT)
 
 
 @dataclass(frozen=True)
 class Body:
-    """A body: `id` indexes xpos, xquat, cfrc_ext."""
+    """A body: `id` indexes xpos, xquat, cfrc_ext. A floating body (a robot's root) has a free joint whose
+    coordinates start at qpos `free_qpos_adr` and velocities at qvel `free_dof_adr` (-1 for other bodies),
+    whatever that joint is called (a USD floating base has no joint to name it after)."""
 
     name: str
     id: int
+    free_qpos_adr: int = -1
+    free_dof_adr: int = -1
 
 
 @dataclass(frozen=True)
@@ -61,18 +67,33 @@ class Joint:
 
 @dataclass(frozen=True)
 class Joints:
-    """Several joints (an empty name list means every hinge and slide joint): integer index tuples."""
+    """Several joints (an empty name list means every hinge and slide joint): integer index tuples, and
+    each qpos entry's position limits (`lower`, `upper`; -inf, inf where the joint has none)."""
+
+    names: tuple[str, ...]
+    qpos_index: tuple[int, ...]
+    dof_index: tuple[int, ...]
+    lower: tuple[float, ...] = ()
+    upper: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class Actuators:
+    """Several actuators (an empty name list means all, in actuator order) driving one joint each: the qpos
+    and qvel index of each one's joint, so that action i meets the velocity of the joint it drives."""
 
     names: tuple[str, ...]
     qpos_index: tuple[int, ...]
     dof_index: tuple[int, ...]
 
 
-HANDLE_TYPES = (Body, Site, Sensor, Joint, Joints)
+HANDLE_TYPES = (Body, Site, Sensor, Joint, Joints, Actuators)
 
 
 def _names(model: Any, kind: str) -> list[str]:
-    count = {"body": model.nbody, "site": model.nsite, "sensor": model.nsensor, "joint": model.njnt}[kind]
+    count = {"body": model.nbody, "site": model.nsite, "sensor": model.nsensor, "joint": model.njnt, "actuator": model.nu}[
+        kind
+    ]
     return [getattr(model, kind)(i).name for i in range(count)]
 
 
@@ -99,7 +120,7 @@ def _joint(model: Any, index: int) -> Joint:
 def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
     """The handle of `handle_type` for `value` (a name, or for Joints a list of names); ValueError if unknown."""
     if handle_type is Body:
-        return Body(value, _lookup(model, "body", value))
+        return _body(model, value)
     if handle_type is Site:
         return Site(value, _lookup(model, "site", value))
     if handle_type is Sensor:
@@ -109,20 +130,57 @@ def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
         return _joint(model, _lookup(model, "joint", value))
     if handle_type is Joints:
         names = _joint_names(model, value)
-        joints = [_joint(model, _lookup(model, "joint", name)) for name in names]
+        ids = [_lookup(model, "joint", name) for name in names]
+        joints = [_joint(model, index) for index in ids]
+        limits = [_limits(model, index) for index, joint in zip(ids, joints) for _ in range(joint.qpos_size)]
         return Joints(
             tuple(names),
             tuple(j.qpos_adr + k for j in joints for k in range(j.qpos_size)),
             tuple(j.dof_adr + k for j in joints for k in range(j.dof_size)),
+            tuple(low for low, _ in limits),
+            tuple(high for _, high in limits),
         )
+    if handle_type is Actuators:
+        return _actuators(model, value)
     raise TypeError(f"not a model handle type: {handle_type!r}")
 
 
-def _joint_names(model: Any, value: Any) -> list[str]:
+def _body(model: Any, name: str) -> Body:
+    index = _lookup(model, "body", name)
+    free = [j for j in range(model.njnt) if int(model.jnt_bodyid[j]) == index and int(model.jnt_type[j]) == _FREE]
+    if not free:
+        return Body(name, index)
+    return Body(name, index, int(model.jnt_qposadr[free[0]]), int(model.jnt_dofadr[free[0]]))
+
+
+def _actuators(model: Any, value: Any) -> Actuators:
+    """The named actuators (all when empty), each of which must drive a joint."""
+    names = _name_list(value, "actuator") or [model.actuator(i).name for i in range(model.nu)]
+    joints = []
+    for name in names:
+        index = _lookup(model, "actuator", name)
+        if int(model.actuator_trntype[index]) not in _JOINT_TRANSMISSIONS:
+            raise ValueError(f"actuator '{name}' drives no joint (its transmission is not a joint)")
+        joints.append(_joint(model, int(model.actuator_trnid[index][0])))
+    return Actuators(tuple(names), tuple(j.qpos_adr for j in joints), tuple(j.dof_adr for j in joints))
+
+
+def _limits(model: Any, index: int) -> tuple[float, float]:
+    """(lower, upper) position limits of a joint; (-inf, inf) where it is not limited."""
+    if not bool(model.jnt_limited[index]):
+        return -math.inf, math.inf
+    return float(model.jnt_range[index][0]), float(model.jnt_range[index][1])
+
+
+def _name_list(value: Any, kind: str) -> list[str]:
+    """A name or a list of names, as a list (empty: the caller's default)."""
     if isinstance(value, str):
         return [value]
     if not isinstance(value, Sequence):
-        raise ValueError(f"expected a list of joint names, got {value!r}")
-    if len(value) == 0:
-        return [model.joint(i).name for i in range(model.njnt) if int(model.jnt_type[i]) not in (_FREE, _BALL)]
+        raise ValueError(f"expected a list of {kind} names, got {value!r}")
     return list(value)
+
+
+def _joint_names(model: Any, value: Any) -> list[str]:
+    names = _name_list(value, "joint")
+    return names or [model.joint(i).name for i in range(model.njnt) if int(model.jnt_type[i]) not in (_FREE, _BALL)]

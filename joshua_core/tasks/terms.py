@@ -33,6 +33,15 @@ def _upright(ctx: TermContext, body: Body) -> Any:
     return 1.0 - 2.0 * (quat[:, 1] ** 2 + quat[:, 2] ** 2)
 
 
+def _normalized(ctx: TermContext, joints: Joints) -> Any:
+    """Joint positions mapped linearly from [lower, upper] onto [-1, 1]; ValueError for unlimited joints."""
+    lower, upper = np.asarray(joints.lower), np.asarray(joints.upper)
+    if not np.isfinite(lower).all() or not np.isfinite(upper).all():
+        raise ValueError(f"normalising positions needs limited joints; one of {', '.join(joints.names)} has no range")
+    positions = ctx.qpos[:, np.asarray(joints.qpos_index)]
+    return (2.0 * positions - upper - lower) / (upper - lower)
+
+
 def _random(ctx: TermContext) -> RandomSource:
     """The context's random source; reset terms run only where the backend provides one."""
     if ctx.random is None:
@@ -66,15 +75,30 @@ def joint_pos(ctx: TermContext, joints: Joints = ()) -> Any:  # type: ignore[ass
     return ctx.qpos[:, np.asarray(joints.qpos_index)]
 
 
-def joint_vel(ctx: TermContext, joints: Joints = ()) -> Any:  # type: ignore[assignment]
-    """Velocities of the named joints (empty: every hinge and slide joint)."""
-    return ctx.qvel[:, np.asarray(joints.dof_index)]
+def joint_vel(ctx: TermContext, joints: Joints = (), scale: float = 1.0) -> Any:  # type: ignore[assignment]
+    """Velocities of the named joints (empty: every hinge and slide joint) times `scale`."""
+    return scale * ctx.qvel[:, np.asarray(joints.dof_index)]
+
+
+def joint_pos_normalized(ctx: TermContext, joints: Joints = ()) -> Any:  # type: ignore[assignment]
+    """Positions of the named (limited) joints scaled to [-1, 1] within their limits (Isaac's `unscale`)."""
+    return _normalized(ctx, joints)
 
 
 def contact_forces(ctx: TermContext, limit: float = 1.0) -> Any:
     """External wrenches of every body but the world, clipped to [-limit, limit], flattened (Ant-v5)."""
     forces = ctx.xp.clip(ctx.cfrc_ext[:, 1:], -limit, limit)
     return forces.reshape(forces.shape[0], -1)
+
+
+def body_contact_force(ctx: TermContext, body: Body, scale: float = 1.0) -> Any:
+    """External (contact) wrench on one body, torque then force, times `scale`, (N, 6) (a foot's force sensor)."""
+    return scale * ctx.cfrc_ext[:, body.id]
+
+
+def body_height(ctx: TermContext, body: Body) -> Any:
+    """Height of a body's origin above z = 0, (N,)."""
+    return ctx.xpos[:, body.id, 2]
 
 
 def body_pos(ctx: TermContext, body: Body) -> Any:
@@ -136,6 +160,11 @@ def healthy(ctx: TermContext, joint: Joint, min_z: float, max_z: float) -> Any:
     return _joint_height_in_range(ctx, joint, min_z, max_z).astype(ctx.qpos.dtype)
 
 
+def alive(ctx: TermContext) -> Any:
+    """1 on every step: a bonus for staying alive, so that episodes which end early collect less."""
+    return ctx.xp.ones(ctx.num_envs, ctx.qpos.dtype)
+
+
 def action_l2(ctx: TermContext) -> Any:
     """Sum of squared actions (Gymnasium's control cost with a negative weight)."""
     return ctx.xp.sum(ctx.action * ctx.action, axis=1)
@@ -157,6 +186,17 @@ def contact_force_l2(ctx: TermContext, limit: float = 1.0) -> Any:
     """Sum of squared external wrenches clipped to [-limit, limit] (Gymnasium's contact cost)."""
     forces = ctx.xp.clip(ctx.cfrc_ext, -limit, limit)
     return ctx.xp.sum(forces * forces, axis=(1, 2))
+
+
+def body_upright_above(ctx: TermContext, body: Body, min_upright: float = 0.93) -> Any:
+    """1 while the body's uprightness (see body_upright) exceeds `min_upright`, else 0 (Isaac's up reward)."""
+    return (_upright(ctx, body) > min_upright).astype(ctx.xquat.dtype)
+
+
+def joints_near_upper_limit(ctx: TermContext, joints: Joints = (), threshold: float = 0.98) -> Any:  # type: ignore[assignment]
+    """How many of the named joints are past `threshold` of their range towards the upper limit
+    (normalised position above it; Isaac's joints-at-limit cost counts only this side)."""
+    return ctx.xp.sum(_normalized(ctx, joints) > threshold, axis=1).astype(ctx.qpos.dtype)
 
 
 def body_height_above(ctx: TermContext, body: Body, height: float) -> Any:
@@ -260,7 +300,10 @@ BUILTIN_TERMS: dict[str, Callable[..., Any]] = {
         qvel,
         joint_pos,
         joint_vel,
+        joint_pos_normalized,
         contact_forces,
+        body_contact_force,
+        body_height,
         body_pos,
         site_pos,
         command,
@@ -272,10 +315,13 @@ BUILTIN_TERMS: dict[str, Callable[..., Any]] = {
         body_upright,
         forward_velocity,
         healthy,
+        alive,
         action_l2,
         action_rate_l2,
         joint_vel_l2,
         contact_force_l2,
+        body_upright_above,
+        joints_near_upper_limit,
         body_height_above,
         site_command_distance,
         site_command_tanh,

@@ -1,0 +1,134 @@
+"""The `usd` backend: both Isaac tasks step on NUMPY (mujoco.batch) and JAX (MJX on the CPU) environments with
+the same observations and rewards for the same actions; the SB3 views of both (AntEnv on the CPU, JaxVecEnv)
+report episodes the way SB3 expects and train with PPO; clear errors without a GPU or without joshua-mjx."""
+
+from __future__ import annotations
+
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from stable_baselines3 import PPO
+
+from joshua_core.errors import ConfigError
+from joshua_core.interfaces import EnvKind, EnvSpec
+from joshua_core.plugins import PluginHost
+from joshua_core.resources import resolve_data_path
+from joshua_mujoco import MuJoCoEngine
+from joshua_mujoco.vector import task_config_from_options
+from joshua_usd.backend import UsdBackend
+from joshua_usd.tasks import AntEnv, TrilegEnv, envs
+from joshua_usd.tasks.jax_vec_env import JaxVecEnv
+
+# Until models/isaac/*.usd are merged, the tasks run on the MJCF models the USD files are exported from.
+MODELS = {"isaac_ant_locomotion": "ant/ant.xml", "isaac_trileg": "trileg/trileg.xml"}
+NO_RESET_NOISE = {"reset_joints_uniform": {"weight": 0}, "reset_qvel_normal": {"weight": 0}}
+NUM_ENVS, STEPS, EPISODE_LENGTH = 3, 4, 6
+# float32 MJX against float64 MuJoCo over 4 steps of contact-free (Ant) or light-contact (trileg) motion
+OBSERVATION_TOLERANCE, REWARD_TOLERANCE = 2e-3, 2e-3
+
+
+def spec(task: str, num_envs: int = NUM_ENVS) -> EnvSpec:
+    config = task_config_from_options({"terms": NO_RESET_NOISE, "episode_length": EPISODE_LENGTH})
+    return EnvSpec(task, num_envs, model_path=resolve_data_path(MODELS[task]), task_config=config, nthread=1)
+
+
+@pytest.fixture(scope="module")
+def plugins() -> PluginHost:
+    return PluginHost.discover()
+
+
+@pytest.fixture(scope="module")
+def ant_jax(plugins: PluginHost):  # type: ignore[no-untyped-def]
+    return plugins.backend("usd").create_envs(spec("isaac_ant_locomotion"), EnvKind.JAX, plugins)
+
+
+def test_the_plugin_registers_the_backend_with_both_kinds(plugins: PluginHost) -> None:
+    assert isinstance(plugins.backend("usd"), UsdBackend)
+    plugins.check_env_kinds("sb3", "usd", needs=[EnvKind.NUMPY])
+    plugins.check_env_kinds("ppo", "usd", needs=[EnvKind.JAX])
+
+
+@pytest.mark.parametrize("task", sorted(MODELS))
+def test_numpy_and_jax_environments_agree(task: str, plugins: PluginHost, ant_jax) -> None:  # type: ignore[no-untyped-def]
+    backend = plugins.backend("usd")
+    cpu = backend.create_envs(spec(task), EnvKind.NUMPY, plugins)
+    mjx_env = ant_jax if task == "isaac_ant_locomotion" else backend.create_envs(spec(task), EnvKind.JAX, plugins)
+    cpu_observation, _ = cpu.reset(seed=0)
+    state = mjx_env.reset(jax.random.PRNGKey(0))
+    np.testing.assert_allclose(np.asarray(state.observation), cpu_observation, atol=1e-5)
+    for action in 0.5 * np.random.default_rng(0).uniform(-1, 1, (STEPS, NUM_ENVS, cpu.task.action_size)):
+        cpu_observation, cpu_reward, _, _, cpu_info = cpu.step(action)
+        state = mjx_env.step(state, jnp.asarray(action))
+        np.testing.assert_allclose(np.asarray(state.observation), cpu_observation, atol=OBSERVATION_TOLERANCE)
+        np.testing.assert_allclose(np.asarray(state.reward), cpu_reward, atol=REWARD_TOLERANCE)
+        for name, value in cpu_info["reward_terms"].items():
+            np.testing.assert_allclose(np.asarray(state.reward_terms[name]), value, atol=REWARD_TOLERANCE)
+    assert np.abs(cpu_reward).min() > 0.1  # alive, upright and heading rewards: something was compared
+    cpu.close()
+
+
+def test_jax_vec_env_reports_episodes_as_sb3_expects(ant_jax) -> None:  # type: ignore[no-untyped-def]
+    env = JaxVecEnv(ant_jax, seed=3)
+    first = env.reset()
+    assert first.shape == (NUM_ENVS, ant_jax.observation_size) and first.dtype == np.float32
+    actions = np.full((NUM_ENVS, 8), 0.3, np.float32)
+    returns = np.zeros(NUM_ENVS)
+    for step in range(1, EPISODE_LENGTH + 1):
+        observation, reward, dones, infos = env.step(actions)
+        returns += reward
+        assert dones.all() == (step == EPISODE_LENGTH) and dones.any() == (step == EPISODE_LENGTH)
+    for index, info in enumerate(infos):
+        assert info["TimeLimit.truncated"] and info["episode"]["l"] == EPISODE_LENGTH
+        assert info["episode"]["r"] == pytest.approx(returns[index], rel=1e-5)
+        assert not np.allclose(info["terminal_observation"], observation[index])
+    np.testing.assert_allclose(observation, first, atol=1e-5)  # no reset noise: the next episode starts alike
+
+
+def test_ppo_trains_on_the_jax_vec_env(ant_jax) -> None:  # type: ignore[no-untyped-def]
+    model = PPO("MlpPolicy", JaxVecEnv(ant_jax), n_steps=8, batch_size=12, n_epochs=1, device="cpu", seed=0)
+    model.learn(total_timesteps=2 * 8 * NUM_ENVS)
+    assert model.num_timesteps == 2 * 8 * NUM_ENVS and len(model.ep_info_buffer) >= NUM_ENVS
+
+
+def test_ant_env_on_the_cpu_trains_with_sb3_ppo() -> None:
+    env = AntEnv(num_envs=4, device="cpu", model_path=MODELS["isaac_ant_locomotion"])
+    assert (env.num_envs, env.observation_space.shape, env.action_space.shape) == (4, (60,), (8,))
+    model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=2, device="cpu", seed=0)
+    before = [parameter.detach().clone() for parameter in model.policy.parameters()]
+    model.learn(total_timesteps=512)
+    assert model.num_timesteps == 512
+    assert any(not np.allclose(a.numpy(), b.detach().numpy()) for a, b in zip(before, model.policy.parameters()))
+    env.close()
+
+
+def test_cuda_without_a_gpu_is_a_clear_error() -> None:
+    assert not [device for device in jax.devices() if device.platform == "gpu"]  # this test needs a CPU-only JAX
+    with pytest.raises(ConfigError, match=r'device="cuda": JAX sees no GPU .*use device="cpu"'):
+        TrilegEnv(num_envs=2, device="cuda", model_path=MODELS["isaac_trileg"])
+    with pytest.raises(ConfigError, match="device must be one of cuda, cpu"):
+        TrilegEnv(num_envs=2, device="tpu")
+
+
+def test_cuda_puts_the_environments_on_mjx_over_the_gpus(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(envs, "gpu_devices", jax.devices)  # the CPU stands in for the GPUs
+    env = AntEnv(num_envs=2, device="cuda", model_path=MODELS["isaac_ant_locomotion"])
+    assert isinstance(env, JaxVecEnv) and env.env.mesh.devices.tolist() == jax.devices()
+    assert (env.num_envs, env.observation_space.shape, env.action_space.shape) == (2, (60,), (8,))
+
+
+def test_jax_environments_without_joshua_mjx_say_to_install_it(
+    plugins: PluginHost, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "joshua_mjx", None)  # as if it were not installed
+    with pytest.raises(ConfigError, match=r"need joshua-mjx, which is not installed; install joshua-mjx"):
+        UsdBackend().create_envs(spec("isaac_trileg"), EnvKind.JAX, plugins)
+
+
+def test_engines_are_mujoco_engines_of_any_model_format() -> None:
+    with UsdBackend().create_engine(resolve_data_path(MODELS["isaac_trileg"])) as engine:
+        assert isinstance(engine, MuJoCoEngine) and engine.model.nu == 6
+        engine.step(5)
+        assert engine.time == pytest.approx(5 * 0.004)
