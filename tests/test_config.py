@@ -81,6 +81,7 @@ def test_the_seed_mode_names_parse_bare_or_quoted_and_empty_means_interactive(tm
 PLUGIN_PRESETS = {
     "so_arm100_reach_sb3",
     "ant_train_mjx_tuned",
+    "trileg_train_mjx",
 }  # presets added with the plugins, beyond the product's nine
 
 

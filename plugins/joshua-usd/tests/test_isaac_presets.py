@@ -13,18 +13,15 @@ from joshua_core.runs import run_checkpoints
 from joshua_sb3.run_folder import KEY_ENV_VAR, MODEL_FILE
 
 JOSHUA = Path(sys.executable).parent / "joshua"
-# Until models/isaac/*.usd are merged the presets' USD models do not exist: run them on the MJCF models
-# the USD files are exported from. After the merge, drop these model_path overrides.
-PRESETS = {"isaac_ant_locomotion": "ant/ant.xml", "isaac_trileg": "trileg/trileg.xml"}
+PRESETS = ("isaac_ant_locomotion", "isaac_trileg")  # on models/isaac/ant.usd and trileg.usd, backend usd
 TIMESTEPS = 2 * 16 * 2  # two PPO rollouts of 16 steps on 2 environments
 
 
-@pytest.mark.parametrize("preset", sorted(PRESETS))
+@pytest.mark.parametrize("preset", PRESETS)
 def test_preset_trains_from_the_cli_and_writes_a_checkpoint(preset: str, tmp_path: Path) -> None:
     process = subprocess.run(
         [
             str(JOSHUA), "--preset", preset,
-            "--set", f"training.model_path={PRESETS[preset]}",
             "--set", f"training.total_timesteps={TIMESTEPS}",
             "--set", "training.num_envs=2", "--set", "training.num_steps=16",
             "--set", "training.minibatch_size=32", "--set", "training.num_epochs=1",

@@ -22,12 +22,12 @@ from joshua_usd.backend import UsdBackend
 from joshua_usd.tasks import AntEnv, TrilegEnv, envs
 from joshua_usd.tasks.jax_vec_env import JaxVecEnv
 
-# Until models/isaac/*.usd are merged, the tasks run on the MJCF models the USD files are exported from.
-MODELS = {"isaac_ant_locomotion": "ant/ant.xml", "isaac_trileg": "trileg/trileg.xml"}
+# The tasks on the shipped USD robots (MJX compiles the imported model as it does an MJCF one).
+MODELS = {"isaac_ant_locomotion": "isaac/ant.usd", "isaac_trileg": "isaac/trileg.usd"}
 NO_RESET_NOISE = {"reset_joints_uniform": {"weight": 0}, "reset_qvel_normal": {"weight": 0}}
 NUM_ENVS, STEPS, EPISODE_LENGTH = 3, 4, 6
 # float32 MJX against float64 MuJoCo over 4 steps of contact-free (Ant) or light-contact (trileg) motion
-OBSERVATION_TOLERANCE, REWARD_TOLERANCE = 2e-3, 2e-3
+OBSERVATION_TOLERANCE, REWARD_TOLERANCE = 2e-3, 3e-3
 
 
 def spec(task: str, num_envs: int = NUM_ENVS) -> EnvSpec:
