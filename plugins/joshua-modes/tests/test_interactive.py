@@ -127,3 +127,22 @@ def test_no_display_suggests_offscreen_xvfb_or_display(tmp_path: Path) -> None:
     assert result.returncode == 2
     assert result.stderr.startswith("joshua: error: the MuJoCo viewer needs a display, but DISPLAY is not set")
     assert "sim_offscreen" in result.stderr and "Xvfb" in result.stderr and "DISPLAY=" in result.stderr
+
+
+def test_the_viewer_opens_a_usd_robot(xvfb: str, screenshot: Screenshot, tmp_path: Path) -> None:
+    """model_path may name a USD file (joshua-usd's reader): the exported SO-ARM100, robot only (no keyframes, no
+    lights: only MuJoCo's headlight, so the test looks for the window, not the arm's colour)."""
+    blank = screenshot(xvfb)
+    process = launch(xvfb, tmp_path, "--set", "simulation.model_path=isaac/so100.usd", "--set", "simulation.keyframe=")
+    assert process.stdout is not None
+    try:
+        assert process.stdout.readline().startswith(BANNER)  # the viewer is up
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while (changed := np.abs(screenshot(xvfb).astype(int) - blank).mean()) < 1 and time.monotonic() < deadline:
+            time.sleep(0.5)
+    finally:
+        process.send_signal(signal.SIGINT)
+    status, _, stderr = finish(process)
+    assert changed >= 1, "the viewer window never appeared"
+    assert status == 130 and stderr.strip().endswith("joshua: interrupted")
+    assert_clean(stderr)
