@@ -31,7 +31,11 @@ AUTO = "auto"  # coordinator: JAX detects the cluster (SLURM, Open MPI) and ever
 
 
 class ProcessFailed(JoshuaError):
-    """Another process of the run failed; its own output says why (this one reports what it was told)."""
+    """Process 0 failed: this one reports its message and exits with its status."""
+
+    def __init__(self, message: str, exit_code: int) -> None:
+        super().__init__(message)
+        self.exit_code = exit_code
 
 
 @dataclass(frozen=True)
@@ -64,7 +68,7 @@ class Cluster:
 
     def on_leader(self, step: Callable[[], T]) -> T | None:
         """`step()` on process 0 (None elsewhere); if it raises, every process raises: the leader its error,
-        the others ProcessFailed with the leader's message, so that none waits for the others forever."""
+        the others ProcessFailed with its message and exit status, so that none waits for the others forever."""
         result, error = None, None
         if self.leader:
             try:
@@ -72,9 +76,10 @@ class Cluster:
             except Exception as caught:  # whatever it is, the others must hear of it
                 error = caught
         if self.several:
-            message = self.broadcast_bytes(_describe(error).encode() if error is not None else None)
+            report = f"{getattr(error, 'exit_code', 1)} {_describe(error)}" if error is not None else ""
+            status, _, message = self.broadcast_bytes(report.encode()).decode().partition(" ")
             if message and not self.leader:
-                raise ProcessFailed(f"process 0 stopped: {message.decode()}")
+                raise ProcessFailed(f"process 0 stopped: {message}", int(status))
         if error is not None:
             raise error
         return result

@@ -1,7 +1,7 @@
 """PPO by several processes on jax.distributed, on the CPU: two processes of two virtual devices each
 train as one process of four devices does, hold the same parameters, and only process 0 writes or
-prints; processes started with different configs, and a resume by another number of processes,
-stop with one line each.
+prints; processes started with different configs, a resume by another number of processes and
+incomplete process settings stop with one line each.
 
 Each process is `distributed_worker.py` in a working directory of its own (as on hosts without a
 shared disk), its run folder `runs/` relative to it. A watchdog kills the processes still running
@@ -23,6 +23,12 @@ from typing import Any
 import numpy as np
 import pytest
 from flax.serialization import msgpack_restore
+
+from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.errors import ConfigError
+from joshua_core.options import parse_dict
+from joshua_core.plugins import PluginHost
+from joshua_ppo.distributed import ENV_COORDINATOR, ENV_NUM_PROCESSES, ENV_PROCESS_ID, join
 
 WORKER = Path(__file__).with_name("distributed_worker.py")
 DEADLINE = 240.0  # seconds for one group of processes; measured: 55 s for the first on a loaded 2-core machine
@@ -85,7 +91,9 @@ def finish(processes: dict[Path, subprocess.Popen]) -> dict[Path, Finished]:
     }
 
 
-def two_processes(root: Path, config: dict[str, Any], second: dict[str, Any] | None = None) -> dict[Path, subprocess.Popen]:
+def two_processes(
+    root: Path, config: dict[str, Any], second: dict[str, Any] | None = None
+) -> dict[Path, subprocess.Popen]:
     """Process 0 told its place by the config's `ppo.distributed`, process 1 by JOSHUA_* variables."""
     coordinator = f"127.0.0.1:{free_port()}"
     first = {**config, "ppo": {**config["ppo"], "distributed": {"coordinator": coordinator, "num_processes": 2}}}
@@ -171,3 +179,45 @@ def test_processes_started_with_different_configs_stop_with_one_line(tmp_path: P
     )
     assert [one_line_error(result) for result in results.values()] == [expected, expected]
     assert not (tmp_path / "p0" / "runs").exists()
+
+
+@pytest.mark.parametrize(
+    ("distributed", "variables", "message"),
+    [
+        ({"num_processes": 2}, {}, "training.ppo.distributed.num_processes is 2 but no coordinator (host:port) is set"),
+        (
+            {"coordinator": "127.0.0.1:1"},
+            {"JOSHUA_NUM_PROCESSES": "2", "JOSHUA_PROCESS_ID": "2"},
+            "training.ppo.distributed: process_id 2 is not one of the 2 processes "
+            "(num_processes must be at least 2 with a coordinator)",
+        ),
+        (
+            {},
+            {"JOSHUA_COORDINATOR": "127.0.0.1:1", "JOSHUA_NUM_PROCESSES": "two"},
+            "environment variable JOSHUA_NUM_PROCESSES='two' is not a whole number",
+        ),
+    ],
+)
+def test_incomplete_process_settings_are_config_errors(
+    distributed: dict[str, Any], variables: dict[str, str], message: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Checked before joining anything: no JAX is initialised."""
+    for name in (ENV_COORDINATOR, ENV_NUM_PROCESSES, ENV_PROCESS_ID):
+        monkeypatch.delenv(name, raising=False)
+    for name, value in variables.items():
+        monkeypatch.setenv(name, value)
+    config = TrainingConfig()
+    parse_dict({"ppo": {"distributed": distributed}}, config, PluginHost.discover().options())
+    with pytest.raises(ConfigError) as caught:
+        join(config)
+    assert str(caught.value) == message
+
+
+def test_an_error_of_process_0_stops_the_others_with_its_message(tmp_path: Path) -> None:
+    resume = {**CONFIG, "ppo": {**CONFIG["ppo"], "resume": True}}
+    results = finish(two_processes(tmp_path, resume))
+    missing = "training.ppo.resume: there is no run 'slider' in runs to resume"
+    assert [one_line_error(result) for result in results.values()] == [
+        f"joshua: error: {missing}",
+        f"joshua: error: process 0 stopped: {missing}",
+    ]
