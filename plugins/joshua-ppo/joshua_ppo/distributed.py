@@ -84,9 +84,9 @@ class Cluster:
             raise error
         return result
 
-    def any(self, flag: bool) -> bool:
-        """Whether `flag` is set on any process (e.g. a stop request that reached only one)."""
-        return bool(_allgather(np.array([flag], np.int32)).any()) if self.several else flag
+    def largest(self, value: int) -> int:
+        """The largest of every process's `value` (e.g. the signal of a stop request that reached only one)."""
+        return int(_allgather(np.array([value], np.int32)).max()) if self.several else value
 
     def broadcast_bytes(self, data: bytes | None) -> bytes:
         """Process 0's `data` on every process (the others pass None)."""

@@ -15,7 +15,7 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import RunContext, Trainer
-from joshua_core.interrupts import Interrupted, resume_command, stop_requests
+from joshua_core.interrupts import resume_command, stop_requests
 from joshua_core.options import options_of, parse_dict
 from joshua_core.runs import (
     CONFIG_FILE,
@@ -106,12 +106,11 @@ class PpoTrainer(Trainer):
                 run.resumed_from(resume[0], state[1])
         elif run is not None:
             atomic_write_json(run.folder / CONFIG_FILE, run.config_document())
-        stopped = False
 
         def should_stop() -> bool:  # asked after every iteration, on every process alike
-            nonlocal stopped
-            stopped = cluster.any(stop.requested)
-            return stopped
+            signum = cluster.largest(stop.signum or 0)  # a signal to any process stops them all
+            stop.signum = stop.signum or signum or None
+            return stop.requested
 
         # From here a signal only asks the run to stop: it ends after an iteration, with a checkpoint.
         with stop_requests() as stop:
@@ -120,14 +119,14 @@ class PpoTrainer(Trainer):
             progress = self._run(settings, env, run, state, should_stop)
         newest = str(run.run_folder.checkpoints()[-1]).encode() if run is not None else None
         checkpoint = Path(cluster.broadcast_bytes(newest).decode())  # process 0's, on every process
-        if run is not None and (stopped or stop.requested):
-            print(
-                f"ppo: stopped at {progress.env_steps} steps; checkpoint {checkpoint}\n"
-                f"resume with: {resume_command(OPTIONS, run.name)}",
-                flush=True,
-            )
-        if stopped or stop.requested:
-            raise stop.interrupted() if stop.requested else Interrupted()  # another process was asked to stop
+        if stop.requested:
+            if run is not None:
+                print(
+                    f"ppo: stopped at {progress.env_steps} steps; checkpoint {checkpoint}\n"
+                    f"resume with: {resume_command(OPTIONS, run.name)}",
+                    flush=True,
+                )
+            raise stop.interrupted()
         if run is not None:
             print(
                 f"ppo: {progress.env_steps} steps in {run.wall_seconds:.1f} s (compile {run.compile_seconds:.1f} s), "

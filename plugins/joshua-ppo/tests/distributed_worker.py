@@ -4,8 +4,8 @@ It trains the `ppo` trainer on a test task (`slider_reach`: a point mass reachin
 smallest MJX model, so that the test's processes compile in seconds) with the config given, its
 run folder under the working directory, joining other processes as the config's
 `ppo.distributed` or the JOSHUA_* environment variables say. It writes the parameters it ends with
-to OUT/params_<process>.msgpack, and reports errors as the `joshua` command does: one line on
-stderr, exit status 2 or 1.
+to OUT/params_<process>.msgpack, and reports errors and signals as the `joshua` command does: one
+line on stderr, exit status 2 or 1, or 128 + the signal's number.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from joshua_core import builtin_plugin, hookimpl
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import JoshuaError
 from joshua_core.interfaces import RunContext
+from joshua_core.interrupts import exit_code, install_sigterm_handler
 from joshua_core.options import parse_dict
 from joshua_core.plugins import PluginHost, PluginInfo, Registrar
 from joshua_core.tasks.spec import TaskSpec, TermSpec
@@ -88,11 +89,15 @@ def main(config_json: str, out: str) -> int:
     config = TrainingConfig()
     parse_dict(json.loads(config_json), config, host.options())
     keep_parameters(Path(out))
+    install_sigterm_handler()
     try:
         joshua_ppo.trainer.PpoTrainer().train(config, RunContext(host, Path(config.checkpoint_dir)))
     except JoshuaError as error:
         print(f"joshua: error: {error}", file=sys.stderr)
         return error.exit_code
+    except KeyboardInterrupt as interrupt:
+        print("joshua: interrupted", file=sys.stderr)
+        return exit_code(interrupt)
     return 0
 
 

@@ -1,6 +1,7 @@
 """PPO by several processes on jax.distributed, on the CPU: two processes of two virtual devices each
 train as one process of four devices does, hold the same parameters, and only process 0 writes or
-prints; processes started with different configs, a resume by another number of processes and
+prints, that they resume together and a signal to one stops both with a checkpoint; processes
+started with different configs, a resume by another number of processes, an error of process 0 and
 incomplete process settings stop with one line each.
 
 Each process is `distributed_worker.py` in a working directory of its own (as on hosts without a
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -64,7 +66,14 @@ def free_port() -> int:
 def start(folder: Path, config: dict[str, Any], *, devices: int, env: dict[str, str] | None = None) -> subprocess.Popen:
     """A worker in `folder` with `devices` virtual CPU devices; its output goes to files there."""
     folder.mkdir(parents=True, exist_ok=True)
-    environment = {**os.environ, "XLA_FLAGS": f"--xla_force_host_platform_device_count={devices}", **(env or {})}
+    environment = {
+        **os.environ,
+        "XLA_FLAGS": f"--xla_force_host_platform_device_count={devices}",
+        # a resume compiles what the first run did: from JAX's cache, shared by the test's workers
+        "JAX_COMPILATION_CACHE_DIR": str(folder.parent / "compilation_cache"),
+        "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0",
+        **(env or {}),
+    }
     with (folder / "stdout").open("w") as stdout, (folder / "stderr").open("w") as stderr:
         return subprocess.Popen(
             [sys.executable, str(WORKER), json.dumps(config), str(folder)],
@@ -89,6 +98,16 @@ def finish(processes: dict[Path, subprocess.Popen]) -> dict[Path, Finished]:
         folder: Finished(process.returncode, (folder / "stdout").read_text(), (folder / "stderr").read_text())
         for folder, process in processes.items()
     }
+
+
+def wait_for_line(process: subprocess.Popen, path: Path, text: str) -> None:
+    """Wait until `text` is in the file `path` the running `process` writes (at most DEADLINE)."""
+    deadline = time.monotonic() + DEADLINE
+    while text not in path.read_text():
+        if process.poll() is not None or time.monotonic() > deadline:
+            process.kill()
+            pytest.fail(f"{path} never said {text!r}: {path.read_text()}")
+        time.sleep(0.1)
 
 
 def two_processes(
@@ -157,16 +176,22 @@ def test_two_processes_train_as_one_with_all_their_devices(tmp_path: Path) -> No
     assert largest_difference(ends[leader], ends[single]) < TOLERANCE
     assert largest_difference(ends[leader], parameters(single / "runs" / "slider_step_0" / "params.msgpack")) > 1e-3
 
-    # resuming: by one process, a one-line error; by two, on where the run was
-    longer = {**CONFIG, "total_timesteps": 120, "ppo": {**CONFIG["ppo"], "resume": True}}
+    # resuming: by one process, a one-line error; by two, from where the run was
+    longer = {**CONFIG, "total_timesteps": 4000, "ppo": {**CONFIG["ppo"], "resume": True}}
     alone = finish({leader: start(leader, longer, devices=4)})[leader]
     assert one_line_error(alone) == (
         "joshua: error: training.ppo.resume: run 'slider' was trained by 2 processes, this one has 1; "
         "resume it with as many (the environments are split across them)"
     )
-    resumed = finish(two_processes(tmp_path, longer))
-    assert [result.returncode for result in resumed.values()] == [0, 0], resumed
+    resuming = two_processes(tmp_path, longer)
+    # SIGTERM to process 0 alone, once it trains: both stop after the same iteration, with a checkpoint
+    wait_for_line(resuming[leader], leader / "stdout", "compiling the training iteration")
+    resuming[leader].send_signal(signal.SIGTERM)
+    resumed = finish(resuming)
+    assert [result.returncode for result in resumed.values()] == [143, 143], resumed
     assert "ppo: resuming slider from slider_step_80 (80 steps)" in resumed[leader].stdout
+    assert "ppo: stopped at 120 steps; checkpoint runs/slider_step_120" in resumed[leader].stdout
+    assert resumed[other].stdout == "" and resumed[other].stderr == "joshua: interrupted\n", resumed[other]
     assert (leader / "runs" / "slider_step_120").is_dir() and not (other / "runs").exists()
     assert largest_difference(parameters(leader / "params_0.msgpack"), parameters(other / "params_1.msgpack")) == 0.0
 
