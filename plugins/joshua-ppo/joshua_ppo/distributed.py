@@ -28,6 +28,7 @@ T = TypeVar("T")
 OPTIONS = "training.ppo.distributed"
 ENV_COORDINATOR, ENV_NUM_PROCESSES, ENV_PROCESS_ID = "JOSHUA_COORDINATOR", "JOSHUA_NUM_PROCESSES", "JOSHUA_PROCESS_ID"
 AUTO = "auto"  # coordinator: JAX detects the cluster (SLURM, Open MPI) and every field
+STDOUT = 1  # the file descriptor, which libraries write to as well as Python's sys.stdout
 
 
 class ProcessFailed(JoshuaError):
@@ -114,11 +115,10 @@ def join(config: TrainingConfig) -> Cluster:
         if count > 1:
             raise ConfigError(f"{OPTIONS}.num_processes is {count} but no coordinator (host:port) is set")
         return Cluster()
+    if coordinator != AUTO and count < 2:
+        raise ConfigError(f"{OPTIONS}.num_processes must be at least 2 with a coordinator, got {count}")
     if coordinator != AUTO and not 0 <= process_id < count:
-        raise ConfigError(
-            f"{OPTIONS}: process_id {process_id} is not one of the {count} processes "
-            f"(num_processes must be at least 2 with a coordinator)"
-        )
+        raise ConfigError(f"{OPTIONS}.process_id {process_id} is not one of the {count} processes (0 to {count - 1})")
     try:
         if coordinator == AUTO:
             jax.distributed.initialize()
@@ -138,7 +138,7 @@ def _silence_stdout() -> None:
     to /dev/null: the processes other than 0 print nothing but errors, on stderr."""
     sys.stdout.flush()
     devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, sys.stdout.fileno())
+    os.dup2(devnull, STDOUT)
     os.close(devnull)
 
 

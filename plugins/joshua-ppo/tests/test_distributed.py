@@ -213,8 +213,12 @@ def test_processes_started_with_different_configs_stop_with_one_line(tmp_path: P
         (
             {"coordinator": "127.0.0.1:1"},
             {"JOSHUA_NUM_PROCESSES": "2", "JOSHUA_PROCESS_ID": "2"},
-            "training.ppo.distributed: process_id 2 is not one of the 2 processes "
-            "(num_processes must be at least 2 with a coordinator)",
+            "training.ppo.distributed.process_id 2 is not one of the 2 processes (0 to 1)",
+        ),
+        (
+            {},
+            {"JOSHUA_COORDINATOR": "127.0.0.1:1"},
+            "training.ppo.distributed.num_processes must be at least 2 with a coordinator, got 0",
         ),
         (
             {},
