@@ -13,7 +13,7 @@ from __future__ import annotations
 import enum
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, Self
 
@@ -203,15 +203,22 @@ class RunContext:
         return engine
 
     def create_envs(
-        self, training: TrainingConfig, kind: EnvKind, *, num_envs: int | None = None, seed: int | None = None
+        self,
+        training: TrainingConfig,
+        kind: EnvKind,
+        *,
+        num_envs: int | None = None,
+        seed: int | None = None,
+        devices: Sequence[Any] | None = None,
     ) -> Any:
         """Environments of `kind` for a finalized training config, from the backend it names; a backend that
-        does not provide `kind` is a ConfigError naming those that do. `num_envs`, `seed` replace the config's."""
+        does not provide `kind` is a ConfigError naming those that do. `num_envs`, `seed` replace the config's;
+        `devices` (JAX environments) are the devices to spread them over (None: every visible one)."""
         from joshua_core.config import training_plugins  # the config module imports this one
 
         trainer, backend = training_plugins(training)
         self.plugins.check_env_kinds(trainer, backend, needs=(kind,))
-        spec = EnvSpec.from_training(training, num_envs=num_envs, seed=seed)
+        spec = replace(EnvSpec.from_training(training, num_envs=num_envs, seed=seed), devices=devices)
         return self.plugins.backend(backend).create_envs(spec, kind, self.plugins)
 
 

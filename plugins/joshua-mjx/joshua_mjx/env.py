@@ -95,7 +95,9 @@ class MjxEnv:
         self.model = model
         self.source = Path(source)
         self.num_envs = num_envs
-        self.mjx_model = put_model(model, source)
+        # the model and the initial state are constants of the compiled functions: on a device of this process
+        local = next((device for device in devices if device.process_index == jax.process_index()), None)
+        self.mjx_model = put_model(model, source, local)
         self.mesh = Mesh(np.array(devices), (ENV_AXIS,))
         self.sharding = NamedSharding(self.mesh, PartitionSpec(ENV_AXIS))
         self.replicated = NamedSharding(self.mesh, PartitionSpec())
@@ -106,7 +108,7 @@ class MjxEnv:
         initial = mujoco.MjData(model)
         if task.keyframe_id >= 0:
             mujoco.mj_resetDataKeyframe(model, initial, task.keyframe_id)
-        self._initial_data = mjx.put_data(model, initial)
+        self._initial_data = mjx.put_data(model, initial, device=local or jax.local_devices()[0])
         self._draw_starts = jax.jit(self._fresh_episodes, in_shardings=self.sharding, out_shardings=self.sharding)
         self._split_keys = jax.jit(_split_each, in_shardings=self.sharding, out_shardings=self.sharding)
         self._begin = jax.jit(self._begin_episodes, out_shardings=self.sharding)

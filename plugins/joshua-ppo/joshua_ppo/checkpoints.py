@@ -28,10 +28,11 @@ from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings
-from joshua_ppo.state import Progress, TrainingState, init_state
+from joshua_ppo.state import Progress, TrainingState, abstract_state
 
 PARAMS_FILE = "params.msgpack"
 TRAIN_STATE_FILE = "train_state.msgpack"
+RESUME_FILES = (PARAMS_FILE, TRAIN_STATE_FILE)  # what resuming reads from a checkpoint
 
 
 class CorruptCheckpointError(JoshuaError):
@@ -52,13 +53,23 @@ def write_checkpoint(run: RunFolder, step: int, payloads: dict[str, Any], docume
     return run.checkpoint_path(step)
 
 
-def read_payload(folder: Path, name: str, target: Any) -> Any:
-    """Restore `folder/name` into the structure of `target` (arrays of the same shapes)."""
+def payload_bytes(folder: Path, name: str) -> bytes:
+    """The file `folder/name` as it is (a CorruptCheckpointError when it is missing)."""
     path = folder / name
     if not path.is_file():
         raise CorruptCheckpointError(f"checkpoint {folder} has no {name}; it is incomplete")
+    return path.read_bytes()
+
+
+def resume_payloads(checkpoint: Path) -> dict[str, bytes]:
+    """What resuming from `checkpoint` reads, as bytes: read by one process, handed to the others."""
+    return {name: payload_bytes(checkpoint, name) for name in RESUME_FILES}
+
+
+def _restore(path: Path, data: bytes, target: Any) -> Any:
+    """`data`, the msgpack file at `path`, restored into the structure of `target`."""
     try:
-        return serialization.from_bytes(target, path.read_bytes())
+        return serialization.from_bytes(target, data)
     except Exception as error:  # msgpack and flax raise many types for truncated or mismatched files
         raise CorruptCheckpointError(
             f"cannot load {path}: {type(error).__name__}: {error} (the file is damaged, or was written for "
@@ -76,21 +87,24 @@ def read_json(path: Path) -> dict[str, Any]:
     return document
 
 
-def load_params(checkpoint: Path, env: JaxEnv, network: NetworkSettings) -> tuple[Any, RunningStatistics]:
-    """A checkpoint's network parameters and observation normaliser, checked against the network's shapes."""
-    template = init_state(env, seed=0, network=network, optimization=OptimizationSettings())
+def load_params(
+    checkpoint: Path, env: JaxEnv, network: NetworkSettings, data: bytes | None = None
+) -> tuple[Any, RunningStatistics]:
+    """A checkpoint's network parameters and observation normaliser (from `data`, its params file's bytes,
+    when given), checked against the network's shapes; host arrays."""
+    template = abstract_state(env, network=network, optimization=OptimizationSettings())
     target = {"params": template.params, "normalizer": template.normalizer._asdict()}
-    raw = read_payload(checkpoint, PARAMS_FILE, None)  # the saved arrays as they are
+    path = checkpoint / PARAMS_FILE
+    raw = _restore(path, payload_bytes(checkpoint, PARAMS_FILE) if data is None else data, None)  # the saved arrays
     if not isinstance(raw, dict) or _shapes(raw.get("params")) != _shapes(serialization.to_state_dict(template.params)):
         # msgpack restores any shapes; the network would fail deep inside flax (ScopeParamShapeError)
         raise NetworkMismatchError(
-            f"{checkpoint / PARAMS_FILE} holds a network of other sizes than its config.json describes "
+            f"{path} holds a network of other sizes than its config.json describes "
             f"(hidden_sizes {list(network.hidden_sizes)}); was the config edited?"
         )
     try:
         saved = serialization.from_state_dict(target, raw)
     except Exception as error:  # flax raises many types for a normaliser of another size
-        path = checkpoint / PARAMS_FILE
         raise CorruptCheckpointError(f"cannot load {path}: {type(error).__name__}: {error}") from None
     return saved["params"], RunningStatistics(**saved["normalizer"])
 
@@ -98,15 +112,19 @@ def load_params(checkpoint: Path, env: JaxEnv, network: NetworkSettings) -> tupl
 def _shapes(tree: Any) -> list[tuple[str, tuple[int, ...]]]:
     """Each array of a state dict: its path and shape."""
     leaves, _ = jax.tree_util.tree_flatten_with_path(tree)
-    return [(jax.tree_util.keystr(path), tuple(jax.numpy.shape(leaf))) for path, leaf in leaves]
+    return [(jax.tree_util.keystr(path), tuple(getattr(leaf, "shape", ()))) for path, leaf in leaves]
 
 
-def load_state(checkpoint: Path, env: JaxEnv, settings: PpoSettings) -> tuple[TrainingState, Progress]:
-    """The full training state of a checkpoint (environments freshly reset), for resuming."""
-    template = init_state(env, seed=settings.seed, network=settings.network, optimization=settings.optimization)
-    params, normalizer = load_params(checkpoint, env, settings.network)
+def load_state(
+    checkpoint: Path, env: JaxEnv, settings: PpoSettings, payloads: dict[str, bytes] | None = None
+) -> tuple[TrainingState, Progress]:
+    """The full training state of a checkpoint (environments freshly reset), for resuming; from `payloads`
+    (`resume_payloads`, read by another process) when given. Every process of a run calls it together."""
+    payloads = payloads or resume_payloads(checkpoint)
+    template = abstract_state(env, network=settings.network, optimization=settings.optimization)
+    params, normalizer = load_params(checkpoint, env, settings.network, payloads[PARAMS_FILE])
     target = {"opt_state": template.opt_state, "key": template.key, "iteration": 0, "env_steps": 0}
-    saved = read_payload(checkpoint, TRAIN_STATE_FILE, target)
+    saved = _restore(checkpoint / TRAIN_STATE_FILE, payloads[TRAIN_STATE_FILE], target)
     state = TrainingState(
         params, saved["opt_state"], normalizer, env.reset(jax.random.fold_in(saved["key"], 1)), saved["key"]
     )

@@ -8,6 +8,7 @@ and the device mesh the environments are spread over (its one axis is the one gr
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
@@ -26,8 +27,11 @@ def env_axis(env: JaxEnv) -> str:
     return axis
 
 
-def environment(config: TrainingConfig, context: RunContext, num_envs: int | None = None) -> JaxEnv:
+def environment(
+    config: TrainingConfig, context: RunContext, num_envs: int | None = None, devices: Sequence[Any] | None = None
+) -> JaxEnv:
     """The JAX environments of a training config's task, model and task_config, from its backend: `num_envs`
-    of them (default: the config's num_envs, else DEFAULT_NUM_ENVS), over every visible device."""
+    of them (default: the config's num_envs, else DEFAULT_NUM_ENVS), over `devices` (default: every visible
+    device, those of every process in a multi-process run)."""
     count = num_envs if num_envs is not None else config.num_envs or DEFAULT_NUM_ENVS
-    return context.create_envs(config, EnvKind.JAX, num_envs=count)
+    return context.create_envs(config, EnvKind.JAX, num_envs=count, devices=devices)

@@ -4,6 +4,7 @@ The checkpoint layout is in `joshua_ppo.checkpoints`."""
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import asdict
 from importlib import metadata
@@ -18,14 +19,16 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.curves import write_training_curves
 from joshua_core.interfaces import RunContext
 from joshua_core.options import message_to_dict, options_of
+from joshua_core.progress import progress_bar
 from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
 from joshua_ppo import options_pb2
-from joshua_ppo.checkpoints import PARAMS_FILE, TRAIN_STATE_FILE, write_checkpoint
+from joshua_ppo.checkpoints import PARAMS_FILE, TRAIN_STATE_FILE, read_json, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.rollout import collect, make_rollout, render_video
 from joshua_ppo.state import Progress, TrainingState
 from joshua_ppo.train import IterationReport
+from joshua_ppo.viewer import open_viewer
 from joshua_render import LiveViewer
 
 TRAINER_NAME = "ppo"
@@ -91,6 +94,7 @@ class Run:
             "observation_size": self.env.observation_size,
             "action_size": self.env.action_size,
             "devices": [str(device) for device in jax.devices()],
+            "processes": jax.process_count(),
             "settings": settings,
             "training": message_to_dict(self.config),
             "versions": {
@@ -110,6 +114,34 @@ class Run:
             "history": [record for record in self.history if record["step"] <= progress.env_steps],
         }
 
+    def resumed_from(self, checkpoint: Path, progress: Progress) -> None:
+        """Take on the history and last return of the checkpoint the run resumes from."""
+        previous = read_json(checkpoint / METRICS_FILE)
+        self.history = [record for record in previous.get("history", []) if record["step"] <= progress.env_steps]
+        saved_return = previous.get("mean_return")  # null where it was not finite (json_safe)
+        self.last_return = float("nan") if saved_return is None else float(saved_return)
+        print(f"ppo: resuming {self.name} from {checkpoint.name} ({progress.env_steps} steps)")
+
+    def open_monitors(self, start: int) -> None:
+        """The progress bar (from `start` steps), TensorBoard log and live viewer; the line saying training started."""
+        self.bar = progress_bar(
+            self.settings.total_timesteps, description=f"ppo {self.config.task}", unit="steps", initial=start
+        )
+        self.scalars = ScalarLog(self.folder / "tensorboard")
+        self.viewer = open_viewer(options_of(self.config, options_pb2.ppo), self.env.model)
+        processes = jax.process_count()
+        devices = ", ".join(str(device) for device in jax.devices())
+        where = f"{len(jax.devices())} devices of {processes} processes" if processes > 1 else devices
+        self.bar.write(f"ppo: {self.env.num_envs} environments on {where}; compiling the training iteration")
+        sys.stdout.flush()  # the line that says training started, for whoever waits on it
+
+    def close_monitors(self) -> None:
+        self.bar.close()
+        if self.scalars is not None:
+            self.scalars.close()
+        if self.viewer is not None:
+            self.viewer.close()
+
     # --- callbacks of train_ppo ---
 
     def on_progress(self, report: IterationReport, state: TrainingState) -> None:
@@ -128,7 +160,7 @@ class Run:
         if interval > 0 and report.iteration % interval == 0:
             self.record_video(state, report.env_steps)
         if self.viewer is not None:
-            qpos = np.asarray(jax.device_get(state.env_state.data.qpos[: self.viewer.envs]))
+            qpos = _first_local(state.env_state.data.qpos, self.viewer.envs)
             status = f"step {report.env_steps:,}  return {self.last_return:.4g}  {report.steps_per_second:,.0f} steps/s"
             if not self.viewer.show(qpos, status):
                 self.viewer.close()
@@ -155,14 +187,22 @@ class Run:
 
     def record_video(self, state: TrainingState, step: int) -> None:
         """Roll out the current deterministic policy for one episode and render it to videos/step_<N>.mp4."""
-        if self._rollout is None:
-            env = environment(self.config, self.context, len(jax.devices()))
+        if self._rollout is None:  # on this process's devices: the others do not take part
+            env = environment(self.config, self.context, jax.local_device_count(), jax.local_devices())
             steps = options_of(self.config, options_pb2.ppo).video_steps or env.task.episode_length
             self._rollout = env, make_rollout(env, self.settings.network, steps)
         env, rollout = self._rollout
-        episode = collect(rollout(state.params, state.normalizer, jax.random.PRNGKey(step)))
+        params, normalizer = jax.device_get((state.params, state.normalizer))  # from every process's devices
+        episode = collect(rollout(params, normalizer, jax.random.PRNGKey(step)))
         path = render_video(env.model, episode, self.folder / "videos" / f"step_{step}.mp4", fps=1.0 / env.task.dt)
         self.bar.write(f"ppo: video {path}")
+
+
+def _first_local(array: jax.Array, count: int) -> np.ndarray:
+    """The first `count` environments of `array` held by this process's devices (those of other
+    processes cannot be read without them)."""
+    shards = sorted(array.addressable_shards, key=lambda shard: shard.index[0].start or 0)
+    return np.concatenate([np.asarray(shard.data) for shard in shards])[:count]
 
 
 def _version(distribution: str) -> str:

@@ -17,10 +17,8 @@ from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import RunContext, Trainer
 from joshua_core.interrupts import resume_command, stop_requests
 from joshua_core.options import options_of, parse_dict
-from joshua_core.progress import progress_bar
 from joshua_core.runs import (
     CONFIG_FILE,
-    METRICS_FILE,
     RunFolder,
     checkpoint_step,
     create_run,
@@ -29,93 +27,118 @@ from joshua_core.runs import (
     resume_run,
 )
 from joshua_ppo import options_pb2
-from joshua_ppo.checkpoints import load_params, load_state, read_json
+from joshua_ppo.checkpoints import RESUME_FILES, load_params, load_state, resume_payloads
 from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.distributed import Cluster, join
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.rollout import collect, make_rollout, mean_results, render_video
-from joshua_ppo.run import RUN_FORMAT, TRAINER_NAME, Run, ScalarLog
+from joshua_ppo.run import RUN_FORMAT, TRAINER_NAME, Run
 from joshua_ppo.settings import check_settings
 from joshua_ppo.state import Progress, TrainingState
 from joshua_ppo.train import train_ppo
-from joshua_ppo.viewer import open_viewer
 
 OPTIONS = "training.ppo"  # where the run options live, for hints
+Resume = tuple[Path, dict[str, bytes]]  # the checkpoint to resume from and its payloads (resume_payloads)
 
 
-def _open_run(config: TrainingConfig, root: Path) -> tuple[RunFolder, Path | None]:
-    """The run folder, locked, and the checkpoint to resume from (None for a new run)."""
+def _open_run(config: TrainingConfig, root: Path, processes: int) -> tuple[RunFolder, Resume | None]:
+    """The run folder, locked, and the checkpoint to resume from with what resuming reads (None: a new run)."""
     options = options_of(config, options_pb2.ppo)
     if not options.resume:
         return create_run(root, options.run_name or None, stem=config.task, options=OPTIONS), None
     run, saved = resume_run(root, options.run_name or None, trainer=TRAINER_NAME, options=OPTIONS)
-    if saved.get("task") != config.task:
+    try:
+        if saved.get("task") != config.task:
+            raise ConfigError(
+                f"{OPTIONS}.resume: run '{run.name}' trained task '{saved.get('task')}', "
+                f"this config asks for '{config.task}'"
+            )
+        if saved.get("processes", 1) != processes:
+            raise ConfigError(
+                f"{OPTIONS}.resume: run '{run.name}' was trained by {saved.get('processes', 1)} processes, "
+                f"this one has {processes}; resume it with as many (the environments are split across them)"
+            )
+        checkpoints = run.checkpoints()
+        if not checkpoints:
+            raise ConfigError(f"{OPTIONS}.resume: run '{run.name}' in {root} has no checkpoint to resume from")
+        return run, (checkpoints[-1], resume_payloads(checkpoints[-1]))
+    except Exception:
         run.close()
-        raise ConfigError(
-            f"{OPTIONS}.resume: run '{run.name}' trained task '{saved.get('task')}', "
-            f"this config asks for '{config.task}'"
-        )
-    checkpoints = run.checkpoints()
-    if not checkpoints:
-        run.close()
-        raise ConfigError(f"{OPTIONS}.resume: run '{run.name}' in {root} has no checkpoint to resume from")
-    return run, checkpoints[-1]
+        raise
+
+
+def _shared_resume(cluster: Cluster, resume: Resume | None) -> Resume | None:
+    """Process 0's checkpoint to resume from and its payloads, on every process (None: a new run)."""
+    checkpoint, payloads = resume or (None, {})
+    shared = cluster.broadcast_bytes(str(checkpoint).encode() if checkpoint else None)
+    if not shared:
+        return None
+    return Path(shared.decode()), {name: cluster.broadcast_bytes(payloads.get(name)) for name in RESUME_FILES}
 
 
 class PpoTrainer(Trainer):
     """PPO on the JAX environments of the configured backend; see the plugin README."""
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
+        cluster = join(config)  # before anything asks JAX for its devices
+        cluster.check_same_config(config)
         settings = PpoSettings.from_config(config)
         env = environment(config, context)
         # a bad batch layout is a config error before anything is written
         recompute = settings.returns.recompute_advantages
         check_settings(settings.rollout, settings.optimization, env.num_envs, env.mesh.size, whole_unrolls=recompute)
-        folder, resume_from = _open_run(config, context.output_dir)
+        opened = cluster.on_leader(lambda: _open_run(config, context.output_dir, cluster.num_processes))
+        if opened is None:  # another process than 0: it trains alongside and writes nothing
+            return self._train(settings, env, cluster, None, _shared_resume(cluster, None))
+        folder, resume = opened
         with folder:  # locked while training
-            return self._train(config, settings, env, Run(config, settings, env, context, folder), resume_from)
+            run = Run(config, settings, env, context, folder)
+            return self._train(settings, env, cluster, run, _shared_resume(cluster, resume))
 
     def _train(
-        self, config: TrainingConfig, settings: PpoSettings, env: JaxEnv, run: Run, resume_from: Path | None
+        self, settings: PpoSettings, env: JaxEnv, cluster: Cluster, run: Run | None, resume: Resume | None
     ) -> Path:
-        resume = None
-        if resume_from is not None:
-            resume = load_state(resume_from, env, settings)
-            previous = read_json(resume_from / METRICS_FILE)
-            run.history = [record for record in previous.get("history", []) if record["step"] <= resume[1].env_steps]
-            saved_return = previous.get("mean_return")  # null where it was not finite (json_safe)
-            run.last_return = float("nan") if saved_return is None else float(saved_return)
-            print(f"ppo: resuming {run.name} from {resume_from.name} ({resume[1].env_steps} steps)")
-        else:
+        """Train on every process; `run` (process 0's, None on the others) records and reports."""
+        state = None
+        if resume is not None:
+            state = load_state(resume[0], env, settings, resume[1])
+            if run is not None:
+                run.resumed_from(resume[0], state[1])
+        elif run is not None:
             atomic_write_json(run.folder / CONFIG_FILE, run.config_document())
-        start = resume[1].env_steps if resume else 0
+
+        def should_stop() -> bool:  # asked after every iteration, on every process alike
+            signum = cluster.largest(stop.signum or 0)  # a signal to any process stops them all
+            stop.signum = stop.signum or signum or None
+            return stop.requested
+
         # From here a signal only asks the run to stop: it ends after an iteration, with a checkpoint.
         with stop_requests() as stop:
-            run.bar = progress_bar(settings.total_timesteps, description=f"ppo {config.task}", unit="steps", initial=start)
-            run.scalars = ScalarLog(run.folder / "tensorboard")
-            run.viewer = open_viewer(options_of(config, options_pb2.ppo), env.model)
-            devices = ", ".join(str(device) for device in jax.devices())
-            run.bar.write(f"ppo: {env.num_envs} environments on {devices}; compiling the training iteration")
-            sys.stdout.flush()  # the line that says training started, for whoever waits on it
-            progress = self._run(settings, env, run, resume, should_stop=lambda: stop.requested)
-        checkpoint = run.run_folder.checkpoints()[-1]
+            if run is not None:
+                run.open_monitors(state[1].env_steps if state else 0)
+            progress = self._run(settings, env, run, state, should_stop)
+        newest = str(run.run_folder.checkpoints()[-1]).encode() if run is not None else None
+        checkpoint = Path(cluster.broadcast_bytes(newest).decode())  # process 0's, on every process
         if stop.requested:
-            print(
-                f"ppo: stopped at {progress.env_steps} steps; checkpoint {checkpoint}\n"
-                f"resume with: {resume_command(OPTIONS, run.name)}",
-                flush=True,
-            )
+            if run is not None:
+                print(
+                    f"ppo: stopped at {progress.env_steps} steps; checkpoint {checkpoint}\n"
+                    f"resume with: {resume_command(OPTIONS, run.name)}",
+                    flush=True,
+                )
             raise stop.interrupted()
-        print(
-            f"ppo: {progress.env_steps} steps in {run.wall_seconds:.1f} s (compile {run.compile_seconds:.1f} s), "
-            f"mean return {run.last_return:.4g}; checkpoint {checkpoint}"
-        )
+        if run is not None:
+            print(
+                f"ppo: {progress.env_steps} steps in {run.wall_seconds:.1f} s (compile {run.compile_seconds:.1f} s), "
+                f"mean return {run.last_return:.4g}; checkpoint {checkpoint}"
+            )
         return checkpoint
 
     @staticmethod
     def _run(
         settings: PpoSettings,
         env: JaxEnv,
-        run: Run,
+        run: Run | None,
         resume: tuple[TrainingState, Progress] | None,
         should_stop: Callable[[], bool],
     ) -> Progress:
@@ -131,15 +154,13 @@ class PpoTrainer(Trainer):
                 seed=settings.seed,
                 checkpoint_interval=settings.checkpoint_interval,
                 resume=resume,
-                on_progress=run.on_progress,
-                on_checkpoint=run.on_checkpoint,
+                on_progress=run.on_progress if run is not None else None,
+                on_checkpoint=run.on_checkpoint if run is not None else None,
                 should_stop=should_stop,
             )
         finally:
-            run.bar.close()
-            run.scalars.close()
-            if run.viewer is not None:
-                run.viewer.close()
+            if run is not None:
+                run.close_monitors()
         return progress
 
     def evaluate(
