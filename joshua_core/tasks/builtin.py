@@ -137,7 +137,7 @@ SO_ARM100_PICK_PLACE = TaskSpec(
         TermSpec("body_command_within", params={"body": "cube", "name": "goal", "radius": 0.02}, name="success"),
         TermSpec("body_command_distance", params={"body": "cube", "name": "goal"}, name="distance"),
     ),
-    action=ActionSpec("offset", 1.0),
+    action=ActionSpec("offset", 2.0),
 )
 
 BUILTIN_TASKS = {spec.name: spec for spec in (ANT_LOCOMOTION, TRILEG_LOCOMOTION, SO_ARM100_REACH, SO_ARM100_PICK_PLACE)}

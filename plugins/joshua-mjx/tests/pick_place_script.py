@@ -1,0 +1,115 @@
+"""A hand-written pick-and-place controller for the SO-ARM100 task, in the task's own action space.
+
+It proves the task can be solved in a given physics: from the cube's and the goal's positions it plans
+waypoints for the gripper site (above the cube, down, close the jaw, lift, carry, lower, open),
+solves each with damped least squares on a CPU copy of the model (the gripper pointing straight down,
+its jaw closing along the world x axis, across two faces of the cube) and holds the servo targets for a
+fixed number of control steps. Servo targets become actions through the task's "offset" mapping
+(ctrl = home ctrl + scale * action).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Generator
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+ARM = ("joint_1", "joint_2", "joint_3", "joint_4", "joint_5")
+JAW_OPEN, JAW_CLOSED = 0.8, -0.17  # rad: wide open; the pads' closed angle, so the servo squeezes the cube
+ABOVE = 0.08  # m above the cube's centre when approaching and carrying
+# The gripper site is the fixed fingertip; the moving pad closes onto it along the site's z axis, so a held
+# 3 cm cube's centre is half its width along z from the site.
+GRASP_OFFSET = 0.015
+# The pads reach 1.7 cm beyond the site (the fingertip points down): gripping 1 cm above the cube's centre
+# keeps them off the table.
+GRIP_HEIGHT = 0.01
+SAG_GAIN = 0.1  # per control step
+SAG_LIMIT = 0.1  # rad
+
+
+@dataclass(frozen=True)
+class Phase:
+    name: str
+    site: NDArray[np.float64]  # where the gripper site goes (world, m)
+    jaw: float
+    steps: int  # control steps to hold the targets
+
+
+def phases(cube: NDArray[np.float64], goal: NDArray[np.float64]) -> list[Phase]:
+    """The waypoints from the cube's centre to the goal's (both in the world, at the cube's height)."""
+    up, grip = np.array([0.0, 0.0, ABOVE]), np.array([0.0, 0.0, GRIP_HEIGHT])
+    return [
+        Phase("above", cube + up, JAW_OPEN, 40),
+        Phase("down", cube + grip, JAW_OPEN, 40),
+        Phase("close", cube + grip, JAW_CLOSED, 40),
+        Phase("lift", cube + up, JAW_CLOSED, 40),
+        Phase("carry", goal + up, JAW_CLOSED, 60),
+        Phase("lower", goal + grip, JAW_CLOSED, 40),
+        Phase("release", goal + grip, JAW_OPEN, 40),  # and stay: lifting the open jaw away drags the cube along
+    ]
+
+
+class PickPlaceScript:
+    """Actions for one environment of the task on `model` (a CPU MjModel of the scene being simulated)."""
+
+    def __init__(self, model: mujoco.MjModel, action_scale: float) -> None:
+        self.model = model
+        self.action_scale = action_scale
+        self.data = mujoco.MjData(model)
+        self.site = model.site("gripper").id
+        joints = [model.joint(name) for name in ARM]
+        self.qpos_addresses = [int(joint.qposadr[0]) for joint in joints]
+        self.dofs = [int(joint.dofadr[0]) for joint in joints]
+        mujoco.mj_resetDataKeyframe(model, self.data, model.key("home").id)
+        self.home_ctrl = self.data.ctrl.copy()
+
+    def actions(self, qpos: NDArray[np.float64], cube: NDArray[np.float64], goal: NDArray[np.float64]) -> Generator[
+        tuple[str, NDArray[np.float64]], NDArray[np.float64], None
+    ]:
+        """(phase name, action) for every control step of the script, starting from joint positions `qpos`; send
+        the joint positions after each step. An integral term on the arm's targets takes out the servos' sag under
+        gravity, which is a few centimetres at the far end of the workspace."""
+        self.data.qpos[:] = qpos  # the IK starts from here and from each solution after
+        mujoco.mj_kinematics(self.model, self.data)
+        # the jaw closes along +x or -x, whichever the gripper is nearer to now: no half turn of the wrist
+        self.across = np.array([np.copysign(1.0, self.data.site_xmat[self.site][2]), 0.0, 0.0])
+        sag = np.zeros(len(ARM))
+        start = self._grasp_point()
+        for phase in phases(cube, goal):
+            for step in range(phase.steps):
+                # the target moves in a straight line over the first half of the phase: no sweeping through the cube
+                share = min(1.0, (step + 1) / (phase.steps / 2))
+                arm = self._solve(start + share * (phase.site - start))
+                action = np.clip((np.append(arm + sag, phase.jaw) - self.home_ctrl) / self.action_scale, -1.0, 1.0)
+                measured = yield phase.name, action
+                error = arm - measured[self.qpos_addresses]
+                settled = np.abs(error) < SAG_LIMIT  # no wind-up while the arm is still moving there
+                sag = np.clip(sag + SAG_GAIN * error * settled, -SAG_LIMIT, SAG_LIMIT)
+            start = phase.site
+
+    def _grasp_point(self) -> NDArray[np.float64]:
+        """Where a held cube's centre is for `self.data`'s joints: GRASP_OFFSET along the site's z axis."""
+        mujoco.mj_kinematics(self.model, self.data)
+        return self.data.site_xpos[self.site] + GRASP_OFFSET * self.data.site_xmat[self.site].reshape(3, 3)[:, 2]
+
+    def _solve(self, target: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Arm joint positions that put the grasp point (between the pads) at `target`, the gripper pointing down
+        and its jaw closing along x."""
+        model, data = self.model, self.data
+        jacp, jacr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+        body = model.site_bodyid[self.site]
+        for _ in range(200):
+            grasp = self._grasp_point()
+            mujoco.mj_comPos(model, data)
+            frame = data.site_xmat[self.site].reshape(3, 3)
+            error = np.concatenate([target - grasp, np.cross(frame[:, 0], [0, 0, -1.0]), np.cross(frame[:, 2], self.across)])
+            if np.linalg.norm(error) < 1e-6:
+                break
+            mujoco.mj_jac(model, data, jacp, jacr, grasp, body)
+            jacobian = np.vstack([jacp[:, self.dofs], jacr[:, self.dofs], jacr[:, self.dofs]])
+            step = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + 1e-4 * np.eye(9), error)
+            data.qpos[self.qpos_addresses] += step
+        return data.qpos[self.qpos_addresses].copy()

@@ -1,0 +1,84 @@
+"""A scripted controller picks up the cube and places it on the goal, on the CPU scene (mujoco.batch) and on
+the MJX scene (MJX), through the task's own environments: the task is solvable in both physics, and the
+reward stages fire in order (reach, grasp, lift, place, at the goal)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Generator, Iterator
+from typing import Any
+
+import jax
+import numpy as np
+import pytest
+from pick_place_script import PickPlaceScript
+
+from joshua_core.tasks.builtin import BUILTIN_TASKS
+from joshua_mjx import make_mjx_env
+from joshua_mujoco import make_vector_env
+
+TASK = "so_arm100_pick_place"
+SCALE = BUILTIN_TASKS[TASK].action.scale
+# A stage has fired once its reward term exceeds this share of its weight.
+STAGES = {"reach": 0.6, "grasp": 0.5, "lift": 0.5, "place": 0.8, "at_goal": 0.5}
+WEIGHTS = {"reach": 1.0, "grasp": 0.5, "lift": 1.0, "place": 2.0, "at_goal": 5.0}
+
+
+def drive(actions: Generator[Any, Any, None], measure: Callable[[], Any]) -> Iterator[tuple[str, Any]]:
+    """Run a script: yield its (phase, action), then send it the joint positions `measure` reads after the step."""
+    item = next(actions)
+    while True:
+        yield item
+        try:
+            item = actions.send(measure())
+        except StopIteration:
+            return
+
+
+def first_steps(rewards: list[dict[str, float]]) -> dict[str, int]:
+    """The first control step at which each stage's reward fired."""
+    return {
+        stage: next(step for step, terms in enumerate(rewards) if terms[stage] > share * WEIGHTS[stage])
+        for stage, share in STAGES.items()
+    }
+
+
+def check_solved(rewards: list[dict[str, float]], success: float, phases: list[str]) -> None:
+    fired = first_steps(rewards)
+    assert list(fired.values()) == sorted(fired.values()), fired  # in the order of the task's stages
+    assert phases[fired["grasp"]] in ("close", "lift") and phases[fired["at_goal"]] in ("lower", "release"), fired
+    assert success == 1.0
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_script_solves_the_cpu_scene(seed: int) -> None:
+    env = make_vector_env(TASK, 1, seed=seed, nthread=1)
+    env.reset(seed=seed)
+    simulation = env.simulation
+    script = PickPlaceScript(simulation.model, SCALE)
+    cube = simulation.derived["xpos"][0, simulation.model.body("cube").id].copy()
+    rewards, phases = [], []
+    actions = script.actions(simulation.qpos[0].copy(), cube, simulation.commands["goal"][0])
+    for phase, action in drive(actions, lambda: simulation.qpos[0].copy()):
+        _, _, terminated, truncated, infos = env.step(action[None])
+        assert not (terminated[0] or truncated[0])
+        rewards.append({name: float(value[0]) for name, value in infos["reward_terms"].items()})
+        phases.append(phase)
+    check_solved(rewards, float(infos["metrics"]["success"][0]), phases)
+
+
+def test_the_script_solves_the_mjx_scene() -> None:
+    env = make_mjx_env(TASK, 1)
+    state = env.reset(jax.random.PRNGKey(3))
+    script = PickPlaceScript(env.model, SCALE)
+    qpos = np.asarray(state.data.qpos[0])
+    cube = np.asarray(state.data.xpos[0, env.model.body("cube").id])
+    step = jax.jit(env.step)
+    rewards, phases = [], []
+    actions = script.actions(qpos, cube, np.asarray(state.commands["goal"][0]))
+    for phase, action in drive(actions, lambda: np.asarray(state.data.qpos[0], dtype=np.float64)):
+        state = step(state, jax.numpy.asarray(action[None], dtype=jax.numpy.float32))
+        assert not (state.terminated[0] or state.truncated[0])
+        rewards.append({name: float(value[0]) for name, value in state.reward_terms.items()})
+        phases.append(phase)
+    # at_goal is the task's success test (cube within 2 cm of the goal), weighted
+    check_solved(rewards, rewards[-1]["at_goal"] / WEIGHTS["at_goal"], phases)
