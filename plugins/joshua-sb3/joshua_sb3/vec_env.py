@@ -28,7 +28,50 @@ REWARD_TERMS_KEY = "reward_terms"  # infos[key][name]: per-environment weighted 
 METRICS_KEY = "metrics"  # infos[key][name]: per-environment task metric (e.g. "distance") after this step
 
 
-class SameStepVecEnv(VecEnv):
+class BatchVecEnv(VecEnv):
+    """What an SB3 VecEnv over one batched environment object (`self.env`) shares with every other: actions
+    are taken in `step_async`, and attributes and methods are the batch's, shared by every index."""
+
+    env: Any
+    _actions: NDArray[Any] | None
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        # VecEnv.__init__ asks for render_mode, which a batch need not have
+        value = getattr(self.env, attr_name, None) if attr_name == "render_mode" else getattr(self.env, attr_name)
+        return [value for _ in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        setattr(self.env, attr_name, value)
+
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
+    ) -> list[Any]:
+        result = getattr(self.env, method_name)(*method_args, **method_kwargs)
+        return [result for _ in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class: type[gymnasium.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+
+def episode_info(
+    final_observation: NDArray[Any],
+    terminated: bool,
+    truncated: bool,
+    episode: dict[str, Any],
+) -> dict[str, Any]:
+    """SB3's info of an environment whose episode just ended: its last observation, whether the time limit ended
+    it, and `episode` (r, l, t, reward_terms, metrics), which Monitor-style loggers and the trainer read."""
+    return {
+        "terminal_observation": np.asarray(final_observation),
+        "TimeLimit.truncated": bool(truncated and not terminated),
+        "episode": episode,
+    }
+
+
+class SameStepVecEnv(BatchVecEnv):
     """SB3 view of a batched Gymnasium vector environment with `AutoresetMode.SAME_STEP`."""
 
     def __init__(self, env: gymnasium.vector.VectorEnv) -> None:
@@ -55,9 +98,6 @@ class SameStepVecEnv(VecEnv):
         self._lengths[:] = 0
         self._term_sums.clear()
         return observations
-
-    def step_async(self, actions: np.ndarray) -> None:
-        self._actions = actions
 
     def step_wait(self) -> VecEnvStepReturn:
         if self._actions is None:
@@ -88,17 +128,14 @@ class SameStepVecEnv(VecEnv):
         metrics = infos.get(METRICS_KEY, {})
         elapsed = round(time.perf_counter() - self._started, 6)
         for index in finished:
-            env_infos[index] = {
-                "terminal_observation": np.asarray(final_observations[index]),
-                "TimeLimit.truncated": bool(truncated[index] and not terminated[index]),
-                "episode": {
-                    "r": float(self._returns[index]),
-                    "l": int(self._lengths[index]),
-                    "t": elapsed,
-                    REWARD_TERMS_KEY: {name: float(sums[index]) for name, sums in self._term_sums.items()},
-                    METRICS_KEY: {name: float(values[index]) for name, values in metrics.items()},
-                },
+            episode = {
+                "r": float(self._returns[index]),
+                "l": int(self._lengths[index]),
+                "t": elapsed,
+                REWARD_TERMS_KEY: {name: float(sums[index]) for name, sums in self._term_sums.items()},
+                METRICS_KEY: {name: float(values[index]) for name, values in metrics.items()},
             }
+            env_infos[index] = episode_info(final_observations[index], terminated[index], truncated[index], episode)
         self._returns[finished] = 0.0
         self._lengths[finished] = 0
         for sums in self._term_sums.values():
@@ -112,20 +149,3 @@ class SameStepVecEnv(VecEnv):
         if render_frame is None:
             return [None] * self.num_envs
         return [render_frame(index) for index in range(self.num_envs)]
-
-    # The batched environment is one object: its attributes and methods are shared by every index.
-    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        value = getattr(self.env, attr_name)
-        return [value for _ in self._get_indices(indices)]
-
-    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
-        setattr(self.env, attr_name, value)
-
-    def env_method(
-        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
-    ) -> list[Any]:
-        result = getattr(self.env, method_name)(*method_args, **method_kwargs)
-        return [result for _ in self._get_indices(indices)]
-
-    def env_is_wrapped(self, wrapper_class: type[gymnasium.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
-        return [False for _ in self._get_indices(indices)]

@@ -20,11 +20,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from numpy.typing import NDArray
-from stable_baselines3.common.vec_env import VecEnv
-from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvObs, VecEnvStepReturn
+from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
+
+from joshua_sb3 import BatchVecEnv, episode_info
 
 
-class JaxVecEnv(VecEnv):
+class JaxVecEnv(BatchVecEnv):
     """SB3 view of a batched JAX environment (`reset(key)`, `step(state, action)`, `redraw_starts(state)`)."""
 
     def __init__(self, env: Any, seed: int = 0) -> None:
@@ -44,9 +45,6 @@ class JaxVecEnv(VecEnv):
         self._state = self.env.reset(jax.random.PRNGKey(seed))
         self._reset_seeds()
         return np.array(self._state.observation)
-
-    def step_async(self, actions: np.ndarray) -> None:
-        self._actions = actions
 
     def step_wait(self) -> VecEnvStepReturn:
         if self._actions is None or self._state is None:
@@ -77,37 +75,17 @@ class JaxVecEnv(VecEnv):
         final_observation, episode = jax.device_get((state.final_observation, state.episode))
         elapsed = round(time.perf_counter() - self._started, 6)
         for index in finished:
-            infos[index] = {
-                "terminal_observation": np.asarray(final_observation[index]),
-                "TimeLimit.truncated": bool(truncated[index] and not terminated[index]),
-                "episode": {
-                    "r": float(episode.return_[index]),
-                    "l": int(episode.length[index]),
-                    "t": elapsed,
-                    "reward_terms": {name: float(sums[index]) for name, sums in episode.reward_terms.items()},
-                    "metrics": {name: float(values[index]) for name, values in episode.metrics.items()},
-                },
+            record = {
+                "r": float(episode.return_[index]),
+                "l": int(episode.length[index]),
+                "t": elapsed,
+                "reward_terms": {name: float(sums[index]) for name, sums in episode.reward_terms.items()},
+                "metrics": {name: float(values[index]) for name, values in episode.metrics.items()},
             }
+            infos[index] = episode_info(final_observation[index], terminated[index], truncated[index], record)
 
     def close(self) -> None:
         self._state = None
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         return [None] * self.num_envs
-
-    # The batched environment is one object: its attributes and methods are shared by every index.
-    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        value = None if attr_name == "render_mode" else getattr(self.env, attr_name)  # JAX envs do not render
-        return [value for _ in self._get_indices(indices)]
-
-    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
-        setattr(self.env, attr_name, value)
-
-    def env_method(
-        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
-    ) -> list[Any]:
-        result = getattr(self.env, method_name)(*method_args, **method_kwargs)
-        return [result for _ in self._get_indices(indices)]
-
-    def env_is_wrapped(self, wrapper_class: type[gymnasium.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
-        return [False for _ in self._get_indices(indices)]
