@@ -1,8 +1,11 @@
 """Reading trajectory CSV files: `#` comments, a header with `timestamp` and joint columns, one row per sample.
 
-Columns are matched to the model's joints by name (any order, a subset allowed). Errors that make the
-file unreadable raise TrajectoryError with `file:line:`; values that are readable but wrong (NaN,
-timestamps going back, joints out of range) are left to `joshua_modes.validation`.
+Columns are matched to the model's joints by name (any order, a subset allowed). A recording may also
+carry the commanded targets: a column `<joint>.target` beside each joint column (the position the
+joint's actuator was told to reach at that time; all joints or none). Readers that only replay
+positions ignore them; `joshua sysid` needs them. Errors that make the file unreadable raise
+TrajectoryError with `file:line:`; values that are readable but wrong (NaN, timestamps going back,
+joints out of range) are left to `joshua_modes.validation`.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from numpy.typing import NDArray
 from joshua_core.errors import UsageError
 
 TIME_COLUMN = "timestamp"
+TARGET_SUFFIX = ".target"  # `joint_1.target`: the commanded position of joint_1
 # Largest magnitude a finite timestamp (s) or joint position (rad, m) may have: beyond it a value is a
 # corrupt file, and differences of such values overflow (1e308 - -1e308 is inf). NaN and inf are read
 # and left to validation, which reports and skips their rows.
@@ -39,6 +43,7 @@ class Trajectory:
     timestamps: NDArray[np.float64]  # (rows,)
     positions: NDArray[np.float64]  # (rows, joints), in the order of joint_names
     lines: NDArray[np.int64]  # (rows,)
+    targets: NDArray[np.float64] | None = None  # (rows, joints) commanded positions, or None without `.target` columns
 
     @property
     def rows(self) -> int:
@@ -51,6 +56,8 @@ class Trajectory:
         every problem instead, through `joshua_modes.validation`.
         """
         finite = np.isfinite(self.timestamps) & np.isfinite(self.positions).all(axis=1)
+        if self.targets is not None:
+            finite &= np.isfinite(self.targets).all(axis=1)
         increasing = np.concatenate(([True], np.diff(self.timestamps) > 0))
         bad = np.flatnonzero(~(finite & increasing))
         if bad.size:
@@ -64,7 +71,10 @@ class Trajectory:
 
 
 def read_trajectory(path: str | Path, known_joints: Sequence[str] | None = None) -> Trajectory:
-    """Read a trajectory CSV. With `known_joints`, a column naming another joint is an error listing them."""
+    """Read a trajectory CSV. With `known_joints`, a column naming another joint is an error listing them.
+
+    This is the one reader of recordings: the replay modes, `mirror-replay` and `joshua sysid` all load them here.
+    """
     file = Path(path)
     try:
         text = file.read_text(encoding="utf-8")
@@ -86,6 +96,7 @@ def read_trajectory(path: str | Path, known_joints: Sequence[str] | None = None)
     header_line, header_text = rows[0]
     columns = [name.strip() for name in next(csv.reader([header_text]))]
     joints = _joint_columns(file, header_line, columns, known_joints)
+    targets = _target_columns(file, header_line, columns, joints)
     if len(rows) == 1:
         raise TrajectoryError(f"{file}:{header_line}: the header is not followed by any data row")
     time_index = columns.index(TIME_COLUMN)
@@ -113,7 +124,8 @@ def read_trajectory(path: str | Path, known_joints: Sequence[str] | None = None)
                 )
             values[row, column] = value
         lines[row] = number
-    return Trajectory(file, tuple(joints), values[:, time_index], values[:, joint_indices], lines)
+    target_values = values[:, [columns.index(name) for name in targets]] if targets else None
+    return Trajectory(file, tuple(joints), values[:, time_index], values[:, joint_indices], lines, target_values)
 
 
 def _joint_columns(file: Path, line: int, columns: list[str], known_joints: Sequence[str] | None) -> list[str]:
@@ -132,7 +144,7 @@ def _joint_columns(file: Path, line: int, columns: list[str], known_joints: Sequ
         if name in seen:
             raise TrajectoryError(f"{where}: column '{name}' appears twice in the header")
         seen.add(name)
-    joints = [name for name in columns if name != TIME_COLUMN]
+    joints = [name for name in columns if name != TIME_COLUMN and not name.endswith(TARGET_SUFFIX)]
     if not joints:
         raise TrajectoryError(f"{where}: the header names no joint column besides '{TIME_COLUMN}'")
     if known_joints is not None:
@@ -148,3 +160,23 @@ def _joint_columns(file: Path, line: int, columns: list[str], known_joints: Sequ
                 f"its joints: {', '.join(known_joints)}"
             )
     return joints
+
+
+def _target_columns(file: Path, line: int, columns: list[str], joints: list[str]) -> list[str]:
+    """The `<joint>.target` columns in the order of `joints`, or [] when the header has none."""
+    targets = [name for name in columns if name.endswith(TARGET_SUFFIX)]
+    if not targets:
+        return []
+    orphans = [name for name in targets if name.removesuffix(TARGET_SUFFIX) not in joints]
+    if orphans:
+        raise TrajectoryError(
+            f"{file}:{line}: column '{orphans[0]}' is the target of joint '{orphans[0].removesuffix(TARGET_SUFFIX)}', "
+            f"which has no column; joint columns: {', '.join(joints)}"
+        )
+    missing = [name for name in joints if name + TARGET_SUFFIX not in targets]
+    if missing:
+        raise TrajectoryError(
+            f"{file}:{line}: the header has target columns but none for {', '.join(missing)}: give "
+            f"'<joint>{TARGET_SUFFIX}' for every joint column or for none"
+        )
+    return [name + TARGET_SUFFIX for name in joints]

@@ -45,6 +45,26 @@ def test_columns_match_joints_by_name_in_any_order_and_subsets(engine, write_csv
     assert trajectory.timestamps.tolist() == [0.0, 0.1]
 
 
+def test_target_columns_are_read_beside_their_joints(engine, write_csv) -> None:
+    path = write_csv(["joint_1.target,timestamp,joint_3,joint_1,joint_3.target", "0.2,0.0,0.5,0.1,0.6", "0.3,0.1,0.6,0.2,0.7"])
+    trajectory = read_trajectory(path, model_joint_names(engine.model))
+    assert trajectory.joint_names == ("joint_3", "joint_1")
+    assert trajectory.positions.tolist() == [[0.5, 0.1], [0.6, 0.2]]
+    assert trajectory.targets is not None and trajectory.targets.tolist() == [[0.6, 0.2], [0.7, 0.3]]
+    plain = read_trajectory(write_csv(["timestamp,joint_1", "0,0.1"]))
+    assert plain.targets is None
+
+
+def test_target_columns_for_every_joint_or_none(engine, write_csv) -> None:
+    with pytest.raises(TrajectoryError, match=r"motion.csv:1: the header has target columns but none for joint_2"):
+        read_trajectory(write_csv(["timestamp,joint_1,joint_2,joint_1.target", "0,0,0,0"]))
+    with pytest.raises(TrajectoryError, match=r"column 'joint_7.target' is the target of joint 'joint_7', which has no"):
+        read_trajectory(write_csv(["timestamp,joint_1,joint_1.target,joint_7.target", "0,0,0,0"]))
+    trajectory = read_trajectory(write_csv(["timestamp,joint_1,joint_1.target", "0,0,0", "0.1,0,nan"]))
+    with pytest.raises(TrajectoryError, match=r"motion.csv:3: NaN or infinite value"):
+        trajectory.require_playable()
+
+
 def test_missing_timestamp_column(engine, write_csv) -> None:
     path = write_csv(["# recorded on the bench", "time,joint_1,joint_2", "0,0,0"])
     with pytest.raises(TrajectoryError) as error:
