@@ -1,0 +1,112 @@
+"""Recordings for system identification, checked against the model: what each position actuator was told
+(`<joint>.target` columns) and where its joint went, on a time axis starting at 0.
+
+They are read by `joshua_core.trajectory.read_trajectory`, the reader every replay uses; this module adds
+only what a fit needs besides: commanded targets, finite values, enough samples, a column for every
+actuated joint, and a model whose actuators are all position servos.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from joshua_core.errors import ModelError, UsageError
+from joshua_core.resources import resolve_data_path
+from joshua_core.trajectory import TARGET_SUFFIX, read_trajectory
+
+MIN_SAMPLES = 20  # fewer samples than this cannot tell four parameters per joint apart
+MIN_DURATION_S = 1.0  # nor can a recording shorter than a few servo time constants
+SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+@dataclass(frozen=True)
+class Servo:
+    """A position actuator and the joint it drives."""
+
+    actuator: str
+    joint: str
+
+
+@dataclass(frozen=True)
+class Recording:
+    """One recording, columns in the order of the model's servos; `times` start at 0."""
+
+    path: Path
+    times: NDArray[np.float64]  # (rows,)
+    positions: NDArray[np.float64]  # (rows, servos) measured joint positions
+    targets: NDArray[np.float64]  # (rows, servos) commanded positions (the actuators' ctrl)
+
+
+def model_servos(model: mujoco.MjModel, model_path: Path) -> list[Servo]:
+    """The model's actuators, each a position actuator on a hinge or slide joint (else a ModelError)."""
+    if model.nu == 0:
+        raise ModelError(f"{model_path}: the model has no actuators; joshua sysid fits position actuators")
+    servos = []
+    for index in range(model.nu):
+        actuator = model.actuator(index)
+        joint = int(model.actuator_trnid[index, 0])
+        is_position = (
+            model.actuator_trntype[index] == mujoco.mjtTrn.mjTRN_JOINT
+            and model.jnt_type[joint] in SCALAR_JOINTS
+            and model.actuator_gaintype[index] == mujoco.mjtGain.mjGAIN_FIXED
+            and model.actuator_biastype[index] == mujoco.mjtBias.mjBIAS_AFFINE
+            and model.actuator_dyntype[index] == mujoco.mjtDyn.mjDYN_NONE
+            and actuator.gainprm[0] > 0
+            and actuator.gainprm[0] == -actuator.biasprm[1]
+        )
+        if not is_position:
+            raise ModelError(
+                f"{model_path}: actuator '{actuator.name or index}' is not a position actuator on a hinge or slide "
+                "joint (gain kp, bias -kp); joshua sysid fits models whose actuators all are"
+            )
+        if not actuator.name:
+            raise ModelError(f"{model_path}: actuator {index} has no name; name it to fit its gain")
+        servos.append(Servo(actuator.name, model.joint(joint).name))
+    return servos
+
+
+def load_recordings(paths: Sequence[Path], model: mujoco.MjModel, servos: list[Servo]) -> list[Recording]:
+    """Read and check each recording (a UsageError names the file and what is wrong)."""
+    joints = [model.joint(j).name for j in range(model.njnt) if model.jnt_type[j] in SCALAR_JOINTS]
+    return [_load(resolve_data_path(path, what="recording"), joints, servos) for path in paths]
+
+
+def _load(path: Path, model_joints: list[str], servos: list[Servo]) -> Recording:
+    trajectory = read_trajectory(path, model_joints)
+    if trajectory.targets is None:
+        raise UsageError(
+            f"{path}: no commanded targets; joshua sysid needs a '<joint>{TARGET_SUFFIX}' column beside each joint "
+            "column (the position sent to its actuator)"
+        )
+    trajectory.require_playable()
+    duration = trajectory.timestamps[-1] - trajectory.timestamps[0]
+    if trajectory.rows < MIN_SAMPLES or duration < MIN_DURATION_S:
+        raise UsageError(
+            f"{path}: too short to fit: {trajectory.rows} samples over {duration:g} s; record at least "
+            f"{MIN_SAMPLES} samples and {MIN_DURATION_S:g} s of varied motion"
+        )
+    missing = [servo.joint for servo in servos if servo.joint not in trajectory.joint_names]
+    if missing:
+        raise UsageError(
+            f"{path}: no column for the actuated joints {', '.join(missing)}; every actuator needs its target; "
+            f"columns: {', '.join(trajectory.joint_names)}"
+        )
+    unactuated = [name for name in trajectory.joint_names if name not in {servo.joint for servo in servos}]
+    if unactuated:
+        close = difflib.get_close_matches(unactuated[0], [servo.joint for servo in servos], n=1)
+        hint = f" (did you mean {close[0]}?)" if close else ""
+        raise UsageError(f"{path}: joint '{unactuated[0]}'{hint} has no position actuator in the model to fit")
+    columns = [trajectory.joint_names.index(servo.joint) for servo in servos]
+    return Recording(
+        path,
+        trajectory.timestamps - trajectory.timestamps[0],
+        trajectory.positions[:, columns],
+        trajectory.targets[:, columns],
+    )
