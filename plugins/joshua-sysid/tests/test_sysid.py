@@ -1,0 +1,153 @@
+"""`joshua sysid` end to end: recordings simulated with known, perturbed SO-ARM100 parameters are written as CSV
+files, and the real `joshua` process must find those parameters from the nominal model; bad input is one line,
+exit 2."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from joshua_core.resources import models_dir
+from joshua_sysid import fit, recordings, synthetic
+
+JOSHUA = Path(sys.executable).parent / "joshua"
+ARM = models_dir() / "so_arm100" / "so_arm100.xml"
+# The "real" arm: stiffer, less damped, heavier rotor, more friction than the nominal model.
+FACTORS = {"kp": 1.3, "damping": 0.7, "armature": 1.5}
+FRICTION_OFFSET = 0.05
+SEEDS = (0, 1)
+DURATION_S = 3.0
+RATE_HZ = 100.0
+
+
+def joshua(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [str(JOSHUA), *args], cwd=cwd, capture_output=True, text=True, timeout=600, env={**os.environ}
+    )
+
+
+def true_spec() -> tuple[mujoco.MjSpec, list[recordings.Servo]]:
+    """The nominal arm with every servo's parameters perturbed by FACTORS and FRICTION_OFFSET."""
+    spec = mujoco.MjSpec.from_file(str(ARM))
+    servos = recordings.model_servos(spec.copy().compile(), ARM)
+    for servo in servos:
+        for kind, factor in FACTORS.items():
+            fit.write_value(spec, servo, kind, fit.read_value(spec, servo, kind) * factor)
+        fit.write_value(spec, servo, "frictionloss", fit.read_value(spec, servo, "frictionloss") + FRICTION_OFFSET)
+    return spec, servos
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[Path], dict[str, dict[str, float]]]:
+    """Recordings of the perturbed arm as CSV files, and its true parameters {joint: {kind: value}}."""
+    folder = tmp_path_factory.mktemp("recordings")
+    spec, servos = true_spec()
+    model = spec.compile()
+    paths = []
+    for seed in SEEDS:
+        times, positions, targets = synthetic.simulate(model, servos, seed, DURATION_S, RATE_HZ)
+        paths.append(folder / f"arm_{seed}.csv")
+        synthetic.write_csv(paths[-1], servos, times, positions, targets)
+    truth = {s.joint: {k: fit.read_value(spec, s, k) for k in fit.KINDS} for s in servos}
+    return paths, truth
+
+
+def test_fit_finds_the_true_parameters_and_writes_a_model_that_compiles(recorded, tmp_path: Path) -> None:
+    paths, truth = recorded
+    done = joshua("sysid", *map(str, paths), "--output-dir", "out", "--run-name", "arm", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    run = tmp_path / "out" / "arm"
+    report = json.loads((run / "report.json").read_text())
+    for joint, kinds in truth.items():
+        for kind, value in kinds.items():
+            identified = report["parameters"][joint][kind]["identified"]
+            assert identified == pytest.approx(value, rel=0.05), (joint, kind, identified, value)
+    tracking = report["tracking_rms"]
+    for joint in truth:
+        assert tracking["after"][joint] * 5 <= tracking["before"][joint], (joint, tracking)
+    assert tracking["overall_before"] > 0.02  # the nominal model was clearly off
+    assert "joint_1" in done.stdout and "tracking RMS" in done.stdout
+    # The calibrated model compiles from its own folder (meshes copied beside it) and holds the fitted values.
+    model = mujoco.MjModel.from_xml_path(str(run / report["outputs"]["model"]))
+    assert model.nmesh == mujoco.MjModel.from_xml_path(str(ARM)).nmesh > 0
+    for joint, kinds in truth.items():
+        actuator = model.actuator(f"{joint}_position")
+        assert actuator.gainprm[0] == pytest.approx(kinds["kp"], rel=0.05)
+        assert actuator.biasprm[1] == -actuator.gainprm[0]
+        assert model.dof_damping[model.joint(joint).dofadr[0]] == pytest.approx(kinds["damping"], rel=0.05)
+        assert model.dof_armature[model.joint(joint).dofadr[0]] == pytest.approx(kinds["armature"], rel=0.05)
+    png = (run / report["outputs"]["plot"]).read_bytes()
+    assert png.startswith(b"\x89PNG")
+
+
+def write(folder: Path, name: str, lines: list[str]) -> str:
+    path = folder / name
+    path.write_text("\n".join(lines) + "\n")
+    return str(path)
+
+
+def rows(count: int, *, columns: int = 6, targets: bool = True, value: str = "0.1") -> list[str]:
+    width = columns * (2 if targets else 1)
+    return [",".join([f"{i * 0.01:.2f}", *([value] * width)]) for i in range(count)]
+
+
+JOINTS = [f"joint_{i}" for i in range(1, 7)]
+HEADER = ",".join(["timestamp", *JOINTS, *(f"{j}.target" for j in JOINTS)])
+
+
+@pytest.mark.parametrize(
+    ("case", "expected"),
+    [
+        ("no_targets", "no commanded targets; joshua sysid needs a '<joint>.target' column"),
+        ("malformed", "row has 3 values"),
+        ("unknown_joint", "'joint_9' (did you mean"),
+        ("non_finite", "NaN or infinite value"),
+        ("too_short", "too short to fit: 5 samples"),
+        ("missing_joint", "no column for the actuated joints joint_6"),
+        ("no_position_actuators", "has no actuators"),
+        ("bad_kind", "--fit: unknown parameter 'dampng' (did you mean damping?)"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str, expected: str) -> None:
+    good = write(tmp_path, "good.csv", [HEADER, *rows(150)])
+    arguments = {
+        "no_targets": [write(tmp_path, "plain.csv", [",".join(["timestamp", *JOINTS]), *rows(150, targets=False)])],
+        "malformed": [write(tmp_path, "bad.csv", [HEADER, *rows(3), "0.5,0.1,0.2"])],
+        "unknown_joint": [write(tmp_path, "j9.csv", ["timestamp,joint_9,joint_9.target", "0,0,0"])],
+        "non_finite": [write(tmp_path, "nan.csv", [HEADER, *rows(30), *rows(1, value="nan")[0:1]])],
+        "too_short": [write(tmp_path, "short.csv", [HEADER, *rows(5)])],
+        "missing_joint": [
+            write(tmp_path, "five.csv", [",".join(["timestamp", *JOINTS[:5], *(f"{j}.target" for j in JOINTS[:5])]),
+                                         *rows(150, columns=5)])
+        ],
+        "no_position_actuators": [good, "--model", write(tmp_path, "bare.xml", [BARE_MODEL])],
+        "bad_kind": [good, "--fit", "kp,dampng"],
+    }[case]
+    done = joshua("sysid", *arguments, cwd=tmp_path)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.count("\n") == 1 and done.stderr.startswith("joshua: error: "), done.stderr
+    assert expected in done.stderr
+    assert not (tmp_path / "joshua_output").exists() or not any((tmp_path / "joshua_output").iterdir())
+
+
+BARE_MODEL = "<mujoco><worldbody>{}</worldbody></mujoco>".format(
+    "".join(f'<body><joint name="{joint}"/><geom size="0.1"/></body>' for joint in JOINTS)
+)
+
+
+def test_recorded_targets_drive_the_same_simulation_the_fit_assumes() -> None:
+    """The generator's positions are what the nominal fit machinery predicts for the true model (residual ~ 0),
+    so the end-to-end test measures the fit, not a mismatch between generator and fit."""
+    spec, servos = true_spec()
+    times, positions, targets = synthetic.simulate(spec.compile(), servos, 0, 1.5, RATE_HZ)
+    recording = recordings.Recording(Path("memory.csv"), times, positions, targets)
+    result = fit.fit(spec, servos, [recording], kinds=("kp",), max_iters=1)
+    assert np.max(result.rms_before) < 1e-6
+    assert result.identified["joint_1"]["kp"] == pytest.approx(fit.read_value(spec, servos[0], "kp"), rel=1e-3)
