@@ -104,6 +104,7 @@ def values_of(parameters: sysid.ParameterDict, scales: dict[str, float]) -> dict
 
 def model_sequences(spec: mujoco.MjSpec, servos: list[Servo], recordings: list[Recording]) -> sysid.ModelSequences:
     """The recordings as mujoco.sysid sequences: ctrl on the physics step grid, measured joint positions."""
+    absl_logging.set_verbosity(absl_logging.ERROR)  # sysid warns that joint positions are not all the sensors
     model = spec.compile()
     timestep = model.opt.timestep
     signals = [(f"{servo.joint}_qpos", sysid.SignalType.MjStateQPos) for servo in servos]
@@ -132,7 +133,6 @@ def fit(
     max_iters: int,
 ) -> FitResult:
     """Fit `kinds` of every servo to the recordings (`spec` is left as it is)."""
-    absl_logging.set_verbosity(absl_logging.ERROR)  # sysid logs a warning per call for the missing sensors
     sequences = model_sequences(spec.copy(), servos, recordings)  # sysid rewrites this spec at every evaluation
     residual = sysid.build_residual_fn(models_sequences=[sequences])
     nominal, scales = build_parameters(spec, servos, kinds)
