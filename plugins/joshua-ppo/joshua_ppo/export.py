@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from joshua_core.errors import UsageError
 from joshua_core.policy import DenseLayer, MlpPolicy
 from joshua_ppo.checkpoints import PARAMS_FILE, CorruptCheckpointError, NetworkMismatchError, _restore, payload_bytes
 from joshua_ppo.settings import OBSERVATION_CLIP, NetworkSettings
@@ -20,16 +21,22 @@ from joshua_ppo.settings import OBSERVATION_CLIP, NetworkSettings
 _NORMALIZER_EPSILON = 1e-8  # as joshua_ppo.normalizer.normalize
 
 
+class DamagedCheckpointError(CorruptCheckpointError, UsageError):
+    """A checkpoint to export cannot be read (exit 2: the input is bad, nothing failed while running)."""
+
+
 def mlp_policy(checkpoint: Path, network: NetworkSettings) -> MlpPolicy:
     """The mean action of the policy saved in `checkpoint` (squashed when the network squashes), as an MLP."""
     path = checkpoint / PARAMS_FILE
-    saved = _restore(path, payload_bytes(checkpoint, PARAMS_FILE), None)
     try:
+        saved = _restore(path, payload_bytes(checkpoint, PARAMS_FILE), None)
         params, normalizer = saved["params"], saved["normalizer"]
         mean = np.asarray(normalizer["mean"], np.float32)
         variance = np.asarray(normalizer["variance"], np.float32)
+    except CorruptCheckpointError as error:
+        raise DamagedCheckpointError(str(error)) from None
     except (KeyError, TypeError) as error:
-        raise CorruptCheckpointError(f"{path} has no {error} entry: not a PPO checkpoint") from None
+        raise DamagedCheckpointError(f"{path} has no {error} entry: not a PPO checkpoint") from None
     layers = _policy_layers(path, params, network)
     if network.normalize_observations:  # the std as the trainer computes it, in float32
         std, clip = np.sqrt(variance + np.float32(_NORMALIZER_EPSILON)), OBSERVATION_CLIP
