@@ -36,7 +36,8 @@ class DenseLayer:
 
 @dataclass(frozen=True)
 class MlpPolicy:
-    """The deterministic policy: action = clip(output(mlp(clip((obs - obs_mean) / obs_std, -obs_clip, obs_clip))), -1, 1).
+    """The deterministic policy: action = clip(output(mlp(normalized)), -1, 1), where
+    normalized = clip((obs - obs_mean) / obs_std, -obs_clip, obs_clip).
 
     `mlp` applies `activation` after every layer but the last. Without observation normalisation the
     mean is 0, the std 1 and the clip infinite. The normalisation is computed in float64 (as SB3's

@@ -124,7 +124,9 @@ def make_contract(exported: ExportedPolicy, observer: Observer, onnx_bytes: byte
             "inputs": [{"name": INPUT_NAME, "shape": ["batch", policy.observation_size], "dtype": "float32"}],
             "outputs": [{"name": OUTPUT_NAME, "shape": ["batch", policy.action_size], "dtype": "float32"}],
         },
-        "policy": {"output": "the deterministic (mean) action as the trainer's evaluate sends it, after clip to [-1, 1]"},
+        "policy": {
+            "output": "the deterministic (mean) action as the trainer's evaluate sends it, after clip to [-1, 1]"
+        },
         "observation": _observation(exported, observer),
         "action": _action(observer),
     }

@@ -72,7 +72,8 @@ def policy_graph(policy: MlpPolicy, *, name: str = "joshua_policy") -> onnx.Mode
             x = _activation(graph, policy.activation, x, f"hidden{index}")
     if policy.output == "tanh":
         x = graph.node("Tanh", [x], "squashed")
-    low, high = graph.constant("action_low", np.array(-1.0, np.float32)), graph.constant("action_high", np.array(1.0, np.float32))
+    low = graph.constant("action_low", np.array(-1.0, np.float32))
+    high = graph.constant("action_high", np.array(1.0, np.float32))
     graph.node("Clip", [x, low, high], OUTPUT_NAME)
     model = helper.make_model(
         helper.make_graph(

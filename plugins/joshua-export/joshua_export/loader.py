@@ -43,7 +43,7 @@ def load_policy(folder: Path) -> tuple[OnnxPolicy, dict[str, Any]]:
     try:
         contract = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise UsageError(f"'{folder}' holds no exported policy: it has no {CONTRACT_FILE} (see `joshua export`)") from None
+        raise UsageError(f"'{folder}' holds no exported policy: no {CONTRACT_FILE} (see `joshua export`)") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
         raise UsageError(f"{path}: unreadable: {error}") from None
     if not isinstance(contract, dict) or contract.get("format") != CONTRACT_FORMAT:

@@ -94,7 +94,8 @@ def ppo_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from joshua_ppo import train_mjx
 
     root = tmp_path_factory.mktemp("ppo")
-    assert train_mjx(model_path="so_arm100/scene_mjx.xml", config=PPO_TINY, checkpoint_dir=root) == root / "tiny_step_20"
+    checkpoint = train_mjx(model_path="so_arm100/scene_mjx.xml", config=PPO_TINY, checkpoint_dir=root)
+    assert checkpoint == root / "tiny_step_20"
     return root / "tiny"
 
 

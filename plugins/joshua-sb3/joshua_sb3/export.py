@@ -40,7 +40,8 @@ def saved_policy(checkpoint: Path, algorithm: type[BaseAlgorithm], *, trust: boo
     except JoshuaError:
         raise
     except Exception as error:  # a damaged file can fail in any way inside SB3, zip or pickle
-        raise CorruptCheckpointError(f"cannot load checkpoint '{checkpoint}': {type(error).__name__}: {error}") from None
+        message = f"cannot load checkpoint '{checkpoint}': {type(error).__name__}: {error}"
+        raise CorruptCheckpointError(message) from None
 
 
 def policy_modules(model: BaseAlgorithm) -> list[nn.Module]:
@@ -69,15 +70,20 @@ def mlp_of(modules: list[nn.Module], normalizer_path: Path | None, observation_s
     for module in modules:
         if isinstance(module, nn.Linear):
             weight = module.weight.detach().cpu().numpy().T.astype(np.float32)
-            layers.append(DenseLayer(np.ascontiguousarray(weight), module.bias.detach().cpu().numpy().astype(np.float32)))
+            bias = module.bias.detach().cpu().numpy().astype(np.float32)
+            layers.append(DenseLayer(np.ascontiguousarray(weight), bias))
             between.append("identity")
         elif layers and between[-1] == "identity" and _activation(module):
             between[-1] = _activation(module)
         else:
             raise UsageError(f"the policy has a {type(module).__name__} layer where none can be exported")
+    if not layers:
+        raise UsageError("the policy has no Linear layer to export")
     hidden, output = set(between[:-1]), between[-1]
     if len(hidden) > 1 or "identity" in hidden or output not in ("identity", "tanh"):
-        raise UsageError(f"the policy's activations {between} cannot be exported (one kind between layers, tanh or none last)")
+        raise UsageError(
+            f"the policy's activations {between} cannot be exported (one kind between layers, tanh or none last)"
+        )
     mean, std, clip = _normalizer(normalizer_path, observation_size)
     return MlpPolicy(tuple(layers), hidden.pop() if hidden else "relu", mean, std, clip, output)
 
