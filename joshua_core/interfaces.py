@@ -27,6 +27,7 @@ if TYPE_CHECKING:
 
     from joshua_core.config_pb2 import SimulationConfig, TaskConfig, TrainingConfig
     from joshua_core.plugins import PluginHost
+    from joshua_core.policy import ExportedPolicy
 
 # The size of rendered images when a config leaves simulation.render_width/render_height at 0.
 DEFAULT_RENDER_WIDTH = 640
@@ -255,6 +256,13 @@ class Trainer(ABC):
         this machine's user did not write (for formats that can run code on load). `joshua eval RUN` calls this.
         """
         raise UsageError(f"trainer {type(self).__name__} cannot evaluate a run: it does not implement evaluate()")
+
+    def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:
+        """The deterministic policy saved in `run_dir` (a run folder: its last checkpoint; or one checkpoint
+        folder) as a framework-free MLP with the run's training config (`joshua_core.policy`), for exporters
+        (`joshua export RUN`). A missing or damaged checkpoint is a one-line error; `trust_checkpoint` as in
+        `evaluate`."""
+        raise UsageError(f"trainer {type(self).__name__} cannot export a policy: it does not implement export_policy()")
 
 
 class Command(ABC):

@@ -62,6 +62,8 @@ KNOWN_PROVIDERS: dict[tuple[Kind, str], str] = {
     (Kind.TRAINER, "ppo"): "joshua-ppo",
     (Kind.TRAINER, "sb3"): "joshua-sb3",
     (Kind.COMMAND, "mirror-replay"): "joshua-mirror",
+    (Kind.COMMAND, "deploy"): "joshua-mirror",
+    (Kind.COMMAND, "export"): "joshua-export",
     (Kind.OPTIONS, "offscreen"): "joshua-modes",
     (Kind.OPTIONS, "replay"): "joshua-modes",
     (Kind.OPTIONS, "viewer"): "joshua-modes",

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine
     from joshua_mujoco.models import compile_model, read_spec
-    from joshua_mujoco.vector import BatchedVectorEnv, make_vector_env, vector_env_from_config
+    from joshua_mujoco.vector import BatchedVectorEnv, load_task_model, make_vector_env, vector_env_from_config
 
 __all__ = [
     "MuJoCoBackend",
@@ -20,6 +20,7 @@ __all__ = [
     "compile_model",
     "read_spec",
     "BatchedVectorEnv",
+    "load_task_model",
     "make_vector_env",
     "vector_env_from_config",
 ]

@@ -15,6 +15,7 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import RunContext, Trainer
+from joshua_core.policy import ExportedPolicy
 from joshua_core.interrupts import resume_command, stop_requests
 from joshua_core.options import options_of, parse_dict
 from joshua_core.runs import (
@@ -31,6 +32,7 @@ from joshua_ppo.checkpoints import RESUME_FILES, load_params, load_state, resume
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.distributed import Cluster, join
 from joshua_ppo.envs import JaxEnv, environment
+from joshua_ppo.export import mlp_policy
 from joshua_ppo.rollout import collect, make_rollout, mean_results, render_video
 from joshua_ppo.run import RUN_FORMAT, TRAINER_NAME, Run
 from joshua_ppo.settings import check_settings
@@ -173,15 +175,7 @@ class PpoTrainer(Trainer):
         context: RunContext,
         trust_checkpoint: bool = False,
     ) -> dict[str, float]:
-        checkpoint = resolve_checkpoint(run_dir)
-        saved = read_run_config(checkpoint)  # unreadable: a one-line error, exit 2 (as for sb3)
-        if saved.get("format") != RUN_FORMAT:
-            raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
-        config = TrainingConfig()
-        try:
-            parse_dict(saved["training"], config, context.plugins.options())
-        except (KeyError, json_format.ParseError) as error:
-            raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
+        checkpoint, config = saved_run(run_dir, context)
         settings = PpoSettings.from_config(config)
         devices = len(jax.devices())
         env = environment(config, context, -(-episodes // devices) * devices)
@@ -193,3 +187,23 @@ class PpoTrainer(Trainer):
             written = render_video(env.model, episode, video_path, fps=1.0 / env.task.dt)
             print(f"video: {written}", file=sys.stderr)
         return mean_results(episode)
+
+    def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:
+        checkpoint, config = saved_run(run_dir, context)  # msgpack runs no code: nothing to trust
+        policy = mlp_policy(checkpoint, PpoSettings.from_config(config).network)
+        return ExportedPolicy(TRAINER_NAME, checkpoint, config, policy)
+
+
+def saved_run(run_dir: Path, context: RunContext) -> tuple[Path, TrainingConfig]:
+    """The checkpoint of a run folder (its newest) or checkpoint folder, and the training config it was trained
+    with; an unreadable or foreign config.json is a one-line error, exit 2 (as for sb3)."""
+    checkpoint = resolve_checkpoint(run_dir)
+    saved = read_run_config(checkpoint)
+    if saved.get("format") != RUN_FORMAT:
+        raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
+    config = TrainingConfig()
+    try:
+        parse_dict(saved["training"], config, context.plugins.options())
+    except (KeyError, json_format.ParseError) as error:
+        raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
+    return checkpoint, config

@@ -27,6 +27,7 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.interfaces import EnvKind, RunContext, Trainer
+from joshua_core.policy import ExportedPolicy
 from joshua_core.interrupts import StopRequest, resume_command, stop_requests
 from joshua_core.options import message_to_dict, options_of, parse_dict
 from joshua_core.progress import progress_bar
@@ -42,6 +43,7 @@ from joshua_core.runs import (
 )
 from joshua_render import VideoWriter
 from joshua_sb3 import options_pb2
+from joshua_sb3.export import saved_policy
 from joshua_sb3.run_folder import (
     MODEL_FILE,
     NORMALIZATION_FILE,
@@ -280,15 +282,7 @@ class Sb3Trainer(Trainer):
         context: RunContext,
         trust_checkpoint: bool = False,
     ) -> dict[str, float]:
-        checkpoint = resolve_checkpoint(run_dir)
-        saved = read_run_config(checkpoint)
-        if saved.get("format") != RUN_FORMAT:
-            raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
-        training = TrainingConfig()
-        try:
-            parse_dict(saved["training"], training, context.plugins.options())
-        except (KeyError, json_format.ParseError) as error:
-            raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
+        checkpoint, saved, training = _saved_run(run_dir, context)
         training.num_envs = episodes
         training.seed = seed
         environments, vec_env = make_vec_env(training, context)
@@ -308,6 +302,30 @@ class Sb3Trainer(Trainer):
             return _roll_out(model, normalizer or vec_env, environments, episodes, video_path)
         finally:
             environments.close()
+
+
+    def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:
+        checkpoint, saved, training = _saved_run(run_dir, context)
+        algorithm = saved.get("algorithm")
+        if algorithm not in ALGORITHM_CLASSES:
+            raise UsageError(f"{checkpoint / CONFIG_FILE}: unknown algorithm {algorithm!r}")
+        policy = saved_policy(checkpoint, ALGORITHM_CLASSES[algorithm], trust=trust_checkpoint, device=DEVICE)
+        return ExportedPolicy(TRAINER_NAME, checkpoint, training, policy)
+
+
+def _saved_run(run_dir: Path, context: RunContext) -> tuple[Path, dict[str, Any], TrainingConfig]:
+    """The checkpoint of a run folder (its newest) or checkpoint folder, its config.json and the training config
+    in it; an unreadable or foreign config.json is a one-line error, exit 2."""
+    checkpoint = resolve_checkpoint(run_dir)
+    saved = read_run_config(checkpoint)
+    if saved.get("format") != RUN_FORMAT:
+        raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
+    training = TrainingConfig()
+    try:
+        parse_dict(saved["training"], training, context.plugins.options())
+    except (KeyError, json_format.ParseError) as error:
+        raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
+    return checkpoint, saved, training
 
 
 def _learn(run: RunWriter, model: BaseAlgorithm, bar: Any, *, first_leg: bool) -> Path:
