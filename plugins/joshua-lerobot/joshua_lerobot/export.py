@@ -43,7 +43,9 @@ class LeRobotExportCommand(Command):
         )
         parser.add_argument("--no-video", action="store_true", help="write joint data only, no camera video")
         parser.add_argument("--width", type=int, default=DEFAULT_WIDTH, help=f"video width (default {DEFAULT_WIDTH})")
-        parser.add_argument("--height", type=int, default=DEFAULT_HEIGHT, help=f"video height (default {DEFAULT_HEIGHT})")
+        parser.add_argument(
+            "--height", type=int, default=DEFAULT_HEIGHT, help=f"video height (default {DEFAULT_HEIGHT})"
+        )
         parser.add_argument("--task", default=DEFAULT_TASK, help=f"the episode's task text (default '{DEFAULT_TASK}')")
         parser.add_argument("--episode", type=int, default=0, help="the episode of a dataset to replay (default 0)")
 
@@ -119,13 +121,9 @@ def _counted(frames: Iterator[NDArray[np.uint8]], total: int, camera: str) -> It
             bar.update(1)
 
 
-def _resampled(
-    trajectory: Trajectory, times: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _resampled(trajectory: Trajectory, times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Positions and targets (positions where a joint has none) interpolated at `times`."""
-    positions = np.stack(
-        [np.interp(times, trajectory.timestamps, column) for column in trajectory.positions.T], axis=1
-    )
+    positions = np.stack([np.interp(times, trajectory.timestamps, column) for column in trajectory.positions.T], axis=1)
     if trajectory.targets is None:
         return positions, positions.copy()
     targets = positions.copy()

@@ -40,7 +40,10 @@ class LeRobotReader(TrajectoryReader):
         def convert(values: NDArray[Any]) -> NDArray[np.float64]:
             values = np.asarray(values, dtype=np.float64)[order]
             return np.stack(
-                [to_model(name, values[:, i], joints[joint]) for i, (name, joint) in enumerate(zip(names, joint_names))],
+                [
+                    to_model(name, values[:, i], joints[joint])
+                    for i, (name, joint) in enumerate(zip(names, joint_names, strict=True))
+                ],
                 axis=1,
             )
 
@@ -111,7 +114,9 @@ def _episode_data(path: Path, info: dict[str, Any], row: dict[str, Any], episode
         raise TrajectoryError(f"{file}: no '{STATE}' column")
     table = dataset.to_table(columns=wanted, filter=ds.field("episode_index") == episode)
     if table.num_rows != row["length"]:
-        raise TrajectoryError(f"{file}: episode {episode} has {table.num_rows} rows, meta/episodes says {row['length']}")
+        raise TrajectoryError(
+            f"{file}: episode {episode} has {table.num_rows} rows, meta/episodes says {row['length']}"
+        )
     return {
         name: np.stack(column) if name in (STATE, ACTION) else np.asarray(column)
         for name, column in ((name, table.column(name).to_numpy(zero_copy_only=False)) for name in wanted)

@@ -108,7 +108,8 @@ class _Layout:
     def lerobot_values(self, values: NDArray[np.float64]) -> NDArray[np.float32]:
         """(frames, joints) model values in LeRobot's units, float32."""
         columns = [
-            from_model(name, values[:, i], self.ranges[joint]) for i, (name, joint) in enumerate(zip(self.names, self.joints))
+            from_model(name, values[:, i], self.ranges[joint])
+            for i, (name, joint) in enumerate(zip(self.names, self.joints, strict=True))
         ]
         return np.stack(columns, axis=1).astype(np.float32)
 
@@ -229,7 +230,13 @@ def _write_tasks(path: Path, tasks: list[str]) -> None:
         "index_columns": [index],
         "column_indexes": [],
         "columns": [
-            {"name": "task_index", "field_name": "task_index", "pandas_type": "int64", "numpy_type": "int64", "metadata": None},
+            {
+                "name": "task_index",
+                "field_name": "task_index",
+                "pandas_type": "int64",
+                "numpy_type": "int64",
+                "metadata": None,
+            },
             {"name": None, "field_name": index, "pandas_type": "unicode", "numpy_type": "object", "metadata": None},
         ],
         "pandas_version": "2.3.3",

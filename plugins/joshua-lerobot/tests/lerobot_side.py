@@ -22,7 +22,14 @@ from typing import Any
 
 import numpy as np
 
-SO100_NAMES = ["shoulder_pan.pos", "shoulder_lift.pos", "elbow_flex.pos", "wrist_flex.pos", "wrist_roll.pos", "gripper.pos"]
+SO100_NAMES = [
+    "shoulder_pan.pos",
+    "shoulder_lift.pos",
+    "elbow_flex.pos",
+    "wrist_flex.pos",
+    "wrist_roll.pos",
+    "gripper.pos",
+]
 REPO_ID = "local/joshua_test"
 FPS = 30
 FRAMES_PER_EPISODE = (45, 30)

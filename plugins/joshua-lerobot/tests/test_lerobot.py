@@ -16,12 +16,12 @@ from typing import Any
 
 import numpy as np
 import pytest
+from joshua_lerobot import export_trajectory
 
 from joshua_core.resources import models_dir
 from joshua_core.trajectory import Trajectory, load_trajectory, write_trajectory
-from joshua_lerobot import export_trajectory
-from joshua_mujoco import compile_model
 from joshua_modes import iter_offscreen_frames, model_joint_ranges
+from joshua_mujoco import compile_model
 
 REPO = Path(__file__).resolve().parents[3]
 LEROBOT_SITE = REPO / ".cache" / "lerobot-site"
@@ -98,7 +98,10 @@ def test_lerobot_dataset_replays_and_validates(tmp_path: Path, ranges: dict[str,
         trajectory = load_trajectory(root, ranges, episode=episode)
         assert trajectory.joint_names == JOINTS
         assert np.allclose(trajectory.timestamps, np.arange(len(expected["state"])) / written["fps"], atol=1e-6)
-        for values, lerobot_values in ((trajectory.positions, expected["state"]), (trajectory.targets, expected["action"])):
+        for values, lerobot_values in (
+            (trajectory.positions, expected["state"]),
+            (trajectory.targets, expected["action"]),
+        ):
             source = np.array(lerobot_values)
             assert values is not None
             assert np.allclose(values[:, :5], np.radians(source[:, :5]), atol=1e-6)  # ranges are symmetric about 0
@@ -109,7 +112,8 @@ def test_lerobot_dataset_replays_and_validates(tmp_path: Path, ranges: dict[str,
         sys.executable, "-m", "joshua_core.cli", "--preset", "sim_passive", "--strict",
         "--set", f"simulation.trajectory_path={root}", "--set", "simulation.replay.episode=1",
         "--set", f"simulation.output_dir={output}", "--set", "simulation.viewer.display=RECORD",
-        "--set", "simulation.viewer.fps=5", "--set", "simulation.render_width=64", "--set", "simulation.render_height=48",
+        "--set", "simulation.viewer.fps=5",
+        "--set", "simulation.render_width=64", "--set", "simulation.render_height=48",
     ]  # fmt: skip
     result = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
@@ -117,3 +121,27 @@ def test_lerobot_dataset_replays_and_validates(tmp_path: Path, ranges: dict[str,
     assert report["ok"], report["issues"]
     assert report["rows"] == report["replayed_rows"] == len(written["episodes"][1]["state"])
     assert (output / "passive_replay.mp4").stat().st_size > 0
+
+
+def test_bad_datasets_and_episodes_are_one_line_errors(tmp_path: Path) -> None:
+    out = tmp_path / "dataset"
+    export = [str(Path(sys.executable).parent / "joshua"), "lerobot-export"]
+    csv = models_dir() / "trajectories" / "so_arm100_example.csv"
+    made = subprocess.run(
+        [*export, str(csv), "--out", str(out), "--no-video", "--fps", "5"], capture_output=True, text=True
+    )
+    assert made.returncode == 0, made.stderr
+    replay = [
+        str(Path(sys.executable).parent / "joshua"),
+        "--preset",
+        "sim_passive",
+        "--set",
+        f"simulation.trajectory_path={out}",
+    ]
+    result = subprocess.run([*replay, "--set", "simulation.replay.episode=4"], capture_output=True, text=True)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert f"{out}: no episode 4; the dataset has episodes 0..0 (1)" in result.stderr
+    info = out / "meta" / "info.json"
+    info.write_text(info.read_text().replace('"v3.0"', '"v2.1"'))
+    result = subprocess.run(replay, capture_output=True, text=True)
+    assert result.returncode == 2 and "LeRobot dataset format v2.1, this reader reads v3.0" in result.stderr

@@ -420,6 +420,7 @@ def test_mirror_records_the_motion_and_commands_it_receives(tmp_path: Path, ros_
 
     def joint_values(t: np.ndarray) -> np.ndarray:
         return np.array([0.3 * np.sin(2 * t + i) + (0.6 if i == 5 else 0.1) for i in range(6)]).T
+
     published = Trajectory(Path("published.csv"), tuple(JOINTS), times, joint_values(times), np.arange(76),
                            joint_values(times + 0.1))  # fmt: skip
     csv, config = tmp_path / "published.csv", tmp_path / "record.pbtxt"
