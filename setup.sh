@@ -6,11 +6,13 @@
 #                       joshua-sb3 (stable-baselines3 with torch's CPU wheel), joshua-mjx and joshua-ppo
 #                       (MJX, JAX, Flax, Optax; JAX for the CPU: on a GPU machine add pip install "jax[cuda13]")
 #                       joshua-usd (usd-core: USD robots on MuJoCo, export to Isaac), joshua-sysid
-#                       (joshua sysid: fit servo and joint parameters to recordings with mujoco.sysid) and
-#                       joshua-export (onnx, onnxruntime: `joshua export` writes policies as ONNX with their contract)
+#                       (joshua sysid: fit servo and joint parameters to recordings with mujoco.sysid),
+#                       joshua-export (onnx, onnxruntime: `joshua export` writes policies as ONNX with their contract) and
+#                       joshua-lerobot (LeRobot datasets in and out: pyarrow, PyAV)
 #   ./setup.sh --dev    --all and what the tests need: pytest, protoc (grpcio-tools), trimesh,
 #                       Gymnasium's MuJoCo environments (the reference of bench/cpu_env_throughput.py),
-#                       Xvfb, xwd and xdotool for the viewer tests
+#                       Xvfb, xwd and xdotool for the viewer tests, and the real lerobot 0.4.4 for
+#                       joshua-lerobot's tests in .cache/lerobot-site (with FFmpeg's libraries from apt)
 # Versions come from constraints.txt. pip's cache stays inside the clone (.cache/pip).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -28,6 +30,7 @@ if [[ -n $option && $option != --all && $option != --dev ]]; then
 fi
 if [[ $option == --dev ]]; then
   SYSTEM_PACKAGES+=(xvfb x11-apps xdotool)  # viewer tests: a virtual X server, xwd screenshots, closing the window
+  SYSTEM_PACKAGES+=(libavcodec59 libavformat59 libavutil57 libswscale6 libswresample4 libavfilter8 libavdevice59)  # FFmpeg for torchcodec (the lerobot tests)
 fi
 missing=()
 for package in "${SYSTEM_PACKAGES[@]}"; do
@@ -48,7 +51,7 @@ export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
 
 requirements=(-e . -e plugins/joshua-render -e plugins/joshua-mujoco -e plugins/joshua-modes)
 if [[ -n $option ]]; then
-  requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e plugins/joshua-mjx -e plugins/joshua-ppo -e plugins/joshua-usd -e plugins/joshua-sysid -e plugins/joshua-export)
+  requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e plugins/joshua-mjx -e plugins/joshua-ppo -e plugins/joshua-usd -e plugins/joshua-sysid -e plugins/joshua-export -e plugins/joshua-lerobot)
   # torch first, pinned to its CPU wheel: then stable-baselines3 finds it installed and pulls no CUDA packages
   echo "setup: installing torch (CPU) into .venv"
   .venv/bin/pip install -q -c constraints.txt torch
@@ -58,4 +61,11 @@ if [[ $option == --dev ]]; then
 fi
 echo "setup: installing ${requirements[*]} into .venv"
 .venv/bin/pip install -q -c constraints.txt "${requirements[@]}"
+if [[ $option == --dev && ! -d .cache/lerobot-site/lerobot ]]; then
+  # the real lerobot for joshua-lerobot's tests, beside .venv, not in it: its pins (torch<2.11 ...) must not change .venv
+  echo "setup: installing lerobot (tests only) into .cache/lerobot-site"
+  rm -rf .cache/lerobot-site.partial
+  .venv/bin/pip install -q --no-deps --target .cache/lerobot-site.partial -r plugins/joshua-lerobot/tests/lerobot-requirements.txt
+  mv .cache/lerobot-site.partial .cache/lerobot-site
+fi
 echo "setup: done; run .venv/bin/joshua --help"

@@ -240,7 +240,7 @@ def finalize(loaded: LoadedConfig) -> JoshuaConfig:
         simulation.model_path = str(resolve_data_path(simulation.model_path, base_dirs=base_dirs))
         if simulation.trajectory_path:
             simulation.trajectory_path = str(
-                resolve_data_path(simulation.trajectory_path, base_dirs=base_dirs, what="trajectory")
+                resolve_data_path(simulation.trajectory_path, base_dirs=base_dirs, what="trajectory", folders=True)
             )
         simulation.backend = simulation_backend(simulation)
         simulation.mode = simulation_mode(simulation)

@@ -114,3 +114,14 @@ def joshua_register_readers(registry: Registrar) -> None:
     (".usd"); `target` is a `joshua_core.interfaces.ModelReader` subclass or its path, imported only
     when a model with that suffix is loaded. MJCF (.xml) is MuJoCo's own and is not registered.
     """
+
+
+@hookspec
+def joshua_register_trajectory_readers(registry: Registrar) -> None:
+    """Register trajectory sources other than JOSHUA's CSV (e.g. LeRobot datasets): `registry.add(name, target,
+    summary)`.
+
+    Called by PluginHost when it is built. `target` is a `joshua_core.interfaces.TrajectoryReader` subclass or
+    its path; `joshua_core.trajectory.load_trajectory` asks each registered reader whether it `accepts` a
+    folder it is given. The CSV reader is built in and not registered.
+    """

@@ -5,6 +5,7 @@
 - Mode: runs a SimulationConfig (viewer, replay, mirror, offscreen, headless).
 - Trainer: runs a TrainingConfig and leaves checkpoints behind.
 - Command: a `joshua` subcommand a plugin adds (e.g. `joshua mirror-replay`).
+- ModelReader, TrajectoryReader: model files and recorded motion in formats of other tools (USD, LeRobot).
 - Term: a task term, a plain function `quantity_kernel(ctx, **params)` returning a batched array.
 """
 
@@ -12,7 +13,7 @@ from __future__ import annotations
 
 import enum
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, Self
@@ -28,6 +29,7 @@ if TYPE_CHECKING:
     from joshua_core.config_pb2 import SimulationConfig, TaskConfig, TrainingConfig
     from joshua_core.plugins import PluginHost
     from joshua_core.policy import ExportedPolicy
+    from joshua_core.trajectory import Trajectory
 
 # The size of rendered images when a config leaves simulation.render_width/render_height at 0.
 DEFAULT_RENDER_WIDTH = 640
@@ -284,6 +286,23 @@ class ModelReader(ABC):
     @abstractmethod
     def read(self, path: Path) -> Any:
         """The `mujoco.MjSpec` of the file at `path` (absolute, existing); a file it cannot read raises ModelError."""
+
+
+class TrajectoryReader(ABC):
+    """Reads recorded motion stored in a format other than JOSHUA's CSV (e.g. a LeRobot dataset folder) into a
+    `Trajectory` in the model's units; `joshua_core.trajectory.load_trajectory` dispatches to it, so passive
+    replay, validation and every other consumer take the format as `trajectory_path`. Registered under a
+    format name; importing the class must stay light (it is created to ask `accepts`)."""
+
+    @abstractmethod
+    def accepts(self, path: Path) -> bool:
+        """Whether `path` (an existing folder) is in this reader's format; cheap, reads no data."""
+
+    @abstractmethod
+    def read(self, path: Path, joints: Mapping[str, tuple[float, float]], *, episode: int = 0) -> Trajectory:
+        """Episode `episode` of `path` for a model with the scalar joints `joints` (name -> (low, high) range);
+        positions (and targets, when the source has commands) in the model's units. Unreadable data, an unknown
+        episode or columns that match no joint raise TrajectoryError."""
 
 
 class Term(Protocol):

@@ -43,6 +43,7 @@ class Kind(enum.Enum):
     COMMAND = "command"
     OPTIONS = "option"
     READER = "reader"
+    TRAJECTORY_READER = "trajectory_reader"
 
     @property
     def hook_name(self) -> str:
@@ -71,6 +72,8 @@ KNOWN_PROVIDERS: dict[tuple[Kind, str], str] = {
     (Kind.OPTIONS, "ppo"): "joshua-ppo",
     (Kind.OPTIONS, "sb3"): "joshua-sb3",
     **{(Kind.READER, suffix): "joshua-usd" for suffix in (".usd", ".usda", ".usdc", ".usdz")},
+    (Kind.TRAJECTORY_READER, "lerobot"): "joshua-lerobot",
+    (Kind.COMMAND, "lerobot-export"): "joshua-lerobot",
 }
 
 

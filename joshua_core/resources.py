@@ -29,8 +29,10 @@ def presets_dir() -> Path:
     return data_dir("presets")
 
 
-def resolve_data_path(path: str | Path, *, base_dirs: tuple[Path, ...] = (), what: str = "model") -> Path:
-    """Find a file given as written by a user or a preset.
+def resolve_data_path(
+    path: str | Path, *, base_dirs: tuple[Path, ...] = (), what: str = "model", folders: bool = False
+) -> Path:
+    """Find a file (or, with `folders`, a folder too: e.g. a dataset) given as written by a user or a preset.
 
     Absolute paths are taken as they are. A relative path is tried against each of `base_dirs`
     (e.g. the folder of the config file that named it), then the working directory, then the
@@ -46,7 +48,7 @@ def resolve_data_path(path: str | Path, *, base_dirs: tuple[Path, ...] = (), wha
         if candidate.parts[:1] == ("models",):
             tried.append(shipped.joinpath(*candidate.parts[1:]))
     for option in tried:
-        if option.is_file():
+        if option.is_file() or (folders and option.is_dir()):
             return option.resolve()
     searched = "\n  ".join(str(option) for option in dict.fromkeys(tried))
     raise ModelError(f"{what} file '{path}' not found; searched:\n  {searched}")

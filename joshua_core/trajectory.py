@@ -1,29 +1,36 @@
-"""Reading trajectory CSV files: `#` comments, a header with `timestamp` and joint columns, one row per sample.
+"""Trajectory CSV files: `#` comments, a header with `timestamp` and joint columns, one row per sample.
 
-Columns are matched to the model's joints by name (any order, a subset allowed). A recording may also
-carry the commanded targets: a column `<joint>.target` beside each joint column (the position the
-joint's actuator was told to reach at that time; all joints or none). Readers that only replay
-positions ignore them; `joshua sysid` needs them. Errors that make the file unreadable raise
-TrajectoryError with `file:line:`; values that are readable but wrong (NaN, timestamps going back,
-joints out of range) are left to `joshua_modes.validation`.
+Columns are matched to the model's joints by name (any order, a subset allowed). A column `<joint>.target`
+holds the command sent to that joint (e.g. the position target a real arm was given), beside its measured
+position. Errors that make the file unreadable raise TrajectoryError with `file:line:`; values that are
+readable but wrong (NaN, timestamps going back, joints out of range) are left to `joshua_modes.validation`.
+
+`load_trajectory` is the one entry for every consumer: a CSV file is read here, anything else (a LeRobot
+dataset folder) by the `TrajectoryReader` a plugin registers.
 """
 
 from __future__ import annotations
 
 import csv
 import difflib
+import io
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
+from joshua_core.atomic import atomic_write_bytes
 from joshua_core.errors import UsageError
 
+if TYPE_CHECKING:
+    from joshua_core.plugins import PluginHost
+
 TIME_COLUMN = "timestamp"
-TARGET_SUFFIX = ".target"  # `joint_1.target`: the commanded position of joint_1
+TARGET_SUFFIX = ".target"  # `<joint>.target`: the command sent to <joint>
 # Largest magnitude a finite timestamp (s) or joint position (rad, m) may have: beyond it a value is a
 # corrupt file, and differences of such values overflow (1e308 - -1e308 is inf). NaN and inf are read
 # and left to validation, which reports and skips their rows.
@@ -43,7 +50,9 @@ class Trajectory:
     timestamps: NDArray[np.float64]  # (rows,)
     positions: NDArray[np.float64]  # (rows, joints), in the order of joint_names
     lines: NDArray[np.int64]  # (rows,)
-    targets: NDArray[np.float64] | None = None  # (rows, joints) commanded positions, or None without `.target` columns
+    # (rows, joints) commands in the order of joint_names, NaN for a joint without a target column;
+    # None when the source has no targets at all
+    targets: NDArray[np.float64] | None = None
 
     @property
     def rows(self) -> int:
@@ -95,8 +104,7 @@ def read_trajectory(path: str | Path, known_joints: Sequence[str] | None = None)
         )
     header_line, header_text = rows[0]
     columns = [name.strip() for name in next(csv.reader([header_text]))]
-    joints = _joint_columns(file, header_line, columns, known_joints)
-    targets = _target_columns(file, header_line, columns, joints)
+    joints, targets = _joint_columns(file, header_line, columns, known_joints)
     if len(rows) == 1:
         raise TrajectoryError(f"{file}:{header_line}: the header is not followed by any data row")
     time_index = columns.index(TIME_COLUMN)
@@ -124,12 +132,19 @@ def read_trajectory(path: str | Path, known_joints: Sequence[str] | None = None)
                 )
             values[row, column] = value
         lines[row] = number
-    target_values = values[:, [columns.index(name) for name in targets]] if targets else None
+    target_values = None
+    if targets:
+        target_values = np.full((len(lines), len(joints)), np.nan)
+        for name in targets:
+            target_values[:, joints.index(name)] = values[:, columns.index(name + TARGET_SUFFIX)]
     return Trajectory(file, tuple(joints), values[:, time_index], values[:, joint_indices], lines, target_values)
 
 
-def _joint_columns(file: Path, line: int, columns: list[str], known_joints: Sequence[str] | None) -> list[str]:
-    """The joint columns of the header, in file order, after checking the header's names."""
+def _joint_columns(
+    file: Path, line: int, columns: list[str], known_joints: Sequence[str] | None
+) -> tuple[list[str], list[str]]:
+    """The joint columns of the header in file order, and the joints with a target column, after checking
+    the header's names."""
     where = f"{file}:{line}"
     if TIME_COLUMN not in columns:
         close = difflib.get_close_matches(TIME_COLUMN, columns, n=1, cutoff=0.5)
@@ -145,6 +160,13 @@ def _joint_columns(file: Path, line: int, columns: list[str], known_joints: Sequ
             raise TrajectoryError(f"{where}: column '{name}' appears twice in the header")
         seen.add(name)
     joints = [name for name in columns if name != TIME_COLUMN and not name.endswith(TARGET_SUFFIX)]
+    targets = [name.removesuffix(TARGET_SUFFIX) for name in columns if name.endswith(TARGET_SUFFIX)]
+    orphans = [name for name in targets if name not in joints]
+    if orphans:
+        raise TrajectoryError(
+            f"{where}: target column(s) {', '.join(name + TARGET_SUFFIX for name in orphans)} without the "
+            f"joint's own column; a '<joint>{TARGET_SUFFIX}' column goes beside a '<joint>' column"
+        )
     if not joints:
         raise TrajectoryError(f"{where}: the header names no joint column besides '{TIME_COLUMN}'")
     if known_joints is not None:
@@ -159,24 +181,53 @@ def _joint_columns(file: Path, line: int, columns: list[str], known_joints: Sequ
                 f"{'is not a joint' if len(unknown) == 1 else 'are not joints'} of the model; "
                 f"its joints: {', '.join(known_joints)}"
             )
-    return joints
+    return joints, targets
 
 
-def _target_columns(file: Path, line: int, columns: list[str], joints: list[str]) -> list[str]:
-    """The `<joint>.target` columns in the order of `joints`, or [] when the header has none."""
-    targets = [name for name in columns if name.endswith(TARGET_SUFFIX)]
-    if not targets:
-        return []
-    orphans = [name for name in targets if name.removesuffix(TARGET_SUFFIX) not in joints]
-    if orphans:
-        raise TrajectoryError(
-            f"{file}:{line}: column '{orphans[0]}' is the target of joint '{orphans[0].removesuffix(TARGET_SUFFIX)}', "
-            f"which has no column; joint columns: {', '.join(joints)}"
-        )
-    missing = [name for name in joints if name + TARGET_SUFFIX not in targets]
-    if missing:
-        raise TrajectoryError(
-            f"{file}:{line}: the header has target columns but none for {', '.join(missing)}: give "
-            f"'<joint>{TARGET_SUFFIX}' for every joint column or for none"
-        )
-    return [name + TARGET_SUFFIX for name in joints]
+def write_trajectory(path: Path, trajectory: Trajectory, comment: str = "") -> None:
+    """Write `trajectory` as a CSV that `read_trajectory` reads back exactly (shortest round-trip floats),
+    with `<joint>.target` columns when it has targets; atomically. `comment` lines go first, after '# '."""
+    text = io.StringIO()
+    for line in comment.splitlines():
+        text.write(f"# {line}\n")
+    columns = [TIME_COLUMN, *trajectory.joint_names]
+    blocks = [trajectory.timestamps[:, None], trajectory.positions]
+    if trajectory.targets is not None:
+        with_target = [i for i in range(len(trajectory.joint_names)) if not np.isnan(trajectory.targets[:, i]).all()]
+        columns += [trajectory.joint_names[i] + TARGET_SUFFIX for i in with_target]
+        blocks.append(trajectory.targets[:, with_target])
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(columns)
+    writer.writerows([repr(float(value)) for value in row] for row in np.hstack(blocks))
+    atomic_write_bytes(Path(path), text.getvalue().encode())
+
+
+def load_trajectory(
+    path: str | Path,
+    joints: Mapping[str, tuple[float, float]],
+    *,
+    episode: int = 0,
+    plugins: PluginHost | None = None,
+) -> Trajectory:
+    """The trajectory at `path` for a model whose scalar joints are `joints` (name -> (low, high) range;
+    unlimited: -inf, inf): a CSV file read here, or a folder (e.g. a LeRobot dataset) read by the first
+    registered `TrajectoryReader` that accepts it (`plugins`, else the installed plugins). `episode` picks
+    one episode of a source that holds several; a CSV holds one."""
+    source = Path(path)
+    if not source.is_dir():
+        if episode:
+            raise TrajectoryError(f"{source}: a trajectory CSV holds one episode; episode {episode} does not exist")
+        return read_trajectory(source, list(joints))
+    from joshua_core.interfaces import TrajectoryReader
+    from joshua_core.plugins import Kind, PluginHost
+
+    host = plugins if plugins is not None else PluginHost.discover()
+    names = host.names(Kind.TRAJECTORY_READER)
+    for name in names:
+        reader = host.create(Kind.TRAJECTORY_READER, name, TrajectoryReader)
+        if reader.accepts(source):
+            return reader.read(source, joints, episode=episode)
+    raise TrajectoryError(
+        f"{source}: a folder, and no installed trajectory reader takes it (installed: {', '.join(names) or 'none'}); "
+        "a LeRobot dataset (meta/info.json) needs joshua-lerobot: pip install -e plugins/joshua-lerobot"
+    )

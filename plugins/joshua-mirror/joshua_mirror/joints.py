@@ -30,6 +30,7 @@ class MirroredJoint:
     offset: float  # sim joint position = encoder value + offset
     low: float  # the joint's range (-inf, inf when the joint is not limited)
     high: float
+    command_topic: str = ""  # Float64 topic of the target sent to the real joint (simulation.mirror.command_topics)
 
     def to_sim(self, value: float) -> float:
         return value + self.offset
@@ -62,11 +63,13 @@ def resolve_joints(
         for value, count in Counter(values).items():
             if count > 1:
                 problems.append(f"{MAPPINGS_FIELD}: {label} '{value}' is mapped {count} times")
-    unknown_names = sorted(set(options.joint_state_names) - {m.mujoco_actuator for m in mappings})
-    if unknown_names:
-        problems.append(
-            f"simulation.mirror.joint_state_names names actuators that are not mapped: {', '.join(unknown_names)}"
-        )
+    mapped = {m.mujoco_actuator for m in mappings}
+    for field_name in ("joint_state_names", "command_topics"):
+        unknown_names = sorted(set(getattr(options, field_name)) - mapped)
+        if unknown_names:
+            problems.append(
+                f"simulation.mirror.{field_name} names actuators that are not mapped: {', '.join(unknown_names)}"
+            )
     if problems:
         raise ConfigError("the mirror mapping does not fit the model:\n- " + "\n- ".join(problems))
     return joints
@@ -110,6 +113,7 @@ def _resolve(
         offset=float(mapping.offset),
         low=low,
         high=high,
+        command_topic=options.command_topics.get(name, ""),
     )
     return mirrored, None
 

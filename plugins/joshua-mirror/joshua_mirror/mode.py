@@ -7,6 +7,7 @@ status line and feeds the display from a copy of the state, so rendering never d
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Callable
@@ -25,6 +26,7 @@ from joshua_mirror.graph import TypeChecker
 from joshua_mirror.joints import MAPPINGS_FIELD, MirroredJoint, resolve_joints
 from joshua_mirror.mirror import Mirror
 from joshua_mirror.options_pb2 import MirrorOptions
+from joshua_mirror.recorder import Recorder
 from joshua_mirror.ros import RosSession, message_types, sensor_qos
 
 REPORT_FILE = "mirror_report.json"
@@ -58,14 +60,17 @@ class MirrorMode(Mode):
                 options,
                 stale_timeout=options.stale_timeout or DEFAULT_STALE_TIMEOUT_S,
             )
+            recorder = Recorder(joints, options.record) if options.record.csv or options.record.lerobot else None
             watcher = _subscribe(ros, mirror, options)
+            _subscribe_commands(ros, recorder)
             types = TypeChecker(ros.node, _expected_types(ros, mirror, options))
             display = _open_display(stack, config, context, mirror)
-            loop = _MainLoop(engine, mirror, watcher, display, options, types)
+            loop = _MainLoop(engine, mirror, watcher, display, options, types, recorder)
             stopped_by = loop.run(config.duration)
             _warn_types(types.poll())  # a last look: a publisher that came during the final status period
             ros.close()  # no callback may change the state while it is reported
             report = {**_report(config, mirror, loop, stopped_by), "type_mismatches": types.seen}
+            report["recording"] = recorder.write(config, context) if recorder else None
         path = context.output_dir / REPORT_FILE
         atomic_write_json(path, json_safe(report))  # NaN/inf are not JSON: null
         accepted = sum(joint["accepted"] for joint in report["joints"].values())
@@ -159,12 +164,34 @@ def _subscribe(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> _Unkn
     return _UnknownTopicWatcher(ros, mirror, mapped, float64)
 
 
+def _subscribe_commands(ros: RosSession, recorder: Recorder | None) -> None:
+    """Subscribe to the command topics whose values the recorder keeps (only when recording)."""
+    from rclpy.exceptions import InvalidTopicNameException
+
+    if recorder is None:
+        return
+    float64, _ = message_types()
+    for index, joint in enumerate(recorder.joints):
+        if joint.command_topic:
+            try:
+                ros.node.create_subscription(
+                    float64, joint.command_topic, recorder.command_callback(index), sensor_qos(QUEUE_DEPTH)
+                )
+            except InvalidTopicNameException as error:
+                raise ConfigError(f"simulation.mirror.command_topics['{joint.actuator}']: {error}") from None
+
+
 def _expected_types(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> dict[str, str]:
     """Each subscribed topic (resolved name) -> the message type the mirror reads from it."""
     node = ros.node
     if options.message_type == MirrorOptions.JOINT_STATE:
-        return {node.resolve_topic_name(options.joint_state_topic or DEFAULT_JOINT_STATE_TOPIC): JOINT_STATE_TYPE}
-    return {node.resolve_topic_name(joint.source): FLOAT64_TYPE for joint in mirror.joints}
+        expected = {node.resolve_topic_name(options.joint_state_topic or DEFAULT_JOINT_STATE_TOPIC): JOINT_STATE_TYPE}
+    else:
+        expected = {node.resolve_topic_name(joint.source): FLOAT64_TYPE for joint in mirror.joints}
+    if options.record.csv or options.record.lerobot:
+        commands = [joint.command_topic for joint in mirror.joints if joint.command_topic]
+        expected |= {node.resolve_topic_name(topic): FLOAT64_TYPE for topic in commands}
+    return expected
 
 
 def _warn_types(lines: list[str]) -> None:
@@ -245,8 +272,10 @@ class _MainLoop:
         display: _DisplayFeed | None,
         options: MirrorOptions,
         types: TypeChecker,
+        recorder: Recorder | None = None,
     ) -> None:
         self.engine = engine
+        self.recorder = recorder
         self.types = types
         self.mirror = mirror
         self.watcher = watcher
@@ -277,10 +306,17 @@ class _MainLoop:
         next_status = start + self.status_period
         _warn_types(self.types.poll())
         next_frame = start
+        next_sample = start if self.recorder else math.inf  # no recording: never wakes for it
+        sample_period = self.recorder.period if self.recorder else math.inf
         while True:
             now = time.monotonic()
             if now >= deadline:
                 return "duration"
+            if self.recorder is not None and now >= next_sample:
+                next_sample += sample_period
+                if next_sample <= now:  # woken late: carry on from now, no burst of samples
+                    next_sample = now + sample_period
+                self.recorder.sample(self.mirror, now)
             if self.mirror.actuated:
                 self._step_physics(now - start, timestep)
             if now >= next_stale_check:
@@ -297,7 +333,7 @@ class _MainLoop:
                 next_frame = now + self.display.period
                 if not self.display.show(self.mirror, now - start):
                     return "viewer closed"
-            wake = min(deadline, next_stale_check, next_status, next_frame if self.display else deadline)
+            wake = min(deadline, next_stale_check, next_status, next_frame if self.display else deadline, next_sample)
             if self.mirror.actuated:
                 wake = min(wake, start + (self.steps + self.skipped_steps + 1) * timestep)
             time.sleep(max(0.0, wake - time.monotonic()))

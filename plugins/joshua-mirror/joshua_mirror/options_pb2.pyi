@@ -3,7 +3,7 @@ from google.protobuf.internal import containers as _containers
 from google.protobuf.internal import enum_type_wrapper as _enum_type_wrapper
 from google.protobuf import descriptor as _descriptor
 from google.protobuf import message as _message
-from collections.abc import Mapping as _Mapping
+from collections.abc import Iterable as _Iterable, Mapping as _Mapping
 from typing import ClassVar as _ClassVar, Optional as _Optional, Union as _Union
 
 DESCRIPTOR: _descriptor.FileDescriptor
@@ -11,7 +11,7 @@ MIRROR_FIELD_NUMBER: _ClassVar[int]
 mirror: _descriptor.FieldDescriptor
 
 class MirrorOptions(_message.Message):
-    __slots__ = ("apply", "message_type", "joint_state_topic", "joint_state_names", "stale_timeout", "status_period", "range_margin", "display", "display_fps", "camera", "node_name")
+    __slots__ = ("apply", "message_type", "joint_state_topic", "joint_state_names", "stale_timeout", "status_period", "range_margin", "display", "display_fps", "camera", "node_name", "command_topics", "record")
     class Apply(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         KINEMATIC: _ClassVar[MirrorOptions.Apply]
@@ -43,6 +43,13 @@ class MirrorOptions(_message.Message):
         key: str
         value: str
         def __init__(self, key: _Optional[str] = ..., value: _Optional[str] = ...) -> None: ...
+    class CommandTopicsEntry(_message.Message):
+        __slots__ = ("key", "value")
+        KEY_FIELD_NUMBER: _ClassVar[int]
+        VALUE_FIELD_NUMBER: _ClassVar[int]
+        key: str
+        value: str
+        def __init__(self, key: _Optional[str] = ..., value: _Optional[str] = ...) -> None: ...
     APPLY_FIELD_NUMBER: _ClassVar[int]
     MESSAGE_TYPE_FIELD_NUMBER: _ClassVar[int]
     JOINT_STATE_TOPIC_FIELD_NUMBER: _ClassVar[int]
@@ -54,6 +61,8 @@ class MirrorOptions(_message.Message):
     DISPLAY_FPS_FIELD_NUMBER: _ClassVar[int]
     CAMERA_FIELD_NUMBER: _ClassVar[int]
     NODE_NAME_FIELD_NUMBER: _ClassVar[int]
+    COMMAND_TOPICS_FIELD_NUMBER: _ClassVar[int]
+    RECORD_FIELD_NUMBER: _ClassVar[int]
     apply: MirrorOptions.Apply
     message_type: MirrorOptions.MessageType
     joint_state_topic: str
@@ -65,4 +74,20 @@ class MirrorOptions(_message.Message):
     display_fps: float
     camera: str
     node_name: str
-    def __init__(self, apply: _Optional[_Union[MirrorOptions.Apply, str]] = ..., message_type: _Optional[_Union[MirrorOptions.MessageType, str]] = ..., joint_state_topic: _Optional[str] = ..., joint_state_names: _Optional[_Mapping[str, str]] = ..., stale_timeout: _Optional[float] = ..., status_period: _Optional[float] = ..., range_margin: _Optional[float] = ..., display: _Optional[_Union[MirrorOptions.Display, str]] = ..., display_fps: _Optional[float] = ..., camera: _Optional[str] = ..., node_name: _Optional[str] = ...) -> None: ...
+    command_topics: _containers.ScalarMap[str, str]
+    record: MirrorRecording
+    def __init__(self, apply: _Optional[_Union[MirrorOptions.Apply, str]] = ..., message_type: _Optional[_Union[MirrorOptions.MessageType, str]] = ..., joint_state_topic: _Optional[str] = ..., joint_state_names: _Optional[_Mapping[str, str]] = ..., stale_timeout: _Optional[float] = ..., status_period: _Optional[float] = ..., range_margin: _Optional[float] = ..., display: _Optional[_Union[MirrorOptions.Display, str]] = ..., display_fps: _Optional[float] = ..., camera: _Optional[str] = ..., node_name: _Optional[str] = ..., command_topics: _Optional[_Mapping[str, str]] = ..., record: _Optional[_Union[MirrorRecording, _Mapping]] = ...) -> None: ...
+
+class MirrorRecording(_message.Message):
+    __slots__ = ("csv", "lerobot", "fps", "task", "cameras")
+    CSV_FIELD_NUMBER: _ClassVar[int]
+    LEROBOT_FIELD_NUMBER: _ClassVar[int]
+    FPS_FIELD_NUMBER: _ClassVar[int]
+    TASK_FIELD_NUMBER: _ClassVar[int]
+    CAMERAS_FIELD_NUMBER: _ClassVar[int]
+    csv: bool
+    lerobot: bool
+    fps: int
+    task: str
+    cameras: _containers.RepeatedScalarFieldContainer[str]
+    def __init__(self, csv: _Optional[bool] = ..., lerobot: _Optional[bool] = ..., fps: _Optional[int] = ..., task: _Optional[str] = ..., cameras: _Optional[_Iterable[str]] = ...) -> None: ...

@@ -92,8 +92,12 @@ class MirrorReplayCommand(Command):
             ],
             axis=1,
         )
+        commanded = _commanded(trajectory, joints, columns)
+        encoder_values = np.hstack(
+            [encoder_values, *(_interp_target(trajectory, times, column, joint) for joint, column in commanded)]
+        )
         with RosSession("joshua_mirror_replay") as ros:
-            publisher = _EncoderPublisher(ros, config, joints)
+            publisher = _EncoderPublisher(ros, config, joints, [joint.command_topic for joint, _ in commanded])
             publisher.wait_for_subscribers(args.wait)
             try:
                 _play(publisher, times - times[0], encoder_values, args.speed, args.loops)
@@ -127,10 +131,34 @@ def _columns(trajectory: Trajectory, joints: list[MirroredJoint], csv: Path) -> 
     return [trajectory.joint_names.index(joint.joint) for joint in joints]
 
 
-class _EncoderPublisher:
-    """Publishes one row of encoder values the way the config's mirror listens: Float64 per topic or JointState."""
+def _commanded(
+    trajectory: Trajectory, joints: list[MirroredJoint], columns: list[int]
+) -> list[tuple[MirroredJoint, int]]:
+    """The mapped joints with a command topic whose CSV column has targets (`<joint>.target`)."""
+    if trajectory.targets is None:
+        return []
+    return [
+        (joint, column)
+        for joint, column in zip(joints, columns, strict=True)
+        if joint.command_topic and np.isfinite(trajectory.targets[:, column]).any()
+    ]
 
-    def __init__(self, ros: RosSession, config: SimulationConfig, joints: list[MirroredJoint]) -> None:
+
+def _interp_target(trajectory: Trajectory, times: np.ndarray, column: int, joint: MirroredJoint) -> np.ndarray:
+    """One joint's targets at `times` in encoder units (the offset taken off, as for positions): a (times, 1) column."""
+    assert trajectory.targets is not None
+    known = np.isfinite(trajectory.targets[:, column])
+    values = np.interp(times, trajectory.timestamps[known], trajectory.targets[known, column]) - joint.offset
+    return values[:, None]
+
+
+class _EncoderPublisher:
+    """Publishes one row of encoder values the way the config's mirror listens: Float64 per topic or JointState,
+    then the row's commands (its last values), Float64 on each of `command_topics`."""
+
+    def __init__(
+        self, ros: RosSession, config: SimulationConfig, joints: list[MirroredJoint], command_topics: list[str]
+    ) -> None:
         float64, joint_state = message_types()
         self.node = ros.node
         self.float64 = float64
@@ -143,20 +171,25 @@ class _EncoderPublisher:
         else:
             self.publishers = [self.node.create_publisher(float64, joint.source, 10) for joint in joints]
             self.names = None
+        self.encoders = len(self.publishers)  # the mirror always listens to these; to commands only when recording
+        self.publishers += [self.node.create_publisher(float64, topic, 10) for topic in command_topics]
 
-    def publish(self, values: np.ndarray) -> None:
+    def publish(self, row: np.ndarray) -> None:
+        values = row.tolist()
         if self.names is None:
-            for publisher, value in zip(self.publishers, values.tolist(), strict=True):
+            for publisher, value in zip(self.publishers, values, strict=True):
                 publisher.publish(self.float64(data=value))
             return
-        message = self.joint_state(name=self.names, position=values.tolist())
+        message = self.joint_state(name=self.names, position=values[: len(self.names)])
         message.header.stamp = self.node.get_clock().now().to_msg()
         self.publishers[0].publish(message)
+        for publisher, value in zip(self.publishers[1:], values[len(self.names) :], strict=True):
+            publisher.publish(self.float64(data=value))
 
     def wait_for_subscribers(self, timeout: float) -> None:
-        """Wait until every topic has a subscriber (the mirror), so the start of the trajectory is not lost."""
+        """Wait until every encoder topic has a subscriber (the mirror), so the start of the trajectory is not lost."""
         deadline = time.monotonic() + timeout
-        while not all(publisher.get_subscription_count() for publisher in self.publishers):
+        while not all(publisher.get_subscription_count() for publisher in self.publishers[: self.encoders]):
             if time.monotonic() > deadline:
                 print(
                     f"joshua: mirror-replay: no mirror subscribed within {timeout:g} s; publishing anyway",

@@ -20,11 +20,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from joshua_core.config import load_preset
 from joshua_core.errors import PluginNotFoundError
 from joshua_core.plugins import PluginHost, PluginInfo
+from joshua_core.resources import models_dir
+from joshua_core.trajectory import Trajectory, load_trajectory, write_trajectory
 from joshua_mirror.ros import local_only_environment
 
 JOSHUA = Path(sys.executable).parent / "joshua"
@@ -388,3 +391,79 @@ def wait_for_line(mirror: subprocess.Popen[str], wanted: Callable[[str], bool]) 
 def displayed_frames(status_line: str) -> int:
     """The frame count at the end of a status line: '... | display 42 frames'."""
     return int(status_line.rsplit("| display ", 1)[1].split()[0])
+
+
+RECORD_CONFIG = """
+extends: "sim_mirror"
+simulation {
+  render_width: 32
+  render_height: 24
+  mirror {
+    display: NONE
+    status_period: 0.2
+    record { csv: true lerobot: true fps: 25 task: "follow" }
+    command_topics { key: "joint_1_position" value: "/command/joint_1" }
+    command_topics { key: "joint_2_position" value: "/command/joint_2" }
+    command_topics { key: "joint_6_position" value: "/command/joint_6" }
+  }
+}
+"""
+
+
+def test_mirror_records_the_motion_and_commands_it_receives(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    """`joshua mirror-replay` publishes a CSV's positions (encoders) and targets (commands); the mirror's
+    recording reads back through load_trajectory, as a CSV and as a LeRobot dataset, on the published path."""
+    from joshua_modes import model_joint_ranges
+    from joshua_mujoco import compile_model
+
+    times = np.arange(76) * 0.02  # 1.5 s at 50 Hz; slow enough that a row sampled between topics stays close
+
+    def joint_values(t: np.ndarray) -> np.ndarray:
+        return np.array([0.3 * np.sin(2 * t + i) + (0.6 if i == 5 else 0.1) for i in range(6)]).T
+
+    published = Trajectory(Path("published.csv"), tuple(JOINTS), times, joint_values(times), np.arange(76),
+                           joint_values(times + 0.1))  # fmt: skip
+    csv, config = tmp_path / "published.csv", tmp_path / "record.pbtxt"
+    write_trajectory(csv, published)
+    config.write_text(RECORD_CONFIG)
+    mirror = subprocess.Popen(
+        [str(JOSHUA), "--config", str(config)], cwd=tmp_path, env=ros_env, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    replay = subprocess.run(
+        [str(JOSHUA), "mirror-replay", str(csv), "--config", str(config), "--rate", "50"],
+        cwd=tmp_path, env=ros_env, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert replay.returncode == 0, replay.stderr
+    report, _ = stop(mirror, tmp_path)
+    output = tmp_path / "joshua_output"
+    recording = report["recording"]
+    assert (tmp_path / recording["csv"]).samefile(output / "mirror_recording.csv") and recording["rows"] > 25
+    assert (tmp_path / recording["lerobot"]).samefile(output / "mirror_lerobot")
+
+    ranges = model_joint_ranges(compile_model(models_dir() / "so_arm100" / "scene.xml"))
+    recorded = load_trajectory(output / "mirror_recording.csv", ranges)
+    assert recorded.joint_names == tuple(JOINTS) and recorded.targets is not None
+    assert np.isnan(recorded.targets[:, [2, 3, 4]]).all()  # no command topic: no target
+    assert_on_path(recorded.timestamps, recorded.positions, published.timestamps, published.positions)
+    commanded = [0, 1, 5]
+    assert_on_path(recorded.timestamps, recorded.targets[:, commanded], times, published.targets[:, commanded])
+
+    dataset = load_trajectory(output / "mirror_lerobot", ranges)  # the same recording, resampled at 25 fps
+    assert np.allclose(np.diff(dataset.timestamps), 0.04, atol=1e-6)
+    assert_on_path(dataset.timestamps, dataset.positions, published.timestamps, published.positions)
+
+
+def assert_on_path(
+    times: np.ndarray, values: np.ndarray, path_times: np.ndarray, path: np.ndarray, tolerance: float = 0.03
+) -> None:
+    """Every recorded row lies on the published path (nearest published row within `tolerance` rad), in order,
+    at a steady delay (within 0.1 s), and the recording covers the path from its start to its end."""
+    nearest = np.array([np.abs(path - row).max(axis=1).argmin() for row in values])
+    distance = np.array([np.abs(path[k] - row).max() for k, row in zip(nearest, values, strict=True)])
+    assert distance.max() < tolerance, distance.max()
+    moving = np.flatnonzero(np.diff(nearest) > 0) + 1  # rows recorded while the motion went on (not the still tail)
+    assert np.all(np.diff(nearest) >= -1)  # in order (one row back: two published rows that look alike)
+    assert nearest[0] <= 3 and nearest[-1] >= len(path) - 3
+    delays = times[moving] - path_times[nearest[moving]]
+    assert np.ptp(delays) < 0.1, delays

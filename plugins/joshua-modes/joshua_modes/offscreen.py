@@ -24,10 +24,10 @@ from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, 
 from joshua_core.options import options_of
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
-from joshua_core.trajectory import read_trajectory
+from joshua_core.trajectory import load_trajectory
 from joshua_modes import options_pb2
 from joshua_modes.options_pb2 import OffscreenOptions
-from joshua_modes.replay import Replayer, model_joint_names
+from joshua_modes.replay import Replayer, model_joint_ranges
 from joshua_modes.validation import validate, validated_replayer
 from joshua_mujoco import MuJoCoEngine
 from joshua_render import VideoWriter, camera_id, create_renderer, write_png
@@ -108,6 +108,7 @@ def iter_offscreen_frames(
     keyframe: str | None = None,
     tracked: bool = False,
     shadows: bool = True,
+    episode: int = 0,
 ) -> Iterator[NDArray[np.uint8]]:
     """Yield (height, width, 3) uint8 frames of the trajectory replayed kinematically (or `tracked`),
     one per 1/fps of trajectory time. Rows with a bad timestamp or a non-finite value are skipped.
@@ -117,8 +118,8 @@ def iter_offscreen_frames(
     engine = MuJoCoEngine(model_path, render_width=width, render_height=height)
     with engine:
         engine.reset(keyframe)
-        path = resolve_data_path(trajectory_path, what="trajectory")
-        trajectory = read_trajectory(path, model_joint_names(engine.model))
+        path = resolve_data_path(trajectory_path, what="trajectory", folders=True)
+        trajectory = load_trajectory(path, model_joint_ranges(engine.model), episode=episode)
         _, usable = validate(trajectory, engine.model, engine.data.qpos.copy())
         replayer = Replayer(engine, trajectory, usable, tracked=tracked)
         renderer = FrameRenderer(engine.model, width, height, camera=camera, shadows=shadows)
@@ -186,7 +187,7 @@ class OffscreenMode(Mode):
                 shadows=options.shadows if options.HasField("shadows") else True,
             )
             try:
-                advance, times = self._timeline(config, engine, context.output_dir, fps)
+                advance, times = self._timeline(config, engine, context, fps)
                 written = self._render(options, renderer, engine, advance, times, fps, outputs)
             finally:
                 renderer.close()
@@ -194,13 +195,17 @@ class OffscreenMode(Mode):
 
     @staticmethod
     def _timeline(
-        config: SimulationConfig, engine: Engine, output_dir: Path, fps: float
+        config: SimulationConfig, engine: Engine, context: RunContext, fps: float
     ) -> tuple[Replayer | None, NDArray[np.float64]]:
         """The replayer (None: plain physics) and the times of the frames."""
         if not config.trajectory_path:
             return None, frame_times(0.0, config.duration or DEFAULT_DURATION_S, fps)
         replayer, _ = validated_replayer(
-            config, engine, output_dir / REPORT_NAME, refusal="nothing rendered because simulation.replay.strict is set"
+            config,
+            engine,
+            context.output_dir / REPORT_NAME,
+            refusal="nothing rendered because simulation.replay.strict is set",
+            plugins=context.plugins,
         )
         return replayer, frame_times(replayer.start_time, replayer.end_time, fps)
 

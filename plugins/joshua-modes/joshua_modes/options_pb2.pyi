@@ -37,7 +37,7 @@ class OffscreenOptions(_message.Message):
     def __init__(self, camera: _Optional[str] = ..., fps: _Optional[float] = ..., output: _Optional[_Union[OffscreenOptions.Output, str]] = ..., depth: _Optional[bool] = ..., segmentation: _Optional[bool] = ..., shadows: _Optional[bool] = ...) -> None: ...
 
 class ReplayOptions(_message.Message):
-    __slots__ = ("speed", "loop", "as_fast_as_possible", "strict", "tracked", "velocity_limit", "penetration_threshold")
+    __slots__ = ("speed", "loop", "as_fast_as_possible", "strict", "tracked", "velocity_limit", "penetration_threshold", "episode")
     SPEED_FIELD_NUMBER: _ClassVar[int]
     LOOP_FIELD_NUMBER: _ClassVar[int]
     AS_FAST_AS_POSSIBLE_FIELD_NUMBER: _ClassVar[int]
@@ -45,6 +45,7 @@ class ReplayOptions(_message.Message):
     TRACKED_FIELD_NUMBER: _ClassVar[int]
     VELOCITY_LIMIT_FIELD_NUMBER: _ClassVar[int]
     PENETRATION_THRESHOLD_FIELD_NUMBER: _ClassVar[int]
+    EPISODE_FIELD_NUMBER: _ClassVar[int]
     speed: float
     loop: bool
     as_fast_as_possible: bool
@@ -52,7 +53,8 @@ class ReplayOptions(_message.Message):
     tracked: bool
     velocity_limit: float
     penetration_threshold: float
-    def __init__(self, speed: _Optional[float] = ..., loop: _Optional[bool] = ..., as_fast_as_possible: _Optional[bool] = ..., strict: _Optional[bool] = ..., tracked: _Optional[bool] = ..., velocity_limit: _Optional[float] = ..., penetration_threshold: _Optional[float] = ...) -> None: ...
+    episode: int
+    def __init__(self, speed: _Optional[float] = ..., loop: _Optional[bool] = ..., as_fast_as_possible: _Optional[bool] = ..., strict: _Optional[bool] = ..., tracked: _Optional[bool] = ..., velocity_limit: _Optional[float] = ..., penetration_threshold: _Optional[float] = ..., episode: _Optional[int] = ...) -> None: ...
 
 class ViewerOptions(_message.Message):
     __slots__ = ("display", "camera", "fps")

@@ -40,14 +40,20 @@ class PassiveMode(Mode):
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         if not config.trajectory_path:
-            raise ConfigError("PASSIVE mode replays a trajectory: set simulation.trajectory_path to a CSV file")
+            raise ConfigError(
+                "PASSIVE mode replays a trajectory: set simulation.trajectory_path to a CSV file or a LeRobot dataset"
+            )
         replay, viewer = options_of(config, options_pb2.replay), options_of(config, options_pb2.viewer)
         speed = replay.speed or 1.0
         fps = viewer.fps or DEFAULT_FPS
         with context.create_engine(config) as engine:
             report_path = context.output_dir / REPORT_NAME
             replayer, report = validated_replayer(
-                config, engine, report_path, refusal="not replayed because simulation.replay.strict is set (--strict)"
+                config,
+                engine,
+                report_path,
+                refusal="not replayed because simulation.replay.strict is set (--strict)",
+                plugins=context.plugins,
             )
             with open_display(
                 engine,

@@ -26,6 +26,17 @@ def model_joint_names(model: mujoco.MjModel) -> list[str]:
     return [model.joint(j).name for j in range(model.njnt) if model.jnt_type[j] in SCALAR_JOINTS]
 
 
+def model_joint_ranges(model: mujoco.MjModel) -> dict[str, tuple[float, float]]:
+    """Each scalar joint's (low, high) range, (-inf, inf) when unlimited: what a trajectory source maps onto."""
+    return {
+        model.joint(j).name: (
+            (float(model.jnt_range[j, 0]), float(model.jnt_range[j, 1])) if model.jnt_limited[j] else (-np.inf, np.inf)
+        )
+        for j in range(model.njnt)
+        if model.jnt_type[j] in SCALAR_JOINTS
+    }
+
+
 def qpos_addresses(model: mujoco.MjModel, joint_names: tuple[str, ...]) -> NDArray[np.int64]:
     """qpos index of each named (hinge or slide) joint."""
     return np.array([model.jnt_qposadr[model.joint(name).id] for name in joint_names], dtype=np.int64)

@@ -13,7 +13,7 @@ import math
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -24,9 +24,12 @@ from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Engine
 from joshua_core.options import options_of
-from joshua_core.trajectory import Trajectory, read_trajectory
+from joshua_core.trajectory import Trajectory, load_trajectory
 from joshua_modes import options_pb2
-from joshua_modes.replay import Replayer, model_joint_names, qpos_addresses
+from joshua_modes.replay import Replayer, model_joint_ranges, qpos_addresses
+
+if TYPE_CHECKING:
+    from joshua_core.plugins import PluginHost
 
 DEFAULT_VELOCITY_LIMIT = 10.0  # rad/s (or m/s for slide joints)
 DEFAULT_PENETRATION_THRESHOLD = 0.005  # m
@@ -347,13 +350,16 @@ def _geom_name(model: mujoco.MjModel, geom: int) -> str:
 
 
 def validated_replayer(
-    config: SimulationConfig, engine: Engine, report_path: Path, *, refusal: str
+    config: SimulationConfig, engine: Engine, report_path: Path, *, refusal: str, plugins: PluginHost | None = None
 ) -> tuple[Replayer, ValidationReport]:
-    """Read and validate `config.trajectory_path` against the engine's model, print the report and write it
-    as JSON; return the replayer of its usable rows. With `replay.strict` and any problem, raise UsageError
-    ending in `refusal` (what was not done) instead."""
-    trajectory = read_trajectory(config.trajectory_path, model_joint_names(engine.model))
+    """Load (CSV, or a dataset through a plugin's reader; episode `replay.episode`) and validate
+    `config.trajectory_path` against the engine's model, print the report and write it as JSON; return the
+    replayer of its usable rows. With `replay.strict` and any problem, raise UsageError ending in `refusal`
+    (what was not done) instead."""
     replay = options_of(config, options_pb2.replay)
+    trajectory = load_trajectory(
+        config.trajectory_path, model_joint_ranges(engine.model), episode=replay.episode, plugins=plugins
+    )
     report, usable = validate(
         trajectory,
         engine.model,

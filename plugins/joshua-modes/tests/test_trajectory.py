@@ -209,3 +209,39 @@ def test_report_of_non_finite_rows_is_valid_json(engine, write_csv, tmp_path: Pa
     assert [issue["first_line"] for issue in non_finite] == [3, 4]
     assert all(issue["worst_value"] is None for issue in non_finite)
     assert "timestamp=inf" in non_finite[0]["message"] and "joint_6=-inf" in non_finite[1]["message"]
+
+
+def test_target_columns_round_trip_exactly(tmp_path: Path) -> None:
+    import numpy as np
+
+    from joshua_core.trajectory import Trajectory, load_trajectory, write_trajectory
+
+    times = np.array([0.0, 0.1, 0.2])
+    positions = np.array([[0.1, 1 / 3], [0.2, 0.4], [0.3, 0.5]])
+    targets = np.array([[0.15, np.nan], [0.25, np.nan], [1e-17, np.nan]])  # joint_2 has no target column
+    written = Trajectory(tmp_path / "t.csv", ("joint_1", "joint_2"), times, positions, np.arange(3), targets)
+    write_trajectory(written.path, written, comment="two joints\none target")
+    text = written.path.read_text()
+    assert text.startswith("# two joints\n# one target\ntimestamp,joint_1,joint_2,joint_1.target\n")
+    read = load_trajectory(written.path, {"joint_1": (-1.0, 1.0), "joint_2": (-1.0, 1.0)})
+    assert read.joint_names == ("joint_1", "joint_2")
+    assert np.array_equal(read.positions, positions) and np.array_equal(read.targets, targets, equal_nan=True)
+    with pytest.raises(TrajectoryError, match="holds one episode; episode 1 does not exist"):
+        load_trajectory(written.path, {"joint_1": (-1.0, 1.0), "joint_2": (-1.0, 1.0)}, episode=1)
+
+
+def test_a_target_column_needs_its_joint_column(tmp_path: Path) -> None:
+    path = tmp_path / "orphan.csv"
+    path.write_text("timestamp,joint_1,joint_2.target\n0.0,0.1,0.2\n")
+    with pytest.raises(TrajectoryError, match=r"orphan.csv:1: target column\(s\) joint_2.target without the joint's"):
+        read_trajectory(path)
+
+
+def test_a_folder_without_a_reader_says_what_to_install(tmp_path: Path) -> None:
+    from joshua_core import builtin_plugin
+    from joshua_core.plugins import PluginHost, PluginInfo
+    from joshua_core.trajectory import load_trajectory
+
+    host = PluginHost([(PluginInfo("core", "joshua-core", "0", "core"), builtin_plugin)])
+    with pytest.raises(TrajectoryError, match="no installed trajectory reader takes it .*needs joshua-lerobot"):
+        load_trajectory(tmp_path, {"joint_1": (-1.0, 1.0)}, plugins=host)

@@ -1,0 +1,134 @@
+"""`joshua lerobot-export`: a trajectory (CSV or dataset episode) replayed on a model, its cameras rendered
+headless, written as a one-episode LeRobot dataset: observation.state = the replayed joint positions,
+action = the trajectory's targets (`<joint>.target` columns, a dataset's action) where it has them, else
+the positions themselves (a scripted trajectory is its own command)."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from joshua_core.errors import UsageError
+from joshua_core.interfaces import Command
+from joshua_core.plugins import PluginHost
+from joshua_core.progress import progress_bar
+from joshua_core.resources import resolve_data_path
+from joshua_core.trajectory import Trajectory, load_trajectory
+from joshua_lerobot.writer import DatasetEpisode, write_dataset
+
+DEFAULT_MODEL = "so_arm100/scene.xml"
+DEFAULT_FPS = 30
+DEFAULT_WIDTH, DEFAULT_HEIGHT = 320, 240
+DEFAULT_TASK = "replay"
+DEFAULT_OUT = Path("joshua_output/lerobot_dataset")
+
+
+class LeRobotExportCommand(Command):
+    """Writes a rendered replay of a trajectory as a LeRobot dataset."""
+
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("trajectory", help="trajectory CSV, or a LeRobot dataset folder (see --episode)")
+        parser.add_argument("--model", default=DEFAULT_MODEL, help=f"model to replay on (default {DEFAULT_MODEL})")
+        parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"dataset folder (default {DEFAULT_OUT})")
+        parser.add_argument("--fps", type=int, default=DEFAULT_FPS, help=f"frames per second (default {DEFAULT_FPS})")
+        parser.add_argument(
+            "--camera",
+            action="append",
+            default=None,
+            help="a model camera to record as observation.images.<camera> (repeatable; default: the model's first)",
+        )
+        parser.add_argument("--no-video", action="store_true", help="write joint data only, no camera video")
+        parser.add_argument("--width", type=int, default=DEFAULT_WIDTH, help=f"video width (default {DEFAULT_WIDTH})")
+        parser.add_argument(
+            "--height", type=int, default=DEFAULT_HEIGHT, help=f"video height (default {DEFAULT_HEIGHT})"
+        )
+        parser.add_argument("--task", default=DEFAULT_TASK, help=f"the episode's task text (default '{DEFAULT_TASK}')")
+        parser.add_argument("--episode", type=int, default=0, help="the episode of a dataset to replay (default 0)")
+
+    def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        if args.fps < 1 or args.width < 2 or args.height < 2 or args.episode < 0:
+            raise UsageError("--fps, --width and --height must be positive and --episode at least 0")
+        model = resolve_data_path(args.model)
+        source = resolve_data_path(args.trajectory, what="trajectory", folders=True)
+        cameras = [] if args.no_video else (args.camera or [""])
+        path = export_trajectory(
+            source,
+            model,
+            args.out,
+            fps=args.fps,
+            cameras=cameras,
+            size=(args.width, args.height),
+            task=args.task,
+            episode=args.episode,
+            plugins=plugins,
+        )
+        print(f"LeRobot dataset: {path}")
+        return 0
+
+
+def export_trajectory(
+    source: Path,
+    model_path: Path,
+    out: Path,
+    *,
+    fps: int,
+    cameras: Sequence[str] = ("",),
+    size: tuple[int, int] = (DEFAULT_WIDTH, DEFAULT_HEIGHT),
+    task: str = DEFAULT_TASK,
+    episode: int = 0,
+    plugins: PluginHost | None = None,
+) -> Path:
+    """Replay `source` (episode `episode`) on `model_path` at `fps` and write it to `out` as a LeRobot dataset,
+    one video per camera of `cameras` ("" = the model's first camera; empty: no video) at `size` (w, h)."""
+    from joshua_modes import frame_times, iter_offscreen_frames, model_joint_ranges
+    from joshua_mujoco import compile_model
+
+    model = compile_model(model_path, plugins=plugins)
+    ranges = model_joint_ranges(model)
+    trajectory = load_trajectory(source, ranges, episode=episode, plugins=plugins)
+    trajectory.require_playable()
+    times = frame_times(trajectory.timestamps[0], trajectory.timestamps[-1], fps)
+    states, actions = _resampled(trajectory, times)
+    width, height = size
+    frames = {
+        (camera or (model.camera(0).name if model.ncam else "free")): _counted(
+            iter_offscreen_frames(model_path, source, width, height, camera=camera or None, fps=fps, episode=episode),
+            len(times),
+            camera or "camera",
+        )
+        for camera in cameras
+    }
+    recorded = DatasetEpisode(
+        joint_names=trajectory.joint_names,
+        timestamps=np.arange(len(times)) / fps,
+        states=states,
+        actions=actions,
+        task=task,
+        cameras=frames,
+    )
+    return write_dataset(out, [recorded], fps=fps, joint_ranges=ranges)
+
+
+def _counted(frames: Iterator[NDArray[np.uint8]], total: int, camera: str) -> Iterator[NDArray[np.uint8]]:
+    """`frames` as they are rendered, with a progress bar."""
+    with progress_bar(total, description=f"render {camera}", unit="frames") as bar:
+        for frame in frames:
+            yield frame
+            bar.update(1)
+
+
+def _resampled(trajectory: Trajectory, times: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Positions and targets (positions where a joint has none) interpolated at `times`."""
+    positions = np.stack([np.interp(times, trajectory.timestamps, column) for column in trajectory.positions.T], axis=1)
+    if trajectory.targets is None:
+        return positions, positions.copy()
+    targets = positions.copy()
+    for j, column in enumerate(trajectory.targets.T):
+        known = np.isfinite(column)
+        if known.any():
+            targets[:, j] = np.interp(times, trajectory.timestamps[known], column[known])
+    return positions, targets

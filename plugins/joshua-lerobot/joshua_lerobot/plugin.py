@@ -1,0 +1,24 @@
+"""Entry point of joshua-lerobot: registers the "lerobot" trajectory reader and `joshua lerobot-export`."""
+
+from __future__ import annotations
+
+from joshua_core import hookimpl
+from joshua_core.plugins import Registrar
+
+
+@hookimpl
+def joshua_register_trajectory_readers(registry: Registrar) -> None:
+    registry.add(
+        "lerobot",
+        "joshua_lerobot.reader:LeRobotReader",
+        "LeRobot dataset folders (v3.0, meta/info.json): observation.state -> positions, action -> targets",
+    )
+
+
+@hookimpl
+def joshua_register_commands(registry: Registrar) -> None:
+    registry.add(
+        "lerobot-export",
+        "joshua_lerobot.export:LeRobotExportCommand",
+        "replay a trajectory (CSV or dataset) on a model, render it and write a LeRobot dataset with camera videos",
+    )

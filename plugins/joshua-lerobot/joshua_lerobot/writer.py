@@ -1,0 +1,290 @@
+"""Writing LeRobot datasets in format v3.0, the layout lerobot 0.4.4's `LeRobotDataset` reads:
+
+    meta/info.json                          features, fps, totals, path templates
+    meta/stats.json                         statistics of every feature over the dataset
+    meta/tasks.parquet                      task text (the pandas index) -> task_index
+    meta/episodes/chunk-000/file-000.parquet   per episode: length, rows, video spans, statistics
+    data/chunk-000/file-000.parquet         one row per frame: observation.state, action, indices
+    videos/<camera key>/chunk-000/file-000.mp4 every episode's frames, one after the other
+
+Everything goes into one chunk and file per kind (LeRobot starts a new file at 100 MB of data or 200 MB
+of video; a simulated rollout stays far below). The folder is written whole or not at all.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from joshua_core.atomic import atomic_directory, atomic_write_json
+from joshua_core.errors import UsageError
+from joshua_lerobot import stats as statistics
+from joshua_lerobot.joints import feature_names, from_model
+from joshua_lerobot.video import CODEC_NAME, PIXEL_FORMAT, Mp4Writer
+
+CODEBASE_VERSION = "v3.0"
+STATE, ACTION = "observation.state", "action"
+CAMERA_PREFIX = "observation.images."
+CHUNKS_SIZE, DATA_FILE_MB, VIDEO_FILE_MB = 1000, 100, 200  # LeRobot's defaults, recorded in info.json
+DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
+VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
+EPISODES_PATH = "meta/episodes/chunk-000/file-000.parquet"
+FIRST_FILE = {"chunk_index": 0, "file_index": 0}
+INDEX_FEATURES = ("timestamp", "frame_index", "episode_index", "index", "task_index")
+
+
+@dataclass(frozen=True)
+class DatasetEpisode:
+    """One episode in the model's units: `states` and `actions` (frames, joints) at `timestamps` (i / fps),
+    and per camera an iterable yielding one (H, W, 3) uint8 RGB frame per row (rendered while written)."""
+
+    joint_names: tuple[str, ...]
+    timestamps: NDArray[np.float64]
+    states: NDArray[np.float64]
+    actions: NDArray[np.float64]
+    task: str
+    cameras: Mapping[str, Iterable[NDArray[np.uint8]]] = field(default_factory=dict)
+
+    @property
+    def length(self) -> int:
+        return len(self.timestamps)
+
+
+def write_dataset(
+    path: Path, episodes: Sequence[DatasetEpisode], *, fps: int, joint_ranges: Mapping[str, tuple[float, float]]
+) -> Path:
+    """Write `episodes` (same joints and cameras each) as a LeRobot dataset folder at `path`, replacing one
+    there; joint values are converted to LeRobot's names and units (joshua_lerobot.joints)."""
+    if not episodes:
+        raise UsageError("a LeRobot dataset needs at least one episode")
+    first = episodes[0]
+    for episode in episodes:
+        if episode.joint_names != first.joint_names or set(episode.cameras) != set(first.cameras):
+            raise UsageError("every episode of a dataset needs the same joints and cameras")
+    names, robot_type = feature_names(first.joint_names)
+    tasks = list(dict.fromkeys(episode.task for episode in episodes))
+    with atomic_directory(path) as folder:
+        layout = _Layout(folder, names, first.joint_names, joint_ranges, fps, tasks)
+        video_shapes = layout.write_videos(episodes)
+        layout.write_data(episodes)
+        info = _info(episodes, names, video_shapes, fps, robot_type, len(tasks))
+        atomic_write_json(folder / "meta/info.json", info)
+        atomic_write_json(folder / "meta/stats.json", statistics.as_json(layout.dataset_stats()))
+        _write_tasks(folder / "meta/tasks.parquet", tasks)
+        layout.write_episodes(episodes)
+    return path
+
+
+class _Layout:
+    """The files of one dataset being written, and the statistics gathered on the way."""
+
+    def __init__(
+        self,
+        folder: Path,
+        names: list[str],
+        joints: tuple[str, ...],
+        joint_ranges: Mapping[str, tuple[float, float]],
+        fps: int,
+        tasks: list[str],
+    ) -> None:
+        self.folder, self.names, self.joints, self.ranges, self.fps, self.tasks = (
+            folder,
+            names,
+            joints,
+            joint_ranges,
+            fps,
+            tasks,
+        )
+        self.episode_stats: list[dict[str, dict[str, NDArray[Any]]]] = []
+        self.pixel_samples: dict[str, list[NDArray[np.float64]]] = {}
+        self.columns: dict[str, list[NDArray[Any]]] = {}
+
+    def lerobot_values(self, values: NDArray[np.float64]) -> NDArray[np.float32]:
+        """(frames, joints) model values in LeRobot's units, float32."""
+        columns = [
+            from_model(name, values[:, i], self.ranges[joint])
+            for i, (name, joint) in enumerate(zip(self.names, self.joints, strict=True))
+        ]
+        return np.stack(columns, axis=1).astype(np.float32)
+
+    def write_videos(self, episodes: Sequence[DatasetEpisode]) -> dict[str, tuple[int, int]]:
+        """Encode every camera's frames, episode after episode; per-episode pixel statistics on the way."""
+        shapes: dict[str, tuple[int, int]] = {}
+        per_episode: list[dict[str, dict[str, NDArray[Any]]]] = [{} for _ in episodes]
+        for camera in episodes[0].cameras:
+            key = CAMERA_PREFIX + camera
+            path = self.folder / VIDEO_PATH.format(video_key=key, **FIRST_FILE)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            writer: Mp4Writer | None = None
+            for index, episode in enumerate(episodes):
+                samples = []
+                for frame in episode.cameras[camera]:
+                    if writer is None:
+                        shapes[key] = frame.shape[:2]
+                        writer = Mp4Writer(path, self.fps, frame.shape[1], frame.shape[0])
+                    writer.write(frame)
+                    samples.append(statistics.image_sample(frame))
+                if len(samples) != episode.length:
+                    raise UsageError(f"camera '{camera}' gave {len(samples)} frames for {episode.length} rows")
+                per_episode[index][key] = statistics.image_stats(samples, len(samples))
+                self.pixel_samples.setdefault(key, []).extend(samples)
+            assert writer is not None
+            writer.close()
+        self.episode_stats = per_episode
+        return shapes
+
+    def write_data(self, episodes: Sequence[DatasetEpisode]) -> None:
+        """data/chunk-000/file-000.parquet: one row per frame."""
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        start = 0
+        for index, episode in enumerate(episodes):
+            length = episode.length
+            columns = {
+                STATE: self.lerobot_values(episode.states),
+                ACTION: self.lerobot_values(episode.actions),
+                "timestamp": episode.timestamps.astype(np.float32),
+                "frame_index": np.arange(length, dtype=np.int64),
+                "episode_index": np.full(length, index, dtype=np.int64),
+                "index": np.arange(start, start + length, dtype=np.int64),
+                "task_index": np.full(length, self.tasks.index(episode.task), dtype=np.int64),
+            }
+            for key, values in columns.items():
+                self.columns.setdefault(key, []).append(values)
+                self.episode_stats[index][key] = statistics.vector_stats(values)
+            start += length
+        joined = {key: np.concatenate(parts) for key, parts in self.columns.items()}
+        width = len(self.names)
+        arrays = {
+            key: pa.FixedSizeListArray.from_arrays(pa.array(values.reshape(-1)), width) if values.ndim == 2 else values
+            for key, values in joined.items()
+        }
+        table = pa.table(arrays).replace_schema_metadata({"huggingface": json.dumps(_hf_features(width))})
+        path = self.folder / DATA_PATH.format(**FIRST_FILE)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        pq.write_table(table, path)
+
+    def dataset_stats(self) -> dict[str, dict[str, NDArray[Any]]]:
+        joined = {key: statistics.vector_stats(np.concatenate(parts)) for key, parts in self.columns.items()}
+        frames = len(np.concatenate(self.columns["index"]))
+        cameras = {key: statistics.image_stats(samples, frames) for key, samples in self.pixel_samples.items()}
+        return joined | cameras
+
+    def write_episodes(self, episodes: Sequence[DatasetEpisode]) -> None:
+        """meta/episodes/chunk-000/file-000.parquet: where each episode's rows and video span lie, its stats."""
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        rows: list[dict[str, Any]] = []
+        start = 0
+        for index, episode in enumerate(episodes):
+            row: dict[str, Any] = {
+                "episode_index": index,
+                "tasks": [episode.task],
+                "length": episode.length,
+                "data/chunk_index": 0,
+                "data/file_index": 0,
+                "dataset_from_index": start,
+                "dataset_to_index": start + episode.length,
+            }
+            for key in self.pixel_samples:
+                row |= {
+                    f"videos/{key}/chunk_index": 0,
+                    f"videos/{key}/file_index": 0,
+                    f"videos/{key}/from_timestamp": start / self.fps,
+                    f"videos/{key}/to_timestamp": (start + episode.length) / self.fps,
+                }
+            for feature, by_stat in self.episode_stats[index].items():
+                row |= {f"stats/{feature}/{stat}": value.tolist() for stat, value in by_stat.items()}
+            rows.append(row | {"meta/episodes/chunk_index": 0, "meta/episodes/file_index": 0})
+            start += episode.length
+        path = self.folder / EPISODES_PATH
+        path.parent.mkdir(parents=True, exist_ok=True)
+        pq.write_table(pa.Table.from_pylist(rows), path)
+
+
+def _hf_features(width: int) -> dict[str, Any]:
+    """The `huggingface` schema metadata of the data file, as the `datasets` library writes it."""
+    vector = {"feature": {"dtype": "float32", "_type": "Value"}, "length": width, "_type": "List"}
+    scalars = {"timestamp": "float32", "frame_index": "int64", "episode_index": "int64", "index": "int64"}
+    features = {STATE: vector, ACTION: vector} | {
+        key: {"dtype": dtype, "_type": "Value"} for key, dtype in (scalars | {"task_index": "int64"}).items()
+    }
+    return {"info": {"features": features}}
+
+
+def _write_tasks(path: Path, tasks: list[str]) -> None:
+    """meta/tasks.parquet: `task_index` with the task text as the pandas index (as LeRobot's DataFrame has it)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    index = "__index_level_0__"
+    pandas = {
+        "index_columns": [index],
+        "column_indexes": [],
+        "columns": [
+            {
+                "name": "task_index",
+                "field_name": "task_index",
+                "pandas_type": "int64",
+                "numpy_type": "int64",
+                "metadata": None,
+            },
+            {"name": None, "field_name": index, "pandas_type": "unicode", "numpy_type": "object", "metadata": None},
+        ],
+        "pandas_version": "2.3.3",
+    }
+    table = pa.table({"task_index": np.arange(len(tasks), dtype=np.int64), index: tasks})
+    pq.write_table(table.replace_schema_metadata({"pandas": json.dumps(pandas)}), path)
+
+
+def _info(
+    episodes: Sequence[DatasetEpisode],
+    names: list[str],
+    video_shapes: Mapping[str, tuple[int, int]],
+    fps: int,
+    robot_type: str | None,
+    total_tasks: int,
+) -> dict[str, Any]:
+    vector = {"dtype": "float32", "shape": [len(names)], "names": names}
+    features: dict[str, Any] = {STATE: vector, ACTION: vector}
+    for key, (height, width) in video_shapes.items():
+        features[key] = {
+            "dtype": "video",
+            "shape": [height, width, 3],
+            "names": ["height", "width", "channels"],
+            "info": {
+                "video.height": height,
+                "video.width": width,
+                "video.codec": CODEC_NAME,
+                "video.pix_fmt": PIXEL_FORMAT,
+                "video.is_depth_map": False,
+                "video.fps": fps,
+                "video.channels": 3,
+                "has_audio": False,
+            },
+        }
+    for key in INDEX_FEATURES:
+        features[key] = {"dtype": "float32" if key == "timestamp" else "int64", "shape": [1], "names": None}
+    return {
+        "codebase_version": CODEBASE_VERSION,
+        "robot_type": robot_type,
+        "total_episodes": len(episodes),
+        "total_frames": sum(episode.length for episode in episodes),
+        "total_tasks": total_tasks,
+        "chunks_size": CHUNKS_SIZE,
+        "data_files_size_in_mb": DATA_FILE_MB,
+        "video_files_size_in_mb": VIDEO_FILE_MB,
+        "fps": fps,
+        "splits": {"train": f"0:{len(episodes)}"},
+        "data_path": DATA_PATH,
+        "video_path": VIDEO_PATH if video_shapes else None,
+        "features": features,
+    }

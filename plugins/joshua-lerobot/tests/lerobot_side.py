@@ -1,0 +1,119 @@
+"""The real `lerobot` 0.4.4, run in a subprocess by test_lerobot.py with the pinned packages of
+lerobot-requirements.txt first on PYTHONPATH (so they never change .venv). Prints one JSON document.
+
+    python lerobot_side.py load ROOT      LeRobotDataset(root=ROOT): every frame's state, action, timestamp,
+                                          episode, and each camera's decoded frames (shape, mean per frame)
+    python lerobot_side.py write ROOT     LeRobotDataset.create + add_frame + save_episode: two SO-100 episodes
+                                          of known values with one camera; prints what it wrote
+
+torchvision is not installed (its PyPI wheels for torch 2.13 are CUDA builds): lerobot.datasets imports it
+but uses it only for PIL-image features and its pyav decoder, so a placeholder module stands in whose every
+attribute raises, and the test fails loudly should lerobot use it on the paths tested here.
+"""
+
+from __future__ import annotations
+
+import importlib.machinery
+import json
+import sys
+import types
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+SO100_NAMES = [
+    "shoulder_pan.pos",
+    "shoulder_lift.pos",
+    "elbow_flex.pos",
+    "wrist_flex.pos",
+    "wrist_roll.pos",
+    "gripper.pos",
+]
+REPO_ID = "local/joshua_test"
+FPS = 30
+FRAMES_PER_EPISODE = (45, 30)
+IMAGE_SHAPE = (48, 64, 3)
+
+
+class _Unavailable(types.ModuleType):
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise RuntimeError(f"lerobot used {self.__name__}.{name}, which this test environment does not have")
+
+
+def _without_torchvision() -> None:
+    for name in ("torchvision", "torchvision.transforms"):
+        module = _Unavailable(name)
+        module.__spec__ = importlib.machinery.ModuleSpec(name, None)
+        sys.modules[name] = module
+    sys.modules["torchvision"].transforms = sys.modules["torchvision.transforms"]  # type: ignore[attr-defined]
+
+
+def known_state(episode: int, frame: int) -> np.ndarray:
+    """The SO-100 state written for a frame: degrees for the arm (within +-90), 0..100 for the gripper."""
+    t = frame / FPS
+    arm = [40 * np.sin(t + joint + episode) for joint in range(5)]
+    return np.array([*arm, 50 + 40 * np.sin(2 * t + episode)], dtype=np.float32)
+
+
+def load(root: Path) -> dict[str, Any]:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    dataset = LeRobotDataset(REPO_ID, root=root)
+    frames = [dataset[i] for i in range(len(dataset))]
+    cameras = dataset.meta.video_keys
+    return {
+        "frames": len(dataset),
+        "episodes": dataset.num_episodes,
+        "fps": dataset.fps,
+        "state": [frame["observation.state"].tolist() for frame in frames],
+        "action": [frame["action"].tolist() for frame in frames],
+        "timestamp": [float(frame["timestamp"]) for frame in frames],
+        "episode_index": [int(frame["episode_index"]) for frame in frames],
+        "task": [frame["task"] for frame in frames],
+        "cameras": {
+            key: {
+                "shape": list(frames[0][key].shape),
+                "mean": [float(frame[key].mean()) for frame in frames],  # in [0, 1], channels first
+            }
+            for key in cameras
+        },
+    }
+
+
+def write(root: Path) -> dict[str, Any]:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    vector = {"dtype": "float32", "shape": (6,), "names": SO100_NAMES}
+    features = {
+        "observation.state": vector,
+        "action": vector,
+        "observation.images.front": {"dtype": "video", "shape": IMAGE_SHAPE, "names": ["height", "width", "channels"]},
+    }
+    dataset = LeRobotDataset.create(REPO_ID, fps=FPS, root=root, features=features, robot_type="so100_follower")
+    written: list[dict[str, Any]] = []
+    for episode, length in enumerate(FRAMES_PER_EPISODE):
+        states = [known_state(episode, frame) for frame in range(length)]
+        actions = [known_state(episode, frame + 1) for frame in range(length)]  # the command leads by a frame
+        for frame in range(length):
+            image = np.full(IMAGE_SHAPE, 4 * frame, dtype=np.uint8)
+            dataset.add_frame(
+                {
+                    "observation.state": states[frame],
+                    "action": actions[frame],
+                    "observation.images.front": image,
+                    "task": "wave",
+                }
+            )
+        dataset.save_episode()
+        written.append({"state": np.array(states).tolist(), "action": np.array(actions).tolist()})
+    dataset.finalize()
+    return {"fps": FPS, "names": SO100_NAMES, "episodes": written}
+
+
+if __name__ == "__main__":
+    _without_torchvision()
+    command, folder = sys.argv[1], Path(sys.argv[2])
+    print(json.dumps({"load": load, "write": write}[command](folder)))

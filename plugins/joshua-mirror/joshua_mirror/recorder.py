@@ -1,0 +1,96 @@
+"""What the mirror records: each mirrored joint's value (encoder + offset) and its command, sampled at a
+fixed rate by the main loop, written at the end as a trajectory CSV (and, through joshua-lerobot, as a
+LeRobot dataset). Command values arrive on the ROS executor thread; a float store is atomic in Python."""
+
+from __future__ import annotations
+
+import importlib.util
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from joshua_core.config_pb2 import SimulationConfig
+from joshua_core.errors import ConfigError
+from joshua_core.interfaces import RunContext, render_size
+from joshua_core.trajectory import Trajectory, write_trajectory
+from joshua_mirror.joints import MirroredJoint
+from joshua_mirror.mirror import Mirror
+from joshua_mirror.options_pb2 import MirrorRecording
+
+CSV_NAME = "mirror_recording.csv"
+LEROBOT_NAME = "mirror_lerobot"
+DEFAULT_FPS = 30
+DEFAULT_TASK = "mirror"
+
+
+class Recorder:
+    """Samples the mirror's joint values and the latest commands; `period` seconds apart."""
+
+    def __init__(self, joints: list[MirroredJoint], options: MirrorRecording) -> None:
+        if options.lerobot and importlib.util.find_spec("joshua_lerobot") is None:
+            raise ConfigError(
+                "simulation.mirror.record.lerobot needs joshua-lerobot: pip install -e plugins/joshua-lerobot"
+            )
+        if options.fps < 0:
+            raise ConfigError(f"simulation.mirror.record.fps must be positive, got {options.fps}")
+        self.joints = joints
+        self.options = options
+        self.fps = options.fps or DEFAULT_FPS
+        self.period = 1.0 / self.fps
+        self.commands = np.full(len(joints), np.nan)
+        self.rows: list[list[float]] = []
+        self.started_at: float | None = None
+
+    def command_callback(self, index: int) -> Callable[[Any], None]:
+        """The subscription callback storing joint `index`'s command (+ the joint's offset)."""
+        offset = self.joints[index].offset
+
+        def on_command(message: Any) -> None:
+            self.commands[index] = message.data + offset
+
+        return on_command
+
+    def sample(self, mirror: Mirror, now: float) -> None:
+        """Append a row of the current values, once every joint has one (before that there is nothing to record)."""
+        values = [stats.last_value for stats in mirror.stats]
+        if any(value is None for value in values):
+            return
+        if self.started_at is None:
+            self.started_at = now
+        positions = [joint.to_sim(value) for joint, value in zip(self.joints, values, strict=True)]
+        self.rows.append([now - self.started_at, *positions, *self.commands.tolist()])
+
+    def write(self, config: SimulationConfig, context: RunContext) -> dict[str, Any]:
+        """Write the CSV (and the LeRobot dataset); what was written, for the report."""
+        if len(self.rows) < 2:
+            return {"rows": len(self.rows), "csv": None, "lerobot": None}
+        table = np.array(self.rows)
+        count = len(self.joints)
+        trajectory = Trajectory(
+            path=context.output_dir / CSV_NAME,
+            joint_names=tuple(joint.joint for joint in self.joints),
+            timestamps=table[:, 0],
+            positions=table[:, 1 : 1 + count],
+            lines=np.arange(len(table)),
+            targets=table[:, 1 + count :] if any(joint.command_topic for joint in self.joints) else None,
+        )
+        write_trajectory(trajectory.path, trajectory, comment=f"recorded by the MIRROR mode from {config.model_path}")
+        written: dict[str, Any] = {"rows": len(table), "csv": str(trajectory.path), "lerobot": None}
+        if self.options.lerobot:
+            from joshua_lerobot import export_trajectory
+
+            written["lerobot"] = str(
+                export_trajectory(
+                    trajectory.path,
+                    Path(config.model_path),
+                    context.output_dir / LEROBOT_NAME,
+                    fps=self.fps,
+                    cameras=list(self.options.cameras) or [""],
+                    size=render_size(config),
+                    task=self.options.task or DEFAULT_TASK,
+                    plugins=context.plugins,
+                )
+            )
+        return written
