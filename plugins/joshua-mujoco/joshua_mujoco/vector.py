@@ -8,8 +8,7 @@ on top of it, with same-step autoreset; `joshua_mujoco.envs` registers single en
 from __future__ import annotations
 
 import dataclasses
-import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -46,6 +45,7 @@ from joshua_core.tasks import (  # noqa: E402
     tiled,
 )
 from joshua_mujoco.models import compiled, read_spec  # noqa: E402
+from joshua_mujoco.task_options import task_config_from_options  # noqa: E402
 from joshua_render import camera_id, create_renderer, render_with_commands  # noqa: E402
 
 
@@ -345,29 +345,6 @@ class BatchedVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         self.simulation.close()
-
-
-def task_config_from_options(options: Mapping[str, Any]) -> TaskConfig | None:
-    """A TaskConfig from keyword options: task_config (a TaskConfig), episode_length, frame_skip, and
-    terms={name: {"weight": w, "params": {...}}}."""
-    allowed = {"task_config", "episode_length", "frame_skip", "terms"}
-    unknown = sorted(set(options) - allowed)
-    if unknown:
-        raise TypeError(f"unknown task options {unknown}; accepted: {', '.join(sorted(allowed))}")
-    if not options:
-        return None
-    config = TaskConfig()
-    if options.get("task_config") is not None:
-        config.CopyFrom(options["task_config"])
-    config.episode_length = options.get("episode_length") or config.episode_length
-    config.frame_skip = options.get("frame_skip") or config.frame_skip
-    for name, change in (options.get("terms") or {}).items():
-        override = config.terms.add(name=name)
-        if "weight" in change:
-            override.weight = float(change["weight"])
-        for key, value in (change.get("params") or {}).items():
-            override.params[key] = json.dumps(list(value) if isinstance(value, tuple) else value)
-    return config
 
 
 def make_vector_env(
