@@ -10,10 +10,10 @@ import numpy as np
 from google.protobuf import text_format
 
 from joshua_core.config_pb2 import TaskConfig
-from joshua_mjx import make_mjx_env
+from joshua_mjx import MjxEnv, make_mjx_env
 from joshua_mujoco import make_vector_env
 
-TASK, MODEL, ENVS, STEPS = "so_arm100_pick_place", "so_arm100/pick_place_mjx.xml", 3, 40
+TASK, MODEL, ENVS, STEPS = "so_arm100_pick_place", "so_arm100/pick_place_mjx.xml", 3, 10
 # Same model file on both; no reset noise, so that both start from the keyframe.
 EVENTS = """
 terms { name: "reset_joints_uniform" weight: 0 }
@@ -29,7 +29,11 @@ events { name: "gains" term: "randomize_actuator_gains" mode: RESET
 events { name: "damping" term: "randomize_joint_damping" mode: RESET params { key: "range" value: "[0.5, 1.5]" } }
 events { name: "armature" term: "randomize_joint_armature" mode: RESET params { key: "range" value: "[0.5, 2.0]" } }
 """
-PARITY_TOLERANCE = 2e-3  # rad: float32 MJX against float64 MuJoCo, over 40 steps (0.8 s)
+# rad, over 10 steps (0.2 s): float32 MJX against float64 MuJoCo. Measured: 2.1e-3 to 4.5e-3 with the same
+# drawn parameters, 3.3e-3 between the backends without randomization; the draws move the arm by 0.17. Later
+# the backends part more (1.8e-2 by step 20 even without randomization: contacts, solver), so the check
+# stops at 10 steps.
+PARITY_TOLERANCE = 1e-2
 
 
 def _config() -> TaskConfig:
@@ -53,13 +57,12 @@ def _cpu_run() -> tuple[dict[str, np.ndarray], np.ndarray, object]:
     return params, np.array(qpos), simulation
 
 
-def _mjx_run(params: dict[str, np.ndarray] | None) -> np.ndarray:
-    env = make_mjx_env(TASK, ENVS, model_path=MODEL, task_config=_config())
+def _mjx_run(env: MjxEnv, params: dict[str, np.ndarray]) -> np.ndarray:
+    """MJX's trajectory with the given drawn parameters (and MJX's inverse weights of them)."""
     state = env.reset(jax.random.PRNGKey(0))
-    if params is not None:  # the CPU's draws, with MJX's inverse weights of them
-        drawn = env.randomization.with_derived({name: jnp.asarray(value) for name, value in params.items()})
-        state = state._replace(params=drawn, start_params=drawn)
-    step = jax.jit(env.step)
+    drawn = env.randomization.with_derived({name: jnp.asarray(value) for name, value in params.items()})
+    state = state._replace(params=drawn, start_params=drawn)
+    step = env.step  # jitted once per env
     qpos = []
     for action in _actions():
         state = step(state, jnp.asarray(action, jnp.float32))
@@ -69,13 +72,16 @@ def _mjx_run(params: dict[str, np.ndarray] | None) -> np.ndarray:
 
 def test_same_parameters_give_the_same_trajectories_on_both_backends() -> None:
     params, cpu, _ = _cpu_run()
+    env = make_mjx_env(TASK, ENVS, model_path=MODEL, task_config=_config())
     arm = slice(0, 6)
-    randomized = _mjx_run(params)
+    randomized = _mjx_run(env, params)
     error = np.abs(randomized[..., arm] - cpu[..., arm]).max()
     print(f"max joint difference CPU vs MJX, same parameters: {error:.2e} rad")
     assert error < PARITY_TOLERANCE
-    nominal = _mjx_run(None)  # MJX with the model's own values: the parameters do move the arm
-    assert np.abs(nominal[..., arm] - cpu[..., arm]).max() > 10 * PARITY_TOLERANCE
+    # MJX with the model's own values: the parameters do move the arm, far more than the tolerance
+    defaults = {name: np.broadcast_to(env.task.defaults[name], value.shape) for name, value in params.items()}
+    nominal = _mjx_run(env, defaults)
+    assert np.abs(nominal[..., arm] - cpu[..., arm]).max() > 5 * PARITY_TOLERANCE
 
 
 def test_mjx_recomputes_the_inverse_weights_mj_setconst_derives() -> None:
