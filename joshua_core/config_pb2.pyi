@@ -70,7 +70,7 @@ class TopicMapping(_message.Message):
     def __init__(self, ros_topic: _Optional[str] = ..., mujoco_actuator: _Optional[str] = ..., offset: _Optional[float] = ...) -> None: ...
 
 class TrainingConfig(_message.Message):
-    __slots__ = ("framework", "model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "task_config", "nthread")
+    __slots__ = ("framework", "model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "task_config", "synchronized_episodes", "nthread")
     Extensions: _python_message._ExtensionDict
     class Framework(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
@@ -95,6 +95,7 @@ class TrainingConfig(_message.Message):
     TRAINER_FIELD_NUMBER: _ClassVar[int]
     SEED_FIELD_NUMBER: _ClassVar[int]
     TASK_CONFIG_FIELD_NUMBER: _ClassVar[int]
+    SYNCHRONIZED_EPISODES_FIELD_NUMBER: _ClassVar[int]
     NTHREAD_FIELD_NUMBER: _ClassVar[int]
     framework: TrainingConfig.Framework
     model_path: str
@@ -113,20 +114,52 @@ class TrainingConfig(_message.Message):
     trainer: str
     seed: int
     task_config: TaskConfig
+    synchronized_episodes: bool
     nthread: int
-    def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., nthread: _Optional[int] = ...) -> None: ...
+    def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., synchronized_episodes: _Optional[bool] = ..., nthread: _Optional[int] = ...) -> None: ...
 
 class TaskConfig(_message.Message):
-    __slots__ = ("episode_length", "frame_skip", "terms", "keyframe")
+    __slots__ = ("episode_length", "frame_skip", "terms", "keyframe", "events")
     EPISODE_LENGTH_FIELD_NUMBER: _ClassVar[int]
     FRAME_SKIP_FIELD_NUMBER: _ClassVar[int]
     TERMS_FIELD_NUMBER: _ClassVar[int]
     KEYFRAME_FIELD_NUMBER: _ClassVar[int]
+    EVENTS_FIELD_NUMBER: _ClassVar[int]
     episode_length: int
     frame_skip: int
     terms: _containers.RepeatedCompositeFieldContainer[TermOverride]
     keyframe: str
-    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ..., keyframe: _Optional[str] = ...) -> None: ...
+    events: _containers.RepeatedCompositeFieldContainer[EventConfig]
+    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ..., keyframe: _Optional[str] = ..., events: _Optional[_Iterable[_Union[EventConfig, _Mapping]]] = ...) -> None: ...
+
+class EventConfig(_message.Message):
+    __slots__ = ("name", "term", "params", "mode", "interval_steps")
+    class Mode(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        MODE_UNSPECIFIED: _ClassVar[EventConfig.Mode]
+        RESET: _ClassVar[EventConfig.Mode]
+        INTERVAL: _ClassVar[EventConfig.Mode]
+    MODE_UNSPECIFIED: EventConfig.Mode
+    RESET: EventConfig.Mode
+    INTERVAL: EventConfig.Mode
+    class ParamsEntry(_message.Message):
+        __slots__ = ("key", "value")
+        KEY_FIELD_NUMBER: _ClassVar[int]
+        VALUE_FIELD_NUMBER: _ClassVar[int]
+        key: str
+        value: str
+        def __init__(self, key: _Optional[str] = ..., value: _Optional[str] = ...) -> None: ...
+    NAME_FIELD_NUMBER: _ClassVar[int]
+    TERM_FIELD_NUMBER: _ClassVar[int]
+    PARAMS_FIELD_NUMBER: _ClassVar[int]
+    MODE_FIELD_NUMBER: _ClassVar[int]
+    INTERVAL_STEPS_FIELD_NUMBER: _ClassVar[int]
+    name: str
+    term: str
+    params: _containers.ScalarMap[str, str]
+    mode: EventConfig.Mode
+    interval_steps: int
+    def __init__(self, name: _Optional[str] = ..., term: _Optional[str] = ..., params: _Optional[_Mapping[str, str]] = ..., mode: _Optional[_Union[EventConfig.Mode, str]] = ..., interval_steps: _Optional[int] = ...) -> None: ...
 
 class TermOverride(_message.Message):
     __slots__ = ("name", "weight", "params", "term", "kind")

@@ -135,7 +135,10 @@ class EnvSpec:
     model_path: the model to simulate, already absolute (None: the task's own model, as the backend
     picks it). task_config: overrides of the task's terms and lengths. nthread: threads stepping the
     simulations on CPU backends (None: one per core). devices: the JAX devices to spread over
-    (None: every visible one). `num_envs` is checked here, once, for every backend.
+    (None: every visible one). desync_episodes: each environment's first episode after a reset starts at
+    a uniformly random step in [0, episode_length), so that episodes end in every stretch of steps rather
+    than all together (training sets it unless `training.synchronized_episodes`). `num_envs` is checked
+    here, once, for every backend.
     """
 
     task: str
@@ -145,6 +148,7 @@ class EnvSpec:
     task_config: TaskConfig | None = None
     nthread: int | None = None
     devices: Sequence[Any] | None = None
+    desync_episodes: bool = False
 
     def __post_init__(self) -> None:
         if self.num_envs < 1:
@@ -213,15 +217,21 @@ class RunContext:
         num_envs: int | None = None,
         seed: int | None = None,
         devices: Sequence[Any] | None = None,
+        training_envs: bool = False,
     ) -> Any:
         """Environments of `kind` for a finalized training config, from the backend it names; a backend that
         does not provide `kind` is a ConfigError naming those that do. `num_envs`, `seed` replace the config's;
-        `devices` (JAX environments) are the devices to spread them over (None: every visible one)."""
+        `devices` (JAX environments) are the devices to spread them over (None: every visible one).
+        `training_envs`: the environments a trainer learns on, whose episodes are desynchronised unless
+        `training.synchronized_episodes` (evaluation wants whole first episodes: leave it False)."""
         from joshua_core.config import training_plugins  # the config module imports this one
 
         trainer, backend = training_plugins(training)
         self.plugins.check_env_kinds(trainer, backend, needs=(kind,))
-        spec = replace(EnvSpec.from_training(training, num_envs=num_envs, seed=seed), devices=devices)
+        desync = training_envs and not training.synchronized_episodes
+        spec = replace(
+            EnvSpec.from_training(training, num_envs=num_envs, seed=seed), devices=devices, desync_episodes=desync
+        )
         return self.plugins.backend(backend).create_envs(spec, kind, self.plugins)
 
 

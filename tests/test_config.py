@@ -82,6 +82,7 @@ PLUGIN_PRESETS = {
     "so_arm100_reach_sb3",
     "ant_train_mjx_tuned",
     "trileg_train_mjx",
+    "so_arm100_pick_place_mjx_dr",
 }  # presets added with the plugins, beyond the product's nine
 
 

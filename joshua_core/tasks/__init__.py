@@ -7,23 +7,38 @@ namespace `ctx.xp`), so the same task runs on numpy (joshua-mujoco) and inside `
 
 from joshua_core.tasks.context import STATE_FIELDS, JaxRandom, NumpyRandom, RandomSource, TermContext, set_columns
 from joshua_core.tasks.episodes import Episode, EpisodeSums, StepOutcome, account_step, nonfinite
-from joshua_core.tasks.handles import Actuators, Body, Joint, Joints, Sensor, Site
-from joshua_core.tasks.spec import ActionSpec, TaskSpec, TermKind, TermSpec, parse_param, with_config
+from joshua_core.tasks.handles import Actuators, Bodies, Body, Geoms, Joint, Joints, Sensor, Site
+from joshua_core.tasks.randomization import (
+    INERTIAL_FIELDS,
+    MODEL_FIELDS,
+    Range,
+    delayed_action,
+    episode_params,
+    step_params,
+    tiled,
+)
+from joshua_core.tasks.spec import ActionSpec, EventSpec, TaskSpec, TermKind, TermSpec, parse_param, with_config
 from joshua_core.tasks.task import BoundTerm, Task, build_task, load_task_spec
 
 __all__ = [
+    "INERTIAL_FIELDS",
+    "MODEL_FIELDS",
     "STATE_FIELDS",
     "ActionSpec",
     "Actuators",
+    "Bodies",
     "Body",
     "BoundTerm",
     "Episode",
     "EpisodeSums",
+    "EventSpec",
+    "Geoms",
     "JaxRandom",
     "Joint",
     "Joints",
     "NumpyRandom",
     "RandomSource",
+    "Range",
     "Sensor",
     "Site",
     "StepOutcome",
@@ -34,9 +49,13 @@ __all__ = [
     "TermSpec",
     "account_step",
     "build_task",
+    "delayed_action",
+    "episode_params",
     "load_task_spec",
     "nonfinite",
     "parse_param",
     "set_columns",
+    "step_params",
+    "tiled",
     "with_config",
 ]

@@ -107,6 +107,10 @@ class TermContext:
     episode_step: Any = None
     commands: Mapping[str, Any] = field(default_factory=dict)
     random: RandomSource | None = None
+    # Domain randomization (joshua_core.tasks.randomization): each environment's current values of the
+    # randomized quantities, (N, ...) by name, and the model's own values of them, unbatched.
+    params: Mapping[str, Any] = field(default_factory=dict)
+    defaults: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def num_envs(self) -> int:

@@ -85,15 +85,37 @@ class Actuators:
     names: tuple[str, ...]
     qpos_index: tuple[int, ...]
     dof_index: tuple[int, ...]
+    ids: tuple[int, ...] = ()
 
 
-HANDLE_TYPES = (Body, Site, Sensor, Joint, Joints, Actuators)
+@dataclass(frozen=True)
+class Bodies:
+    """Several bodies by name (at least one): `ids` index body_mass, xpos, xfrc_applied."""
+
+    names: tuple[str, ...]
+    ids: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Geoms:
+    """Several geoms by name (at least one): `ids` index geom_friction."""
+
+    names: tuple[str, ...]
+    ids: tuple[int, ...]
+
+
+HANDLE_TYPES = (Body, Site, Sensor, Joint, Joints, Actuators, Bodies, Geoms)
 
 
 def _names(model: Any, kind: str) -> list[str]:
-    count = {"body": model.nbody, "site": model.nsite, "sensor": model.nsensor, "joint": model.njnt, "actuator": model.nu}[
-        kind
-    ]
+    count = {
+        "body": model.nbody,
+        "site": model.nsite,
+        "sensor": model.nsensor,
+        "joint": model.njnt,
+        "actuator": model.nu,
+        "geom": model.ngeom,
+    }[kind]
     return [getattr(model, kind)(i).name for i in range(count)]
 
 
@@ -142,6 +164,12 @@ def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
         )
     if handle_type is Actuators:
         return _actuators(model, value)
+    if handle_type in (Bodies, Geoms):
+        kind = "body" if handle_type is Bodies else "geom"
+        names = _name_list(value, kind)
+        if not names:
+            raise ValueError(f"name at least one {kind}")
+        return handle_type(tuple(names), tuple(_lookup(model, kind, name) for name in names))
     raise TypeError(f"not a model handle type: {handle_type!r}")
 
 
@@ -156,13 +184,16 @@ def _body(model: Any, name: str) -> Body:
 def _actuators(model: Any, value: Any) -> Actuators:
     """The named actuators (all when empty), each of which must drive a joint."""
     names = _name_list(value, "actuator") or [model.actuator(i).name for i in range(model.nu)]
-    joints = []
+    joints, ids = [], []
     for name in names:
         index = _lookup(model, "actuator", name)
         if int(model.actuator_trntype[index]) not in _JOINT_TRANSMISSIONS:
             raise ValueError(f"actuator '{name}' drives no joint (its transmission is not a joint)")
         joints.append(_joint(model, int(model.actuator_trnid[index][0])))
-    return Actuators(tuple(names), tuple(j.qpos_adr for j in joints), tuple(j.dof_adr for j in joints))
+        ids.append(index)
+    return Actuators(
+        tuple(names), tuple(j.qpos_adr for j in joints), tuple(j.dof_adr for j in joints), tuple(ids)
+    )
 
 
 def _limits(model: Any, index: int) -> tuple[float, float]:

@@ -26,6 +26,7 @@ class TermKind(enum.Enum):
     TERMINATION = "termination"  # (N,) bool, any true ends the episode (terminated)
     RESET = "reset"  # a new TermContext with randomised state, applied in order at reset
     METRIC = "metric"  # (N,) values reported in infos["metrics"], not part of the reward
+    EVENT = "event"  # a new TermContext with randomised ctx.params (domain randomization), see EventSpec
 
 
 @dataclass(frozen=True)
@@ -41,6 +42,18 @@ class TermSpec:
     def key(self) -> str:
         """The name this use is reported and overridden under (`name`, else the term's name)."""
         return self.name or self.term
+
+
+@dataclass(frozen=True)
+class EventSpec(TermSpec):
+    """A domain-randomization event: an event term (see joshua_core.tasks.randomization) that runs when an
+    episode starts (`mode` "reset") or every `interval` steps of an episode (`mode` "interval")."""
+
+    mode: str = "reset"
+    interval: int = 0
+
+
+EVENT_MODES = ("reset", "interval")
 
 
 @dataclass(frozen=True)
@@ -70,6 +83,7 @@ class TaskSpec:
     terminations: tuple[TermSpec, ...] = ()
     resets: tuple[TermSpec, ...] = ()
     metrics: tuple[TermSpec, ...] = ()
+    events: tuple[EventSpec, ...] = ()  # domain randomization, applied in order
     commands: Mapping[str, int] = field(default_factory=dict)  # per-env task variables and their sizes
     keyframe: str = ""  # initial state; empty: the model's defaults
     action: ActionSpec = ActionSpec()
@@ -84,6 +98,7 @@ _FIELD_OF_KIND = {
     TermKind.TERMINATION: "terminations",
     TermKind.RESET: "resets",
     TermKind.METRIC: "metrics",
+    TermKind.EVENT: "events",
 }
 
 
@@ -112,7 +127,26 @@ def with_config(spec: TaskSpec, config: Any) -> TaskSpec:
         _apply_override(spec, term_lists, override)
     for kind, terms in term_lists.items():
         changes[_FIELD_OF_KIND[kind]] = tuple(terms)
+    changes["events"] += tuple(_event(spec, event) for event in config.events)
+    names = [event.key for event in changes["events"]]
+    duplicates = sorted({name for name in names if names.count(name) > 1})
+    if duplicates:
+        raise ConfigError(f"task '{spec.name}': events {', '.join(map(repr, duplicates))} appear more than once")
     return dataclasses.replace(spec, **changes)
+
+
+def _event(spec: TaskSpec, event: Any) -> EventSpec:
+    """An EventSpec from a `joshua.EventConfig`."""
+    where = f"task '{spec.name}': event '{event.name}'"
+    if not event.name or not event.term:
+        raise ConfigError(f"{where}: give both `name` and `term` (a registered event term)")
+    mode = type(event).Mode.Name(event.mode).lower()
+    if mode not in EVENT_MODES:
+        raise ConfigError(f"{where}: set `mode` to RESET or INTERVAL")
+    if mode == "interval" and event.interval_steps < 1:
+        raise ConfigError(f"{where}: an INTERVAL event needs interval_steps of at least 1, got {event.interval_steps}")
+    params = {key: parse_param(value) for key, value in event.params.items()}
+    return EventSpec(event.term, 1.0, params, event.name, mode, event.interval_steps if mode == "interval" else 0)
 
 
 def _apply_override(spec: TaskSpec, term_lists: dict[TermKind, list[TermSpec]], override: Any) -> None:

@@ -23,6 +23,7 @@ from joshua_core.errors import ConfigError, PluginLoadError, UsageError
 from joshua_core.plugins import Kind, PluginHost
 from joshua_core.tasks.context import STATE_FIELDS, NumpyRandom, TermContext
 from joshua_core.tasks.handles import HANDLE_TYPES, resolve_handle
+from joshua_core.tasks.randomization import Range, action_delay, default_params, tiled
 from joshua_core.tasks.spec import TaskSpec, TermKind, TermSpec, with_config
 
 _PROBE_ENVS = 2
@@ -37,6 +38,8 @@ class BoundTerm:
     function: Callable[..., Any]
     weight: float
     params: Mapping[str, Any]
+    mode: str = ""  # events: "reset" or "interval"
+    interval: int = 0  # interval events: steps between runs
 
     def __call__(self, ctx: TermContext) -> Any:
         return self.function(ctx, **self.params)
@@ -60,6 +63,10 @@ class Task:
         self.termination_terms = terms[TermKind.TERMINATION]
         self.reset_terms = terms[TermKind.RESET]
         self.metric_terms = terms[TermKind.METRIC]
+        self.reset_events = tuple(term for term in terms[TermKind.EVENT] if term.mode == "reset")
+        self.interval_events = tuple(term for term in terms[TermKind.EVENT] if term.mode == "interval")
+        delays = [term.params["range"].high for term in terms[TermKind.EVENT] if term.function is action_delay]
+        self.max_action_delay = int(max(delays, default=0))
         self.commands = dict(spec.commands)
         self.keyframe_id = _keyframe_id(spec, model)
         self.action_size = int(model.nu)
@@ -69,13 +76,17 @@ class Task:
         )
         self.observation_size = 0
         self.fields: frozenset[str] = frozenset()
+        self.defaults: dict[str, np.ndarray] = {}  # every randomizable quantity's model value
+        self.param_fields: tuple[str, ...] = ()  # those the events randomize: backends keep them per env
+        self.interval_fields: frozenset[str] = frozenset()  # those the interval events randomize
 
     # --- evaluation (pure functions of the context) ---
 
     def observe(self, ctx: TermContext) -> Any:
         """The observation, (N, observation_size): every observation term flattened and concatenated."""
         parts = [term(ctx).reshape(ctx.num_envs, -1) for term in self.observation_terms]
-        return ctx.xp.concatenate(parts, axis=1)
+        observation = ctx.xp.concatenate(parts, axis=1)
+        return observation + ctx.params["obs_noise"] if "obs_noise" in self.param_fields else observation
 
     def rewards(self, ctx: TermContext) -> tuple[Any, dict[str, Any]]:
         """The total reward (N,) and each reward term's weighted value by name."""
@@ -104,9 +115,12 @@ class Task:
             ctx = term(ctx)
         return ctx
 
-    def action_to_ctrl(self, xp: Any, action: Any) -> Any:
-        """Actuator controls for actions, (N, nu): clipped to [-1, 1], mapped (see ActionSpec), clipped to ctrlrange."""
+    def action_to_ctrl(self, xp: Any, action: Any, params: Mapping[str, Any] | None = None) -> Any:
+        """Actuator controls for actions, (N, nu): clipped to [-1, 1], mapped (see ActionSpec), plus each
+        environment's randomized `ctrl_offset` where `params` has one, clipped to ctrlrange."""
         ctrl = self.ctrl_offset + self.ctrl_scale * xp.clip(action, -1.0, 1.0)
+        if params is not None and "ctrl_offset" in params:
+            ctrl = ctrl + params["ctrl_offset"]
         return xp.clip(ctrl, self.ctrl_low, self.ctrl_high)
 
     def reset_context(self, xp: Any, num_envs: int, random: Any) -> TermContext:
@@ -150,6 +164,8 @@ def build_task(task: TaskSpec | str, model: Any, plugins: PluginHost, config: An
     }
     built = Task(spec, model, terms)
     built.observation_size, built.fields = _probe(built, model)
+    built.defaults = default_params(model, built.observation_size)
+    built.param_fields, built.interval_fields = _probe_events(built)
     return built
 
 
@@ -161,7 +177,10 @@ def _bind(spec: TaskSpec, kind: TermKind, term: TermSpec, model: Any, plugins: P
         raise ConfigError(f"{where}: {error}") from None
     if not callable(function):
         raise PluginLoadError(f"{where}: the registered term '{term.term}' is {function!r}, not a function")
-    return BoundTerm(term.key, kind, function, float(term.weight), _check_params(where, term, function, model))
+    params = _check_params(where, term, function, model)
+    return BoundTerm(
+        term.key, kind, function, float(term.weight), params, getattr(term, "mode", ""), getattr(term, "interval", 0)
+    )
 
 
 def _check_params(where: str, term: TermSpec, function: Callable[..., Any], model: Any) -> dict[str, Any]:
@@ -196,6 +215,11 @@ def _type_hints(function: Callable[..., Any]) -> dict[str, Any]:
 
 def _coerce(where: str, value: Any, default: Any, hint: Any, model: Any) -> Any:
     """Resolve model names for handle parameters and check a value against its default's type."""
+    if hint is Range:
+        try:
+            return Range.parse(value)
+        except ValueError as error:
+            raise ConfigError(f"{where}: {error}") from None
     if hint in HANDLE_TYPES:
         try:
             return resolve_handle(model, hint, value)
@@ -312,6 +336,41 @@ def _probe(task: Task, model: Any) -> tuple[int, frozenset[str]]:
                 if np.shape(getattr(reset_ctx, name)) != np.shape(getattr(ctx, name)):
                     raise ConfigError(f"task '{task.name}': reset term '{term.name}' changed the shape of {name}")
     return observation_size, frozenset(read)
+
+
+def _probe_events(task: Task) -> tuple[tuple[str, ...], frozenset[str]]:
+    """Evaluate every event once on the defaults: check it returns a context with params of unchanged shapes,
+    and record which quantities the events write (backends keep only those per environment), and of those
+    which the interval events write."""
+    n = _PROBE_ENVS
+    before = tiled(np, task.defaults, n)
+    ctx = TermContext(
+        xp=np,
+        dt=task.dt,
+        qpos=np.tile(task.initial_qpos, (n, 1)),
+        qvel=np.zeros((n, len(task.initial_qvel))),
+        episode_step=np.zeros(n, dtype=np.int64),
+        random=NumpyRandom(np.random.default_rng(0)),
+        params=before,
+        defaults=task.defaults,
+    )
+    written: set[str] = set()
+    interval: set[str] = set()
+    for term in task.reset_events + task.interval_events:
+        result = _evaluate(task, term, ctx)
+        if not isinstance(result, TermContext) or set(result.params) != set(before):
+            raise ConfigError(
+                f"task '{task.name}': event '{term.name}' must return the context with its changes, "
+                "e.g. ctx.replace(params={**ctx.params, name: value})"
+            )
+        for name, value in result.params.items():
+            if np.shape(value) != np.shape(before[name]):
+                raise ConfigError(f"task '{task.name}': event '{term.name}' changed the shape of params['{name}']")
+            if value is not before[name]:
+                written.add(name)
+                if term.mode == "interval":
+                    interval.add(name)
+    return tuple(name for name in before if name in written), frozenset(interval)
 
 
 def _evaluate(task: Task, term: BoundTerm, ctx: TermContext) -> Any:

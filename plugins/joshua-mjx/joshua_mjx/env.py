@@ -41,11 +41,15 @@ from joshua_core.tasks import (
     TermContext,
     account_step,
     build_task,
+    delayed_action,
+    episode_params,
     load_task_spec,
     nonfinite,
+    step_params,
 )
 from joshua_mjx.engine import mjx_variant, put_model
 from joshua_mjx.physics import mjx
+from joshua_mjx.randomized import ModelRandomization
 from joshua_mujoco import compile_model
 
 ENV_AXIS = "envs"  # name of the device-mesh axis the environments are spread over
@@ -71,6 +75,9 @@ class EnvState(NamedTuple):
     reward_terms: dict[str, jax.Array]  # per reward term, its weighted value on the last step
     episode: Episode  # the episodes that ended on the last step
     key: jax.Array  # (N, 2) uint32 random keys of the reset terms, one per environment
+    params: dict[str, jax.Array]  # domain randomization: each environment's randomized quantities (task.param_fields)
+    start_params: dict[str, jax.Array]  # those of each environment's next episode
+    history: jax.Array  # (N, max delay + 1, nu) the last actions, newest first (action delay)
 
 
 class MjxEnv:
@@ -84,6 +91,7 @@ class MjxEnv:
         *,
         source: str | Path = "<model>",
         devices: list[jax.Device] | None = None,
+        desync_episodes: bool = False,
     ) -> None:
         devices = list(devices or jax.devices())
         if num_envs % len(devices):
@@ -109,6 +117,8 @@ class MjxEnv:
         if task.keyframe_id >= 0:
             mujoco.mj_resetDataKeyframe(model, initial, task.keyframe_id)
         self._initial_data = mjx.put_data(model, initial, device=local or jax.local_devices()[0])
+        self.randomization = ModelRandomization(task, model, self.mjx_model, self._initial_data)
+        self.desync_episodes = desync_episodes
         self._draw_starts = jax.jit(self._fresh_episodes, in_shardings=self.sharding, out_shardings=self.sharding)
         self._split_keys = jax.jit(_split_each, in_shardings=self.sharding, out_shardings=self.sharding)
         self._begin = jax.jit(self._begin_episodes, out_shardings=self.sharding)
@@ -120,8 +130,11 @@ class MjxEnv:
         """Every environment at the start of a fresh episode (reset terms drawn from `key`); the same
         draws are each environment's start state until `redraw_starts`."""
         keys, draw = self._split_keys(jax.random.split(key, self.num_envs))
-        data, commands = self._draw_starts(draw)
-        return self._begin(data, commands, keys)
+        data, commands, params = self._draw_starts(draw)
+        steps = jnp.zeros(self.num_envs, jnp.int32)
+        if self.desync_episodes:  # first episodes start at random steps (see EnvSpec.desync_episodes)
+            steps = jax.random.randint(jax.random.fold_in(key, 1), (self.num_envs,), 0, self.task.episode_length)
+        return self._begin(data, commands, params, keys, steps)
 
     def redraw_starts(self, state: EnvState) -> EnvState:
         """`state` with a new start state for every environment, drawn from its reset terms.
@@ -130,16 +143,23 @@ class MjxEnv:
         once over the batch, which `step` would otherwise run on every step that ends an episode
         anywhere in the batch, and it stays out of the compiled rollout."""
         keys, draw = self._split_keys(state.key)
-        start, start_commands = self._draw_starts(draw)
-        return state._replace(start=start, start_commands=start_commands, key=keys)
+        start, start_commands, start_params = self._draw_starts(draw)
+        return state._replace(start=start, start_commands=start_commands, start_params=start_params, key=keys)
 
-    def _begin_episodes(self, data: mjx.Data, commands: dict[str, jax.Array], keys: jax.Array) -> EnvState:
-        """The environments at the first step of episodes started from `data`, which are also their start states."""
+    def _begin_episodes(
+        self,
+        data: mjx.Data,
+        commands: dict[str, jax.Array],
+        params: dict[str, jax.Array],
+        keys: jax.Array,
+        episode_step: jax.Array,
+    ) -> EnvState:
+        """The environments at the step `episode_step` of episodes started from `data`, which are also their
+        start states."""
         n = self.num_envs
         zeros = jnp.zeros(n, jnp.float32)
         action = jnp.zeros((n, self.action_size), jnp.float32)
-        episode_step = jnp.zeros(n, jnp.int32)
-        observation = self._observe(data, data.qpos, action, action, episode_step, commands)
+        observation = self._observe(data, data.qpos, action, action, episode_step, commands, params)
         sums = EpisodeSums.zeros(jnp, self.task, n, jnp.float32)
         return EnvState(
             data=data,
@@ -157,6 +177,9 @@ class MjxEnv:
             reward_terms=sums.reward_terms,
             episode=Episode.none(jnp, self.task, n, jnp.float32),
             key=keys,
+            params=params,
+            start_params=params,
+            history=jnp.zeros((n, self.task.max_action_delay + 1, self.action_size), jnp.float32),
         )
 
     def _step(self, state: EnvState, action: jax.Array) -> EnvState:
@@ -164,27 +187,40 @@ class MjxEnv:
         and start a new episode wherever one ended."""
         task = self.task
         action = jnp.clip(action.astype(jnp.float32), -1.0, 1.0)
-        data = state.data.replace(ctrl=task.action_to_ctrl(jnp, action).astype(state.data.ctrl.dtype))
-        data = jax.lax.fori_loop(
-            0, task.frame_skip, lambda _, d: jax.vmap(mjx.step, (None, 0))(self.mjx_model, d), data
-        )
+        applied, history = action, state.history
+        if task.max_action_delay:
+            applied, history = delayed_action(jnp, history, action, state.params["action_delay"])
+        data = state.data.replace(ctrl=task.action_to_ctrl(jnp, applied, state.params).astype(state.data.ctrl.dtype))
+        if "xfrc_applied" in state.params:
+            data = data.replace(xfrc_applied=state.params["xfrc_applied"].astype(data.xfrc_applied.dtype))
+        fields = self.randomization.model_params(state.params)
+        data = jax.lax.fori_loop(0, task.frame_skip, lambda _, d: self._physics(mjx.step, fields, d), data)
         if self._kinematics_after_step:
-            data = jax.vmap(mjx.kinematics, (None, 0))(self.mjx_model, data)
+            data = self._physics(mjx.kinematics, fields, data)
         if self._contact_forces:
-            data = jax.vmap(mjx.rne_postconstraint, (None, 0))(self.mjx_model, data)
+            data = self._physics(mjx.rne_postconstraint, fields, data)
         episode_step = state.episode_step + 1
-        ctx = self._context(data, state.data.qpos, action, state.action, episode_step, state.commands)
+        params, key = state.params, state.key
+        if task.interval_events or "xfrc_applied" in params:
+            random = _PerEnvRandom(key)
+            ctx = self._context(data, state.data.qpos, action, state.action, episode_step, state.commands, params)
+            params, key = step_params(task, ctx.replace(random=random)), random.keys
+            if self.randomization.derives_on_steps:
+                params = self.randomization.with_derived(params)
+        ctx = self._context(data, state.data.qpos, action, state.action, episode_step, state.commands, params)
         outcome = account_step(task, ctx, nonfinite(jnp, data.qpos, data.qvel), state.sums, jnp.float32)
         done = outcome.episode.done
         final_observation = jnp.nan_to_num(task.observe(ctx).astype(jnp.float32), posinf=0.0, neginf=0.0)
 
         data = _where_env(done, state.start, data)  # autoreset
         commands = _where_env(done, state.start_commands, state.commands)
+        params = _where_env(done, state.start_params, params)
+        history = jnp.where(done[:, None, None], 0.0, history)
         action = jnp.where(done[:, None], 0.0, action)
         previous_action = jnp.where(done[:, None], 0.0, state.action)
         episode_step = jnp.where(done, 0, episode_step)
         previous_qpos = jnp.where(done[:, None], data.qpos, state.data.qpos)
-        observation = self._observe(data, previous_qpos, action, previous_action, episode_step, commands)
+        observation = self._observe(data, previous_qpos, action, previous_action, episode_step, commands, params)
         return EnvState(
             data=data,
             observation=observation,
@@ -200,15 +236,26 @@ class MjxEnv:
             sums=outcome.sums,
             reward_terms=outcome.reward_terms,
             episode=outcome.episode,
-            key=state.key,
+            key=key,
+            params=params,
+            start_params=state.start_params,
+            history=history,
         )
 
     # --- pieces -------------------------------------------------------------------------------
 
-    def _fresh_episodes(self, keys: jax.Array) -> tuple[mjx.Data, dict[str, jax.Array]]:
-        """New episodes, one per key: the task's initial state with its reset terms applied, forward done."""
+    def _physics(self, function: Any, fields: dict[str, jax.Array], data: mjx.Data) -> mjx.Data:
+        """`function(model, data)` of every environment, each on its model (its randomized fields)."""
+        if not fields:
+            return jax.vmap(function, (None, 0))(self.mjx_model, data)
+        return jax.vmap(lambda f, d: function(self.randomization.model(f), d))(fields, data)
+
+    def _fresh_episodes(self, keys: jax.Array) -> tuple[mjx.Data, dict[str, jax.Array], dict[str, jax.Array]]:
+        """New episodes, one per key: the task's initial state with its reset terms and reset events applied,
+        forward done."""
         task, n = self.task, keys.shape[0]
         ctx = task.reset(task.reset_context(jnp, n, _PerEnvRandom(keys)))
+        params = self.randomization.with_derived(episode_params(task, ctx))
         data = jax.tree.map(lambda leaf: jnp.broadcast_to(leaf, (n, *jnp.shape(leaf))), self._initial_data)
         dtype = data.qpos.dtype
         data = data.replace(
@@ -216,10 +263,11 @@ class MjxEnv:
             qvel=ctx.qvel.astype(dtype),
             ctrl=jnp.broadcast_to(jnp.asarray(task.initial_ctrl, dtype), data.ctrl.shape),
         )
-        data = jax.vmap(mjx.forward, (None, 0))(self.mjx_model, data)
+        fields = self.randomization.model_params(params)
+        data = self._physics(mjx.forward, fields, data)
         if self._contact_forces:
-            data = jax.vmap(mjx.rne_postconstraint, (None, 0))(self.mjx_model, data)
-        return data, {name: value.astype(jnp.float32) for name, value in ctx.commands.items()}
+            data = self._physics(mjx.rne_postconstraint, fields, data)
+        return data, {name: value.astype(jnp.float32) for name, value in ctx.commands.items()}, params
 
     def _context(
         self,
@@ -229,6 +277,7 @@ class MjxEnv:
         previous_action: jax.Array,
         episode_step: jax.Array,
         commands: dict[str, jax.Array],
+        params: dict[str, jax.Array],
     ) -> TermContext:
         fields = self.task.fields
         derived = {name: getattr(data, name) for name in ("xpos", "xquat", "site_xpos", "sensordata") if name in fields}
@@ -244,6 +293,8 @@ class MjxEnv:
             prev_action=previous_action,
             episode_step=episode_step,
             commands=commands,
+            params=params,
+            defaults=self.task.defaults,
             **derived,
         )
 
@@ -312,4 +363,6 @@ def mjx_envs(spec: EnvSpec, plugins: PluginHost) -> MjxEnv:
     path = spec.model_path or mjx_variant(task_spec.model_path)
     model = compile_model(path, plugins=plugins)
     built = build_task(task_spec, model, plugins, spec.task_config)
-    return MjxEnv(built, model, spec.num_envs, source=path, devices=spec.devices)
+    return MjxEnv(
+        built, model, spec.num_envs, source=path, devices=spec.devices, desync_episodes=spec.desync_episodes
+    )

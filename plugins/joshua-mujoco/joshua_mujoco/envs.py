@@ -24,8 +24,8 @@ from joshua_mujoco.vector import (
     BatchedVectorEnv,
     load_task_model,
     make_vector_env,
-    task_config_from_options,
 )
+from joshua_mujoco.task_options import task_config_from_options
 
 # Gymnasium ids of the built-in tasks.
 ENV_IDS = {

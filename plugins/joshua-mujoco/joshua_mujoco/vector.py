@@ -8,8 +8,7 @@ on top of it, with same-step autoreset; `joshua_mujoco.envs` registers single en
 from __future__ import annotations
 
 import dataclasses
-import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -30,16 +29,23 @@ from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, 
 from joshua_core.plugins import PluginHost  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
 from joshua_core.tasks import (  # noqa: E402
+    INERTIAL_FIELDS,
+    MODEL_FIELDS,
     EpisodeSums,
     NumpyRandom,
     Task,
     TermContext,
     account_step,
     build_task,
+    delayed_action,
+    episode_params,
     load_task_spec,
     nonfinite,
+    step_params,
+    tiled,
 )
 from joshua_mujoco.models import compiled, read_spec  # noqa: E402
+from joshua_mujoco.task_options import task_config_from_options  # noqa: E402
 from joshua_render import camera_id, create_renderer, render_with_commands  # noqa: E402
 
 
@@ -105,6 +111,11 @@ class BatchedSimulation:
         self.prev_action = np.zeros_like(self.action)
         self.episode_step = np.zeros(num_envs, dtype=np.int64)
         self.commands = {name: np.zeros((num_envs, size)) for name, size in task.commands.items()}
+        # domain randomization: each simulation's randomized quantities, its own model fields, the pushes
+        self.params = {name: np.array(value) for name, value in tiled(np, task.defaults, num_envs, task.param_fields).items()}
+        self.model_fields = {name: self.batch.expand(name) for name in task.param_fields if name in MODEL_FIELDS}
+        self.xfrc_applied = self.batch.bind("xfrc_applied") if "xfrc_applied" in self.params else None
+        self.history = np.zeros((num_envs, task.max_action_delay + 1, task.action_size))
         self.seed(seed)
 
     def seed(self, seed: int | Sequence[int] | None) -> None:
@@ -123,6 +134,8 @@ class BatchedSimulation:
             prev_action=self.prev_action,
             episode_step=self.episode_step,
             commands=self.commands,
+            params=self.params,
+            defaults=self.task.defaults,
             **self.derived,
         )
 
@@ -133,7 +146,11 @@ class BatchedSimulation:
             name: getattr(ctx, name)[ids]
             for name in ("qpos", "qvel", "prev_qpos", "action", "prev_action", "episode_step", *self.derived)
         }
-        return ctx.replace(commands={name: value[ids] for name, value in self.commands.items()}, **arrays)
+        return ctx.replace(
+            commands={name: value[ids] for name, value in self.commands.items()},
+            params={name: value[ids] for name, value in self.params.items()},
+            **arrays,
+        )
 
     def reset(self, ids: NDArray[np.intp]) -> NDArray[np.float64]:
         """Reset the environments `ids` (initial state, then the task's reset terms); return their observations."""
@@ -145,6 +162,10 @@ class BatchedSimulation:
         self.ctrl[ids] = task.initial_ctrl
         for name, value in self.commands.items():
             value[ids] = state.commands[name]
+        for name, value in episode_params(task, state).items():
+            self.params[name][ids] = value
+        self.write_model(ids)
+        self.history[ids] = 0.0
         self.batch.forward(ids)
         self.prev_qpos[ids] = self.qpos[ids]
         self.action[ids] = 0.0
@@ -169,14 +190,40 @@ class BatchedSimulation:
         self.prev_action[:] = self.action
         np.clip(action, -1.0, 1.0, out=self.action)
         self.prev_qpos[:] = self.qpos
-        self.ctrl[:] = self.task.action_to_ctrl(np, self.action)
+        applied = self.action
+        if self.task.max_action_delay:
+            applied, self.history = delayed_action(np, self.history, self.action, self.params["action_delay"])
+        self.ctrl[:] = self.task.action_to_ctrl(np, applied, self.params)
+        if self.xfrc_applied is not None:
+            self.xfrc_applied[:] = self.params["xfrc_applied"]
         failed = np.zeros(self.num_envs, dtype=bool)
         try:
             self.batch.step(nstep=self.task.frame_skip, stage=self.stage)
         except SimulationError as error:
             failed[error.ids] = True
         self.episode_step += 1
+        self._step_events()
         return failed | nonfinite(np, self.qpos, self.qvel)
+
+    def write_model(self, ids: NDArray[np.intp]) -> None:
+        """Give the simulations `ids` their randomized model fields, and recompute what MuJoCo derives from
+        masses and armature (mj_setConst: the bodies' and dofs' inverse weights)."""
+        for name, field in self.model_fields.items():
+            field[ids] = self.params[name][ids]
+        if INERTIAL_FIELDS & self.model_fields.keys() and len(ids):
+            self.batch.set_const(ids)
+
+    def _step_events(self) -> None:
+        """End the pushes of the step and run the interval events that are due (see step_params)."""
+        if not self.task.interval_events and self.xfrc_applied is None:
+            return
+        ctx = self.context().replace(random=self.random)
+        self.params = {name: np.array(value) for name, value in step_params(self.task, ctx).items()}
+        due = np.zeros(self.num_envs, dtype=bool)
+        for event in self.task.interval_events:
+            due |= self.episode_step % event.interval == 0
+        if self.model_fields:
+            self.write_model(np.flatnonzero(due))
 
     def render(self, env_index: int, camera: str | int | None, width: int, height: int) -> NDArray[np.uint8]:
         """An RGB image of one environment, with its 3-d commands (targets, goals) drawn (see render_with_commands)."""
@@ -215,8 +262,11 @@ class BatchedVectorEnv(VectorEnv):
 
     metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": ["rgb_array"]}
 
-    def __init__(self, simulation: BatchedSimulation, render_mode: str | None = None) -> None:
+    def __init__(
+        self, simulation: BatchedSimulation, render_mode: str | None = None, *, desync_episodes: bool = False
+    ) -> None:
         self.simulation = simulation
+        self.desync_episodes = desync_episodes
         self.task = simulation.task
         self.num_envs = simulation.num_envs
         self.render_mode = render_mode
@@ -235,13 +285,22 @@ class BatchedVectorEnv(VectorEnv):
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[NDArray[np.float32], dict[str, Any]]:
-        """Reset every environment (or those in options["reset_mask"]); `seed` restarts the random stream."""
+        """Reset every environment (or those in options["reset_mask"]); `seed` restarts the random stream.
+
+        With `desync_episodes`, each reset environment's episode starts at a uniformly random step in
+        [0, episode_length), so that later episodes (full length) end at different steps in each environment.
+        """
         if seed is not None:
             self.simulation.seed(seed)
         mask = np.ones(self.num_envs, dtype=bool)
         if options and "reset_mask" in options:
             mask = np.asarray(options["reset_mask"], dtype=bool)
-        self.simulation.reset(np.flatnonzero(mask))
+        ids = np.flatnonzero(mask)
+        self.simulation.reset(ids)
+        if self.desync_episodes:
+            self.simulation.episode_step[ids] = self.simulation.random.generator.integers(
+                0, self.task.episode_length, len(ids)
+            )
         observation = self.task.observe(self.simulation.context()).astype(np.float32)
         self._sums = self._sums.restart(np, mask)
         return observation, {}
@@ -288,29 +347,6 @@ class BatchedVectorEnv(VectorEnv):
         self.simulation.close()
 
 
-def task_config_from_options(options: Mapping[str, Any]) -> TaskConfig | None:
-    """A TaskConfig from keyword options: task_config (a TaskConfig), episode_length, frame_skip, and
-    terms={name: {"weight": w, "params": {...}}}."""
-    allowed = {"task_config", "episode_length", "frame_skip", "terms"}
-    unknown = sorted(set(options) - allowed)
-    if unknown:
-        raise TypeError(f"unknown task options {unknown}; accepted: {', '.join(sorted(allowed))}")
-    if not options:
-        return None
-    config = TaskConfig()
-    if options.get("task_config") is not None:
-        config.CopyFrom(options["task_config"])
-    config.episode_length = options.get("episode_length") or config.episode_length
-    config.frame_skip = options.get("frame_skip") or config.frame_skip
-    for name, change in (options.get("terms") or {}).items():
-        override = config.terms.add(name=name)
-        if "weight" in change:
-            override.weight = float(change["weight"])
-        for key, value in (change.get("params") or {}).items():
-            override.params[key] = json.dumps(list(value) if isinstance(value, tuple) else value)
-    return config
-
-
 def make_vector_env(
     task: str,
     num_envs: int,
@@ -354,6 +390,6 @@ def vector_envs(spec: EnvSpec, plugins: PluginHost, *, render_mode: str | None =
     with its seed."""
     built, model = load_task_model(spec.task, spec.model_path, plugins, spec.task_config)
     simulation = BatchedSimulation(built, model, spec.num_envs, seed=spec.seed, nthread=spec.nthread)
-    env = BatchedVectorEnv(simulation, render_mode)
+    env = BatchedVectorEnv(simulation, render_mode, desync_episodes=spec.desync_episodes)
     env.reset(seed=spec.seed)
     return env

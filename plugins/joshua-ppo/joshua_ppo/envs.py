@@ -28,10 +28,16 @@ def env_axis(env: JaxEnv) -> str:
 
 
 def environment(
-    config: TrainingConfig, context: RunContext, num_envs: int | None = None, devices: Sequence[Any] | None = None
+    config: TrainingConfig,
+    context: RunContext,
+    num_envs: int | None = None,
+    devices: Sequence[Any] | None = None,
+    *,
+    training_envs: bool = False,
 ) -> JaxEnv:
     """The JAX environments of a training config's task, model and task_config, from its backend: `num_envs`
     of them (default: the config's num_envs, else DEFAULT_NUM_ENVS), over `devices` (default: every visible
-    device, those of every process in a multi-process run)."""
+    device, those of every process in a multi-process run). `training_envs`: the ones PPO learns on, whose
+    episodes are desynchronised (see RunContext.create_envs)."""
     count = num_envs if num_envs is not None else config.num_envs or DEFAULT_NUM_ENVS
-    return context.create_envs(config, EnvKind.JAX, num_envs=count, devices=devices)
+    return context.create_envs(config, EnvKind.JAX, num_envs=count, devices=devices, training_envs=training_envs)

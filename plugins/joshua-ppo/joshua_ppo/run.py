@@ -33,7 +33,17 @@ from joshua_render import LiveViewer
 
 TRAINER_NAME = "ppo"
 RUN_FORMAT = "joshua-ppo-run/1"
-CURVE_SERIES = ("mean_return", "mean_length", "policy_loss", "value_loss", "entropy", "steps_per_second")
+# metrics/success: the task's success metric on the last step of the episodes that ended in the iteration,
+# i.e. the success rate per iteration (tasks without one leave the panel out)
+CURVE_SERIES = (
+    "mean_return",
+    "metrics/success",
+    "mean_length",
+    "policy_loss",
+    "value_loss",
+    "entropy",
+    "steps_per_second",
+)
 
 
 class ScalarLog:

@@ -85,7 +85,7 @@ class PpoTrainer(Trainer):
         cluster = join(config)  # before anything asks JAX for its devices
         cluster.check_same_config(config)
         settings = PpoSettings.from_config(config)
-        env = environment(config, context)
+        env = environment(config, context, training_envs=True)
         # a bad batch layout is a config error before anything is written
         recompute = settings.returns.recompute_advantages
         check_settings(settings.rollout, settings.optimization, env.num_envs, env.mesh.size, whole_unrolls=recompute)

@@ -53,10 +53,13 @@ def reach_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_reach_policy_learns_and_the_run_folder_is_complete(reach_run: Path) -> None:
     run = reach_run / "reach"
     history = json.loads((run / "metrics.json").read_text())["history"]
-    returns = [record["mean_return"] for record in history if record.get("episodes", 0) > 0]
-    distances = [record["metrics/distance"] for record in history if record.get("episodes", 0) > 0]
-    assert len(returns) >= 4, history
-    assert returns[-1] > returns[0] + 5.0, returns  # measured: -13.4 -> -1.8
+    # desynchronised first episodes (100 steps, 25 per iteration): episodes end in every iteration, not every 4th
+    assert all(record.get("episodes", 0) > 0 for record in history), [r.get("episodes") for r in history]
+    # the first episodes (shorter, so smaller sums) have all ended after 4 iterations: compare whole ones
+    whole = history[4:]
+    returns = [record["mean_return"] for record in whole]
+    distances = [record["metrics/distance"] for record in whole]
+    assert returns[-1] > returns[0] + 5.0, returns  # measured: -28.1 -> -0.5
     assert distances[-1] < 0.75 * distances[0], distances
     assert [path.name for path in run_checkpoints(reach_run, "reach")] == [
         "reach_step_0",

@@ -64,10 +64,12 @@ TRAIN_TRUST_HINT = "--set training.sb3.trust_checkpoint=true"
 EVAL_TRUST_HINT = "joshua eval RUN --trust-checkpoint"
 
 
-def make_vec_env(training: TrainingConfig, context: RunContext) -> tuple[gymnasium.vector.VectorEnv, VecEnv]:
+def make_vec_env(
+    training: TrainingConfig, context: RunContext, *, training_envs: bool = False
+) -> tuple[gymnasium.vector.VectorEnv, VecEnv]:
     """The task's NUMPY environments from the backend the config names, and the SB3 view of them (without
-    normalisation)."""
-    environments = context.create_envs(training, EnvKind.NUMPY)
+    normalisation); `training_envs`: the ones SB3 learns on (desynchronised episodes)."""
+    environments = context.create_envs(training, EnvKind.NUMPY, training_envs=training_envs)
     return environments, SameStepVecEnv(environments)
 
 
@@ -234,7 +236,7 @@ class Sb3Trainer(Trainer):
         training = TrainingConfig()
         training.CopyFrom(config)
         training.num_envs = config.num_envs or DEFAULT_NUM_ENVS
-        environments, vec_env = make_vec_env(training, context)
+        environments, vec_env = make_vec_env(training, context, training_envs=True)
         if resume_from is not None:
             model, normalizer = _load_model(
                 resume_from,

@@ -1,0 +1,315 @@
+"""Domain randomization: event terms that draw per-environment physics and control parameters.
+
+An event term is a pure function `event(ctx, **params) -> TermContext`, like a reset term, that
+writes `ctx.params`: each environment's current values of the randomizable quantities below,
+(N, ...) by name. It draws around `ctx.defaults` (the model's own values), never around the current
+ones, so that repeated draws do not drift. A task runs its events when an episode starts (mode
+"reset") or every N steps of an episode (mode "interval"); the backends (joshua-mujoco's batch,
+joshua-mjx) then simulate each environment with its values:
+
+- model fields, written into each simulation's model: `geom_friction` (ngeom, 3), `body_mass`
+  (nbody,), `body_inertia` (nbody, 3), `actuator_gainprm` / `actuator_biasprm` (nu, 10),
+  `dof_damping`, `dof_armature` (nv,). Backends recompute what MuJoCo derives from them
+  (mj_setConst: the inverse weights of bodies and dofs).
+- control fields: `ctrl_offset` (nu,) added to the actuator targets, `action_delay` () in control
+  steps, `obs_noise` (observation size,) added to the observation, `xfrc_applied` (nbody, 6),
+  an external force and torque applied for one control step (then cleared).
+
+Ranges are `[low, high]` with a distribution ("uniform", or "log_uniform" for positive ranges) and
+an operation on the default ("scale": default x sample, "add": default + sample, "set": sample).
+Bad ranges and names fail when the task is built. docs/tasks.md#domain-randomization lists the terms.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from joshua_core.tasks.context import TermContext, set_columns
+from joshua_core.tasks.handles import Actuators, Bodies, Body, Geoms, Joints
+
+MODEL_FIELDS = (
+    "geom_friction",
+    "body_mass",
+    "body_inertia",
+    "actuator_gainprm",
+    "actuator_biasprm",
+    "dof_damping",
+    "dof_armature",
+)
+# Model fields whose change makes mj_setConst's derived quantities (inverse weights) stale.
+INERTIAL_FIELDS = frozenset({"body_mass", "body_inertia", "dof_armature"})
+DISTRIBUTIONS = ("uniform", "log_uniform")
+OPERATIONS = ("scale", "add", "set")
+
+
+@dataclass(frozen=True)
+class Range:
+    """A closed interval [low, high] of finite numbers, given in configs as a two-element list."""
+
+    low: float
+    high: float
+
+    @classmethod
+    def parse(cls, value: Any) -> Range:
+        """The Range of `[low, high]`; ValueError for another shape, non-finite values or low > high."""
+        if isinstance(value, Range):
+            return value
+        if not isinstance(value, Sequence) or isinstance(value, str) or len(value) != 2:
+            raise ValueError(f"expected a range [low, high], got {value!r}")
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+            raise ValueError(f"expected a range of two numbers, got {value!r}")
+        low, high = float(value[0]), float(value[1])
+        if not (math.isfinite(low) and math.isfinite(high)):
+            raise ValueError(f"the range {list(value)} is not finite")
+        if low > high:
+            raise ValueError(f"the range {list(value)} is inverted (low > high)")
+        return cls(low, high)
+
+
+def default_params(model: Any, observation_size: int) -> dict[str, np.ndarray]:
+    """The model's own value of every randomizable quantity (see the module docstring), unbatched."""
+    values = {name: np.array(getattr(model, name), dtype=np.float64) for name in MODEL_FIELDS}
+    values["ctrl_offset"] = np.zeros(model.nu)
+    values["action_delay"] = np.zeros((), np.int32)
+    values["obs_noise"] = np.zeros(observation_size)
+    values["xfrc_applied"] = np.zeros((model.nbody, 6))
+    return values
+
+
+def tiled(xp: Any, defaults: Mapping[str, np.ndarray], num_envs: int, names: Any = None) -> dict[str, Any]:
+    """`num_envs` copies of the defaults (of `names`, default all) as arrays of `xp`."""
+    names = defaults.keys() if names is None else names
+    return {name: xp.asarray(np.broadcast_to(defaults[name], (num_envs, *np.shape(defaults[name])))) for name in names}
+
+
+# --- what backends call -----------------------------------------------------------------------
+
+
+def episode_params(task: Any, ctx: TermContext) -> dict[str, Any]:
+    """The randomized quantities (`task.param_fields`) of new episodes: the defaults with the task's reset
+    events applied (`ctx`: the environments starting, with `random` set)."""
+    xp = ctx.xp
+    ctx = ctx.replace(params=tiled(xp, task.defaults, ctx.num_envs, task.param_fields), defaults=task.defaults)
+    for event in task.reset_events:
+        ctx = event(ctx)
+    return dict(ctx.params)
+
+
+def step_params(task: Any, ctx: TermContext) -> dict[str, Any]:
+    """The randomized quantities after a step (`ctx.episode_step` counting it, `ctx.params` the current
+    values, `random` set): a push ends (xfrc_applied back at zero), then each interval event draws anew in
+    the environments whose episode step is a multiple of its interval."""
+    xp = ctx.xp
+    params = dict(ctx.params)
+    if "xfrc_applied" in params:
+        params["xfrc_applied"] = xp.zeros_like(params["xfrc_applied"])
+    ctx = ctx.replace(params=params, defaults=task.defaults)
+    for event in task.interval_events:
+        due = ctx.episode_step % event.interval == 0
+        drawn = event(ctx).params
+        ctx = ctx.replace(params={name: _where_env(xp, due, drawn[name], value) for name, value in ctx.params.items()})
+    return dict(ctx.params)
+
+
+def delayed_action(xp: Any, history: Any, action: Any, delay: Any) -> tuple[Any, Any]:
+    """(the action each environment's actuators get, the new history): `history` (N, D + 1, nu) holds the
+    last actions, newest first; environment i gets the one `delay[i]` steps old."""
+    history = xp.concatenate([action[:, None], history[:, :-1]], axis=1)
+    return history[xp.arange(history.shape[0]), delay], history
+
+
+def _where_env(xp: Any, mask: Any, new: Any, old: Any) -> Any:
+    return xp.where(mask.reshape(mask.shape + (1,) * (new.ndim - 1)), new, old)
+
+
+# --- helpers ----------------------------------------------------------------------------------
+
+
+def _choice(what: str, value: str, choices: tuple[str, ...]) -> str:
+    if value not in choices:
+        raise ValueError(f"unknown {what} '{value}'; use one of {', '.join(choices)}")
+    return value
+
+
+def _sample(ctx: TermContext, shape: tuple[int, ...], span: Range, distribution: str) -> Any:
+    """Samples of `span` in the given distribution (log_uniform: uniform in log space, for positive ranges)."""
+    if ctx.random is None:
+        raise ValueError("an event term needs ctx.random, which backends set while running events")
+    if _choice("distribution", distribution, DISTRIBUTIONS) == "log_uniform":
+        if span.low <= 0:
+            raise ValueError(f"a log_uniform range must be positive, got [{span.low}, {span.high}]")
+        return ctx.xp.exp(ctx.random.uniform(shape, math.log(span.low), math.log(span.high)))
+    return ctx.random.uniform(shape, span.low, span.high)
+
+
+def _drawn(ctx: TermContext, base: Any, span: Range, distribution: str, operation: str) -> Any:
+    """`base` (the defaults of some entries, broadcast over the environments) changed by fresh samples."""
+    shape = (ctx.num_envs, *np.shape(base))
+    sample = _sample(ctx, shape, span, distribution)
+    operation = _choice("operation", operation, OPERATIONS)
+    if operation == "scale":
+        return base * sample
+    return base + sample if operation == "add" else sample
+
+
+def _written(ctx: TermContext, name: str, columns: Any, values: Any) -> TermContext:
+    """`ctx` with `params[name][:, columns] = values`."""
+    return ctx.replace(params={**ctx.params, name: set_columns(ctx.params[name], np.asarray(columns), values)})
+
+
+# --- model parameters -------------------------------------------------------------------------
+
+
+def randomize_geom_friction(
+    ctx: TermContext,
+    geoms: Geoms,
+    range: Range = Range(1.0, 1.0),  # noqa: A002 - Isaac Lab's name for it
+    distribution: str = "uniform",
+    operation: str = "scale",
+) -> TermContext:
+    """Draw the sliding friction (geom_friction's first column) of each named geom; a contact uses the
+    larger of its two geoms' frictions (MuJoCo's default mixing)."""
+    ids = np.asarray(geoms.ids)
+    sliding = _drawn(ctx, ctx.defaults["geom_friction"][ids, 0], range, distribution, operation)
+    current = ctx.params["geom_friction"][:, ids]
+    return _written(ctx, "geom_friction", ids, ctx.xp.concatenate([sliding[..., None], current[..., 1:]], axis=-1))
+
+
+def randomize_body_mass(
+    ctx: TermContext,
+    bodies: Bodies,
+    range: Range = Range(1.0, 1.0),  # noqa: A002
+    distribution: str = "uniform",
+    operation: str = "scale",
+) -> TermContext:
+    """Draw the mass of each named body; its rotational inertia changes by the same factor (a body of the
+    same shape and density profile), so that its inertia stays physical."""
+    ids = np.asarray(bodies.ids)
+    default = ctx.defaults["body_mass"][ids]
+    if (default <= 0).any():
+        raise ValueError(f"bodies {', '.join(bodies.names)} need positive masses to randomize, have {default.tolist()}")
+    mass = _drawn(ctx, default, range, distribution, operation)
+    if operation != "scale" and range.low + (default.min() if operation == "add" else 0.0) <= 0:
+        raise ValueError(f"the range [{range.low}, {range.high}] can make a mass zero or negative")
+    factor = mass / default
+    inertia = ctx.defaults["body_inertia"][ids] * factor[..., None]
+    return _written(_written(ctx, "body_mass", ids, mass), "body_inertia", ids, inertia)
+
+
+def randomize_actuator_gains(
+    ctx: TermContext,
+    actuators: Actuators = (),  # type: ignore[assignment]
+    kp_range: Range = Range(1.0, 1.0),
+    kv_range: Range = Range(1.0, 1.0),
+    distribution: str = "uniform",
+    operation: str = "scale",
+) -> TermContext:
+    """Draw the stiffness kp and damping kv of position servos (MJCF <position>): kp is gainprm[0] and
+    -biasprm[1], kv is -biasprm[2]; the two are drawn independently (empty actuators: all)."""
+    ids = np.asarray(actuators.ids)
+    gain, bias = ctx.defaults["actuator_gainprm"][ids], ctx.defaults["actuator_biasprm"][ids]
+    if not np.allclose(bias[:, 1], -gain[:, 0]):
+        raise ValueError(f"actuators {', '.join(actuators.names)} are not all position servos (biasprm[1] = -kp)")
+    kp = _drawn(ctx, gain[:, 0], kp_range, distribution, operation)
+    kv = _drawn(ctx, -bias[:, 2], kv_range, distribution, operation)
+    gains = ctx.xp.concatenate([kp[..., None], ctx.params["actuator_gainprm"][:, ids, 1:]], axis=-1)
+    current = ctx.params["actuator_biasprm"][:, ids]
+    biases = ctx.xp.concatenate([current[..., :1], -kp[..., None], -kv[..., None], current[..., 3:]], axis=-1)
+    return _written(_written(ctx, "actuator_gainprm", ids, gains), "actuator_biasprm", ids, biases)
+
+
+def randomize_joint_damping(
+    ctx: TermContext,
+    joints: Joints = (),  # type: ignore[assignment]
+    range: Range = Range(1.0, 1.0),  # noqa: A002
+    distribution: str = "uniform",
+    operation: str = "scale",
+) -> TermContext:
+    """Draw the damping of the named joints' dofs (empty: every hinge and slide joint)."""
+    dofs = np.asarray(joints.dof_index)
+    return _written(ctx, "dof_damping", dofs, _drawn(ctx, ctx.defaults["dof_damping"][dofs], range, distribution, operation))
+
+
+def randomize_joint_armature(
+    ctx: TermContext,
+    joints: Joints = (),  # type: ignore[assignment]
+    range: Range = Range(1.0, 1.0),  # noqa: A002
+    distribution: str = "uniform",
+    operation: str = "scale",
+) -> TermContext:
+    """Draw the armature (rotor inertia) of the named joints' dofs (empty: every hinge and slide joint)."""
+    dofs = np.asarray(joints.dof_index)
+    values = _drawn(ctx, ctx.defaults["dof_armature"][dofs], range, distribution, operation)
+    return _written(ctx, "dof_armature", dofs, values)
+
+
+# --- control and observation ------------------------------------------------------------------
+
+
+def randomize_joint_offset(
+    ctx: TermContext,
+    actuators: Actuators = (),  # type: ignore[assignment]
+    range: Range = Range(0.0, 0.0),  # noqa: A002
+    distribution: str = "uniform",
+) -> TermContext:
+    """Draw a zero offset of each named servo (rad): added to its target, as a miscalibrated servo whose
+    zero is off; the policy's observation is unchanged (it reads the true joint positions)."""
+    ids = np.asarray(actuators.ids)
+    offset = _sample(ctx, (ctx.num_envs, len(ids)), range, distribution)
+    return _written(ctx, "ctrl_offset", ids, offset)
+
+
+def observation_noise(ctx: TermContext, std: float = 0.01, distribution: str = "gaussian") -> TermContext:
+    """Draw noise added to every observation entry: std x N(0, 1) ("gaussian") or U(-std, std) ("uniform").
+    As an INTERVAL event with interval_steps 1 it is fresh on every step."""
+    if not (math.isfinite(std) and std >= 0):
+        raise ValueError(f"std must be a finite number >= 0, got {std}")
+    shape = tuple(np.shape(ctx.params["obs_noise"]))
+    if _choice("distribution", distribution, ("gaussian", "uniform")) == "uniform":
+        noise = ctx.random.uniform(shape, -std, std)  # type: ignore[union-attr]
+    else:
+        noise = std * ctx.random.normal(shape)  # type: ignore[union-attr]
+    return ctx.replace(params={**ctx.params, "obs_noise": noise})
+
+
+def action_delay(ctx: TermContext, range: Range = Range(0.0, 0.0)) -> TermContext:  # noqa: A002
+    """Draw each environment's action delay, a whole number of control steps in [low, high]: the actuators
+    get the action of that many steps ago (zeros before the episode's first)."""
+    if range.low < 0 or range.low != int(range.low) or range.high != int(range.high):
+        raise ValueError(f"the delay range must be whole numbers of steps >= 0, got [{range.low}, {range.high}]")
+    draw = ctx.random.uniform((ctx.num_envs,), range.low, range.high + 1.0)  # type: ignore[union-attr]
+    delay = ctx.xp.minimum(ctx.xp.floor(draw), range.high).astype(ctx.params["action_delay"].dtype)
+    return ctx.replace(params={**ctx.params, "action_delay": delay})
+
+
+def push_body(
+    ctx: TermContext, body: Body, force: Range = Range(0.0, 0.0), torque: Range = Range(0.0, 0.0)
+) -> TermContext:
+    """Push a body for one control step: each component of the force (N) and torque (N m) in world axes
+    uniform in its range, applied at the body's centre of mass (an impulse of force x control dt)."""
+    wrench = ctx.xp.concatenate(
+        [ctx.random.uniform((ctx.num_envs, 3), span.low, span.high) for span in (force, torque)],  # type: ignore[union-attr]
+        axis=1,
+    )
+    return _written(ctx, "xfrc_applied", [body.id], wrench[:, None, :])
+
+
+EVENT_TERMS: dict[str, Callable[..., Any]] = {
+    function.__name__: function
+    for function in (
+        randomize_geom_friction,
+        randomize_body_mass,
+        randomize_actuator_gains,
+        randomize_joint_damping,
+        randomize_joint_armature,
+        randomize_joint_offset,
+        observation_noise,
+        action_delay,
+        push_body,
+    )
+}

@@ -1,0 +1,118 @@
+"""Domain randomization (joshua_core.tasks.randomization) on the CPU backend: events from the config are
+checked when the task is built, and each simulation runs with its own drawn values; desynchronised
+first episodes."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from google.protobuf import text_format
+
+from joshua_core.config import load_preset
+from joshua_core.config_pb2 import TaskConfig
+from joshua_core.errors import ConfigError
+from joshua_mujoco import make_vector_env
+
+TASK = "so_arm100_pick_place"
+NO_RESET_NOISE = 'terms { name: "reset_joints_uniform" weight: 0 } terms { name: "reset_free_joint_xy" weight: 0 } '
+
+
+def event(name: str, term: str, mode: str = "RESET", interval: int = 0, **params: str) -> str:
+    listed = " ".join(f"params {{ key: {json.dumps(key)} value: {json.dumps(value)} }}" for key, value in params.items())
+    return f'events {{ name: "{name}" term: "{term}" mode: {mode} interval_steps: {interval} {listed} }} '
+
+
+def env_with(text: str, num_envs: int = 4, **options):
+    return make_vector_env(TASK, num_envs, seed=1, nthread=1, task_config=text_format.Parse(text, TaskConfig()), **options)
+
+
+def test_the_randomized_preset_builds_and_draws_within_its_ranges() -> None:
+    config = load_preset("so_arm100_pick_place_mjx_dr").message.training.task_config
+    env = make_vector_env(TASK, 16, seed=0, nthread=1, task_config=config)
+    simulation, defaults = env.simulation, env.task.defaults
+    cube = env.simulation.model.body("cube").id
+    ratio = simulation.batch.expanded("body_mass")[:, cube] / defaults["body_mass"][cube]
+    assert 0.7 <= ratio.min() < ratio.max() <= 1.3
+    kp = simulation.batch.expanded("actuator_gainprm")[:, :, 0] / defaults["actuator_gainprm"][:, 0]
+    assert 0.9 <= kp.min() < kp.max() <= 1.1
+    assert set(np.unique(simulation.params["action_delay"])) == {0, 1}
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (event("m", "randomize_body_mass", bodies='["cub"]', range="[0.7, 1.3]"), "no body named 'cub'. Did you mean: cube"),
+        (event("m", "randomize_body_mass", bodies='["cube"]', range="[1.3, 0.7]"), "range \\[1.3, 0.7\\] is inverted"),
+        (event("m", "randomize_body_mass", bodies='["cube"]', range='[0.7, "inf"]'), "range of two numbers"),
+        (event("m", "randomize_body_mass", bodies='["cube"]', range="[0.7, 1e999]"), "is not finite"),
+        (event("f", "randomize_geom_friction", geoms='["fixed_pads"]', range="[0.8, 1.2]"), "Did you mean: fixed_pad"),
+        (event("g", "randomize_actuator_gains", actuators='["joint_1"]'), "no actuator named 'joint_1'"),
+        (event("d", "randomize_joint_damping", range="[-1, 1]", distribution='"log_uniform"'), "must be positive"),
+        (event("d", "randomize_joint_damping", range="[1, 2]", distribution='"gauss"'), "unknown distribution 'gauss'"),
+        (event("n", "observation_noise", "INTERVAL", 0), "needs interval_steps of at least 1"),
+        (event("n", "observation_noise", "MODE_UNSPECIFIED"), "set `mode` to RESET or INTERVAL"),
+        (event("a", "action_delay", range="[0, 1.5]"), "whole numbers of steps"),
+        (event("x", "randomize_mass"), "randomize_body_mass"),
+    ],
+)
+def test_bad_events_fail_when_the_task_is_built(text: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        env_with(text)
+
+
+def test_mass_changes_recompute_the_derived_inverse_weights() -> None:
+    env = env_with(event("m", "randomize_body_mass", bodies='["cube"]', range="[0.5, 2.0]"))
+    batch, cube = env.simulation.batch, env.simulation.model.body("cube").id
+    mass = batch.expanded("body_mass")[:, cube]
+    # the free cube: mj_setConst's translational inverse weight is 1 / mass
+    np.testing.assert_allclose(batch.expanded("body_invweight0")[:, cube, 0], 1.0 / mass, rtol=1e-9)
+    inertia = batch.expanded("body_inertia")[:, cube]
+    ratio = mass / env.task.defaults["body_mass"][cube]
+    np.testing.assert_allclose(inertia / env.task.defaults["body_inertia"][cube], np.repeat(ratio[:, None], 3, axis=1))
+
+
+def test_action_delay_feeds_the_previous_action_and_offsets_shift_the_targets() -> None:
+    text = NO_RESET_NOISE + event("a", "action_delay", range="[1, 1]") + event("o", "randomize_joint_offset", range="[0.05, 0.05]")
+    env = env_with(text, 2)
+    task, ctrl = env.task, env.simulation.ctrl
+    first, second = np.full((2, 6), 0.1), np.full((2, 6), -0.2)
+    env.step(first)
+    zero_action = np.clip(task.ctrl_offset + 0.05, task.ctrl_low, task.ctrl_high)
+    np.testing.assert_allclose(ctrl, np.tile(zero_action, (2, 1)))  # the zero action of before the episode + offset
+    env.step(second)
+    np.testing.assert_allclose(ctrl, np.clip(task.action_to_ctrl(np, first) + 0.05, task.ctrl_low, task.ctrl_high))
+
+
+def test_interval_events_fire_every_n_steps_and_pushes_last_one_step() -> None:
+    text = NO_RESET_NOISE + event("p", "push_body", "INTERVAL", 5, body="cube", force="[2.0, 2.0]")
+    text += event("n", "observation_noise", "INTERVAL", 1, std="0.1")
+    env = env_with(text, 2)
+    quiet = env_with(NO_RESET_NOISE, 2)
+    cube = env.simulation.model.body("cube").id
+    pushed = []
+    for _ in range(10):
+        noisy, *_ = env.step(np.zeros((2, 6)))
+        clean, *_ = quiet.step(np.zeros((2, 6)))
+        pushed.append(env.simulation.params["xfrc_applied"][:, cube, :3].copy())
+        assert 0.03 < np.std(noisy - clean) < 0.3  # fresh noise of std 0.1 on every step
+    active = [step for step, force in enumerate(pushed, start=1) if (force == 2.0).all()]
+    assert active == [5, 10]  # drawn on steps 5 and 10, applied during the next one, then cleared
+    cube_x = env.simulation.qpos[:, 6 + 0]
+    assert (cube_x > quiet.simulation.qpos[:, 6] + 1e-4).all()  # 2 N along +x for 0.02 s moved the cube
+
+
+def test_desynchronised_first_episodes_end_in_every_stretch_of_steps() -> None:
+    env = make_vector_env(TASK, 16, seed=0, nthread=1, episode_length=40)
+    env.desync_episodes = True
+    env.reset(seed=0)
+    ended = []
+    for _ in range(4):  # four "iterations" of 10 steps
+        count = 0
+        for _ in range(10):
+            *_, infos = env.step(np.zeros((16, 6)))
+            count += int(infos.get("_episode", np.zeros(16, bool)).sum())
+        ended.append(count)
+    assert all(count > 0 for count in ended), ended  # in lockstep all 16 would end together at step 40
+    assert sum(ended) == 16
