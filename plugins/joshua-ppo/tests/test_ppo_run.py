@@ -84,7 +84,7 @@ def test_joshua_eval_reports_intervals_and_films_a_grid_of_episodes(reach_run: P
          "--json", str(results)],
         capture_output=True,
         text=True,
-        timeout=300,
+        timeout=600,  # four episodes rendered on a CPU: about 90 s on a loaded machine
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert "mean_return:" in done.stdout and "final_distance:" in done.stdout

@@ -19,6 +19,7 @@ from joshua_render.video import VideoWriter
 
 LABEL_SCALE = 0.6  # cv2.FONT_HERSHEY_SIMPLEX height factor: about 13 px per line on a 640x480 tile
 LABEL_ORIGIN = (8, 22)  # px from the tile's top left: the text's baseline start
+LABEL_PADDING = 4  # px of dark box around the text
 
 
 def grid_shape(tiles: int) -> tuple[int, int]:
@@ -36,12 +37,12 @@ def episode_label(index: int, episode_return: float, success: bool | None = None
 
 
 def draw_label(frame: NDArray[np.uint8], text: str) -> NDArray[np.uint8]:
-    """A copy of an RGB frame with `text` at its top left, white on a dark outline (legible on any scene)."""
+    """A copy of an RGB frame with `text` at its top left, white on a dark box (legible on any scene)."""
     labelled = frame.copy()
-    for color, thickness in (((0, 0, 0), 4), ((255, 255, 255), 1)):
-        cv2.putText(
-            labelled, text, LABEL_ORIGIN, cv2.FONT_HERSHEY_SIMPLEX, LABEL_SCALE, color, thickness, cv2.LINE_AA
-        )
+    (width, height), baseline = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, LABEL_SCALE, 1)
+    (x, y), pad = LABEL_ORIGIN, LABEL_PADDING
+    labelled[max(0, y - height - pad) : y + baseline + pad, max(0, x - pad) : x + width + pad] //= 4  # darkened
+    cv2.putText(labelled, text, LABEL_ORIGIN, cv2.FONT_HERSHEY_SIMPLEX, LABEL_SCALE, (255, 255, 255), 1, cv2.LINE_AA)
     return labelled
 
 

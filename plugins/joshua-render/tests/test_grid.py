@@ -48,7 +48,7 @@ def test_three_episodes_tile_a_two_by_two_video(tmp_path: Path) -> None:
         tile = last[row * HEIGHT : (row + 1) * HEIGHT, column * WIDTH : (column + 1) * WIDTH]
         assert np.abs(tile[below_label] - colour).mean() < 15, (row, column, tile[below_label].mean(axis=(0, 1)))
     assert last[HEIGHT + 4 :, WIDTH + 4 :].max() < 30  # the fourth tile, with no episode, is black
-    label = last[4:26, 4:WIDTH]  # white text on a dark outline over the red tile
+    label = last[4:26, 4:WIDTH]  # white text on a darkened box over the red tile
     assert (label.min(axis=-1) > 170).sum() > 10 and (label.max(axis=-1) < 80).sum() > 10
 
 
