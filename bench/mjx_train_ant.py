@@ -32,129 +32,20 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import time
-from typing import Any
 
 import jax
-import numpy as np
+from mjx_time_to_target import Snapshot, environment, evaluate_snapshots, load_config, raw_physics_rate, train
 
-from joshua_core.config import apply_override, finalize, load_preset
-from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.interfaces import EnvKind, EnvSpec
 from joshua_core.plugins import PluginHost
-from joshua_mjx import MjxBackend, MjxEnv
-from joshua_mjx.physics import mjx
+from joshua_mjx import MjxEnv
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import DEFAULT_NUM_ENVS
-from joshua_ppo.normalizer import RunningStatistics
-from joshua_ppo.rollout import collect, make_rollout, mean_results
-from joshua_ppo.state import TrainingState
-from joshua_ppo.train import IterationReport, train_ppo
 
 
-class TargetReached(Exception):
-    """Stops training once the target return is reached."""
-
-
-def raw_physics_rate(env: MjxEnv, steps: int = 50) -> float:
-    """Physics steps/s of `vmap(mjx.step)` on env's batch, sharded the same way (after compilation)."""
-    state = env.reset(jax.random.PRNGKey(0))
-
-    @jax.jit
-    def run(data: mjx.Data) -> mjx.Data:
-        return jax.lax.fori_loop(0, steps, lambda _, d: jax.vmap(mjx.step, (None, 0))(env.mjx_model, d), data)
-
-    data = jax.block_until_ready(run(state.data))
-    best = 0.0
-    for _ in range(3):
-        started = time.perf_counter()
-        data = jax.block_until_ready(run(data))
-        best = max(best, steps * env.num_envs / (time.perf_counter() - started))
-    return best
-
-
-Snapshot = tuple[Any, RunningStatistics]  # host copies of a policy's parameters and observation normaliser
-
-
-def train(
-    settings: PpoSettings,
-    env: MjxEnv,
-    target: float,
-    max_seconds: float,
-    iterations: int | None,
-    snapshot_interval: int = 0,
-) -> tuple[dict, list[tuple[dict, Snapshot]]]:
-    """Train until the training return reaches the target, the time limit or the iteration limit.
-
-    Returns the outcome and snapshots of the policy every `snapshot_interval` iterations and at the
-    end, each with its step and wall seconds, for `evaluate_snapshots`."""
-    started = time.perf_counter()
-    log: list[dict] = []
-    snapshots: list[tuple[dict, Snapshot]] = []
-
-    def on_progress(report: IterationReport, state: TrainingState) -> None:
-        metrics = report.metrics
-        entry = {
-            "step": report.env_steps,
-            "wall": report.wall_seconds,
-            "sps": report.steps_per_second,
-            "return": metrics["mean_return"],
-            "episodes": metrics["episodes"],
-            "compile": report.compile_seconds,
-        }
-        log.append(entry)
-        reached = metrics["episodes"] > 0 and metrics["mean_return"] >= target
-        out_of_budget = report.wall_seconds > max_seconds or report.iteration == iterations
-        stopping = reached or out_of_budget or report.env_steps >= report.total_steps
-        if report.iteration % 10 == 0 or stopping:
-            print(
-                f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {report.wall_seconds:7.1f} s  "
-                f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}  "
-                f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}  "
-                f"kl {metrics['approx_kl']:.4f}  lr {metrics['learning_rate']:.2e}",
-                flush=True,
-            )
-        if stopping or (snapshot_interval > 0 and report.iteration % snapshot_interval == 0):
-            # a host copy: the state's buffers are donated to the next iteration
-            when = {"step": report.env_steps, "wall": report.wall_seconds}
-            snapshots.append((when, jax.device_get((state.params, state.normalizer))))
-        if stopping:
-            raise TargetReached  # or out of time, iterations or steps
-
-    try:
-        train_ppo(
-            env,
-            rollout=settings.rollout,
-            optimization=settings.optimization,
-            returns=settings.returns,
-            network=settings.network,
-            total_timesteps=settings.total_timesteps,
-            seed=settings.seed,
-            on_progress=on_progress,
-        )
-    except TargetReached:
-        pass
-    compile_seconds = log[0]["compile"] if log else float("nan")
-    steady = [entry["sps"] for entry in log[1:]] or [entry["sps"] for entry in log]
-    reached = [entry for entry in log if entry["episodes"] > 0 and entry["return"] >= target]
-    return {
-        "wall_seconds": time.perf_counter() - started,
-        "compile_seconds": compile_seconds,
-        "train_steps_per_second": sorted(steady)[len(steady) // 2],
-        "env_steps": log[-1]["step"] if log else 0,
-        "final_return": next((e["return"] for e in reversed(log) if e["episodes"] > 0), float("nan")),
-        "training_return_reached_target_at_seconds": reached[0]["wall"] if reached else None,
-    }, snapshots
-
-
-def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snapshot]) -> list[dict[str, float]]:
-    """Each snapshot's mean return and episode length over one episode per environment of `env`, under
-    the policy's mean (no exploration noise): all snapshots in one rollout, vmapped over them."""
-    rollout = make_rollout(env, settings.network, env.task.episode_length)
-    params, normalizer = jax.tree.map(lambda *leaves: np.stack(leaves), *snapshots)
-    raw = jax.device_get(jax.jit(jax.vmap(rollout, in_axes=(0, 0, None)))(params, normalizer, jax.random.PRNGKey(1)))
-    results = [mean_results(collect(jax.tree.map(lambda x, i=i: x[i], raw))) for i in range(len(snapshots))]
-    return [{"return": result["mean_return"], "length": result["mean_length"]} for result in results]
+def evaluate_returns(settings: PpoSettings, env: MjxEnv, snapshots: list[Snapshot]) -> list[dict[str, float]]:
+    """Each snapshot's deterministic mean return and episode length (`evaluate_snapshots`)."""
+    summaries = evaluate_snapshots(settings, env, snapshots)
+    return [{"return": summary["mean_return"], "length": summary["mean_length"]} for summary in summaries]
 
 
 def scaled(settings: PpoSettings, factor: int) -> PpoSettings:
@@ -164,12 +55,6 @@ def scaled(settings: PpoSettings, factor: int) -> PpoSettings:
         settings.optimization, minibatch_size=settings.optimization.minibatch_size * factor
     )
     return dataclasses.replace(settings, optimization=optimization)
-
-
-def environment(config: TrainingConfig, plugins: PluginHost, num_envs: int, devices: list[jax.Device]) -> MjxEnv:
-    """The mjx backend's environments of the config's task, spread over `devices`."""
-    spec = dataclasses.replace(EnvSpec.from_training(config, num_envs=num_envs), devices=devices)
-    return MjxBackend().create_envs(spec, EnvKind.JAX, plugins)
 
 
 def main() -> None:
@@ -196,12 +81,7 @@ def main() -> None:
     parser.add_argument("--json", help="write the results here")
     args = parser.parse_args()
 
-    loaded = load_preset(args.preset)
-    for assignment in args.set:
-        apply_override(loaded.message, assignment)
-    config = finalize(loaded).training
-    if args.num_envs:
-        config.num_envs = args.num_envs
+    config = load_config(args.preset, args.set, args.num_envs)
     settings = PpoSettings.from_config(config)
     plugins = PluginHost.discover()
     device_sets = [jax.devices()[:1], jax.devices()] if args.scaling else [jax.devices()]
@@ -224,7 +104,7 @@ def main() -> None:
         if args.eval_envs > 0 and snapshots:
             eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
             eval_env = environment(config, plugins, eval_envs, devices)
-            evaluations = evaluate_snapshots(settings, eval_env, [snapshot for _, snapshot in snapshots])
+            evaluations = evaluate_returns(settings, eval_env, [snapshot for _, snapshot in snapshots])
             evaluated = [when | result for (when, _), result in zip(snapshots, evaluations, strict=True)]
             reached = next((entry for entry in evaluated if entry["return"] >= args.target), None)
             outcome |= {

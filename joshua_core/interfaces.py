@@ -259,13 +259,16 @@ class Trainer(ABC):
         video_path: Path | None,
         context: RunContext,
         trust_checkpoint: bool = False,
-    ) -> dict[str, float]:
+        video_grid: int = 1,
+    ) -> EpisodeResults:
         """Roll out the policy saved in `run_dir` (a run folder: its last checkpoint; or one checkpoint folder).
 
-        Returns `mean_return` and the task's metrics averaged over `episodes` episodes (environments seeded
-        from `seed`), and writes an MP4 of one episode to `video_path` when given (the trainer writes it itself,
-        e.g. with `joshua_render.VideoWriter`: the core renders nothing). `trust_checkpoint` allows loading files
-        this machine's user did not write (for formats that can run code on load). `joshua eval RUN` calls this.
+        Returns the outcome of each of `episodes` episodes (environments seeded from `seed`): the core computes
+        the statistics (joshua_core.statistics), so every trainer reports them alike. When `video_path` is given,
+        writes an MP4 of the first `video_grid` episodes tiled in a grid, each tile labelled (the trainer writes
+        it itself, e.g. with `joshua_render.GridVideoWriter`: the core renders nothing). `trust_checkpoint`
+        allows loading files this machine's user did not write (for formats that can run code on load).
+        `joshua eval RUN` calls this.
         """
         raise UsageError(f"trainer {type(self).__name__} cannot evaluate a run: it does not implement evaluate()")
 
@@ -275,6 +278,15 @@ class Trainer(ABC):
         (`joshua export RUN`). A missing or damaged checkpoint is a one-line error; `trust_checkpoint` as in
         `evaluate`."""
         raise UsageError(f"trainer {type(self).__name__} cannot export a policy: it does not implement export_policy()")
+
+
+@dataclass(frozen=True)
+class EpisodeResults:
+    """Per-episode outcomes of an evaluation, one entry per episode in each sequence."""
+
+    returns: Sequence[float]  # undiscounted return
+    lengths: Sequence[float]  # steps
+    metrics: dict[str, Sequence[float]]  # each task metric's value on the episode's last step (e.g. "success")
 
 
 class Command(ABC):

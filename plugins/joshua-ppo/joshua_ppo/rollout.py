@@ -1,8 +1,9 @@
-"""Rolling out a trained policy on MJX: evaluation statistics, and videos and viewer frames rendered by MuJoCo.
+"""Rolling out a trained policy on MJX: evaluation results, and videos and viewer frames rendered by MuJoCo.
 
 The rollout is one compiled `lax.scan` of the deterministic policy over whole episodes; what is
-drawn afterwards (env 0's poses, its commands) comes back to the host once, and is rendered on the
-CPU with joshua-render's renderer (commands drawn as markers) into an MP4 by its `VideoWriter`.
+drawn afterwards (the first few environments' poses, commands and rewards) comes back to the host once,
+and is rendered on the CPU with joshua-render's renderer (commands drawn as markers) into an MP4 of
+labelled tiles by its `GridVideoWriter`.
 """
 
 from __future__ import annotations
@@ -16,28 +17,33 @@ import jax
 import mujoco
 import numpy as np
 
-from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, EpisodeResults
+from joshua_core.statistics import SUCCESS_METRIC, SUCCESS_THRESHOLD
 from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.policy import make_network, policy_actions
 from joshua_ppo.settings import NetworkSettings
-from joshua_render import VideoWriter, camera_id, create_renderer, render_with_commands
+from joshua_render import GridVideoWriter, camera_id, create_renderer, episode_label, render_with_commands
 
 
 @dataclass
 class Rollout:
-    """One deterministic rollout: env 0's poses and commands, and the environments' first episodes."""
+    """One deterministic rollout: the recorded environments' frames, and the environments' first episodes."""
 
-    qpos: np.ndarray  # (frames, nq) env 0, from the reset state to its first episode's last step or the rollout's
-    commands: dict[str, np.ndarray]  # (frames, k) env 0's commands, per frame
-    returns: np.ndarray  # (finished,) the first episode's return of each environment that finished one
+    # per recorded environment, from the reset state to its first episode's last step or the rollout's:
+    qpos: list[np.ndarray]  # (frames, nq)
+    commands: list[dict[str, np.ndarray]]  # (frames, k) per command
+    running_returns: list[np.ndarray]  # (frames,) the return so far
+    finished: np.ndarray  # (finished,) the indices of the environments that finished an episode
+    returns: np.ndarray  # (finished,) their first episode's return
     lengths: np.ndarray  # (finished,)
     metrics: dict[str, np.ndarray]  # (finished,) each metric on the first episode's last step
 
 
-def make_rollout(env: JaxEnv, network: NetworkSettings, steps: int) -> Any:
+def make_rollout(env: JaxEnv, network: NetworkSettings, steps: int, recorded: int = 1) -> Any:
     """A compiled function (params, normalizer, key) -> per-step arrays of a `steps`-long rollout of the
-    deterministic policy of the network `network` describes."""
+    deterministic policy of the network `network` describes; poses, commands and rewards of the first
+    `recorded` environments are kept for videos."""
     net = make_network(env, network)
 
     def run(params: Any, stats: RunningStatistics, key: jax.Array) -> dict[str, Any]:
@@ -48,8 +54,9 @@ def make_rollout(env: JaxEnv, network: NetworkSettings, steps: int) -> Any:
             next_state = env.step(state, action)
             episode = next_state.episode
             record = {
-                "qpos": next_state.data.qpos[0],
-                "commands": {name: value[0] for name, value in next_state.commands.items()},
+                "qpos": next_state.data.qpos[:recorded],
+                "commands": {name: value[:recorded] for name, value in next_state.commands.items()},
+                "reward": next_state.reward[:recorded],
                 "done": episode.done,
                 "return": episode.return_,
                 "length": episode.length,
@@ -58,59 +65,97 @@ def make_rollout(env: JaxEnv, network: NetworkSettings, steps: int) -> Any:
             return next_state, record
 
         _, records = jax.lax.scan(step, state, None, length=steps)
-        first = {"qpos": state.data.qpos[0], "commands": {name: value[0] for name, value in state.commands.items()}}
+        first = {
+            "qpos": state.data.qpos[:recorded],
+            "commands": {name: value[:recorded] for name, value in state.commands.items()},
+        }
         return {"first": first, "steps": records}
 
     return jax.jit(run)
 
 
 def collect(raw: dict[str, Any], envs: int | None = None) -> Rollout:
-    """Host-side summary of a rollout's arrays: env 0's frames until its first episode ended (or the rollout
-    did), and the first episode's statistics of each environment that finished one (of the first `envs`)."""
+    """Host-side summary of a rollout's arrays: each recorded environment's frames until its first episode
+    ended (or the rollout did), and the first episode's results of each environment that finished one (of
+    the first `envs`)."""
     raw = jax.device_get(raw)
-    steps = raw["steps"]
+    steps, first = raw["steps"], raw["first"]
     done = np.asarray(steps["done"])[:, :envs]  # (T, N)
     finished = np.flatnonzero(done.any(axis=0))
     first_end = done[:, finished].argmax(axis=0)  # step index of each finished environment's first episode end
-    # The state after the last step of env 0's episode is already the next episode's reset: leave it out.
-    end0 = int(done[:, 0].argmax()) if done[:, 0].any() else done.shape[0]
-    qpos = np.concatenate([np.asarray(raw["first"]["qpos"])[None], np.asarray(steps["qpos"])[:end0]])
-    commands = {
-        name: np.concatenate([np.asarray(value)[None], np.asarray(steps["commands"][name])[:end0]])
-        for name, value in raw["first"]["commands"].items()
-    }
-    return Rollout(
-        qpos=qpos,
-        commands=commands,
-        returns=np.asarray(steps["return"])[first_end, finished],
-        lengths=np.asarray(steps["length"])[first_end, finished],
-        metrics={name: np.asarray(value)[first_end, finished] for name, value in steps["metrics"].items()},
+    rollout = Rollout([], [], [], finished, *_first_episodes(steps, first_end, finished))
+    for index in range(np.asarray(first["qpos"]).shape[0]):
+        # The state after the last step of an episode is already the next episode's reset: leave it out.
+        end = int(done[:, index].argmax()) if done[:, index].any() else done.shape[0]
+        rollout.qpos.append(_frames(first["qpos"], steps["qpos"], index, end))
+        commands = first["commands"].items()
+        rollout.commands.append({name: _frames(value, steps["commands"][name], index, end) for name, value in commands})
+        rollout.running_returns.append(np.concatenate([[0.0], np.cumsum(np.asarray(steps["reward"])[:end, index])]))
+    return rollout
+
+
+def _frames(start: Any, recorded: Any, index: int, end: int) -> np.ndarray:
+    """Environment `index`'s value in the reset state followed by its values after the first `end` steps."""
+    return np.concatenate([np.asarray(start)[index][None], np.asarray(recorded)[:end, index]])
+
+
+def _first_episodes(
+    steps: dict[str, Any], first_end: np.ndarray, finished: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    """(returns, lengths, metrics) of the finished environments' first episodes."""
+    return (
+        np.asarray(steps["return"])[first_end, finished],
+        np.asarray(steps["length"])[first_end, finished],
+        {name: np.asarray(value)[first_end, finished] for name, value in steps["metrics"].items()},
     )
+
+
+def tile_label(rollout: Rollout, index: int, frame: int) -> str:
+    """The label of recorded environment `index` on video frame `frame`: its return so far, and on its
+    episode's last frame and after, the episode's return and (for tasks with a success metric) its outcome."""
+    last = len(rollout.qpos[index]) - 1
+    position = np.flatnonzero(rollout.finished == index)
+    if frame < last or not position.size:
+        return episode_label(index, float(rollout.running_returns[index][min(frame, last)]))
+    success = rollout.metrics.get(SUCCESS_METRIC)
+    outcome = None if success is None else bool(success[position[0]] >= SUCCESS_THRESHOLD)
+    return episode_label(index, float(rollout.returns[position[0]]), outcome)
 
 
 def render_video(
     model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None = None
 ) -> Path:
-    """Render env 0's episode to an MP4 at `path` (returned), with its commands drawn as markers."""
-    writer = VideoWriter(path, fps)
+    """Render the recorded environments' episodes, tiled and labelled, to an MP4 at `path` (returned), with
+    their commands drawn as markers; a tile whose episode ended holds its last frame."""
+    tiles = len(rollout.qpos)
+    writer = GridVideoWriter(path, fps, tiles)
     model = copy.deepcopy(model)  # drawing commands moves marker sites of the model it draws
     data = mujoco.MjData(model)
     renderer = create_renderer(model, DEFAULT_RENDER_WIDTH, DEFAULT_RENDER_HEIGHT)
     camera_index = camera_id(model, camera)
+
+    def draw(index: int, frame: int) -> np.ndarray | None:
+        if frame >= len(rollout.qpos[index]):
+            return None
+        data.qpos[:] = rollout.qpos[index][frame]
+        mujoco.mj_forward(model, data)
+        commands = {name: value[frame] for name, value in rollout.commands[index].items()}
+        return render_with_commands(renderer, model, data, camera_index, commands)
+
     try:
         with writer:
-            for index, qpos in enumerate(rollout.qpos):
-                data.qpos[:] = qpos
-                mujoco.mj_forward(model, data)
-                commands = {name: value[index] for name, value in rollout.commands.items()}
-                writer.write(render_with_commands(renderer, model, data, camera_index, commands))
+            for frame in range(max(len(qpos) for qpos in rollout.qpos)):
+                labels = [tile_label(rollout, index, frame) for index in range(tiles)]
+                writer.write([draw(index, frame) for index in range(tiles)], labels)
             return writer.close()
     finally:
         renderer.close()
 
 
-def mean_results(rollout: Rollout) -> dict[str, float]:
-    """`mean_return`, `mean_length` and `final_<metric>` averaged over the environments' first episodes."""
-    results = {"mean_return": float(np.mean(rollout.returns)), "mean_length": float(np.mean(rollout.lengths))}
-    results |= {f"final_{name}": float(np.mean(values)) for name, values in rollout.metrics.items()}
-    return results
+def episode_results(rollout: Rollout) -> EpisodeResults:
+    """The finished environments' first episodes, for `joshua_core.statistics.summarize`."""
+    return EpisodeResults(
+        returns=rollout.returns.tolist(),
+        lengths=rollout.lengths.tolist(),
+        metrics={name: values.tolist() for name, values in rollout.metrics.items()},
+    )

@@ -14,7 +14,7 @@ from google.protobuf import json_format
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, UsageError
-from joshua_core.interfaces import RunContext, Trainer
+from joshua_core.interfaces import EpisodeResults, RunContext, Trainer
 from joshua_core.policy import ExportedPolicy
 from joshua_core.interrupts import resume_command, stop_requests
 from joshua_core.options import options_of, parse_dict
@@ -33,7 +33,7 @@ from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.distributed import Cluster, join
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.export import mlp_policy
-from joshua_ppo.rollout import collect, make_rollout, mean_results, render_video
+from joshua_ppo.rollout import collect, episode_results, make_rollout, render_video
 from joshua_ppo.run import RUN_FORMAT, TRAINER_NAME, Run
 from joshua_ppo.settings import check_settings
 from joshua_ppo.state import Progress, TrainingState
@@ -174,19 +174,20 @@ class PpoTrainer(Trainer):
         video_path: Path | None,
         context: RunContext,
         trust_checkpoint: bool = False,
-    ) -> dict[str, float]:
+        video_grid: int = 1,
+    ) -> EpisodeResults:
         checkpoint, config = saved_run(run_dir, context)
         settings = PpoSettings.from_config(config)
         devices = len(jax.devices())
         env = environment(config, context, -(-episodes // devices) * devices)
         params, normalizer = load_params(checkpoint, env, settings.network)
         print(f"ppo: evaluating {checkpoint} ({checkpoint_step(checkpoint)} steps) over {episodes} episodes")
-        rollout = make_rollout(env, settings.network, env.task.episode_length)
+        rollout = make_rollout(env, settings.network, env.task.episode_length, recorded=video_grid)
         episode = collect(rollout(params, normalizer, jax.random.PRNGKey(seed)), episodes)
         if video_path is not None:
             written = render_video(env.model, episode, video_path, fps=1.0 / env.task.dt)
             print(f"video: {written}", file=sys.stderr)
-        return mean_results(episode)
+        return episode_results(episode)
 
     def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:
         checkpoint, config = saved_run(run_dir, context)  # msgpack runs no code: nothing to trust

@@ -80,20 +80,30 @@ def test_reach_policy_learns_and_the_run_folder_is_complete(reach_run: Path) -> 
     assert "mean_return" in events.Tags()["scalars"] and len(events.Scalars("loss")) == 20
 
 
-def test_joshua_eval_rolls_out_the_policy_and_writes_a_video(reach_run: Path) -> None:
-    video = reach_run / "eval.mp4"
+def test_joshua_eval_reports_intervals_and_films_a_grid_of_episodes(reach_run: Path) -> None:
+    video, results = reach_run / "eval.mp4", reach_run / "eval.json"
     done = subprocess.run(
-        [*JOSHUA, "eval", str(reach_run / "reach"), "--episodes", "4", "--video", str(video)],
+        [*JOSHUA, "eval", str(reach_run / "reach"), "--episodes", "4", "--grid", "4", "--video", str(video),
+         "--json", str(results)],
         capture_output=True,
         text=True,
-        timeout=300,
-    )
+        timeout=600,  # four episodes rendered on a CPU: about 90 s on a loaded machine
+    )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert "mean_return:" in done.stdout and "final_distance:" in done.stdout
+    assert "95 % interval [" in done.stdout and "(Student t, 3 degrees of freedom)" in done.stdout
+    document = json.loads(results.read_text())
+    returns = document["per_episode"]["return"]
+    assert len(returns) == 4 and document["mean_return"] == pytest.approx(np.mean(returns))
+    low, high = document["mean_return_ci95"]
+    assert low < document["mean_return"] < high and "success_rate" not in document  # reach has no success metric
     capture = cv2.VideoCapture(str(video))
-    assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == 100  # one 100-step episode
+    assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == 100  # 100-step episodes, side by side
     ok, frame = capture.read()
-    assert ok and frame.std() > 10
+    assert ok and frame.shape == (2 * 480, 2 * 640, 3)
+    tiles = [frame[r * 480 : (r + 1) * 480, c * 640 : (c + 1) * 640] for r in range(2) for c in range(2)]
+    assert all(tile.std() > 10 for tile in tiles)
+    assert all((tile[4:26, 8:300].min(axis=-1) > 200).sum() > 50 for tile in tiles)  # each tile's white label
 
 
 def test_a_corrupt_checkpoint_is_a_clear_error(reach_run: Path, tmp_path: Path) -> None:

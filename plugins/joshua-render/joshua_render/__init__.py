@@ -4,7 +4,8 @@ A library the MuJoCo backend, the modes, the mirror and the trainers share (no `
 
 - headless GL: `choose_headless_gl`, `has_display`, `RenderingUnavailableError`;
 - frames: `create_renderer`, `camera_id`, `render_with_commands` (3-d commands drawn as markers);
-- files: `VideoWriter` (atomic MP4), `write_png`;
+- files: `VideoWriter` (atomic MP4), `write_png`; `GridVideoWriter` (episodes tiled and labelled in one MP4),
+  `episode_label`, `grid_shape`;
 - display: `open_display` (the MuJoCo viewer when a display is usable, else an MP4 recording),
   `Display`, `ViewerDisplay`, `RecordingDisplay`, `display_usable`, `no_display_error`;
 - training: `LiveViewer`, `open_viewer` (a few environments' poses in the viewer).
@@ -27,12 +28,14 @@ if TYPE_CHECKING:
         open_display,
     )
     from joshua_render.frames import camera_id, create_renderer, render_with_commands
+    from joshua_render.grid import GridVideoWriter, episode_label, grid_shape
     from joshua_render.gl import RenderingUnavailableError, choose_headless_gl, has_display
     from joshua_render.video import VideoWriter, write_png
     from joshua_render.viewer import LiveViewer, open_viewer
 
 __all__ = [
     "Display",
+    "GridVideoWriter",
     "LiveViewer",
     "RecordingDisplay",
     "RenderingUnavailableError",
@@ -42,6 +45,8 @@ __all__ = [
     "choose_headless_gl",
     "create_renderer",
     "display_usable",
+    "episode_label",
+    "grid_shape",
     "has_display",
     "no_display_error",
     "open_display",
@@ -60,6 +65,9 @@ _HOME = {
     "render_with_commands": "frames",
     "VideoWriter": "video",
     "write_png": "video",
+    "GridVideoWriter": "grid",
+    "episode_label": "grid",
+    "grid_shape": "grid",
     "Display": "display",
     "RecordingDisplay": "display",
     "ViewerDisplay": "display",

@@ -6,7 +6,6 @@ The run folder layout and the checkpoint trust rules are in `joshua_sb3.run_fold
 
 from __future__ import annotations
 
-import contextlib
 import json
 import time
 from importlib import metadata
@@ -26,7 +25,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
-from joshua_core.interfaces import EnvKind, RunContext, Trainer
+from joshua_core.interfaces import EnvKind, EpisodeResults, RunContext, Trainer
 from joshua_core.policy import ExportedPolicy
 from joshua_core.interrupts import StopRequest, resume_command, stop_requests
 from joshua_core.options import message_to_dict, options_of, parse_dict
@@ -41,7 +40,6 @@ from joshua_core.runs import (
     resolve_checkpoint,
     resume_run,
 )
-from joshua_render import VideoWriter
 from joshua_sb3 import options_pb2
 from joshua_sb3.export import saved_policy
 from joshua_sb3.run_folder import (
@@ -52,6 +50,7 @@ from joshua_sb3.run_folder import (
     verify_checkpoint,
     write_checkpoint,
 )
+from joshua_sb3.rollout import roll_out
 from joshua_sb3.settings import DEFAULT_NUM_ENVS, Settings
 from joshua_sb3.vec_env import METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv
 
@@ -283,7 +282,8 @@ class Sb3Trainer(Trainer):
         video_path: Path | None,
         context: RunContext,
         trust_checkpoint: bool = False,
-    ) -> dict[str, float]:
+        video_grid: int = 1,
+    ) -> EpisodeResults:
         checkpoint, saved, training = _saved_run(run_dir, context)
         training.num_envs = episodes
         training.seed = seed
@@ -301,7 +301,7 @@ class Sb3Trainer(Trainer):
                 normalizer.training = False
                 normalizer.norm_reward = False
             print(f"sb3: evaluating {checkpoint} ({checkpoint_step(checkpoint)} steps) over {episodes} episodes")
-            return _roll_out(model, normalizer or vec_env, environments, episodes, video_path)
+            return roll_out(model, normalizer or vec_env, environments, video_path, video_grid)
         finally:
             environments.close()
 
@@ -356,38 +356,3 @@ def _learn(run: RunWriter, model: BaseAlgorithm, bar: Any, *, first_leg: bool) -
             )
             raise stop.interrupted()
     return checkpoint
-
-
-def _roll_out(
-    model: BaseAlgorithm,
-    vec_env: VecEnv,
-    environments: gymnasium.vector.VectorEnv,
-    episodes: int,
-    video_path: Path | None,
-) -> dict[str, float]:
-    """Run one episode in each of the `episodes` environments with the deterministic policy; record env 0."""
-    observations = vec_env.reset()
-    finished: dict[int, dict[str, Any]] = {}
-    fps = float(environments.metadata.get("render_fps", 30))
-    with contextlib.ExitStack() as stack:  # the video is closed (finished) however the rollout ends
-        writer = VideoWriter(video_path, fps) if video_path is not None else None
-        if writer is not None:
-            stack.enter_context(writer)
-            writer.write(environments.render_frame(0))
-        while len(finished) < episodes:
-            actions, _ = model.predict(observations, deterministic=True)  # type: ignore[arg-type]
-            observations, _, dones, infos = vec_env.step(actions)
-            for index in np.flatnonzero(dones):
-                finished.setdefault(int(index), infos[index]["episode"])
-            if writer is not None and 0 in finished:  # environment 0 already shows its next episode: stop
-                print(f"video: {writer.close()}")
-                writer = None
-            elif writer is not None:
-                writer.write(environments.render_frame(0))
-    results = {
-        "mean_return": float(np.mean([episode["r"] for episode in finished.values()])),
-        "mean_length": float(np.mean([episode["l"] for episode in finished.values()])),
-    }
-    for name in finished[0][METRICS_KEY]:
-        results[f"final_{name}"] = float(np.mean([episode[METRICS_KEY][name] for episode in finished.values()]))
-    return results

@@ -96,7 +96,7 @@ def test_sb3_trains_and_evaluates_on_a_third_party_numpy_backend(tmp_path: Path)
     results = plugins.trainer("sb3").evaluate(
         tmp_path / "third_party", episodes=2, seed=3, video_path=None, context=context
     )
-    assert np.isfinite(results["mean_return"]) and results["mean_length"] == 10
+    assert np.isfinite(results.returns).all() and list(results.lengths) == [10, 10]  # one result per episode
 
 
 def test_a_backend_without_numpy_environments_is_a_config_error_naming_those_with_them(tmp_path: Path) -> None:

@@ -105,20 +105,25 @@ def test_run_folder_layout(trained: tuple[Path, Path]) -> None:
     assert "checkpoints" not in names  # they lie beside the run folder: <checkpoint_dir>/<run>_step_<N>/
 
 
-def test_eval_prints_the_return_and_writes_a_video(
-    trained: tuple[Path, Path], tmp_path: Path
-) -> None:
+def test_eval_prints_the_return_and_films_a_grid(trained: tuple[Path, Path], tmp_path: Path) -> None:
     run_dir, key = trained
     video = tmp_path / "reach.mp4"
-    process = joshua("eval", str(run_dir), "--episodes", "2", "--video", str(video), cwd=tmp_path, key=key)
+    process = joshua(
+        "eval", str(run_dir), "--episodes", "2", "--grid", "2", "--video", str(video), cwd=tmp_path, key=key
+    )
     results = evaluation(process)
     assert set(results) >= {"mean_return", "mean_length", "final_distance"} and results["mean_length"] == 100
+    assert "(Student t, 1 degrees of freedom)" in process.stdout
+    document = json.loads((run_dir / "eval.json").read_text())  # written next to the run
+    assert document["trainer"] == "sb3" and document["per_episode"]["length"] == [100, 100]
     import cv2
 
     capture = cv2.VideoCapture(str(video))
     frames = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
     ok, frame = capture.read()
-    assert ok and frame.shape == (480, 640, 3) and frame.std() > 5 and frames >= 99, frames
+    assert ok and frame.shape == (480, 2 * 640, 3) and frames == 101, frames  # the reset state, 100 steps
+    for tile in (frame[:, :640], frame[:, 640:]):
+        assert tile.std() > 5 and (tile[4:26, 8:300].min(axis=-1) > 200).sum() > 50  # scene and white label
     assert f"video: {video}" in process.stdout
 
 

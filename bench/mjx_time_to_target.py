@@ -1,0 +1,301 @@
+"""Time-to-target of PPO on MJX for any task preset (success rate or return), against raw MJX physics, in one run.
+
+    python bench/mjx_time_to_target.py --preset so_arm100_pick_place_mjx --metric success --target 0.9 --out out/pp
+    python bench/mjx_time_to_target.py --preset trileg_train_mjx --metric return --target 2000 --out out/trileg
+    python bench/mjx_time_to_target.py --preset so_arm100_pick_place_mjx --smoke --out /tmp/smoke   # tiny, on CPU
+
+Training stops when the training value (the training return, or the success rate of the episodes that ended
+in the iteration: exploration noise included) reaches the target, or at --max-seconds or --iterations. The
+policy is snapshotted every --snapshot-interval iterations and at the end; afterwards all snapshots are
+evaluated at once (one rollout vmapped over them) with the deterministic policy over --eval-envs whole
+episodes: the success rate with its 95 % Wilson interval (tasks with a `success` metric) and the mean return
+with its 95 % Student t interval, by joshua_core.statistics as `joshua eval` reports them. The time to the
+target is the training wall time (compile included, evaluations excluded) of the first snapshot whose
+deterministic value reaches it.
+
+Prints a few lines: time to target (with and without compile), training env steps/s, raw physics steps/s of
+`vmap(mjx.step)` on the same batch measured in the same run (after training) and their ratio; writes
+OUT/time_to_target.json and OUT/time_to_target.png (the metric and its interval against wall time).
+bench/mjx_train_ant.py is this bench for Ant, with its own figures (and throughput scaling over devices).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import io
+import time
+from pathlib import Path
+from typing import Any
+
+import jax
+import numpy as np
+
+from joshua_core.atomic import atomic_write_bytes, atomic_write_json, json_safe
+from joshua_core.config import apply_override, finalize, load_preset
+from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.interfaces import EnvKind, EnvSpec
+from joshua_core.plugins import PluginHost
+from joshua_core.statistics import SUCCESS_METRIC, summarize
+from joshua_mjx import MjxBackend, MjxEnv
+from joshua_mjx.physics import mjx
+from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.envs import DEFAULT_NUM_ENVS
+from joshua_ppo.normalizer import RunningStatistics
+from joshua_ppo.rollout import collect, episode_results, make_rollout
+from joshua_ppo.state import TrainingState
+from joshua_ppo.train import IterationReport, train_ppo
+
+# Per metric: the training metric compared with the target while training, and the evaluation's value and interval.
+METRICS = {
+    "return": ("mean_return", "mean_return", "mean_return_ci95"),
+    "success": ("metrics/success", "success_rate", "success_rate_ci95"),
+}
+# --smoke: a tiny run that exercises every stage on a CPU in a minute or two (the figures mean nothing).
+SMOKE = ["training.num_envs=8", "training.num_steps=5", "training.minibatch_size=40", "training.num_epochs=1"]
+
+
+class TargetReached(Exception):
+    """Stops training once the target is reached (or the time, iteration or step budget is spent)."""
+
+
+def raw_physics_rate(env: MjxEnv, steps: int = 50) -> float:
+    """Physics steps/s of `vmap(mjx.step)` on env's batch, sharded the same way (after compilation)."""
+    state = env.reset(jax.random.PRNGKey(0))
+
+    @jax.jit
+    def run(data: mjx.Data) -> mjx.Data:
+        return jax.lax.fori_loop(0, steps, lambda _, d: jax.vmap(mjx.step, (None, 0))(env.mjx_model, d), data)
+
+    data = jax.block_until_ready(run(state.data))
+    best = 0.0
+    for _ in range(3):
+        started = time.perf_counter()
+        data = jax.block_until_ready(run(data))
+        best = max(best, steps * env.num_envs / (time.perf_counter() - started))
+    return best
+
+
+Snapshot = tuple[Any, RunningStatistics]  # host copies of a policy's parameters and observation normaliser
+
+
+def train(
+    settings: PpoSettings,
+    env: MjxEnv,
+    target: float,
+    max_seconds: float,
+    iterations: int | None,
+    snapshot_interval: int = 0,
+    metric: str = "return",
+) -> tuple[dict, list[tuple[dict, Snapshot]]]:
+    """Train until the training value of `metric` reaches the target, the time limit or the iteration limit.
+
+    Returns the outcome and snapshots of the policy every `snapshot_interval` iterations and at the
+    end, each with its step and wall seconds, for `evaluate_snapshots`."""
+    training_key = METRICS[metric][0]
+    started = time.perf_counter()
+    log: list[dict] = []
+    snapshots: list[tuple[dict, Snapshot]] = []
+
+    def on_progress(report: IterationReport, state: TrainingState) -> None:
+        metrics = report.metrics
+        entry = {
+            "step": report.env_steps,
+            "wall": report.wall_seconds,
+            "sps": report.steps_per_second,
+            "return": metrics["mean_return"],
+            "value": metrics.get(training_key, float("nan")),
+            "episodes": metrics["episodes"],
+            "compile": report.compile_seconds,
+        }
+        log.append(entry)
+        reached = metrics["episodes"] > 0 and entry["value"] >= target
+        out_of_budget = report.wall_seconds > max_seconds or report.iteration == iterations
+        stopping = reached or out_of_budget or report.env_steps >= report.total_steps
+        if report.iteration % 10 == 0 or stopping:
+            print(
+                f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {report.wall_seconds:7.1f} s  "
+                f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}  "
+                + (f"{metric} {entry['value']:.3f}  " if metric != "return" else "")
+                + f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}  "
+                f"kl {metrics['approx_kl']:.4f}  lr {metrics['learning_rate']:.2e}",
+                flush=True,
+            )
+        if stopping or (snapshot_interval > 0 and report.iteration % snapshot_interval == 0):
+            # a host copy: the state's buffers are donated to the next iteration
+            when = {"step": report.env_steps, "wall": report.wall_seconds}
+            snapshots.append((when, jax.device_get((state.params, state.normalizer))))
+        if stopping:
+            raise TargetReached  # or out of time, iterations or steps
+
+    try:
+        train_ppo(
+            env,
+            rollout=settings.rollout,
+            optimization=settings.optimization,
+            returns=settings.returns,
+            network=settings.network,
+            total_timesteps=settings.total_timesteps,
+            seed=settings.seed,
+            on_progress=on_progress,
+        )
+    except TargetReached:
+        pass
+    compile_seconds = log[0]["compile"] if log else float("nan")
+    steady = [entry["sps"] for entry in log[1:]] or [entry["sps"] for entry in log]
+    reached = [entry for entry in log if entry["episodes"] > 0 and entry["value"] >= target]
+    return {
+        "wall_seconds": time.perf_counter() - started,
+        "compile_seconds": compile_seconds,
+        "train_steps_per_second": sorted(steady)[len(steady) // 2],
+        "env_steps": log[-1]["step"] if log else 0,
+        "final_return": next((e["return"] for e in reversed(log) if e["episodes"] > 0), float("nan")),
+        f"training_{metric}_reached_target_at_seconds": reached[0]["wall"] if reached else None,
+    }, snapshots
+
+
+def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snapshot]) -> list[dict[str, Any]]:
+    """Each snapshot's evaluation (`joshua_core.statistics.summarize`: mean return and length, final metrics,
+    success rate, 95 % intervals) over one episode per environment of `env`, under the policy's mean (no
+    exploration noise): all snapshots in one rollout, vmapped over them."""
+    rollout = make_rollout(env, settings.network, env.task.episode_length)
+    params, normalizer = jax.tree.map(lambda *leaves: np.stack(leaves), *snapshots)
+    raw = jax.device_get(jax.jit(jax.vmap(rollout, in_axes=(0, 0, None)))(params, normalizer, jax.random.PRNGKey(1)))
+    return [summarize(episode_results(collect(jax.tree.map(lambda x, i=i: x[i], raw)))) for i in range(len(snapshots))]
+
+
+def environment(config: TrainingConfig, plugins: PluginHost, num_envs: int, devices: list[jax.Device]) -> MjxEnv:
+    """The mjx backend's environments of the config's task, spread over `devices`."""
+    spec = dataclasses.replace(EnvSpec.from_training(config, num_envs=num_envs), devices=devices)
+    return MjxBackend().create_envs(spec, EnvKind.JAX, plugins)
+
+
+def load_config(preset: str, assignments: list[str], num_envs: int | None) -> TrainingConfig:
+    """The preset's finalized training config with `--set` assignments and `--num-envs` applied."""
+    loaded = load_preset(preset)
+    for assignment in assignments:
+        apply_override(loaded.message, assignment)
+    config = finalize(loaded).training
+    if num_envs:
+        config.num_envs = num_envs
+    return config
+
+
+def plot_curve(snapshots: list[dict[str, Any]], metric: str, target: float, title: str) -> bytes:
+    """PNG of the snapshots' deterministic value of `metric` and its 95 % interval against training wall time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot
+
+    _, value_key, interval_key = METRICS[metric]
+    wall = [entry["wall"] for entry in snapshots]
+    figure, axis = pyplot.subplots(figsize=(7, 3.5), layout="constrained")
+    axis.plot(wall, [entry[value_key] for entry in snapshots], marker=".", label=f"deterministic {metric}")
+    bands = [entry[interval_key] or [np.nan, np.nan] for entry in snapshots]
+    axis.fill_between(wall, [b[0] for b in bands], [b[1] for b in bands], alpha=0.25, label="95 % interval")
+    axis.axhline(target, color="grey", linestyle="--", label=f"target {target:g}")
+    axis.set_xlabel("training wall time, compile included (s)")
+    axis.set_ylabel(metric)
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    figure.suptitle(title)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    pyplot.close(figure)
+    return buffer.getvalue()
+
+
+def summary_lines(outcome: dict[str, Any], metric: str, target: float) -> list[str]:
+    """The few lines the bench prints: time to target, throughput against raw physics, the last snapshot."""
+    _, value_key, interval_key = METRICS[metric]
+    reached = outcome.get("reached_target_at_seconds")
+    last = outcome["snapshots"][-1] if outcome.get("snapshots") else None
+    if reached is not None:
+        without = outcome["reached_target_without_compile_seconds"]
+        first = f"{metric} >= {target:g} after {reached:.1f} s ({without:.1f} s without compile), "
+        first += f"{outcome['reached_target_at_steps']:,} env steps"
+    else:
+        first = f"{metric} >= {target:g} not reached in {outcome['wall_seconds']:.1f} s "
+        first += f"({outcome['env_steps']:,} env steps)"
+    lines = [
+        f"{outcome['preset']}: {first}; compile {outcome['compile_seconds']:.1f} s",
+        f"training {outcome['train_steps_per_second']:,.0f} env steps/s x frame_skip {outcome['frame_skip']} = "
+        f"{outcome['fraction_of_raw_physics']:.0%} of raw MJX physics ({outcome['raw_physics_steps_per_second']:,.0f}"
+        f" steps/s) on {outcome['devices']} device(s)",
+    ]
+    if last is not None:
+        low, high = last[interval_key] or (float("nan"), float("nan"))
+        lines.append(
+            f"last snapshot ({last['wall']:.1f} s): {metric} {last[value_key]:.4g} [{low:.4g}, {high:.4g}] (95 %, "
+            f"{last['episodes']} deterministic episodes), mean return {last['mean_return']:.4g}"
+        )
+    return lines
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    """Train, measure raw physics, evaluate the snapshots; the outcome as one JSON-ready dict."""
+    config = load_config(args.preset, (SMOKE if args.smoke else []) + args.set, args.num_envs)
+    settings = PpoSettings.from_config(config)
+    plugins = PluginHost.discover()
+    devices = jax.devices()
+    print(f"devices: {devices}  preset {args.preset}: {settings.rollout} {settings.optimization}", flush=True)
+    env = environment(config, plugins, config.num_envs or DEFAULT_NUM_ENVS, devices)
+    if args.metric == "success" and SUCCESS_METRIC not in [term.name for term in env.task.metric_terms]:
+        raise SystemExit(f"task {config.task} has no {SUCCESS_METRIC} metric: use --metric return")
+    outcome, snapshots = train(
+        settings, env, args.target, args.max_seconds, args.iterations, args.snapshot_interval, args.metric
+    )
+    raw = raw_physics_rate(env)
+    outcome |= {
+        "preset": args.preset,
+        "metric": args.metric,
+        "target": args.target,
+        "devices": len(devices),
+        "num_envs": env.num_envs,
+        "frame_skip": env.task.frame_skip,
+        "raw_physics_steps_per_second": raw,
+        "fraction_of_raw_physics": outcome["train_steps_per_second"] * env.task.frame_skip / raw,
+    }
+    eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
+    eval_env = environment(config, plugins, eval_envs, devices)
+    evaluations = evaluate_snapshots(settings, eval_env, [snapshot for _, snapshot in snapshots])
+    evaluated = [when | result for (when, _), result in zip(snapshots, evaluations, strict=True)]
+    value_key = METRICS[args.metric][1]
+    reached = next((entry for entry in evaluated if entry[value_key] >= args.target), None)
+    return outcome | {
+        "snapshots": evaluated,
+        "reached_target_at_seconds": reached and reached["wall"],
+        "reached_target_without_compile_seconds": reached and reached["wall"] - outcome["compile_seconds"],
+        "reached_target_at_steps": reached and reached["step"],
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--preset", default="so_arm100_pick_place_mjx")
+    parser.add_argument("--metric", choices=sorted(METRICS), default="success")
+    parser.add_argument("--target", type=float, default=0.9, help="value of --metric to reach (default 0.9)")
+    parser.add_argument("--max-seconds", type=float, default=900.0)
+    parser.add_argument("--num-envs", type=int, help="override the preset's num_envs")
+    parser.add_argument("--iterations", type=int, help="stop after this many iterations")
+    parser.add_argument("--eval-envs", type=int, default=128, help="episodes of each deterministic evaluation")
+    parser.add_argument("--snapshot-interval", type=int, default=20, help="snapshot every this many iterations")
+    parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
+    parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU): 8 envs, 2 iterations, 4 episodes")
+    parser.add_argument("--out", type=Path, required=True, help="folder for time_to_target.json and .png")
+    args = parser.parse_args()
+    if args.smoke:
+        args.iterations, args.eval_envs, args.snapshot_interval = args.iterations or 2, 4, 1
+    outcome = run(args)
+    args.out.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(args.out / "time_to_target.json", json_safe(outcome))
+    title = f"{args.preset}: PPO on MJX, {outcome['num_envs']} envs, {outcome['devices']} device(s)"
+    curve = plot_curve(outcome["snapshots"], args.metric, args.target, title)
+    atomic_write_bytes(args.out / "time_to_target.png", curve)
+    print("\n".join(summary_lines(outcome, args.metric, args.target)))
+    print(f"wrote {args.out / 'time_to_target.json'} and {args.out / 'time_to_target.png'}")
+
+
+if __name__ == "__main__":
+    main()
