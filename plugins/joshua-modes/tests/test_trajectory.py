@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from modes_testing import HEADER, SCENE, SMALL, example_rows
 
@@ -55,10 +56,10 @@ def test_target_columns_are_read_beside_their_joints(engine, write_csv) -> None:
     assert plain.targets is None
 
 
-def test_target_columns_for_every_joint_or_none(engine, write_csv) -> None:
-    with pytest.raises(TrajectoryError, match=r"motion.csv:1: the header has target columns but none for joint_2"):
-        read_trajectory(write_csv(["timestamp,joint_1,joint_2,joint_1.target", "0,0,0,0"]))
-    with pytest.raises(TrajectoryError, match=r"column 'joint_7.target' is the target of joint 'joint_7', which has no"):
+def test_target_columns_of_some_joints(engine, write_csv) -> None:
+    partial = read_trajectory(write_csv(["timestamp,joint_1,joint_2,joint_1.target", "0,0.5,0,0.25"]))
+    assert partial.targets[0, 0] == 0.25 and np.isnan(partial.targets[0, 1])  # joint_2 had no command
+    with pytest.raises(TrajectoryError, match=r"target column\(s\) joint_7.target without the joint's own column"):
         read_trajectory(write_csv(["timestamp,joint_1,joint_1.target,joint_7.target", "0,0,0,0"]))
     trajectory = read_trajectory(write_csv(["timestamp,joint_1,joint_1.target", "0,0,0", "0.1,0,nan"]))
     with pytest.raises(TrajectoryError, match=r"motion.csv:3: NaN or infinite value"):

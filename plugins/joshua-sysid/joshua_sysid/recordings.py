@@ -19,7 +19,8 @@ from numpy.typing import NDArray
 
 from joshua_core.errors import ModelError, UsageError
 from joshua_core.resources import resolve_data_path
-from joshua_core.trajectory import TARGET_SUFFIX, read_trajectory
+from joshua_core.trajectory import TARGET_SUFFIX, load_trajectory
+from joshua_modes import model_joint_ranges
 
 MIN_SAMPLES = 20  # fewer samples than this cannot tell four parameters per joint apart
 MIN_DURATION_S = 1.0  # nor can a recording shorter than a few servo time constants
@@ -74,17 +75,21 @@ def model_servos(model: mujoco.MjModel, model_path: Path) -> list[Servo]:
 
 def load_recordings(paths: Sequence[Path], model: mujoco.MjModel, servos: list[Servo]) -> list[Recording]:
     """Read and check each recording (a UsageError names the file and what is wrong)."""
-    joints = [model.joint(j).name for j in range(model.njnt) if model.jnt_type[j] in SCALAR_JOINTS]
-    return [_load(resolve_data_path(path, what="recording"), joints, servos) for path in paths]
+    joints = model_joint_ranges(model)
+    return [_load(resolve_data_path(path, what="recording", folders=True), joints, servos) for path in paths]
 
 
-def _load(path: Path, model_joints: list[str], servos: list[Servo]) -> Recording:
-    trajectory = read_trajectory(path, model_joints)
+def _load(path: Path, model_joints: dict[str, tuple[float, float]], servos: list[Servo]) -> Recording:
+    """One recording: a trajectory CSV or a dataset folder (e.g. LeRobot's, through its trajectory reader)."""
+    trajectory = load_trajectory(path, model_joints)
     if trajectory.targets is None:
         raise UsageError(
             f"{path}: no commanded targets; joshua sysid needs a '<joint>{TARGET_SUFFIX}' column beside each joint "
             "column (the position sent to its actuator)"
         )
+    untargeted = [name for i, name in enumerate(trajectory.joint_names) if np.isnan(trajectory.targets[:, i]).all()]
+    if untargeted:
+        raise UsageError(f"{path}: no commanded targets for {', '.join(untargeted)}; every fitted joint needs its target")
     trajectory.require_playable()
     duration = trajectory.timestamps[-1] - trajectory.timestamps[0]
     if trajectory.rows < MIN_SAMPLES or duration < MIN_DURATION_S:
