@@ -21,6 +21,10 @@ from pathlib import Path
 
 JOSHUA = Path(sys.executable).parent / "joshua"
 PRESET = "so_arm100_reach_sb3"
+# The task's action-rate penalty x30: the preset's policy reaches within mm by switching its targets between
+# far-apart values every step, which a real servo (and deploy's speed limit) does not follow; this one moves them
+# smoothly.
+SMOOTH = ["--set", "training.total_timesteps=600000", "--set", "training.task_config.terms[0].name=action_rate", "--set", "training.task_config.terms[0].weight=-0.15"]
 OUT = Path(__file__).resolve().parent / "so_arm100_reach"
 KEY_ENV_VAR = "JOSHUA_CHECKPOINT_KEY_FILE"  # joshua_sb3.run_folder's: a throwaway key for a throwaway run
 
@@ -35,8 +39,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="joshua_reach_") as folder:
         work = Path(folder)
         env = {**os.environ, KEY_ENV_VAR: str(work / "checkpoint.key")}
-        joshua("--preset", PRESET, "--set", "training.checkpoint_dir=runs", "--set", "training.sb3.run_name=reach",
-               cwd=work, env=env)  # fmt: skip
+        joshua("--preset", PRESET, *SMOOTH, "--set", "training.checkpoint_dir=runs",
+               "--set", "training.sb3.run_name=reach", cwd=work, env=env)  # fmt: skip
         joshua("eval", "runs/reach", "--episodes", "5", "--no-video", cwd=work, env=env)
         joshua("export", "runs/reach", "--out", str(OUT), cwd=work, env=env)
     print(f"wrote {OUT / 'policy.onnx'} and {OUT / 'policy.json'}")
