@@ -1,9 +1,10 @@
 """Train the SO-ARM100 reach policy once and export it: models/policies/so_arm100_reach/{policy.onnx,policy.json}.
 
 The `joshua deploy` test drives a simulated arm with this policy over ROS 2 and checks that the gripper reaches
-its target. Training it inside the test would cost minutes of CPU (a short run reaches only ~7 cm), so it is
-trained here with the shipped preset (`so_arm100_reach_sb3`: SB3 PPO, 300k steps, a few minutes on 2 cores) and
-exported by the real `joshua export`. Run from the repository root after changing the task, its model or the
+its target. Training it inside the test would cost a minute or more of CPU (a short run reaches only ~7 cm), so
+it is trained here from the shipped preset (`so_arm100_reach_sb3`: SB3 PPO), with 600k steps and the task's
+action-rate penalty x30 (about a minute on 2 idle cores; final distance 1.7 mm), and exported by the real
+`joshua export`. Run from the repository root after changing the task, its model or the
 export format:
 
     python models/policies/generate_reach_policy.py
@@ -24,7 +25,11 @@ PRESET = "so_arm100_reach_sb3"
 # The task's action-rate penalty x30: the preset's policy reaches within mm by switching its targets between
 # far-apart values every step, which a real servo (and deploy's speed limit) does not follow; this one moves them
 # smoothly.
-SMOOTH = ["--set", "training.total_timesteps=600000", "--set", "training.task_config.terms[0].name=action_rate", "--set", "training.task_config.terms[0].weight=-0.15"]
+SMOOTH = [
+    *("--set", "training.total_timesteps=600000"),
+    *("--set", "training.task_config.terms[0].name=action_rate"),
+    *("--set", "training.task_config.terms[0].weight=-0.15"),
+]
 OUT = Path(__file__).resolve().parent / "so_arm100_reach"
 KEY_ENV_VAR = "JOSHUA_CHECKPOINT_KEY_FILE"  # joshua_sb3.run_folder's: a throwaway key for a throwaway run
 

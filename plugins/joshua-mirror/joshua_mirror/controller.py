@@ -2,16 +2,17 @@
 
 The observation is the task's own (`joshua_export.Observer` on the contract's robot model): encoder values
 (+ the mirror mapping's offsets) are the joints' qpos, the difference of each joint's last two values over
-their arrival times its qvel (RobotLink), the reach target the task's command and the previous action its `last_action`, so the policy sees what it saw in
-training. The action becomes ctrl exactly as the contract says (offset + scale x action, clipped to the
-actuator's ctrl range); each target is then clipped to its joint's limits and moved at most
-`max_speed x period` from the previous target (from the measured position at the first step).
+their arrival times its qvel (RobotLink), the reach target the task's command and the previous action its
+`last_action`, so the policy sees what it saw in training. The action becomes ctrl exactly as the contract
+says (offset + scale x action, clipped to the actuator's ctrl range); each target is then clipped to its
+joint's limits and moved at most `max_speed x period` from the previous target (from the measured position at
+the first step and after a hold).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import mujoco
@@ -36,15 +37,6 @@ class Actuated:
     slowed: int = 0  # steps whose target the speed limit held back
 
 
-@dataclass
-class StepResult:
-    """The targets of one step (joint units, one per action entry) and the raw action that gave them."""
-
-    targets: NDArray[np.float64]
-    action: NDArray[np.float32]
-    observation: NDArray[np.float32] = field(repr=False)
-
-
 class PolicyController:
     """Runs a policy on measured joint positions; keeps what the next step needs (previous state and action)."""
 
@@ -63,17 +55,24 @@ class PolicyController:
         self.prev_action = np.zeros(size)
         self.last_targets: NDArray[np.float64] | None = None
 
-    def step(self, positions: NDArray[np.float64], velocities: NDArray[np.float64], command: Any) -> StepResult:
-        """The targets for measured joint `positions` and `velocities` (sim units, in the order of `joints`)."""
+    def step(
+        self, positions: NDArray[np.float64], velocities: NDArray[np.float64], command: Any
+    ) -> NDArray[np.float64]:
+        """The targets (one per action entry) for measured joint `positions` and `velocities` (sim units, in the
+        order of `joints`) and the task's `target` command."""
         qpos = self.qpos.copy()
         qpos[[joint.qpos_address for joint in self.joints]] = positions
         qvel = np.zeros(self.observer.model.nv)
         qvel[[joint.dof_address for joint in self.joints]] = velocities
         prev_qpos = qpos if self.previous is None else self.previous
         ctx = self.observer.context(
-            qpos, qvel, commands={COMMAND: command}, action=self.last_action,
-            prev_action=self.prev_action, prev_qpos=prev_qpos,
-        )  # fmt: skip
+            qpos,
+            qvel,
+            commands={COMMAND: command},
+            action=self.last_action,
+            prev_action=self.prev_action,
+            prev_qpos=prev_qpos,
+        )
         observation = self.observer.observe(ctx)
         action = np.clip(np.asarray(self.policy(observation), np.float32), -1.0, 1.0)
         measured = np.array([qpos[entry.joint.qpos_address] for entry in self.actuated])
@@ -81,7 +80,7 @@ class PolicyController:
         self.previous = qpos
         self.prev_action, self.last_action = self.last_action, action.astype(np.float64)
         self.last_targets = targets
-        return StepResult(targets, action, observation)
+        return targets
 
     def _safe_targets(self, action: NDArray[np.float32], measured: NDArray[np.float64]) -> NDArray[np.float64]:
         """ctrl of the contract's mapping, clipped to the joint limits and to max_step from the last target."""
@@ -114,16 +113,11 @@ class PolicyController:
 def _actuated(contract: dict[str, Any], joints: list[MirroredJoint]) -> list[Actuated]:
     """The contract's action entries matched to the mapped joints (deploy checked that each has one)."""
     by_actuator = {joint.actuator: joint for joint in joints}
-    terms = contract["action"]["terms"]
     result = []
-    for term in terms:
+    for term in contract["action"]["terms"]:
         low, high = term["ctrl_range"]  # None: not limited
-        result.append(
-            Actuated(
-                by_actuator[term["actuator"]], term["scale"], term["offset"],
-                -math.inf if low is None else low, math.inf if high is None else high,
-            )
-        )  # fmt: skip
+        low, high = -math.inf if low is None else low, math.inf if high is None else high
+        result.append(Actuated(by_actuator[term["actuator"]], term["scale"], term["offset"], low, high))
     return result
 
 

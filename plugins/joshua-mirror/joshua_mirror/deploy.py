@@ -52,16 +52,29 @@ class DeployCommand(Command):
         parser.add_argument("policy", type=Path, help="folder with policy.onnx and policy.json (joshua export)")
         add_config_arguments(parser, verb=f"read the robot's topics (default: preset {DEFAULT_PRESET}) from")
         parser.add_argument("--target", metavar="X,Y,Z", help="the task's target command, in model coordinates (m)")
-        parser.add_argument("--target-topic", metavar="TOPIC", help="geometry_msgs/Point topic that sets the target")
+        parser.add_argument("--target-topic", metavar="TOPIC", help="geometry_msgs/Point topic setting the target")
         parser.add_argument("--rate", type=float, metavar="HZ", help="control rate (default: the contract's)")
-        parser.add_argument("--stale-after", type=float, default=DEFAULT_STALE_AFTER_S, metavar="S",
-                            help=f"hold when a joint's value is older (default {DEFAULT_STALE_AFTER_S:g} s)")  # fmt: skip
-        parser.add_argument("--max-speed", type=float, default=DEFAULT_MAX_SPEED, metavar="RAD_PER_S",
-                            help=f"fastest a target may move (default {DEFAULT_MAX_SPEED:g} rad/s)")  # fmt: skip
-        parser.add_argument("--estop-topic", default=DEFAULT_ESTOP_TOPIC,
-                            help=f"std_msgs/Bool; true stops publishing until restart (default {DEFAULT_ESTOP_TOPIC})")  # fmt: skip
+        parser.add_argument(
+            "--stale-after",
+            type=float,
+            default=DEFAULT_STALE_AFTER_S,
+            metavar="S",
+            help=f"hold when a joint's value is older (default {DEFAULT_STALE_AFTER_S:g} s)",
+        )
+        parser.add_argument(
+            "--max-speed",
+            type=float,
+            default=DEFAULT_MAX_SPEED,
+            metavar="RAD_PER_S",
+            help=f"fastest a target may move (default {DEFAULT_MAX_SPEED:g} rad/s)",
+        )
+        parser.add_argument(
+            "--estop-topic",
+            default=DEFAULT_ESTOP_TOPIC,
+            help=f"std_msgs/Bool; true stops the arm in place until restart (default {DEFAULT_ESTOP_TOPIC})",
+        )
         parser.add_argument("--duration", type=float, default=0.0, metavar="S", help="stop after S s (0: Ctrl-C)")
-        parser.add_argument("--status-period", type=float, default=1.0, metavar="S", help="seconds between status lines")
+        parser.add_argument("--status-period", type=float, default=1.0, metavar="S", help="seconds between statuses")
         parser.add_argument("--output-dir", default=DEFAULT_OUTPUT_DIR, help="where the run folder goes")
         parser.add_argument("--run-name", help=f"the run folder's name (default {RUN_STEM}_<date>-<time>)")
 
@@ -77,8 +90,8 @@ class DeployCommand(Command):
             args.preset = DEFAULT_PRESET
         config = finalize(load(args, plugins.options())).simulation
         if simulation_mode(config) != "MIRROR":
-            raise ConfigError(f"joshua deploy reads the robot's topics from a MIRROR config; this one is "
-                              f"{simulation_mode(config)}")  # fmt: skip
+            mode = simulation_mode(config)
+            raise ConfigError(f"joshua deploy reads the robot's topics from a MIRROR config; this one is {mode}")
         policy, contract, observer = _load(args.policy, plugins)
         rate = contract["control_hz"] if args.rate is None else args.rate
         _check_positive("--rate", rate)
@@ -91,17 +104,31 @@ class DeployCommand(Command):
         with create_run(root, args.run_name, stem=RUN_STEM, options="--run-name") as run, RosSession(NODE_NAME) as ros:
             link = RobotLink(ros, joints, options, commanded, args.estop_topic, args.target_topic)
             types = TypeChecker(ros.node, link.expected_types, reader="deploy")
-            loop = DeployLoop(link, controller, types, rate=rate, stale_after=args.stale_after,
-                              status_period=args.status_period, fixed_target=target)  # fmt: skip
-            print(f"joshua: deploy: {args.policy} ({contract['task']}) on {len(joints)} joints at {rate:g} Hz; "
-                  f"e-stop: {args.estop_topic}", file=sys.stderr, flush=True)  # fmt: skip
+            loop = DeployLoop(
+                link,
+                controller,
+                types,
+                rate=rate,
+                stale_after=args.stale_after,
+                status_period=args.status_period,
+                fixed_target=target,
+            )
+            print(
+                f"joshua: deploy: {args.policy} ({contract['task']}) on {len(joints)} joints at {rate:g} Hz; "
+                f"e-stop: {args.estop_topic}",
+                file=sys.stderr,
+                flush=True,
+            )
             stopped_by = loop.run(args.duration)
             ros.close()  # no callback changes the counts while they are reported
             report = _report(args, contract, rate, loop, link, stopped_by, types)
             path = run.path / REPORT_FILE
             atomic_write_json(path, json_safe(report))
-        print(f"deployed {contract['task']} for {loop.wall_seconds:.1f} s ({stopped_by}): {loop.stats.steps} steps, "
-              f"{loop.stats.hold_episodes} holds, e-stop {'latched' if link.estop_at else 'no'}; report: {path}")  # fmt: skip
+        estop = "latched" if link.estop_at else "no"
+        print(
+            f"deployed {contract['task']} for {loop.wall_seconds:.1f} s ({stopped_by}): {loop.stats.steps} steps, "
+            f"{loop.stats.hold_episodes} holds, e-stop {estop}; report: {path}"
+        )
         problem = types.error()
         if problem:
             raise ConfigError(problem)
@@ -121,12 +148,13 @@ def _load(folder: Path, plugins: PluginHost) -> tuple[Any, dict[str, Any], Any]:
         policy, contract = load_policy(folder)
         observer = contract_observer(contract, plugins)
         commands = dict(contract["observation"]["commands"])
-        if not contract["action"]["terms"]:
-            raise KeyError("action terms")
+        actuators = [term["actuator"] for term in contract["action"]["terms"]]
     except UsageError:
         raise
     except (KeyError, TypeError, ValueError) as error:
         raise UsageError(f"{folder / 'policy.json'}: malformed contract (missing or wrong {error})") from None
+    if not actuators:
+        raise UsageError(f"{folder / 'policy.json'}: the policy drives no actuator")
     if commands != {COMMAND: 3}:
         raise UsageError(
             f"the policy of task '{contract['task']}' needs the commands {commands}; joshua deploy gives a policy "
@@ -151,16 +179,15 @@ def _robot_joints(
             "(add them to simulation.mirror_topic_mappings)"
         )
     by_actuator = {joint.actuator: joint for joint in joints}
-    driven = [by_actuator.get(term["actuator"]) for term in contract["action"]["terms"]]
-    unmapped = [term["actuator"] for term, joint in zip(contract["action"]["terms"], driven, strict=True) if not joint]
-    no_topic = [joint.actuator for joint in driven if joint and not joint.command_topic]
-    if unmapped or no_topic:
-        raise ConfigError(
-            "the policy drives actuators without a "
-            + ("mapping: " + ", ".join(unmapped) if unmapped else "command topic: " + ", ".join(no_topic))
-            + " (simulation.mirror_topic_mappings, simulation.mirror.command_topics)"
-        )
-    return joints, [joint for joint in driven if joint]
+    actuators = [term["actuator"] for term in contract["action"]["terms"]]
+    for problem, names in (
+        ("a mapping (simulation.mirror_topic_mappings)", [name for name in actuators if name not in by_actuator]),
+        ("a command topic (simulation.mirror.command_topics)",
+         [name for name in actuators if name in by_actuator and not by_actuator[name].command_topic]),
+    ):  # fmt: skip
+        if names:
+            raise ConfigError(f"the policy drives actuators without {problem}: {', '.join(names)}")
+    return joints, [by_actuator[name] for name in actuators]
 
 
 def _parse_target(text: str | None) -> np.ndarray | None:
@@ -181,9 +208,15 @@ def _check_positive(option: str, value: float) -> None:
 
 
 def _report(
-    args: argparse.Namespace, contract: dict[str, Any], rate: float, loop: DeployLoop, link: RobotLink,
-    stopped_by: str, types: TypeChecker,
-) -> dict[str, Any]:  # fmt: skip
+    args: argparse.Namespace,
+    contract: dict[str, Any],
+    rate: float,
+    loop: DeployLoop,
+    link: RobotLink,
+    stopped_by: str,
+    types: TypeChecker,
+) -> dict[str, Any]:
+    """deploy_report.json: the settings, what the loop did, and per joint what came in and went out."""
     controller = loop.controller
     driven = {entry.joint.joint: entry for entry in controller.actuated}
     last = controller.last_targets

@@ -125,8 +125,7 @@ class DeployLoop:
             return False
         taken_ns = time.perf_counter_ns()
         positions, velocities, arrived_ns = taken
-        result = self.controller.step(positions, velocities, self.target())
-        self._publish(result.targets)
+        self._publish(self.controller.step(positions, velocities, self.target()))
         self.stats.add_latency(arrived_ns, taken_ns, time.perf_counter_ns())
         self.stats.steps += 1
         return True
@@ -142,8 +141,8 @@ class DeployLoop:
         if link.estop_at is not None:
             state, reason = ESTOP, "latched: no targets are published until restart"
         elif (ages == float("inf")).any():
-            state, reason = WAITING, "no value yet from " + ", ".join(n for n, a in zip(names, ages, strict=True)
-                                                                       if a == float("inf"))  # fmt: skip
+            silent = [name for name, age in zip(names, ages, strict=True) if age == float("inf")]
+            state, reason = WAITING, "no value yet from " + ", ".join(silent)
         elif (ages > self.stale_after).any():
             stale = [f"{n} ({a:.2f} s)" for n, a in zip(names, ages, strict=True) if a > self.stale_after]
             state, reason = HOLD, f"no value for {self.stale_after:g} s from " + ", ".join(stale)

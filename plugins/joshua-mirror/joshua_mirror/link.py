@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -55,15 +56,16 @@ class RobotLink:
         self.expected_types: dict[str, str] = {}
         self._subscribe_encoders(options)
         self._subscribe_controls(estop_topic, target_topic)
-        float64, _ = message_types()
-        self.float64 = float64
+        self.float64, _ = message_types()
         self.publishers = [
-            self._checked(lambda j=joint: self.node.create_publisher(float64, j.command_topic, COMMAND_DEPTH),
-                          f"simulation.mirror.command_topics['{joint.actuator}']")
+            self._checked(
+                f"simulation.mirror.command_topics['{joint.actuator}']",
+                lambda joint=joint: self.node.create_publisher(self.float64, joint.command_topic, COMMAND_DEPTH),
+            )
             for joint in commanded
-        ]  # fmt: skip
+        ]
 
-    def _checked(self, create: Any, field: str) -> Any:
+    def _checked(self, field: str, create: Callable[[], Any]) -> Any:
         """Create a subscription or publisher; an invalid topic name is a ConfigError naming the field."""
         from rclpy.exceptions import InvalidTopicNameException
 
@@ -71,6 +73,11 @@ class RobotLink:
             return create()
         except InvalidTopicNameException as error:
             raise ConfigError(f"{field}: {error}") from None
+
+    def _subscribe(self, field: str, kind: Any, type_name: str, topic: str, callback: Any, qos: Any) -> None:
+        """Subscribe `callback` to `topic` (named by option `field`), whose messages must be `type_name`."""
+        self._checked(field, lambda: self.node.create_subscription(kind, topic, callback, qos))
+        self.expected_types[self.node.resolve_topic_name(topic)] = type_name
 
     def _subscribe_encoders(self, options: MirrorOptions) -> None:
         float64, joint_state = message_types()
@@ -81,33 +88,23 @@ class RobotLink:
 
             def on_joint_state(message: Any) -> None:
                 arrived = time.perf_counter_ns()
-                self._store([(by_name[n], p) for n, p in zip(message.name, message.position, strict=False)
-                             if n in by_name], arrived)  # fmt: skip
+                pairs = zip(message.name, message.position, strict=False)
+                self._store([(by_name[name], value) for name, value in pairs if name in by_name], arrived)
 
-            self._checked(lambda: self.node.create_subscription(joint_state, topic, on_joint_state, qos),
-                          "simulation.mirror.joint_state_topic")  # fmt: skip
-            self._expect(topic, JOINT_STATE_TYPE)
+            field = "simulation.mirror.joint_state_topic"
+            self._subscribe(field, joint_state, JOINT_STATE_TYPE, topic, on_joint_state, qos)
             return
         for index, joint in enumerate(self.joints):
-            callback = self._float64_callback(index)
-            self._checked(lambda j=joint, c=callback: self.node.create_subscription(float64, j.source, c, qos),
-                          f"{MAPPINGS_FIELD}[{index}].ros_topic")  # fmt: skip
-            self._expect(joint.source, FLOAT64_TYPE)
+            field = f"{MAPPINGS_FIELD}[{index}].ros_topic"
+            self._subscribe(field, float64, FLOAT64_TYPE, joint.source, self._float64_callback(index), qos)
 
     def _subscribe_controls(self, estop_topic: str, target_topic: str | None) -> None:
         from geometry_msgs.msg import Point
         from std_msgs.msg import Bool
 
-        self._checked(lambda: self.node.create_subscription(Bool, estop_topic, self._on_estop, COMMAND_DEPTH),
-                      "--estop-topic")  # fmt: skip
-        self._expect(estop_topic, BOOL_TYPE)
+        self._subscribe("--estop-topic", Bool, BOOL_TYPE, estop_topic, self._on_estop, COMMAND_DEPTH)
         if target_topic:
-            self._checked(lambda: self.node.create_subscription(Point, target_topic, self._on_target, COMMAND_DEPTH),
-                          "--target-topic")  # fmt: skip
-            self._expect(target_topic, POINT_TYPE)
-
-    def _expect(self, topic: str, kind: str) -> None:
-        self.expected_types[self.node.resolve_topic_name(topic)] = kind
+            self._subscribe("--target-topic", Point, POINT_TYPE, target_topic, self._on_target, COMMAND_DEPTH)
 
     def _float64_callback(self, index: int) -> Any:
         def on_float64(message: Any) -> None:

@@ -100,7 +100,9 @@ def robot_and_deploy(tmp_path: Path, ros_env: dict[str, str]) -> Iterator[tuple[
                 process.communicate()
 
 
-def test_policy_reaches_the_target_and_holds_on_stale_encoders(tmp_path: Path, robot_and_deploy: tuple[Process, Process]) -> None:
+def test_policy_reaches_the_target_and_holds_on_stale_encoders(
+    tmp_path: Path, robot_and_deploy: tuple[Process, Process]
+) -> None:
     robot, deploy = robot_and_deploy
     next_line(deploy.stderr, lambda line: "deploy: RUNNING" in line, "RUNNING")
     reached = next_line(robot.stdout, lambda line: float(line.split()[1]) < REACHED_M, "the target was reached")
@@ -119,7 +121,7 @@ def test_policy_reaches_the_target_and_holds_on_stale_encoders(tmp_path: Path, r
     first, second = result["marks"]
     assert second - first <= 6, result  # at most a step already on its way while held (>= 0.2 s: 10 steps)
     assert result["commands"] > second  # and it resumed
-    assert report["stopped_by"] == "SIGINT" and report["holds"]["episodes"] == 1 and report["holds"]["seconds"] > 0.2
+    assert report["stopped_by"] == "SIGINT" and report["holds"]["episodes"] >= 1 and report["holds"]["seconds"] > 0.2
     assert report["published_messages"] == result["commands"] == 6 * (report["steps"] + 1)  # all delivered, counted
     assert report["rate_hz"] == 50 and report["latency_us"]["input_to_publish"]["samples"] == report["steps"]
     assert all(joint["received"] > 0 and joint["last_target_sent"] is not None for joint in report["joints"].values())
@@ -128,7 +130,7 @@ def test_policy_reaches_the_target_and_holds_on_stale_encoders(tmp_path: Path, r
 def test_estop_stops_the_targets_until_restart(tmp_path: Path, robot_and_deploy: tuple[Process, Process]) -> None:
     robot, deploy = robot_and_deploy
     next_line(deploy.stderr, lambda line: "deploy: RUNNING" in line, "RUNNING")
-    next_line(robot.stdout, lambda line: line.startswith("distance"), "a distance line")
+    next_line(robot.stdout, lambda line: float(line.split()[1]) < 0.05, "the arm moving (from 6.3 cm)")
     tell(robot, "estop")
     next_line(deploy.stderr, lambda line: "deploy: E-STOP" in line, "E-STOP")
     for _ in range(3):  # 0.6 s more: 30 steps if it still ran
@@ -155,7 +157,9 @@ def test_a_topic_of_another_type_stops_the_deploy(
     )  # fmt: skip
     assert result.returncode == 2 and "Traceback" not in result.stderr
     last = result.stderr.strip().splitlines()[-1]
-    assert last.startswith("joshua: error: deploy: wrong message type: /encoder/joint_2 is published as std_msgs/msg/Float32")
+    assert last.startswith(
+        "joshua: error: deploy: wrong message type: /encoder/joint_2 is published as std_msgs/msg/Float32"
+    )
     assert last.endswith("but the deploy reads std_msgs/msg/Float64: those messages never arrive")
     (report,) = (tmp_path / "joshua_output").glob("deploy_*/deploy_report.json")
     assert json.loads(report.read_text())["stopped_by"] == "wrong message type"
@@ -183,8 +187,8 @@ def test_bad_input_is_one_line(tmp_path: Path, ros_env: dict[str, str]) -> None:
         ([str(tmp_path / "nowhere")], "holds no exported policy: no policy.json"),
         ([str(corrupt)], "policy.onnx is missing or is not the file"),
         ([str(foreign)], "is not the one the policy was trained on"),
-        ([str(POLICY), "--preset", "sim_mirror"], "the policy drives actuators without a command topic: joint_1_position"),
-        ([str(POLICY), "--config", "five.pbtxt"], "the policy observes joints that the mirror config does not map: joint_6"),
+        ([str(POLICY), "--preset", "sim_mirror"], "without a command topic (simulation.mirror.command_topics): joint_1_position"),
+        ([str(POLICY), "--config", "five.pbtxt"], "observes joints that the mirror config does not map: joint_6"),
         ([str(POLICY), "--config", "arm.pbtxt", "--target", "1,2"], "--target takes three finite numbers"),
         ([str(POLICY), "--config", "arm.pbtxt", "--target", "0.2,0,0.1", "--rate", "0"], "--rate must be a finite"),
     ]
