@@ -1,11 +1,14 @@
 """A simulated robot behind ROS 2 topics, for the deploy tests: MuJoCo stepping in real time, encoders out, targets in.
 
 Plan (JSON, argv[1]): {"model": scene.xml, "keyframe": "home", "rate": Hz, "site": "gripper", "target": [x, y, z],
-"estop_topic": T, "joints": [{"joint": j, "actuator": a, "encoder": topic, "command": topic, "offset": o}, ...]}.
+"estop_topic": T, "target_topic": T,
+"joints": [{"joint": j, "actuator": a, "encoder": topic, "command": topic, "offset": o}, ...]}.
 It publishes each joint's qpos - offset (std_msgs/Float64) on its encoder topic at `rate`, applies each Float64
 received on a command topic as its position actuator's ctrl (value + offset), prints "ready", then every 0.1 s
 "distance D" (gripper site to target, m). Lines on stdin: "mute" / "unmute" stop and resume the encoders, "mark"
-notes how many commands came so far, "estop" publishes true on the e-stop topic (once a subscriber is there),
+notes how many commands came so far, "estop" publishes true on the e-stop topic and "target X Y Z" the point on
+the target topic (geometry_msgs/Point; it becomes the target the distance is measured to), each once a
+subscriber is there,
 "quit" prints the result as JSON ("result {...}": commands counted, marks, the last command and the encoder
 value of each joint, the distance) and exits.
 """
@@ -20,6 +23,7 @@ import time
 import mujoco
 import numpy as np
 import rclpy
+from geometry_msgs.msg import Point
 from rclpy.executors import SingleThreadedExecutor
 from std_msgs.msg import Bool, Float64
 
@@ -48,6 +52,7 @@ class SimRobot:
             callback = self._on_command(index, self.model.actuator(joint["actuator"]).id, joint["offset"])
             self.node.create_subscription(Float64, joint["command"], callback, 100)
         self.estop = self.node.create_publisher(Bool, plan["estop_topic"], 10)
+        self.target_publisher = self.node.create_publisher(Point, plan["target_topic"], 10)
 
     def _on_command(self, index: int, actuator: int, offset: float):  # noqa: ANN202
         def apply(message: Float64) -> None:
@@ -74,16 +79,21 @@ class SimRobot:
                 publisher.publish(Float64(data=value))
 
     def distance(self) -> float:
-        with self.lock:
+        with self.lock:  # the target may change (send_target)
             return float(np.linalg.norm(self.data.site_xpos[self.site] - self.target))
 
     def send_estop(self) -> None:
-        deadline = time.monotonic() + MATCH_TIMEOUT_S
-        while self.estop.get_subscription_count() == 0 and time.monotonic() < deadline:
-            time.sleep(0.01)
+        wait_for_subscriber(self.estop)
         with self.lock:
             self.estop_sent_at = self.commands
         self.estop.publish(Bool(data=True))
+
+    def send_target(self, target: list[float]) -> None:
+        wait_for_subscriber(self.target_publisher)
+        with self.lock:
+            self.target = np.array(target)
+        self.target_publisher.publish(Point(x=target[0], y=target[1], z=target[2]))
+
 
     def result(self) -> dict:
         encoders = self.encoder_values()
@@ -91,6 +101,12 @@ class SimRobot:
             return {"commands": self.commands, "marks": self.marks, "estop_sent_at": self.estop_sent_at,
                     "last_commands": self.last_commands, "encoders": encoders,
                     "distance": float(np.linalg.norm(self.data.site_xpos[self.site] - self.target))}  # fmt: skip
+
+
+def wait_for_subscriber(publisher: rclpy.publisher.Publisher) -> None:
+    deadline = time.monotonic() + MATCH_TIMEOUT_S
+    while publisher.get_subscription_count() == 0 and time.monotonic() < deadline:
+        time.sleep(0.01)
 
 
 def read_stdin(robot: SimRobot, quit_event: threading.Event) -> None:
@@ -103,6 +119,8 @@ def read_stdin(robot: SimRobot, quit_event: threading.Event) -> None:
                 robot.marks.append(robot.commands)
         elif word == "estop":
             robot.send_estop()
+        elif word.startswith("target "):
+            robot.send_target([float(value) for value in word.split()[1:]])
         elif word == "quit":
             break
     quit_event.set()

@@ -33,6 +33,7 @@ COMMANDS = "".join(
 )
 CONFIG = f'extends: "sim_mirror"\nsimulation {{\n  mirror {{\n{COMMANDS}  }}\n}}\n'
 ESTOP = "/test/estop"
+TARGET_TOPIC = "/test/target"
 FAST = ["--status-period", "0.2", "--estop-topic", ESTOP]
 TIMEOUT_S = 60.0
 Process = subprocess.Popen[str]
@@ -44,8 +45,16 @@ def robot_plan() -> dict[str, Any]:
          "encoder": m.ros_topic, "command": f"/command/{m.mujoco_actuator}", "offset": m.offset}
         for m in MAPPINGS
     ]  # fmt: skip
-    return {"model": str(models_dir() / "so_arm100" / "scene.xml"), "keyframe": "home", "rate": 100,
-            "site": "gripper", "target": TARGET, "estop_topic": ESTOP, "joints": joints}  # fmt: skip
+    return {
+        "model": str(models_dir() / "so_arm100" / "scene.xml"),
+        "keyframe": "home",
+        "rate": 100,
+        "site": "gripper",
+        "target": TARGET,
+        "estop_topic": ESTOP,
+        "target_topic": TARGET_TOPIC,
+        "joints": joints,
+    }
 
 
 def start(command: list[str], env: dict[str, str], cwd: Path) -> subprocess.Popen[str]:
@@ -53,11 +62,11 @@ def start(command: list[str], env: dict[str, str], cwd: Path) -> subprocess.Pope
                             stderr=subprocess.PIPE, text=True)  # fmt: skip
 
 
-def next_line(stream: IO[str] | None, wanted: Callable[[str], bool], what: str) -> str:
+def next_line(stream: IO[str] | None, wanted: Callable[[str], bool], what: str, process: Process | None = None) -> str:
     """The stream's next line for which `wanted` is true (status lines come every 0.2 s, robot lines every 0.1 s)."""
     assert stream is not None
     while not wanted(line := stream.readline()):
-        assert line, f"the process ended before {what}"
+        assert line, f"the process ended before {what}" + (f": {process.communicate()[1]}" if process else "")
     return line
 
 
@@ -69,7 +78,7 @@ def tell(robot: subprocess.Popen[str], word: str) -> None:
 
 def robot_result(robot: subprocess.Popen[str]) -> dict[str, Any]:
     tell(robot, "quit")
-    line = next_line(robot.stdout, lambda line: line.startswith("result "), "its result")
+    line = next_line(robot.stdout, lambda line: line.startswith("result "), "its result", robot)
     robot.communicate(timeout=30)
     return json.loads(line.removeprefix("result "))
 
@@ -83,14 +92,17 @@ def stop_deploy(deploy: subprocess.Popen[str], cwd: Path, signum: int = signal.S
 
 
 @pytest.fixture
-def robot_and_deploy(tmp_path: Path, ros_env: dict[str, str]) -> Iterator[tuple[Process, Process]]:
-    """The simulated robot and `joshua deploy` on its topics, both running; stopped after the test."""
+def robot_and_deploy(
+    request: pytest.FixtureRequest, tmp_path: Path, ros_env: dict[str, str]
+) -> Iterator[tuple[Process, Process]]:
+    """The simulated robot and `joshua deploy` on its topics (with the target given as `--target`, or the
+    arguments of an indirect parameter), both running; stopped after the test."""
     (tmp_path / "arm.pbtxt").write_text(CONFIG)
     robot = start([sys.executable, str(SIM_ROBOT), json.dumps(robot_plan())], ros_env, tmp_path)
     next_line(robot.stdout, lambda line: line == "ready\n", "ready")
-    target = ",".join(map(str, TARGET))
-    deploy = start([str(JOSHUA), "deploy", str(POLICY), "--config", "arm.pbtxt", "--target", target, *FAST],
-                   ros_env, tmp_path)  # fmt: skip
+    target = getattr(request, "param", ["--target", ",".join(map(str, TARGET))])
+    command = [str(JOSHUA), "deploy", str(POLICY), "--config", "arm.pbtxt", *target, *FAST]
+    deploy = start(command, ros_env, tmp_path)
     try:
         yield robot, deploy
     finally:
@@ -145,6 +157,18 @@ def test_estop_stops_the_targets_until_restart(tmp_path: Path, robot_and_deploy:
     assert report["published_messages"] == result["commands"]
 
 
+@pytest.mark.parametrize("robot_and_deploy", [["--target-topic", TARGET_TOPIC]], indirect=True)
+def test_the_target_comes_from_a_point_topic(tmp_path: Path, robot_and_deploy: tuple[Process, Process]) -> None:
+    robot, deploy = robot_and_deploy
+    next_line(deploy.stderr, lambda line: "WAITING" in line and "no target yet" in line, "waiting for a target")
+    tell(robot, "target 0.25 -0.08 0.12")
+    next_line(deploy.stderr, lambda line: "deploy: RUNNING" in line, "RUNNING")
+    next_line(robot.stdout, lambda line: float(line.split()[1]) < REACHED_M, "the new target was reached")
+    report = stop_deploy(deploy, tmp_path)
+    robot_result(robot)
+    assert report["target"] == [0.25, -0.08, 0.12] and report["targets_received"] == 1
+
+
 def test_a_topic_of_another_type_stops_the_deploy(
     tmp_path: Path, ros_env: dict[str, str], hold_publishers: Callable[..., subprocess.Popen[str]]
 ) -> None:
@@ -187,7 +211,7 @@ def test_bad_input_is_one_line(tmp_path: Path, ros_env: dict[str, str]) -> None:
         ([str(tmp_path / "nowhere")], "holds no exported policy: no policy.json"),
         ([str(corrupt)], "policy.onnx is missing or is not the file"),
         ([str(foreign)], "is not the one the policy was trained on"),
-        ([str(POLICY), "--preset", "sim_mirror"], "without a command topic (simulation.mirror.command_topics): joint_1_position"),
+        ([str(POLICY), "--preset", "sim_mirror"], "command topic (simulation.mirror.command_topics): joint_1_position"),
         ([str(POLICY), "--config", "five.pbtxt"], "observes joints that the mirror config does not map: joint_6"),
         ([str(POLICY), "--config", "arm.pbtxt", "--target", "1,2"], "--target takes three finite numbers"),
         ([str(POLICY), "--config", "arm.pbtxt", "--target", "0.2,0,0.1", "--rate", "0"], "--rate must be a finite"),
