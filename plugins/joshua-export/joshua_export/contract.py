@@ -9,6 +9,7 @@ actuator; the control rate; the hashes of the ONNX file and of the compiled robo
 from __future__ import annotations
 
 import hashlib
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -16,6 +17,7 @@ from google.protobuf import text_format
 
 from joshua_core.errors import UsageError
 from joshua_core.policy import ExportedPolicy
+from joshua_core.resources import models_dir
 from joshua_core.tasks import Joints
 from joshua_export.graph import INPUT_NAME, OUTPUT_NAME
 from joshua_export.observer import Observer, model_sha256
@@ -97,6 +99,15 @@ def _finite(value: float) -> float | None:
     return float(value) if np.isfinite(value) else None
 
 
+def portable_model_path(path: str) -> str:
+    """A model inside the shipped models folder as a path relative to it (trainers record absolute paths), so the
+    contract finds its model in any checkout; any other path as it is."""
+    candidate = Path(path)
+    if candidate.is_absolute() and candidate.is_relative_to(models_dir()):
+        return str(candidate.relative_to(models_dir()))
+    return path
+
+
 def make_contract(exported: ExportedPolicy, observer: Observer, onnx_bytes: bytes) -> dict[str, Any]:
     """The contract of `exported` (checked against the task `observer` built), whose graph is `onnx_bytes`."""
     policy, task = exported.policy, observer.task
@@ -114,7 +125,7 @@ def make_contract(exported: ExportedPolicy, observer: Observer, onnx_bytes: byte
         "checkpoint": str(exported.checkpoint),
         "model": {"file": ONNX_FILE, "sha256": sha256(onnx_bytes)},
         "robot": {
-            "model_path": training.model_path or task.spec.model_path,
+            "model_path": portable_model_path(training.model_path or task.spec.model_path),
             "sha256": model_sha256(observer.model),
             "timestep": float(observer.model.opt.timestep),
             "frame_skip": task.frame_skip,

@@ -74,6 +74,7 @@ def check_contract(contract: dict, task: str, trainer: str, model_path: str) -> 
     assert contract["control_hz"] == pytest.approx(1.0 / (model.opt.timestep * built.frame_skip)) == 50.0
     assert [t["actuator"] for t in contract["action"]["terms"]] == [model.actuator(i).name for i in range(model.nu)]
     assert contract["task"] == task and contract["trainer"] == trainer and contract["model"]["file"] == "policy.onnx"
+    assert contract["robot"]["model_path"] == model_path  # a shipped model stays relative: any checkout finds it
 
 
 @pytest.fixture(scope="module")

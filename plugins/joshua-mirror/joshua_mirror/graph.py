@@ -15,9 +15,10 @@ UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"  # what the graph names a publisher whose n
 class TypeChecker:
     """Watches the mapped topics (resolved names -> the expected type) for publishers of another type."""
 
-    def __init__(self, node: Any, expected: dict[str, str]) -> None:
+    def __init__(self, node: Any, expected: dict[str, str], reader: str = "mirror") -> None:
         self.node = node
         self.expected = expected
+        self.reader = reader  # who reads the topics, in the lines said: "mirror" or "deploy"
         self.seen: dict[str, dict[str, Any]] = {}  # every mismatch of the run, by topic
         self.current: dict[str, str] = {}  # topic -> the wrong types published now
         self.said: dict[str, str] = {}  # topic -> the last line said about it, while its mismatch lasts
@@ -53,7 +54,7 @@ class TypeChecker:
         by = f" by {', '.join(entry['publishers'])}" if entry["publishers"] else ""
         return (
             f"{topic} is published as {' and '.join(entry['published_as'])}{by}, "
-            f"but the mirror reads {entry['expected']}: those messages never arrive"
+            f"but the {self.reader} reads {entry['expected']}: those messages never arrive"
         )
 
     def status(self) -> str:
@@ -64,4 +65,4 @@ class TypeChecker:
         """One line for every mismatch seen during the run, or None."""
         if not self.seen:
             return None
-        return "mirror: wrong message type: " + "; ".join(self.describe(topic) for topic in sorted(self.seen))
+        return f"{self.reader}: wrong message type: " + "; ".join(self.describe(topic) for topic in sorted(self.seen))

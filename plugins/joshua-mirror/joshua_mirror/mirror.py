@@ -212,11 +212,12 @@ class Mirror:
             "joints": joints,
             "unknown": dict(sorted(self.unknown_names.items())),
             "malformed_messages": self.malformed,
-            "apply_latency_us": _percentiles(self.apply_latency_us),
+            "apply_latency_us": percentiles(self.apply_latency_us),
         }
 
 
-def _percentiles(samples: list[float]) -> dict[str, Any]:
+def percentiles(samples: list[float]) -> dict[str, Any]:
+    """Count, median, 99th percentile and largest of latency samples (JSON-ready)."""
     if not samples:
         return {"samples": 0}
     values = np.asarray(samples)

@@ -1,4 +1,4 @@
-"""Entry point of joshua-mirror: registers the MIRROR mode, its options and `joshua mirror-replay`.
+"""Entry point of joshua-mirror: registers the MIRROR mode, its options, `joshua mirror-replay` and `joshua deploy`.
 
 Imports nothing heavy: the options module (options_pb2) imports only protobuf and the core schema.
 """
@@ -29,4 +29,9 @@ def joshua_register_commands(registry: Registrar) -> None:
         "mirror-replay",
         "joshua_mirror.replay:MirrorReplayCommand",
         "publish a trajectory CSV as the encoder topics of a MIRROR config, in real time",
+    )
+    registry.add(
+        "deploy",
+        "joshua_mirror.deploy:DeployCommand",
+        "run an exported policy (joshua export) on a robot over ROS 2, through a MIRROR config's topics",
     )

@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import random
 import signal
 import subprocess
 import sys
@@ -28,22 +27,15 @@ from joshua_core.errors import PluginNotFoundError
 from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import models_dir
 from joshua_core.trajectory import Trajectory, load_trajectory, write_trajectory
-from joshua_mirror.ros import local_only_environment
 
 JOSHUA = Path(sys.executable).parent / "joshua"
 PUBLISHER = Path(__file__).with_name("publisher.py")
-DOMAIN_ID = random.randint(1, 100)  # one per test run
 OFFSETS = {
     m.mujoco_actuator.removesuffix("_position"): m.offset
     for m in load_preset("sim_mirror").message.simulation.mirror_topic_mappings.mappings
 }
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
 FAST = ["--set", "simulation.mirror.display=NONE", "--set", "simulation.mirror.status_period=0.2"]
-
-
-@pytest.fixture
-def ros_env(tmp_path: Path) -> dict[str, str]:
-    return {**local_only_environment(DOMAIN_ID), "ROS_LOG_DIR": str(tmp_path / "ros_log")}
 
 
 def start_mirror(tmp_path: Path, env: dict[str, str], *overrides: str) -> subprocess.Popen[str]:
@@ -193,26 +185,15 @@ def test_actuator_tracking_reports_sim_vs_real_error(tmp_path: Path, ros_env: di
     assert report["joints"]["joint_1"]["tracking_error"]["max_abs"] < 0.01
 
 
-def hold_publishers(env: dict[str, str], messages: list[dict[str, Any]]) -> subprocess.Popen[str]:
-    """A publisher process that keeps `messages`' publishers in the graph until SIGINT; returns once they exist."""
-    plan = json.dumps({"hold": True, "messages": messages})
-    holder = subprocess.Popen([sys.executable, str(PUBLISHER), plan], env=env, stdout=subprocess.PIPE, text=True)
-    assert holder.stdout is not None and holder.stdout.readline() == "ready\n"
-    return holder
-
-
-def release(holder: subprocess.Popen[str]) -> None:
-    holder.send_signal(signal.SIGINT)
-    holder.communicate(timeout=30)
-
-
-def test_float64_topics_published_with_another_type_are_reported(tmp_path: Path, ros_env: dict[str, str]) -> None:
+def test_float64_topics_published_with_another_type_are_reported(
+    tmp_path: Path, ros_env: dict[str, str], hold_publishers: Callable[..., subprocess.Popen[str]]
+) -> None:
     """Float32, String or JointState on a topic mapped as Float64: seen in the graph, said, exit 2 at the end."""
     mirror = start_mirror(tmp_path, ros_env)
     wait_for_line(mirror, lambda line: line.startswith("[mirror"))  # running: the publishers come later
     wrong = {"/encoder/joint_1": "std_msgs/msg/Float32", "/encoder/joint_2": "std_msgs/msg/String"}
     publisher_node = "/joshua_mirror_test_publisher"
-    holder = hold_publishers(
+    hold_publishers(
         ros_env,
         [
             {"topic": "/encoder/joint_1", "type": "Float32", "value": 0.1},
@@ -221,17 +202,14 @@ def test_float64_topics_published_with_another_type_are_reported(tmp_path: Path,
         ],
     )
     wrong["/encoder/joint_3"] = "sensor_msgs/msg/JointState"
-    try:
-        unsaid = {f"type: {topic} is published as {kind} by {publisher_node}," for topic, kind in wrong.items()}
-        while unsaid:  # in any order: each publisher is discovered on its own, its node's name maybe later
-            line = wait_for_line(mirror, lambda line: "wrong message type" in line)
-            unsaid -= {warning for warning in unsaid if warning in line}
-        status = wait_for_line(mirror, lambda line: line.startswith("[mirror"))
-        assert all(f"WRONG TYPE {topic}: {kind}" in status for topic, kind in wrong.items())
-        mirror.send_signal(signal.SIGINT)
-        _, err = mirror.communicate(timeout=30)
-    finally:
-        release(holder)
+    unsaid = {f"type: {topic} is published as {kind} by {publisher_node}," for topic, kind in wrong.items()}
+    while unsaid:  # in any order: each publisher is discovered on its own, its node's name maybe later
+        line = wait_for_line(mirror, lambda line: "wrong message type" in line)
+        unsaid -= {warning for warning in unsaid if warning in line}
+    status = wait_for_line(mirror, lambda line: line.startswith("[mirror"))
+    assert all(f"WRONG TYPE {topic}: {kind}" in status for topic, kind in wrong.items())
+    mirror.send_signal(signal.SIGINT)
+    _, err = mirror.communicate(timeout=30)
     assert mirror.returncode == 2 and "Traceback" not in err
     last = err.strip().splitlines()[-1]
     assert last.startswith("joshua: error: mirror: wrong message type: /encoder/joint_1 is published as")
@@ -242,20 +220,19 @@ def test_float64_topics_published_with_another_type_are_reported(tmp_path: Path,
     assert all(entry["publishers"] == [publisher_node] for entry in report["type_mismatches"].values())
 
 
-def test_joint_state_topic_of_another_type_fails_a_bounded_run(tmp_path: Path, ros_env: dict[str, str]) -> None:
-    holder = hold_publishers(ros_env, [{"topic": "/joint_states", "value": 0.1}])  # Float64
-    try:
-        result = subprocess.run(
-            [str(JOSHUA), "--preset", "sim_mirror", *FAST, "--set", "simulation.mirror.message_type=JOINT_STATE"]
-            + ["--set", "simulation.duration=5"],
-            cwd=tmp_path,
-            env=ros_env,
-            capture_output=True,
-            text=True,
-            timeout=60,
-        )
-    finally:
-        release(holder)
+def test_joint_state_topic_of_another_type_fails_a_bounded_run(
+    tmp_path: Path, ros_env: dict[str, str], hold_publishers: Callable[..., subprocess.Popen[str]]
+) -> None:
+    hold_publishers(ros_env, [{"topic": "/joint_states", "value": 0.1}])  # Float64
+    result = subprocess.run(
+        [str(JOSHUA), "--preset", "sim_mirror", *FAST, "--set", "simulation.mirror.message_type=JOINT_STATE"]
+        + ["--set", "simulation.duration=5"],
+        cwd=tmp_path,
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 2 and "Traceback" not in result.stderr
     last = result.stderr.strip().splitlines()[-1]  # the publisher's node name may not be known yet
     assert last.startswith("joshua: error: mirror: wrong message type: /joint_states is published as std_msgs/msg/")
