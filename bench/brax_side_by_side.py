@@ -19,7 +19,7 @@ JOSHUA's runs are snapshotted every --snapshot-interval iterations and evaluated
 deterministic policy over --eval-envs whole episodes (bench/mjx_train_ant.py). Reported per run:
 seconds to a deterministic return of --target (compile included; Brax's eval time left out, as Brax
 leaves it out of its training walltime), env steps/s while training, the best and final deterministic
-return; then the ratios JOSHUA / Brax. The raw physics rate of `vmap(mjx.step)` on the 4096-env batch
+return; then the ratios JOSHUA / Brax. The raw physics rate of `vmap(mjx.step)` on each run's own batch
 is measured in the same run, so each trainer's throughput is also a fraction of it.
 
 brax 0.14.2 calls `jax.device_put_replicated`, which newer jax removed: `_shim_jax` puts it back.
@@ -40,7 +40,8 @@ import jax.numpy as jnp
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from mjx_train_ant import environment, evaluate_snapshots, raw_physics_rate, train  # noqa: E402
+from mjx_time_to_target import environment, raw_physics_rate, train  # noqa: E402
+from mjx_train_ant import evaluate_returns  # noqa: E402
 
 from joshua_core.config import apply_override, finalize, load_preset  # noqa: E402
 from joshua_core.plugins import PluginHost  # noqa: E402
@@ -156,7 +157,10 @@ def run_brax(config: Any, plugins: PluginHost, steps: int, num_evals: int, targe
         progress_fn=on_progress,
     )
     trained = [entry for entry in evals if entry["step"] > 0]
-    return summarize("brax", trained, target, compile_seconds=None)
+    summary = summarize("brax", trained, target, compile_seconds=None)
+    batch = environment(config, plugins, 8 if smoke else 4096, jax.devices()[:1])  # Brax's batch, on JOSHUA's env
+    raw_env_steps = raw_physics_rate(batch) / batch.task.frame_skip
+    return summary | {"fraction_of_raw_physics": summary["env_steps_per_second"] / raw_env_steps}
 
 
 def env_episode_length(config: Any, plugins: PluginHost) -> int:
@@ -166,12 +170,14 @@ def env_episode_length(config: Any, plugins: PluginHost) -> int:
 def run_joshua(name: str, config: Any, plugins: PluginHost, args: argparse.Namespace) -> dict:
     """JOSHUA's PPO on `config` until the training return reaches the target or the time limit."""
     settings = PpoSettings.from_config(config)
-    env = environment(config, plugins, config.num_envs, jax.devices()[:1])
+    env = environment(config, plugins, config.num_envs, jax.devices()[:1], training=True)
     outcome, snapshots = train(settings, env, args.target, args.max_seconds, args.iterations, args.snapshot_interval)
     eval_env = environment(config, plugins, args.eval_envs, jax.devices()[:1])
-    evaluations = evaluate_snapshots(settings, eval_env, [snapshot for _, snapshot in snapshots])
+    evaluations = evaluate_returns(settings, eval_env, [snapshot for _, snapshot in snapshots])
     evaluated = [when | result | {"sps": outcome["train_steps_per_second"]} for (when, _), result in zip(snapshots, evaluations, strict=True)]
-    return summarize(name, evaluated, args.target, compile_seconds=outcome["compile_seconds"])
+    summary = summarize(name, evaluated, args.target, compile_seconds=outcome["compile_seconds"])
+    raw_env_steps = raw_physics_rate(env) / env.task.frame_skip
+    return summary | {"fraction_of_raw_physics": summary["env_steps_per_second"] / raw_env_steps}
 
 
 def summarize(name: str, evaluated: list[dict], target: float, compile_seconds: float | None) -> dict:
@@ -232,11 +238,6 @@ def main() -> None:
             results[name] = run_joshua(name, config_with(smoke), plugins, args)
         else:
             parser.error(f"unknown run '{name}' (brax, joshua-brax-settings, joshua-tuned)")
-    env = environment(config_with(BRAX_SETTINGS + smoke), plugins, 64 if args.smoke else 4096, jax.devices()[:1])
-    raw = raw_physics_rate(env) / env.task.frame_skip
-    print(f"raw physics on 4096 envs: {raw:,.0f} env steps/s")
-    for result in results.values():
-        result["fraction_of_raw_physics"] = result["env_steps_per_second"] / raw
     if "brax" in results:
         brax = results["brax"]
         for name, result in results.items():

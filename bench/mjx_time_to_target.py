@@ -164,9 +164,15 @@ def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snaps
     return [summarize(episode_results(collect(jax.tree.map(lambda x, i=i: x[i], raw)))) for i in range(len(snapshots))]
 
 
-def environment(config: TrainingConfig, plugins: PluginHost, num_envs: int, devices: list[jax.Device]) -> MjxEnv:
-    """The mjx backend's environments of the config's task, spread over `devices`."""
-    spec = dataclasses.replace(EnvSpec.from_training(config, num_envs=num_envs), devices=devices)
+def environment(
+    config: TrainingConfig, plugins: PluginHost, num_envs: int, devices: list[jax.Device], training: bool = False
+) -> MjxEnv:
+    """The mjx backend's environments of the config's task, spread over `devices`; `training`: the ones PPO
+    learns on, with desynchronised episodes as the trainer has them (unless the config synchronizes them)."""
+    desync = training and not config.synchronized_episodes
+    spec = dataclasses.replace(
+        EnvSpec.from_training(config, num_envs=num_envs), devices=devices, desync_episodes=desync
+    )
     return MjxBackend().create_envs(spec, EnvKind.JAX, plugins)
 
 
@@ -240,7 +246,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     plugins = PluginHost.discover()
     devices = jax.devices()
     print(f"devices: {devices}  preset {args.preset}: {settings.rollout} {settings.optimization}", flush=True)
-    env = environment(config, plugins, config.num_envs or DEFAULT_NUM_ENVS, devices)
+    env = environment(config, plugins, config.num_envs or DEFAULT_NUM_ENVS, devices, training=True)
     if args.metric == "success" and SUCCESS_METRIC not in [term.name for term in env.task.metric_terms]:
         raise SystemExit(f"task {config.task} has no {SUCCESS_METRIC} metric: use --metric return")
     outcome, snapshots = train(

@@ -91,7 +91,7 @@ def main() -> None:
     for devices in device_sets:
         if args.weak:
             settings = scaled(PpoSettings.from_config(config), len(devices))
-        env = environment(config, plugins, num_envs * len(devices) if args.weak else num_envs, devices)
+        env = environment(config, plugins, num_envs * len(devices) if args.weak else num_envs, devices, training=True)
         outcome, snapshots = train(
             settings, env, args.target, args.max_seconds, args.iterations, args.snapshot_interval
         )

@@ -23,10 +23,22 @@ from joshua_core.tasks import Task, TermContext
 
 
 def model_sha256(model: mujoco.MjModel) -> str:
-    """SHA-256 of the compiled model (its MJB bytes): meshes and included files count, not file formatting."""
-    buffer = np.zeros(mujoco.mj_sizeModel(model), np.uint8)
-    mujoco.mj_saveModel(model, None, buffer)
-    return hashlib.sha256(buffer.tobytes()).hexdigest()
+    """SHA-256 of the compiled model: every array and setting (meshes and included files count, not file
+    formatting), but not where its asset files lie (`paths`, their addresses and the buffer size follow the
+    absolute paths, which differ between checkouts): a contract written on one machine matches the model on
+    another."""
+    path_dependent = ("paths", "npaths", "mesh_pathadr", "nbuffer")
+    digest = hashlib.sha256()
+    for owner, prefix in ((model, ""), (model.opt, "opt.")):
+        for name in sorted(dir(owner)):
+            if name.startswith("_") or name in path_dependent:
+                continue
+            value = getattr(owner, name)
+            if isinstance(value, np.ndarray | bytes | int | float):
+                digest.update(f"{prefix}{name}".encode())
+                is_array = isinstance(value, np.ndarray)
+                digest.update(np.ascontiguousarray(value).tobytes() if is_array else repr(value).encode())
+    return digest.hexdigest()
 
 
 class Observer:

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 from types import SimpleNamespace
 
+import mujoco
 import numpy as np
 import onnx
 import onnxruntime
@@ -162,3 +163,19 @@ def test_bad_runs_are_one_line_exit_2(sb3_run: tuple[Path, Path], ppo_run: Path,
     one_line_exit_2(joshua("export", str(damaged), cwd=tmp_path), "cannot load")
     (damaged / "params.msgpack").unlink()
     one_line_exit_2(joshua("export", str(damaged), cwd=tmp_path), "has no params.msgpack")
+
+
+def test_the_model_hash_does_not_depend_on_where_the_checkout_lies(tmp_path: Path) -> None:
+    """The contract's robot hash holds across checkouts (MuJoCo keeps the meshes' absolute paths in the model),
+    and still tells a changed model apart."""
+    from joshua_export.observer import model_sha256
+
+    models = Path(resolve_data_path("so_arm100/scene.xml")).parent
+    shutil.copytree(models, tmp_path / "so_arm100")
+    here = mujoco.MjModel.from_xml_path(str(models / "scene.xml"))
+    elsewhere = mujoco.MjModel.from_xml_path(str(tmp_path / "so_arm100" / "scene.xml"))
+    assert bytes(here.paths) != bytes(elsewhere.paths)
+    assert model_sha256(here) == model_sha256(elsewhere)
+    elsewhere.actuator_gainprm[0, 0] *= 1.01
+    assert model_sha256(here) != model_sha256(elsewhere)
+
