@@ -8,8 +8,8 @@ received on a command topic as its position actuator's ctrl (value + offset), pr
 "distance D" (gripper site to target, m). Lines on stdin: "mute" / "unmute" stop and resume the encoders, "mark"
 notes how many commands came so far, "estop" publishes true on the e-stop topic and "target X Y Z" the point on
 the target topic (geometry_msgs/Point; it becomes the target the distance is measured to), each once a
-subscriber is there,
-"quit" prints the result as JSON ("result {...}": commands counted, marks, the last command and the encoder
+subscriber is there, "await N" prints "received N" once N commands have come (messages still on their way when
+the deploy stopped), "quit" prints the result as JSON ("result {...}": commands counted, marks, the last command and the encoder
 value of each joint, the distance) and exits.
 """
 
@@ -46,6 +46,7 @@ class SimRobot:
         self.last_commands = [None] * len(self.joints)  # encoder units, as received
         self.marks: list[int] = []
         self.estop_sent_at: int | None = None  # commands received when the e-stop was published
+        self.awaited: int | None = None  # "await N": the command count to report once reached
         self.node = rclpy.create_node("joshua_test_sim_robot")
         self.encoders = [self.node.create_publisher(Float64, joint["encoder"], 10) for joint in self.joints]
         for index, joint in enumerate(self.joints):
@@ -119,6 +120,8 @@ def read_stdin(robot: SimRobot, quit_event: threading.Event) -> None:
                 robot.marks.append(robot.commands)
         elif word == "estop":
             robot.send_estop()
+        elif word.startswith("await "):
+            robot.awaited = int(word.split()[1])
         elif word.startswith("target "):
             robot.send_target([float(value) for value in word.split()[1:]])
         elif word == "quit":
@@ -150,6 +153,9 @@ def main() -> None:
         now = time.monotonic()
         robot.step_until(now - start)
         robot.publish_encoders()
+        if robot.awaited is not None and robot.commands >= robot.awaited:
+            print(f"received {robot.commands}", flush=True)
+            robot.awaited = None
         if now >= next_report:
             next_report = now + REPORT_PERIOD_S
             print(f"distance {robot.distance():.4f}", flush=True)

@@ -129,6 +129,8 @@ def test_policy_reaches_the_target_and_holds_on_stale_encoders(
     next_line(deploy.stderr, lambda line: "deploy: RUNNING" in line, "RUNNING again")
     next_line(robot.stdout, lambda line: float(line.split()[1]) < REACHED_M, "the target was reached again")
     report = stop_deploy(deploy, tmp_path)  # it stops the arm in place: one more target per joint
+    tell(robot, f"await {report['published_messages']}")  # the last ones may still be on their way
+    next_line(robot.stdout, lambda line: line.startswith("received "), "every published target", robot)
     result = robot_result(robot)
     first, second = result["marks"]
     assert second - first <= 6, result  # at most a step already on its way while held (>= 0.2 s: 10 steps)
