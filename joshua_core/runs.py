@@ -24,10 +24,13 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from joshua_core.atomic import atomic_directory
 from joshua_core.errors import ConfigError, UsageError
+
+if TYPE_CHECKING:
+    from joshua_core.config_pb2 import TrainingConfig
 
 CONFIG_FILE = "config.json"  # in a run folder and each of its checkpoints: "trainer" names who wrote it
 METRICS_FILE = "metrics.json"
@@ -241,6 +244,27 @@ def read_run_config(run_dir: Path) -> dict[str, Any]:
     if not isinstance(document, dict) or not isinstance(document.get("trainer"), str):
         raise UsageError(f'{path}: has no "trainer" entry naming the trainer that wrote the run')
     return document
+
+
+def saved_training(run_dir: Path, run_format: str, options: Any) -> tuple[Path, dict[str, Any], TrainingConfig]:
+    """The checkpoint of a run folder (its newest) or checkpoint folder, its config.json and the training config
+    in it (`options`: the installed plugin options, `PluginHost.options()`); a config.json of another format or
+    with an unreadable training config is a one-line UsageError (exit 2). Trainers' evaluate and export use it."""
+    from google.protobuf import json_format
+
+    from joshua_core.config_pb2 import TrainingConfig
+    from joshua_core.options import parse_dict
+
+    checkpoint = resolve_checkpoint(run_dir)
+    saved = read_run_config(checkpoint)
+    if saved.get("format") != run_format:
+        raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {run_format} run config")
+    training = TrainingConfig()
+    try:
+        parse_dict(saved["training"], training, options)
+    except (KeyError, json_format.ParseError) as error:
+        raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
+    return checkpoint, saved, training
 
 
 def _trainer_of(config: Path) -> str | None:

@@ -9,23 +9,21 @@ from collections.abc import Callable
 from pathlib import Path
 
 import jax
-from google.protobuf import json_format
 
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.errors import ConfigError, UsageError
+from joshua_core.errors import ConfigError
 from joshua_core.interfaces import EpisodeResults, RunContext, Trainer
-from joshua_core.policy import ExportedPolicy
 from joshua_core.interrupts import resume_command, stop_requests
-from joshua_core.options import options_of, parse_dict
+from joshua_core.options import options_of
+from joshua_core.policy import ExportedPolicy
 from joshua_core.runs import (
     CONFIG_FILE,
     RunFolder,
     checkpoint_step,
     create_run,
-    read_run_config,
-    resolve_checkpoint,
     resume_run,
+    saved_training,
 )
 from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import RESUME_FILES, load_params, load_state, resume_payloads
@@ -176,7 +174,7 @@ class PpoTrainer(Trainer):
         trust_checkpoint: bool = False,
         video_grid: int = 1,
     ) -> EpisodeResults:
-        checkpoint, config = saved_run(run_dir, context)
+        checkpoint, _, config = saved_training(run_dir, RUN_FORMAT, context.plugins.options())
         settings = PpoSettings.from_config(config)
         devices = len(jax.devices())
         env = environment(config, context, -(-episodes // devices) * devices)
@@ -190,21 +188,7 @@ class PpoTrainer(Trainer):
         return episode_results(episode)
 
     def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:
-        checkpoint, config = saved_run(run_dir, context)  # msgpack runs no code: nothing to trust
+        checkpoint, _, config = saved_training(run_dir, RUN_FORMAT, context.plugins.options())  # msgpack runs no code: nothing to trust
         policy = mlp_policy(checkpoint, PpoSettings.from_config(config).network)
         return ExportedPolicy(TRAINER_NAME, checkpoint, config, policy)
 
-
-def saved_run(run_dir: Path, context: RunContext) -> tuple[Path, TrainingConfig]:
-    """The checkpoint of a run folder (its newest) or checkpoint folder, and the training config it was trained
-    with; an unreadable or foreign config.json is a one-line error, exit 2 (as for sb3)."""
-    checkpoint = resolve_checkpoint(run_dir)
-    saved = read_run_config(checkpoint)
-    if saved.get("format") != RUN_FORMAT:
-        raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
-    config = TrainingConfig()
-    try:
-        parse_dict(saved["training"], config, context.plugins.options())
-    except (KeyError, json_format.ParseError) as error:
-        raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
-    return checkpoint, config

@@ -14,7 +14,6 @@ from typing import Any
 
 import gymnasium
 import numpy as np
-from google.protobuf import json_format
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
@@ -26,9 +25,9 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.interfaces import EnvKind, EpisodeResults, RunContext, Trainer
-from joshua_core.policy import ExportedPolicy
 from joshua_core.interrupts import StopRequest, resume_command, stop_requests
-from joshua_core.options import message_to_dict, options_of, parse_dict
+from joshua_core.options import message_to_dict, options_of
+from joshua_core.policy import ExportedPolicy
 from joshua_core.progress import progress_bar
 from joshua_core.runs import (
     CONFIG_FILE,
@@ -36,9 +35,9 @@ from joshua_core.runs import (
     RunFolder,
     checkpoint_step,
     create_run,
-    read_run_config,
     resolve_checkpoint,
     resume_run,
+    saved_training,
 )
 from joshua_sb3 import options_pb2
 from joshua_sb3.export import saved_policy
@@ -284,7 +283,7 @@ class Sb3Trainer(Trainer):
         trust_checkpoint: bool = False,
         video_grid: int = 1,
     ) -> EpisodeResults:
-        checkpoint, saved, training = _saved_run(run_dir, context)
+        checkpoint, saved, training = saved_training(run_dir, RUN_FORMAT, context.plugins.options())
         training.num_envs = episodes
         training.seed = seed
         environments, vec_env = make_vec_env(training, context)
@@ -307,27 +306,13 @@ class Sb3Trainer(Trainer):
 
 
     def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:
-        checkpoint, saved, training = _saved_run(run_dir, context)
+        checkpoint, saved, training = saved_training(run_dir, RUN_FORMAT, context.plugins.options())
         algorithm = saved.get("algorithm")
         if algorithm not in ALGORITHM_CLASSES:
             raise UsageError(f"{checkpoint / CONFIG_FILE}: unknown algorithm {algorithm!r}")
         policy = saved_policy(checkpoint, ALGORITHM_CLASSES[algorithm], trust=trust_checkpoint, device=DEVICE)
         return ExportedPolicy(TRAINER_NAME, checkpoint, training, policy)
 
-
-def _saved_run(run_dir: Path, context: RunContext) -> tuple[Path, dict[str, Any], TrainingConfig]:
-    """The checkpoint of a run folder (its newest) or checkpoint folder, its config.json and the training config
-    in it; an unreadable or foreign config.json is a one-line error, exit 2."""
-    checkpoint = resolve_checkpoint(run_dir)
-    saved = read_run_config(checkpoint)
-    if saved.get("format") != RUN_FORMAT:
-        raise UsageError(f"{checkpoint / CONFIG_FILE} is not a {RUN_FORMAT} run config")
-    training = TrainingConfig()
-    try:
-        parse_dict(saved["training"], training, context.plugins.options())
-    except (KeyError, json_format.ParseError) as error:
-        raise UsageError(f"{checkpoint / CONFIG_FILE}: unreadable training config: {error}") from None
-    return checkpoint, saved, training
 
 
 def _learn(run: RunWriter, model: BaseAlgorithm, bar: Any, *, first_leg: bool) -> Path:
