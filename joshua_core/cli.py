@@ -22,9 +22,9 @@ from joshua_core.config import (
     simulation_mode,
 )
 from joshua_core.config_pb2 import JoshuaConfig
-from joshua_core.errors import JoshuaError, PluginNotFoundError, UsageError
+from joshua_core.errors import PluginNotFoundError, UsageError
 from joshua_core.interfaces import RunContext
-from joshua_core.interrupts import exit_code, install_sigterm_handler
+from joshua_core.interrupts import reported
 from joshua_core.options import LENIENT, OptionSet
 from joshua_core.plugins import DISABLE_ENV_VAR, KNOWN_PROVIDERS, Kind, PluginHost
 
@@ -106,8 +106,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args, command_argv = parser.parse_known_args(argv)
     if command_argv and args.command not in plugin_commands:
         parser.error(f"unrecognized arguments: {' '.join(command_argv)}")
-    install_sigterm_handler()
-    try:
+
+    def job() -> int:
         if args.command == "presets":
             return list_presets()
         if args.command == "plugins":
@@ -115,12 +115,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command in plugin_commands:
             return run_plugin_command(host, args.command, command_argv)
         return run(args, host)
-    except JoshuaError as error:
-        print(f"joshua: error: {error}", file=sys.stderr)
-        return error.exit_code
-    except KeyboardInterrupt as interrupt:
-        print("joshua: interrupted", file=sys.stderr)
-        return exit_code(interrupt)
+
+    return reported(job)
 
 
 def list_presets() -> int:

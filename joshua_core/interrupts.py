@@ -12,9 +12,11 @@ import shlex
 import signal
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import FrameType
+
+from joshua_core.errors import JoshuaError
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -37,6 +39,21 @@ class Terminated(Interrupted):
 def exit_code(error: KeyboardInterrupt) -> int:
     """128 + the signal that stopped the run (130 for a plain Ctrl-C)."""
     return error.exit_code if isinstance(error, Interrupted) else 128 + signal.SIGINT
+
+
+def reported(job: Callable[[], int]) -> int:
+    """Run `job` the way the `joshua` command runs everything: SIGTERM as `Terminated`, a `JoshuaError` as
+    one line on stderr and its exit status (2 for user errors), a signal as one line and 128 + its number;
+    never a traceback for either."""
+    install_sigterm_handler()
+    try:
+        return job()
+    except JoshuaError as error:
+        print(f"joshua: error: {error}", file=sys.stderr)
+        return error.exit_code
+    except KeyboardInterrupt as interrupt:
+        print("joshua: interrupted", file=sys.stderr)
+        return exit_code(interrupt)
 
 
 def _raise_terminated(signum: int, frame: FrameType | None) -> None:

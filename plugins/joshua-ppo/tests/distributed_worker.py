@@ -23,9 +23,8 @@ import joshua_ppo.plugin
 import joshua_ppo.trainer
 from joshua_core import builtin_plugin, hookimpl
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.errors import JoshuaError
 from joshua_core.interfaces import RunContext
-from joshua_core.interrupts import exit_code, install_sigterm_handler
+from joshua_core.interrupts import reported
 from joshua_core.options import parse_dict
 from joshua_core.plugins import PluginHost, PluginInfo, Registrar
 from joshua_core.tasks.spec import TaskSpec, TermSpec
@@ -89,16 +88,12 @@ def main(config_json: str, out: str) -> int:
     config = TrainingConfig()
     parse_dict(json.loads(config_json), config, host.options())
     keep_parameters(Path(out))
-    install_sigterm_handler()
-    try:
+
+    def train() -> int:
         joshua_ppo.trainer.PpoTrainer().train(config, RunContext(host, Path(config.checkpoint_dir)))
-    except JoshuaError as error:
-        print(f"joshua: error: {error}", file=sys.stderr)
-        return error.exit_code
-    except KeyboardInterrupt as interrupt:
-        print("joshua: interrupted", file=sys.stderr)
-        return exit_code(interrupt)
-    return 0
+        return 0
+
+    return reported(train)
 
 
 if __name__ == "__main__":

@@ -3,6 +3,8 @@ the geom frame) under each body's `collisions` / `visuals` Xform; world geoms un
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import mujoco
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdPhysics, Vt
@@ -98,21 +100,18 @@ def _sphere(ctx: Context, path: Sdf.Path, geom: int) -> Usd.Prim:
     return sphere.GetPrim()
 
 
-def _capsule(ctx: Context, path: Sdf.Path, geom: int) -> Usd.Prim:
-    """Along the geom's z axis; USD's height is the cylinder part only, MuJoCo's size[1] half of it."""
-    capsule = UsdGeom.Capsule.Define(ctx.stage, path)
-    capsule.CreateAxisAttr(UsdGeom.Tokens.z)
-    capsule.CreateRadiusAttr(float(ctx.model.geom_size[geom, 0]))
-    capsule.CreateHeightAttr(float(2 * ctx.model.geom_size[geom, 1]))
-    return capsule.GetPrim()
+def _round(schema: type[UsdGeom.Capsule] | type[UsdGeom.Cylinder]) -> Callable[[Context, Sdf.Path, int], Usd.Prim]:
+    """A capsule's or cylinder's writer: along the geom's z axis, USD's height the cylinder part only (twice
+    MuJoCo's size[1], the half-length), the radius MuJoCo's size[0]."""
 
+    def define(ctx: Context, path: Sdf.Path, geom: int) -> Usd.Prim:
+        shape = schema.Define(ctx.stage, path)
+        shape.CreateAxisAttr(UsdGeom.Tokens.z)
+        shape.CreateRadiusAttr(float(ctx.model.geom_size[geom, 0]))
+        shape.CreateHeightAttr(float(2 * ctx.model.geom_size[geom, 1]))
+        return shape.GetPrim()
 
-def _cylinder(ctx: Context, path: Sdf.Path, geom: int) -> Usd.Prim:
-    cylinder = UsdGeom.Cylinder.Define(ctx.stage, path)
-    cylinder.CreateAxisAttr(UsdGeom.Tokens.z)
-    cylinder.CreateRadiusAttr(float(ctx.model.geom_size[geom, 0]))
-    cylinder.CreateHeightAttr(float(2 * ctx.model.geom_size[geom, 1]))
-    return cylinder.GetPrim()
+    return define
 
 
 def _plane(ctx: Context, path: Sdf.Path, geom: int) -> Usd.Prim:
@@ -145,8 +144,8 @@ def _mesh(ctx: Context, path: Sdf.Path, geom: int) -> Usd.Prim:
 SHAPES = {
     G.mjGEOM_BOX: _box,
     G.mjGEOM_SPHERE: _sphere,
-    G.mjGEOM_CAPSULE: _capsule,
-    G.mjGEOM_CYLINDER: _cylinder,
+    G.mjGEOM_CAPSULE: _round(UsdGeom.Capsule),
+    G.mjGEOM_CYLINDER: _round(UsdGeom.Cylinder),
     G.mjGEOM_PLANE: _plane,
     G.mjGEOM_MESH: _mesh,
 }
