@@ -118,7 +118,8 @@ def train(
                 f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}  "
                 + (f"{metric} {entry['value']:.3f}  " if metric != "return" else "")
                 + f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}  "
-                f"kl {metrics['approx_kl']:.4f}  lr {metrics['learning_rate']:.2e}",
+                f"kl {metrics['approx_kl']:.4f}  lr {metrics['learning_rate']:.2e}  "
+                + " ".join(f"{key[7:]} {value:.1f}" for key, value in metrics.items() if key.startswith("reward/")),
                 flush=True,
             )
         if stopping or (snapshot_interval > 0 and report.iteration % snapshot_interval == 0):

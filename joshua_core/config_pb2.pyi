@@ -119,18 +119,28 @@ class TrainingConfig(_message.Message):
     def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., synchronized_episodes: _Optional[bool] = ..., nthread: _Optional[int] = ...) -> None: ...
 
 class TaskConfig(_message.Message):
-    __slots__ = ("episode_length", "frame_skip", "terms", "keyframe", "events")
+    __slots__ = ("episode_length", "frame_skip", "terms", "keyframe", "events", "action")
     EPISODE_LENGTH_FIELD_NUMBER: _ClassVar[int]
     FRAME_SKIP_FIELD_NUMBER: _ClassVar[int]
     TERMS_FIELD_NUMBER: _ClassVar[int]
     KEYFRAME_FIELD_NUMBER: _ClassVar[int]
     EVENTS_FIELD_NUMBER: _ClassVar[int]
+    ACTION_FIELD_NUMBER: _ClassVar[int]
     episode_length: int
     frame_skip: int
     terms: _containers.RepeatedCompositeFieldContainer[TermOverride]
     keyframe: str
     events: _containers.RepeatedCompositeFieldContainer[EventConfig]
-    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ..., keyframe: _Optional[str] = ..., events: _Optional[_Iterable[_Union[EventConfig, _Mapping]]] = ...) -> None: ...
+    action: ActionConfig
+    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ..., keyframe: _Optional[str] = ..., events: _Optional[_Iterable[_Union[EventConfig, _Mapping]]] = ..., action: _Optional[_Union[ActionConfig, _Mapping]] = ...) -> None: ...
+
+class ActionConfig(_message.Message):
+    __slots__ = ("mode", "scale")
+    MODE_FIELD_NUMBER: _ClassVar[int]
+    SCALE_FIELD_NUMBER: _ClassVar[int]
+    mode: str
+    scale: float
+    def __init__(self, mode: _Optional[str] = ..., scale: _Optional[float] = ...) -> None: ...
 
 class EventConfig(_message.Message):
     __slots__ = ("name", "term", "params", "mode", "interval_steps")

@@ -73,16 +73,19 @@ def test_mass_changes_recompute_the_derived_inverse_weights() -> None:
     np.testing.assert_allclose(inertia / env.task.defaults["body_inertia"][cube], np.repeat(ratio[:, None], 3, axis=1))
 
 
-def test_action_delay_feeds_the_previous_action_and_offsets_shift_the_targets() -> None:
+@pytest.mark.parametrize("mode", ["offset", "delta"])
+def test_action_delay_feeds_the_previous_action_and_offsets_shift_the_targets(mode: str) -> None:
     text = NO_RESET_NOISE + event("a", "action_delay", range="[1, 1]") + event("o", "randomize_joint_offset", range="[0.05, 0.05]")
-    env = env_with(text, 2)
+    env = env_with(text + f'action {{ mode: "{mode}" }}', 2)
     task, ctrl = env.task, env.simulation.ctrl
     first, second = np.full((2, 6), 0.1), np.full((2, 6), -0.2)
-    env.step(first)
     zero_action = np.clip(task.ctrl_offset + 0.05, task.ctrl_low, task.ctrl_high)
-    np.testing.assert_allclose(ctrl, np.tile(zero_action, (2, 1)))  # the zero action of before the episode + offset
+    np.testing.assert_allclose(ctrl, np.tile(zero_action, (2, 1)))  # an episode starts at home + offset
+    env.step(first)
+    np.testing.assert_allclose(ctrl, np.tile(zero_action, (2, 1)))  # the zero action of before the episode
     env.step(second)
-    np.testing.assert_allclose(ctrl, np.clip(task.action_to_ctrl(np, first) + 0.05, task.ctrl_low, task.ctrl_high))
+    moved = task.ctrl_scale * first + (zero_action if mode == "delta" else task.ctrl_offset + 0.05)
+    np.testing.assert_allclose(ctrl, np.clip(moved, task.ctrl_low, task.ctrl_high))
 
 
 def test_interval_events_fire_every_n_steps_and_pushes_last_one_step() -> None:

@@ -4,6 +4,7 @@ built from config report bad terms and parameters by name."""
 from __future__ import annotations
 
 import dataclasses
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -70,14 +71,14 @@ def random_states(task: Task, model: mujoco.MjModel, seed: int) -> TermContext:
     rng = np.random.default_rng(seed)
     data = mujoco.MjData(model)
     fields: dict[str, list[np.ndarray]] = {name: [] for name in ("qpos", "qvel", "prev_qpos", "xpos", "xquat")}
-    fields.update(site_xpos=[], sensordata=[], cfrc_ext=[])
+    fields.update(site_xpos=[], sensordata=[], cfrc_ext=[], ctrl=[])
     for _ in range(NUM_ENVS):
         mujoco.mj_resetData(model, data)
         if task.keyframe_id >= 0:
             mujoco.mj_resetDataKeyframe(model, data, task.keyframe_id)
         data.qvel[:] = rng.normal(0.0, 0.3, model.nv)
-        data.ctrl[:] = task.action_to_ctrl(np, rng.uniform(-1, 1, model.nu))
-        mujoco.mj_step(model, data, int(rng.integers(5, 40)))
+        data.ctrl[:] = task.action_to_ctrl(np, rng.uniform(-1, 1, model.nu), ctrl=task.reset_ctrl(np, 1))[0]
+        mujoco.mj_step(model, data, int(rng.integers(5, 150)))  # some in flight, most landed (a dropped Ant)
         fields["prev_qpos"].append(data.qpos.copy())
         mujoco.mj_step(model, data, task.frame_skip)
         mujoco.mj_rnePostConstraint(model, data)
@@ -137,7 +138,7 @@ class ReplayRandom:
         return jnp.asarray(draw)
 
 
-ARRAY_FIELDS = ("qpos", "qvel", "prev_qpos", "xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext", "action")
+ARRAY_FIELDS = ("qpos", "qvel", "prev_qpos", "xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext", "ctrl", "action")
 ARRAY_FIELDS += ("prev_action", "episode_step")
 
 
@@ -182,10 +183,11 @@ def test_the_parity_cases_cover_every_builtin_term(plugins: PluginHost) -> None:
 def test_every_builtin_term_gives_the_same_values_on_numpy_and_in_jax_jit(plugins: PluginHost) -> None:
     checked = 0
     for task, model, term in all_bound_terms(plugins):
-        ctx = random_states(task, model, seed=checked)
         label = f"{task.name}/{term.kind.value}/{term.name}"
+        seed = zlib.crc32(label.encode())  # each term's own states, whatever terms come before it
+        ctx = random_states(task, model, seed=seed)
         if term.kind is TermKind.RESET:
-            recording = RecordingRandom(seed=checked)
+            recording = RecordingRandom(seed=seed)
             expected_ctx = term(ctx.replace(random=recording))
             expected = {"qpos": expected_ctx.qpos, "qvel": expected_ctx.qvel, **expected_ctx.commands}
             actual = on_jax(term, ctx, ReplayRandom(recording.draws))
@@ -363,16 +365,53 @@ def test_whole_tasks_run_inside_jax_jit_with_a_jax_random_key(plugins: PluginHos
             state = TermContext(xp=jnp, dt=task.dt, commands=commands, **arrays)
             reset = task.reset(task.reset_context(jnp, NUM_ENVS, JaxRandom(key)))
             total, terms = task.rewards(state)
-            ctrl = task.action_to_ctrl(jnp, state.action)
+            ctrl = task.action_to_ctrl(jnp, state.action, ctrl=state.ctrl)
             return task.observe(state), total, task.terminated(state), task.metrics(state), reset.qpos, ctrl
 
         observation, total, terminated, metrics, qpos, ctrl = evaluate(arrays, commands, jax.random.PRNGKey(0))
         np.testing.assert_allclose(observation, task.observe(ctx), rtol=1e-5, atol=1e-5, err_msg=task.name)
         np.testing.assert_allclose(total, task.rewards(ctx)[0], rtol=1e-5, atol=1e-5, err_msg=task.name)
         np.testing.assert_array_equal(terminated, task.terminated(ctx))
-        np.testing.assert_allclose(ctrl, task.action_to_ctrl(np, ctx.action), rtol=1e-5, atol=1e-6)
+        np.testing.assert_allclose(ctrl, task.action_to_ctrl(np, ctx.action, ctrl=ctx.ctrl), rtol=1e-5, atol=1e-6)
         for name, value in task.metrics(ctx).items():
             np.testing.assert_allclose(metrics[name], value, rtol=1e-5, atol=1e-5)
         # the reset differs per environment (independent draws) and stays near the initial state
         assert qpos.shape == (NUM_ENVS, model.nq) and not np.allclose(qpos[0], qpos[1])
         assert np.abs(np.asarray(qpos) - task.initial_qpos).max() < 0.5
+
+
+def test_delta_actions_move_the_controls_in_force_and_start_from_the_keyframe(plugins: PluginHost) -> None:
+    spec = BUILTIN_TASKS["so_arm100_reach"]
+    model = compile_model(spec)
+    task = build_reach(plugins, 'action { mode: "delta" scale: 0.1 }')
+    assert task.delta_actions and task.spec.action.scale == 0.1
+    start = task.reset_ctrl(np, 2)
+    np.testing.assert_array_equal(start, np.tile(model.key("home").ctrl, (2, 1)))
+    action = np.array([[1.0, -1.0, 0.5, 0.0, 3.0, -0.2]] * 2)  # 3.0 is clipped to 1
+    moved = task.action_to_ctrl(np, action, ctrl=start)
+    np.testing.assert_allclose(moved - start, 0.1 * np.clip(action, -1, 1))
+    high = np.tile(task.ctrl_high, (2, 1))
+    np.testing.assert_array_equal(task.action_to_ctrl(np, np.ones((2, 6)), ctrl=high), high)  # held at ctrlrange
+    with pytest.raises(ValueError, match="delta actions: action_to_ctrl needs the controls in force"):
+        task.action_to_ctrl(np, action)
+    # a randomized zero offset shifts where a delta episode starts, and the targets of an offset task at every step
+    offsets = {"ctrl_offset": np.array([[0.1, 0, 0, 0, 0, 0], [0.0] * 6])}
+    np.testing.assert_allclose(task.reset_ctrl(np, 2, offsets)[:, 0], model.key("home").ctrl[0] + [0.1, 0.0])
+    absolute = build_reach(plugins, "")
+    zero_action = absolute.action_to_ctrl(np, np.zeros((2, 6)), offsets)
+    np.testing.assert_allclose(zero_action, absolute.reset_ctrl(np, 2, offsets))
+
+
+def test_servo_error_is_each_target_minus_its_joint(plugins: PluginHost) -> None:
+    task = build_reach(plugins, 'terms { name: "servo" term: "servo_error" kind: OBSERVATION }')
+    ctx = task.reset_context(np, 2, None).replace(ctrl=task.reset_ctrl(np, 2) + 0.25)
+    np.testing.assert_allclose(task.observation_terms[-1](ctx), np.full((2, 6), 0.25) + task.initial_ctrl - ctx.qpos)
+
+
+def test_a_bad_action_config_is_an_error_naming_the_task(plugins: PluginHost) -> None:
+    unknown = r"task 'so_arm100_reach': unknown action mode 'relative' \(use ctrl_range, offset, delta\)"
+    with pytest.raises(ConfigError, match=unknown):
+        build_reach(plugins, 'action { mode: "relative" }')
+    for scale in ("-1", "inf", "nan"):
+        with pytest.raises(ConfigError, match="action scale must be a positive finite number"):
+            build_reach(plugins, f"action {{ scale: {scale} }}")

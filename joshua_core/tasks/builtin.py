@@ -107,6 +107,7 @@ SO_ARM100_PICK_PLACE = TaskSpec(
     observations=(
         TermSpec("joint_pos", params={"joints": ("joint_1", "joint_2", "joint_3", "joint_4", "joint_5", "joint_6")}),
         TermSpec("joint_vel", params={"joints": ("joint_1", "joint_2", "joint_3", "joint_4", "joint_5", "joint_6")}),
+        TermSpec("servo_error"),  # where the targets are: the delta actions move them
         TermSpec("site_to_body", params={"site": "gripper", "body": "cube"}, name="cube_offset"),
         TermSpec("body_to_command", params={"body": "cube", "name": "goal"}, name="goal_offset"),
         TermSpec("body_pos", params={"body": "cube"}, name="cube_position"),
@@ -137,7 +138,10 @@ SO_ARM100_PICK_PLACE = TaskSpec(
         TermSpec("body_command_within", params={"body": "cube", "name": "goal", "radius": 0.02}, name="success"),
         TermSpec("body_command_distance", params={"body": "cube", "name": "goal"}, name="distance"),
     ),
-    action=ActionSpec("offset", 2.0),
+    # The targets move by at most 0.05 rad per step (2.5 rad/s; the STS3215 servos turn at up to 4.7): random
+    # actions wander smoothly instead of throwing the arm across its range every step, as absolute targets
+    # (offset mode, scale 2 to reach every goal) did.
+    action=ActionSpec("delta", 0.05),
 )
 
 BUILTIN_TASKS = {spec.name: spec for spec in (ANT_LOCOMOTION, TRILEG_LOCOMOTION, SO_ARM100_REACH, SO_ARM100_PICK_PLACE)}

@@ -25,6 +25,7 @@ STATE_FIELDS: dict[str, str] = {
     "site_xpos": "(nsite, 3) site positions in the world",
     "sensordata": "(nsensordata,) all sensor readings",
     "cfrc_ext": "(nbody, 6) external (contact) wrench on each body, torque then force",
+    "ctrl": "(nu,) the actuators' controls in force (servo targets), set from this step's action",
     "action": "(nu,) the policy's action of this step, after clipping to [-1, 1]",
     "prev_action": "(nu,) the action of the previous step (zero after a reset)",
     "episode_step": "() steps taken in the current episode",
@@ -102,6 +103,7 @@ class TermContext:
     site_xpos: Any = None
     sensordata: Any = None
     cfrc_ext: Any = None
+    ctrl: Any = None
     action: Any = None
     prev_action: Any = None
     episode_step: Any = None

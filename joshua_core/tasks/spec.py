@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -63,6 +64,9 @@ class ActionSpec:
     - "ctrl_range": mapped affinely onto each actuator's ctrlrange (motors: ctrl = action).
     - "offset": ctrl = initial ctrl (the keyframe's) + scale * action, clipped to ctrlrange
       (position servos: the action moves the targets around the home pose).
+    - "delta": ctrl = the controls in force + scale * action, clipped to ctrlrange, starting from the
+      initial ctrl at each reset (position servos: the action moves the targets by at most `scale` per
+      step, so exploration is smooth; observe the targets, e.g. with the `servo_error` term).
     """
 
     mode: str = "ctrl_range"
@@ -102,6 +106,19 @@ _FIELD_OF_KIND = {
 }
 
 
+ACTION_MODES = ("ctrl_range", "offset", "delta")
+
+
+def _action(spec: TaskSpec, action: Any) -> ActionSpec:
+    """The task's ActionSpec with a `joshua.ActionConfig`'s mode and scale where they are set."""
+    mode = action.mode or spec.action.mode
+    if mode not in ACTION_MODES:
+        raise ConfigError(f"task '{spec.name}': unknown action mode '{mode}' (use {', '.join(ACTION_MODES)})")
+    if action.scale < 0 or not math.isfinite(action.scale):
+        raise ConfigError(f"task '{spec.name}': action scale must be a positive finite number, got {action.scale}")
+    return ActionSpec(mode, action.scale or spec.action.scale)
+
+
 def parse_param(text: str) -> Any:
     """A term parameter from config text: JSON (numbers, lists, true/false, "quoted"), else the bare string."""
     try:
@@ -122,6 +139,8 @@ def with_config(spec: TaskSpec, config: Any) -> TaskSpec:
         changes["frame_skip"] = config.frame_skip
     if config.keyframe:
         changes["keyframe"] = config.keyframe
+    if config.action.mode or config.action.scale:
+        changes["action"] = _action(spec, config.action)
     term_lists = {kind: list(spec.terms(kind)) for kind in TermKind}
     for override in config.terms:
         _apply_override(spec, term_lists, override)

@@ -24,7 +24,7 @@ from joshua_core.plugins import Kind, PluginHost
 from joshua_core.tasks.context import STATE_FIELDS, NumpyRandom, TermContext
 from joshua_core.tasks.handles import HANDLE_TYPES, resolve_handle
 from joshua_core.tasks.randomization import Range, action_delay, default_params, tiled
-from joshua_core.tasks.spec import TaskSpec, TermKind, TermSpec, with_config
+from joshua_core.tasks.spec import ACTION_MODES, TaskSpec, TermKind, TermSpec, with_config
 
 _PROBE_ENVS = 2
 
@@ -115,10 +115,32 @@ class Task:
             ctx = term(ctx)
         return ctx
 
-    def action_to_ctrl(self, xp: Any, action: Any, params: Mapping[str, Any] | None = None) -> Any:
-        """Actuator controls for actions, (N, nu): clipped to [-1, 1], mapped (see ActionSpec), plus each
-        environment's randomized `ctrl_offset` where `params` has one, clipped to ctrlrange."""
-        ctrl = self.ctrl_offset + self.ctrl_scale * xp.clip(action, -1.0, 1.0)
+    @property
+    def delta_actions(self) -> bool:
+        """Whether an action moves the controls in force ("delta") rather than setting them."""
+        return self.spec.action.mode == "delta"
+
+    def action_to_ctrl(
+        self, xp: Any, action: Any, params: Mapping[str, Any] | None = None, ctrl: Any = None
+    ) -> Any:
+        """Actuator controls for actions, (N, nu): clipped to [-1, 1], mapped (see ActionSpec), clipped to
+        ctrlrange. "delta" adds to `ctrl`, the controls in force (N, nu); the other modes add each
+        environment's randomized `ctrl_offset` where `params` has one (delta actions meet it at reset:
+        `reset_ctrl`)."""
+        step = self.ctrl_scale * xp.clip(action, -1.0, 1.0)
+        if self.delta_actions:
+            if ctrl is None:
+                raise ValueError(f"task '{self.name}' has delta actions: action_to_ctrl needs the controls in force")
+            return xp.clip(ctrl + step, self.ctrl_low, self.ctrl_high)
+        target = self.ctrl_offset + step
+        if params is not None and "ctrl_offset" in params:
+            target = target + params["ctrl_offset"]
+        return xp.clip(target, self.ctrl_low, self.ctrl_high)
+
+    def reset_ctrl(self, xp: Any, num_envs: int, params: Mapping[str, Any] | None = None) -> Any:
+        """The controls an episode starts with, (N, nu): the initial ctrl, where zero offsets are drawn
+        (`ctrl_offset`) shifted by them, clipped to ctrlrange (what a zero action commands in "offset" mode)."""
+        ctrl = xp.broadcast_to(xp.asarray(self.initial_ctrl), (num_envs, self.action_size))
         if params is not None and "ctrl_offset" in params:
             ctrl = ctrl + params["ctrl_offset"]
         return xp.clip(ctrl, self.ctrl_low, self.ctrl_high)
@@ -276,10 +298,11 @@ def _action_mapping(spec: TaskSpec, model: Any, initial_ctrl: np.ndarray) -> tup
     if spec.action.mode == "ctrl_range":
         offset = np.where(limited, (ranges[:, 0] + ranges[:, 1]) / 2, 0.0)
         scale = np.where(limited, (ranges[:, 1] - ranges[:, 0]) / 2, 1.0) * spec.action.scale
-    elif spec.action.mode == "offset":
+    elif spec.action.mode in ("offset", "delta"):  # delta: the offset is where each episode starts
         offset, scale = initial_ctrl.copy(), np.full(model.nu, float(spec.action.scale))
     else:
-        raise ConfigError(f"task '{spec.name}': unknown action mode '{spec.action.mode}' (use ctrl_range or offset)")
+        modes = ", ".join(ACTION_MODES)
+        raise ConfigError(f"task '{spec.name}': unknown action mode '{spec.action.mode}' (use {modes})")
     return low, high, offset, scale
 
 
@@ -307,6 +330,7 @@ def _probe(task: Task, model: Any) -> tuple[int, frozenset[str]]:
         site_xpos=np.zeros((n, model.nsite, 3)),
         sensordata=np.zeros((n, model.nsensordata)),
         cfrc_ext=np.zeros((n, model.nbody, 6)),
+        ctrl=np.tile(task.initial_ctrl, (n, 1)),
         action=np.zeros((n, model.nu)),
         prev_action=np.zeros((n, model.nu)),
         episode_step=np.zeros(n, dtype=np.int64),

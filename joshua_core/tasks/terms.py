@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from joshua_core.tasks.context import RandomSource, TermContext, set_columns
-from joshua_core.tasks.handles import Body, Joint, Joints, Sensor, Site
+from joshua_core.tasks.handles import Actuators, Body, Joint, Joints, Sensor, Site
 
 # --- helpers shared by several terms ----------------------------------------------------------
 
@@ -134,6 +134,12 @@ def body_to_command(ctx: TermContext, body: Body, name: str) -> Any:
 def last_action(ctx: TermContext) -> Any:
     """The action of this step (clipped to [-1, 1])."""
     return ctx.action
+
+
+def servo_error(ctx: TermContext, actuators: Actuators = ()) -> Any:  # type: ignore[assignment]
+    """Each position servo's target minus its joint's position (ctrl - qpos; empty: every actuator): where the
+    targets are, which a policy with delta actions moves and must see."""
+    return ctx.ctrl[:, np.asarray(actuators.ids)] - ctx.qpos[:, np.asarray(actuators.qpos_index)]
 
 
 def sensor(ctx: TermContext, sensor: Sensor) -> Any:
@@ -311,6 +317,7 @@ BUILTIN_TERMS: dict[str, Callable[..., Any]] = {
         site_to_body,
         body_to_command,
         last_action,
+        servo_error,
         sensor,
         body_upright,
         forward_velocity,

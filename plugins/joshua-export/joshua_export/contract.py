@@ -72,6 +72,14 @@ def _observation(exported: ExportedPolicy, observer: Observer) -> dict[str, Any]
     }
 
 
+_FORMULAS = {
+    "ctrl_range": "ctrl = clip(offset + scale * action, ctrl_range); the ONNX output is already clipped to [-1, 1]",
+    "offset": "ctrl = clip(offset + scale * action, ctrl_range); the ONNX output is already clipped to [-1, 1]",
+    "delta": "ctrl = clip(ctrl_in_force + scale * action, ctrl_range), starting from offset (the task's start) or "
+    "where the robot is; the observation's ctrl is ctrl_in_force; the ONNX output is already clipped to [-1, 1]",
+}
+
+
 def _action(observer: Observer) -> dict[str, Any]:
     task, model = observer.task, observer.model
     terms = []
@@ -90,7 +98,7 @@ def _action(observer: Observer) -> dict[str, Any]:
         "size": task.action_size,
         "clip": [-1.0, 1.0],
         "mode": task.spec.action.mode,
-        "formula": "ctrl = clip(offset + scale * clip(action, -1, 1), ctrl_range); the ONNX output is already clipped",
+        "formula": _FORMULAS[task.spec.action.mode],
         "terms": terms,
     }
 

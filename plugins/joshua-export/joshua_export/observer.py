@@ -67,8 +67,10 @@ class Observer:
         action: ArrayLike,
         prev_action: ArrayLike | None = None,
         prev_qpos: ArrayLike | None = None,
+        ctrl: ArrayLike | None = None,
     ) -> TermContext:
-        """The TermContext of the state (qpos, qvel): derived fields computed by MuJoCo, arrays with one row."""
+        """The TermContext of the state (qpos, qvel): derived fields computed by MuJoCo, arrays with one row;
+        `ctrl`, the controls in force (servo targets), defaults to the task's initial ones."""
         data = self.data
         data.qpos[:] = qpos
         data.qvel[:] = qvel
@@ -87,6 +89,7 @@ class Observer:
             site_xpos=data.site_xpos[None].copy(),
             sensordata=data.sensordata[None].copy(),
             cfrc_ext=data.cfrc_ext[None].copy(),
+            ctrl=np.asarray(self.task.initial_ctrl if ctrl is None else ctrl, np.float64)[None],
             action=action[None],
             prev_action=np.asarray(np.zeros_like(action) if prev_action is None else prev_action, np.float64)[None],
             episode_step=np.zeros(1, np.int64),

@@ -4,7 +4,8 @@ The observation is the task's own (`joshua_export.Observer` on the contract's ro
 (+ the mirror mapping's offsets) are the joints' qpos, the difference of each joint's last two values over
 their arrival times its qvel (RobotLink), the reach target the task's command and the previous action its
 `last_action`, so the policy sees what it saw in training. The action becomes ctrl exactly as the contract
-says (offset + scale x action, clipped to the actuator's ctrl range); each target is then clipped to its
+says (offset + scale x action, or for "delta" actions the target in force + scale x action, clipped to the
+actuator's ctrl range; the targets in force are the observation's ctrl); each target is then clipped to its
 joint's limits and moved at most `max_speed x period` from the previous target (from the measured position at
 the first step and after a hold).
 """
@@ -48,6 +49,7 @@ class PolicyController:
         self.joints = joints
         self.max_step = max_step  # largest target change per step (max speed x period)
         self.actuated = _actuated(contract, joints)
+        self.delta = contract["action"]["mode"] == "delta"  # actions move the targets in force
         size = len(self.actuated)
         self.qpos = np.array(observer.task.initial_qpos, np.float64)  # unmapped (free) joints keep their keyframe
         self.previous: NDArray[np.float64] | None = None  # qpos of the last step
@@ -65,6 +67,8 @@ class PolicyController:
         qvel = np.zeros(self.observer.model.nv)
         qvel[[joint.dof_address for joint in self.joints]] = velocities
         prev_qpos = qpos if self.previous is None else self.previous
+        measured = np.array([qpos[entry.joint.qpos_address] for entry in self.actuated])
+        in_force = measured if self.last_targets is None else self.last_targets
         ctx = self.observer.context(
             qpos,
             qvel,
@@ -72,25 +76,26 @@ class PolicyController:
             action=self.last_action,
             prev_action=self.prev_action,
             prev_qpos=prev_qpos,
+            ctrl=in_force,
         )
         observation = self.observer.observe(ctx)
         action = np.clip(np.asarray(self.policy(observation), np.float32), -1.0, 1.0)
-        measured = np.array([qpos[entry.joint.qpos_address] for entry in self.actuated])
-        targets = self._safe_targets(action, measured)
+        targets = self._safe_targets(action, in_force)
         self.previous = qpos
         self.prev_action, self.last_action = self.last_action, action.astype(np.float64)
         self.last_targets = targets
         return targets
 
-    def _safe_targets(self, action: NDArray[np.float32], measured: NDArray[np.float64]) -> NDArray[np.float64]:
-        """ctrl of the contract's mapping, clipped to the joint limits and to max_step from the last target."""
-        reference = measured if self.last_targets is None else self.last_targets
+    def _safe_targets(self, action: NDArray[np.float32], in_force: NDArray[np.float64]) -> NDArray[np.float64]:
+        """ctrl of the contract's mapping, clipped to the joint limits and to max_step from the targets in force
+        (the last ones sent; the measured positions at the first step and after a hold)."""
         targets = np.empty(len(self.actuated))
         for index, entry in enumerate(self.actuated):
-            ctrl = entry.offset + entry.scale * float(action[index])
+            base = in_force[index] if self.delta else entry.offset
+            ctrl = base + entry.scale * float(action[index])
             bounded = min(max(ctrl, entry.ctrl_low, entry.joint.low), entry.ctrl_high, entry.joint.high)
             entry.limited += int(bounded != ctrl)
-            low, high = reference[index] - self.max_step, reference[index] + self.max_step
+            low, high = in_force[index] - self.max_step, in_force[index] + self.max_step
             targets[index] = min(max(bounded, low), high)
             entry.slowed += int(targets[index] != bounded)
         return targets

@@ -190,7 +190,8 @@ class MjxEnv:
         applied, history = action, state.history
         if task.max_action_delay:
             applied, history = delayed_action(jnp, history, action, state.params["action_delay"])
-        data = state.data.replace(ctrl=task.action_to_ctrl(jnp, applied, state.params).astype(state.data.ctrl.dtype))
+        ctrl = task.action_to_ctrl(jnp, applied, state.params, state.data.ctrl)
+        data = state.data.replace(ctrl=ctrl.astype(state.data.ctrl.dtype))
         if "xfrc_applied" in state.params:
             data = data.replace(xfrc_applied=state.params["xfrc_applied"].astype(data.xfrc_applied.dtype))
         fields = self.randomization.model_params(state.params)
@@ -261,7 +262,7 @@ class MjxEnv:
         data = data.replace(
             qpos=ctx.qpos.astype(dtype),
             qvel=ctx.qvel.astype(dtype),
-            ctrl=jnp.broadcast_to(jnp.asarray(task.initial_ctrl, dtype), data.ctrl.shape),
+            ctrl=task.reset_ctrl(jnp, n, params).astype(dtype),
         )
         fields = self.randomization.model_params(params)
         data = self._physics(mjx.forward, fields, data)
@@ -289,6 +290,7 @@ class MjxEnv:
             qpos=data.qpos,
             qvel=data.qvel,
             prev_qpos=previous_qpos,
+            ctrl=data.ctrl,
             action=action,
             prev_action=previous_action,
             episode_step=episode_step,

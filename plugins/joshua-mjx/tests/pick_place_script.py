@@ -4,8 +4,9 @@ It proves the task can be solved in a given physics: from the cube's and the goa
 waypoints for the gripper site (above the cube, down, close the jaw, lift, carry, lower, open),
 solves each with damped least squares on a CPU copy of the model (the gripper pointing straight down,
 its jaw closing along the world x axis, across two faces of the cube) and holds the servo targets for a
-fixed number of control steps. Servo targets become actions through the task's "offset" mapping
-(ctrl = home ctrl + scale * action).
+fixed number of control steps. Servo targets become actions through the task's own mapping: "offset"
+(ctrl = home ctrl + scale * action) or "delta" (ctrl = the targets in force + scale * action, so a target
+moves at most `scale` per step and the script's lines are followed at that speed).
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
+
+from joshua_core.tasks import Task
 
 ARM = ("joint_1", "joint_2", "joint_3", "joint_4", "joint_5")
 JAW_OPEN, JAW_CLOSED = 0.8, -0.17  # rad: wide open; the pads' closed angle, so the servo squeezes the cube
@@ -55,16 +58,15 @@ def phases(cube: NDArray[np.float64], goal: NDArray[np.float64]) -> list[Phase]:
 class PickPlaceScript:
     """Actions for one environment of the task on `model` (a CPU MjModel of the scene being simulated)."""
 
-    def __init__(self, model: mujoco.MjModel, action_scale: float) -> None:
+    def __init__(self, model: mujoco.MjModel, task: Task) -> None:
         self.model = model
-        self.action_scale = action_scale
+        self.task = task
+        self.in_force = task.reset_ctrl(np, 1)[0]  # the targets the servos have, as the environment keeps them
         self.data = mujoco.MjData(model)
         self.site = model.site("gripper").id
         joints = [model.joint(name) for name in ARM]
         self.qpos_addresses = [int(joint.qposadr[0]) for joint in joints]
         self.dofs = [int(joint.dofadr[0]) for joint in joints]
-        mujoco.mj_resetDataKeyframe(model, self.data, model.key("home").id)
-        self.home_ctrl = self.data.ctrl.copy()
 
     def actions(self, qpos: NDArray[np.float64], cube: NDArray[np.float64], goal: NDArray[np.float64]) -> Generator[
         tuple[str, NDArray[np.float64]], NDArray[np.float64], None
@@ -83,12 +85,19 @@ class PickPlaceScript:
                 # the target moves in a straight line over the first half of the phase: no sweeping through the cube
                 share = min(1.0, (step + 1) / (phase.steps / 2))
                 arm = self._solve(start + share * (phase.site - start))
-                action = np.clip((np.append(arm + sag, phase.jaw) - self.home_ctrl) / self.action_scale, -1.0, 1.0)
-                measured = yield phase.name, action
+                measured = yield phase.name, self._action(np.append(arm + sag, phase.jaw))
                 error = arm - measured[self.qpos_addresses]
                 settled = np.abs(error) < SAG_LIMIT  # no wind-up while the arm is still moving there
                 sag = np.clip(sag + SAG_GAIN * error * settled, -SAG_LIMIT, SAG_LIMIT)
             start = phase.site
+
+    def _action(self, targets: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The action that brings the servo targets nearest to `targets` in one step."""
+        task = self.task
+        base = self.in_force if task.delta_actions else task.ctrl_offset
+        action = np.clip((targets - base) / task.ctrl_scale, -1.0, 1.0)
+        self.in_force = task.action_to_ctrl(np, action[None], ctrl=self.in_force[None])[0]
+        return action
 
     def _grasp_point(self) -> NDArray[np.float64]:
         """Where a held cube's centre is for `self.data`'s joints: GRASP_OFFSET along the site's z axis."""

@@ -12,12 +12,10 @@ import numpy as np
 import pytest
 from pick_place_script import PickPlaceScript
 
-from joshua_core.tasks.builtin import BUILTIN_TASKS
 from joshua_mjx import make_mjx_env
 from joshua_mujoco import make_vector_env
 
 TASK = "so_arm100_pick_place"
-SCALE = BUILTIN_TASKS[TASK].action.scale
 # A stage has fired once its reward term exceeds this share of its weight.
 STAGES = {"reach": 0.6, "grasp": 0.5, "lift": 0.5, "place": 0.8, "at_goal": 0.5}
 WEIGHTS = {"reach": 1.0, "grasp": 0.5, "lift": 1.0, "place": 2.0, "at_goal": 5.0}
@@ -54,7 +52,7 @@ def test_the_script_solves_the_cpu_scene(seed: int) -> None:
     env = make_vector_env(TASK, 1, seed=seed, nthread=1)
     env.reset(seed=seed)
     simulation = env.simulation
-    script = PickPlaceScript(simulation.model, SCALE)
+    script = PickPlaceScript(simulation.model, simulation.task)
     cube = simulation.derived["xpos"][0, simulation.model.body("cube").id].copy()
     rewards, phases = [], []
     actions = script.actions(simulation.qpos[0].copy(), cube, simulation.commands["goal"][0])
@@ -69,7 +67,7 @@ def test_the_script_solves_the_cpu_scene(seed: int) -> None:
 def test_the_script_solves_the_mjx_scene() -> None:
     env = make_mjx_env(TASK, 1)
     state = env.reset(jax.random.PRNGKey(3))
-    script = PickPlaceScript(env.model, SCALE)
+    script = PickPlaceScript(env.model, env.task)
     qpos = np.asarray(state.data.qpos[0])
     cube = np.asarray(state.data.xpos[0, env.model.body("cube").id])
     step = jax.jit(env.step)

@@ -130,6 +130,7 @@ class BatchedSimulation:
             qpos=self.qpos,
             qvel=self.qvel,
             prev_qpos=self.prev_qpos,
+            ctrl=self.ctrl,
             action=self.action,
             prev_action=self.prev_action,
             episode_step=self.episode_step,
@@ -144,7 +145,7 @@ class BatchedSimulation:
         ctx = self.context()
         arrays = {
             name: getattr(ctx, name)[ids]
-            for name in ("qpos", "qvel", "prev_qpos", "action", "prev_action", "episode_step", *self.derived)
+            for name in ("qpos", "qvel", "prev_qpos", "ctrl", "action", "prev_action", "episode_step", *self.derived)
         }
         return ctx.replace(
             commands={name: value[ids] for name, value in self.commands.items()},
@@ -159,11 +160,12 @@ class BatchedSimulation:
         state = task.reset(task.reset_context(np, len(ids), self.random))
         self.qpos[ids] = state.qpos
         self.qvel[ids] = state.qvel
-        self.ctrl[ids] = task.initial_ctrl
         for name, value in self.commands.items():
             value[ids] = state.commands[name]
-        for name, value in episode_params(task, state).items():
+        drawn = episode_params(task, state)
+        for name, value in drawn.items():
             self.params[name][ids] = value
+        self.ctrl[ids] = task.reset_ctrl(np, len(ids), drawn)
         self.write_model(ids)
         self.history[ids] = 0.0
         self.batch.forward(ids)
@@ -193,7 +195,7 @@ class BatchedSimulation:
         applied = self.action
         if self.task.max_action_delay:
             applied, self.history = delayed_action(np, self.history, self.action, self.params["action_delay"])
-        self.ctrl[:] = self.task.action_to_ctrl(np, applied, self.params)
+        self.ctrl[:] = self.task.action_to_ctrl(np, applied, self.params, self.ctrl)
         if self.xfrc_applied is not None:
             self.xfrc_applied[:] = self.params["xfrc_applied"]
         failed = np.zeros(self.num_envs, dtype=bool)
