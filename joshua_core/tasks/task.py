@@ -21,10 +21,11 @@ import numpy as np
 
 from joshua_core.errors import ConfigError, PluginLoadError, UsageError
 from joshua_core.plugins import Kind, PluginHost
+from joshua_core.tasks.actuation import action_mapping, initial_state, keyframe_id
 from joshua_core.tasks.context import STATE_FIELDS, NumpyRandom, TermContext
 from joshua_core.tasks.handles import HANDLE_TYPES, resolve_handle
 from joshua_core.tasks.randomization import Range, action_delay, default_params, tiled
-from joshua_core.tasks.spec import ACTION_MODES, TaskSpec, TermKind, TermSpec, with_config
+from joshua_core.tasks.spec import TaskSpec, TermKind, TermSpec, with_config
 
 _PROBE_ENVS = 2
 
@@ -68,10 +69,10 @@ class Task:
         delays = [term.params["range"].high for term in terms[TermKind.EVENT] if term.function is action_delay]
         self.max_action_delay = int(max(delays, default=0))
         self.commands = dict(spec.commands)
-        self.keyframe_id = _keyframe_id(spec, model)
+        self.keyframe_id = keyframe_id(spec, model)
         self.action_size = int(model.nu)
-        self.initial_qpos, self.initial_qvel, self.initial_ctrl = _initial_state(model, self.keyframe_id)
-        self.ctrl_low, self.ctrl_high, self.ctrl_offset, self.ctrl_scale = _action_mapping(
+        self.initial_qpos, self.initial_qvel, self.initial_ctrl = initial_state(model, self.keyframe_id)
+        self.ctrl_low, self.ctrl_high, self.ctrl_offset, self.ctrl_scale = action_mapping(
             spec, model, self.initial_ctrl
         )
         self.observation_size = 0
@@ -264,46 +265,6 @@ def _coerce(where: str, value: Any, default: Any, hint: Any, model: Any) -> Any:
     if isinstance(default, str) and not isinstance(value, str):
         raise ConfigError(f"{where}: expected a name, got {value!r}")
     return value
-
-
-def _keyframe_id(spec: TaskSpec, model: Any) -> int:
-    if not spec.keyframe:
-        return -1
-    names = [model.key(i).name for i in range(model.nkey)]
-    if spec.keyframe not in names:
-        raise ConfigError(
-            f"task '{spec.name}' starts from keyframe '{spec.keyframe}', which the model does not have; "
-            f"its keyframes: {', '.join(names) or 'none'}"
-        )
-    return names.index(spec.keyframe)
-
-
-def _initial_state(model: Any, keyframe_id: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """qpos, qvel and ctrl of the keyframe, or of the model's defaults when there is none."""
-    if keyframe_id < 0:
-        return np.array(model.qpos0, dtype=np.float64), np.zeros(model.nv), np.zeros(model.nu)
-    return (
-        np.array(model.key_qpos[keyframe_id], dtype=np.float64),
-        np.array(model.key_qvel[keyframe_id], dtype=np.float64),
-        np.array(model.key_ctrl[keyframe_id], dtype=np.float64),
-    )
-
-
-def _action_mapping(spec: TaskSpec, model: Any, initial_ctrl: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(ctrl_low, ctrl_high, offset, scale) with ctrl = clip(offset + scale * action, low, high)."""
-    limited = np.asarray(model.actuator_ctrllimited, dtype=bool)
-    ranges = np.asarray(model.actuator_ctrlrange, dtype=np.float64).reshape(-1, 2)
-    low = np.where(limited, ranges[:, 0], -np.inf)
-    high = np.where(limited, ranges[:, 1], np.inf)
-    if spec.action.mode == "ctrl_range":
-        offset = np.where(limited, (ranges[:, 0] + ranges[:, 1]) / 2, 0.0)
-        scale = np.where(limited, (ranges[:, 1] - ranges[:, 0]) / 2, 1.0) * spec.action.scale
-    elif spec.action.mode in ("offset", "delta"):  # delta: the offset is where each episode starts
-        offset, scale = initial_ctrl.copy(), np.full(model.nu, float(spec.action.scale))
-    else:
-        modes = ", ".join(ACTION_MODES)
-        raise ConfigError(f"task '{spec.name}': unknown action mode '{spec.action.mode}' (use {modes})")
-    return low, high, offset, scale
 
 
 def _probe(task: Task, model: Any) -> tuple[int, frozenset[str]]:
