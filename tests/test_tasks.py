@@ -34,7 +34,11 @@ EXTRA_TERMS = TaskSpec(
     frame_skip=1,
     episode_length=10,
     observations=(TermSpec("site_pos", params={"site": "gripper"}),),
-    rewards=(TermSpec("joint_vel_l2", -1.0),),
+    rewards=(
+        TermSpec("joint_vel_l2", -1.0),
+        TermSpec("body_command_tanh", 1.0, {"body": "moving_jaw", "name": "spot", "std": 0.2}),
+    ),
+    commands={"spot": 3},
 )
 _ANT_JOINTS = {"joints": ("hip_1", "ankle_1", "hip_4", "ankle_4")}
 EXTRA_ANT_TERMS = TaskSpec(

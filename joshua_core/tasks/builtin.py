@@ -95,6 +95,7 @@ SO_ARM100_REACH = TaskSpec(
 
 _CUBE_HALF = 0.015
 _GOAL = {"name": "goal", "low": (0.15, 0.05, _CUBE_HALF), "high": (0.25, 0.15, _CUBE_HALF)}
+_AT_GOAL = {"body": "cube", "name": "goal"}
 
 SO_ARM100_PICK_PLACE = TaskSpec(
     name="so_arm100_pick_place",
@@ -124,7 +125,8 @@ SO_ARM100_PICK_PLACE = TaskSpec(
             name="grasp",
         ),
         TermSpec("body_height_above", 1.0, {"body": "cube", "height": 0.04}, name="lift"),
-        TermSpec("body_command_tanh", 2.0, {"body": "cube", "name": "goal", "std": 0.2}, name="place"),  # pulls from ~0.3 m
+        # while the cube is lifted: a reward for a cube lying near its goal paid the policy for leaving it alone
+        TermSpec("carried_command_tanh", 2.0, {**_AT_GOAL, "height": 0.04, "std": 0.2}, name="place"),
         TermSpec("body_command_within", 5.0, {"body": "cube", "name": "goal", "radius": 0.02}, name="at_goal"),
         TermSpec("action_rate_l2", -0.005, name="action_rate"),
     ),

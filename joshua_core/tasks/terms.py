@@ -235,6 +235,12 @@ def body_command_tanh(ctx: TermContext, body: Body, name: str, std: float = 0.1)
     return 1.0 - ctx.xp.tanh(body_command_distance(ctx, body, name) / std)
 
 
+def carried_command_tanh(ctx: TermContext, body: Body, name: str, height: float, std: float = 0.1) -> Any:
+    """`body_command_tanh` while the body is above `height` (an object carried to its goal), else 0: no reward
+    for an object lying near its goal, which would pay a policy for leaving it alone."""
+    return body_command_tanh(ctx, body, name, std) * body_height_above(ctx, body, height)
+
+
 def body_command_within(ctx: TermContext, body: Body, name: str, radius: float) -> Any:
     """1 where a body is within `radius` m of a position command (a success flag), else 0."""
     return (body_command_distance(ctx, body, name) < radius).astype(ctx.xpos.dtype)
@@ -335,6 +341,7 @@ BUILTIN_TERMS: dict[str, Callable[..., Any]] = {
         site_body_tanh,
         body_command_distance,
         body_command_tanh,
+        carried_command_tanh,
         body_command_within,
         sensors_above,
         unhealthy,
