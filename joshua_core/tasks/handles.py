@@ -154,7 +154,8 @@ def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
         names = _joint_names(model, value)
         ids = [_lookup(model, "joint", name) for name in names]
         joints = [_joint(model, index) for index in ids]
-        limits = [_limits(model, index) for index, joint in zip(ids, joints) for _ in range(joint.qpos_size)]
+        pairs = zip(ids, joints, strict=True)
+        limits = [_limits(model, index) for index, joint in pairs for _ in range(joint.qpos_size)]
         return Joints(
             tuple(names),
             tuple(j.qpos_adr + k for j in joints for k in range(j.qpos_size)),

@@ -232,7 +232,8 @@ def randomize_joint_damping(
 ) -> TermContext:
     """Draw the damping of the named joints' dofs (empty: every hinge and slide joint)."""
     dofs = np.asarray(joints.dof_index)
-    return _written(ctx, "dof_damping", dofs, _drawn(ctx, ctx.defaults["dof_damping"][dofs], range, distribution, operation))
+    drawn = _drawn(ctx, ctx.defaults["dof_damping"][dofs], range, distribution, operation)
+    return _written(ctx, "dof_damping", dofs, drawn)
 
 
 def randomize_joint_armature(

@@ -241,6 +241,15 @@ def carried_command_tanh(ctx: TermContext, body: Body, name: str, height: float,
     return body_command_tanh(ctx, body, name, std) * body_height_above(ctx, body, height)
 
 
+def pushed_command_tanh(
+    ctx: TermContext, site: Site, body: Body, name: str, radius: float, std: float = 0.1
+) -> Any:
+    """`body_command_tanh` while the site is within `radius` m of the body (an object the gripper moves to its
+    goal, carried or pushed), else 0: an object left lying near its goal earns nothing."""
+    near = _norm(ctx, site_to_body(ctx, site, body)) < radius
+    return body_command_tanh(ctx, body, name, std) * near.astype(ctx.xpos.dtype)
+
+
 def body_command_within(ctx: TermContext, body: Body, name: str, radius: float) -> Any:
     """1 where a body is within `radius` m of a position command (a success flag), else 0."""
     return (body_command_distance(ctx, body, name) < radius).astype(ctx.xpos.dtype)
@@ -342,6 +351,7 @@ BUILTIN_TERMS: dict[str, Callable[..., Any]] = {
         body_command_distance,
         body_command_tanh,
         carried_command_tanh,
+        pushed_command_tanh,
         body_command_within,
         sensors_above,
         unhealthy,
