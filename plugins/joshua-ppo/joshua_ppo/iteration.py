@@ -82,6 +82,8 @@ class _Iteration:
 
     def env_step(self, carry: Carry, key: jax.Array) -> tuple[Carry, tuple[Transition, Metrics]]:
         env_state, params, stats = carry
+        # outputs never read (the policy on the final observation; with recompute_advantages, the value on the
+        # observation) are dropped when JAX traces the iteration: tests/test_iteration_work.py counts the rest
         mean, log_std, value = self.apply(params, stats, env_state.observation)
         action = mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape)
         next_state = self.env.step(env_state, env_actions(action, self.network))

@@ -1,0 +1,72 @@
+"""The compiled iteration evaluates each network only where its result is used.
+
+`_Iteration.env_step` applies the whole actor-critic to the observation and to the final observation,
+and `current_advantages` to the unrolls' last observations, though some of those outputs are never
+read: the policy on the final and last observations, and, when advantages are recomputed per
+minibatch, the value on the observation. JAX drops that work when it traces the iteration (dead-code
+elimination), before XLA sees it; these tests count the networks' first layers in the program JAX hands
+to XLA, so that a change which would make the rollout or update evaluate a network twice shows here.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import Counter
+
+import pytest
+
+from joshua_core.config_pb2 import TaskConfig
+from joshua_mjx.env import MjxEnv, make_mjx_env
+from joshua_ppo.iteration import make_iteration
+from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
+from joshua_ppo.state import abstract_state
+
+ENVS, STEPS = 12, 5
+POLICY, VALUE = 40, 52  # first-layer widths: no MJX array of the Ant has them
+# the tuned preset's layout (separate networks, state-dependent std, squashed actions), smaller
+NETWORK = NetworkSettings(
+    hidden_sizes=(POLICY, 44), value_hidden_sizes=(VALUE, 60), squash_actions=True, state_dependent_std=True
+)
+
+
+@pytest.fixture(scope="module")
+def env() -> MjxEnv:
+    return make_mjx_env("ant_locomotion", ENVS, model_path="ant/ant_mjx.xml", task_config=TaskConfig(episode_length=3))
+
+
+def network_evaluations(env: MjxEnv, recompute: bool, minibatch_size: int) -> Counter[tuple[str, str]]:
+    """(network, batch shape) -> how often the lowered iteration applies the network's first layer to a batch
+    of that shape (a loop body counts once, however often it runs)."""
+    optimization = OptimizationSettings(num_epochs=2, minibatch_size=minibatch_size)
+    returns = ReturnSettings(recompute_advantages=recompute, advantage="lambda_return")
+    rollout = RolloutSettings(num_steps=STEPS, unrolls_per_iteration=2)
+    iteration = make_iteration(env, rollout=rollout, optimization=optimization, returns=returns, network=NETWORK)
+    text = iteration.lower(abstract_state(env, network=NETWORK, optimization=optimization)).as_text()
+    obs = env.observation_size
+    first_layer = rf"stablehlo\.dot_general .*: \(tensor<([0-9x]+)x{obs}xf32>, tensor<{obs}x(\d+)xf32>\)"
+    names = {str(POLICY): "policy", str(VALUE): "value"}
+    return Counter((names[width], batch) for batch, width in re.findall(first_layer, text))
+
+
+def test_recomputing_advantages_evaluates_only_what_it_uses(env: MjxEnv) -> None:
+    unrolls = 2  # per minibatch: 10 transitions
+    evaluations = network_evaluations(env, recompute=True, minibatch_size=unrolls * STEPS)
+    assert evaluations == {
+        ("policy", f"{ENVS}"): 1,  # per env step: the policy on the observation
+        ("value", f"{ENVS}"): 1,  # ... and the value on the final observation alone
+        ("policy", f"{unrolls}x{STEPS}"): 1,  # per minibatch: both networks on its observations
+        ("value", f"{unrolls}x{STEPS}"): 1,
+        ("value", f"{unrolls}"): 1,  # ... and the value on its unrolls' last observations
+    }, evaluations
+
+
+def test_advantages_once_per_iteration_evaluate_only_what_they_use(env: MjxEnv) -> None:
+    minibatch = 15
+    evaluations = network_evaluations(env, recompute=False, minibatch_size=minibatch)
+    assert evaluations == {
+        ("policy", f"{ENVS}"): 1,  # per env step: the policy on the observation
+        # per env step the value on the observation and on the final observation, per unroll on its last
+        ("value", f"{ENVS}"): 3,
+        ("policy", f"{minibatch}"): 1,  # per minibatch: both networks on its observations
+        ("value", f"{minibatch}"): 1,
+    }, evaluations
