@@ -17,7 +17,7 @@ from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.cli import writable_file
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command, RunContext
-from joshua_core.runs import read_run_config
+from joshua_core.runs import add_checkpoint_arguments, read_run_config
 from joshua_core.statistics import report_lines, summarize
 
 if TYPE_CHECKING:
@@ -29,7 +29,7 @@ class EvalCommand(Command):
     and an MP4 of a grid of episodes."""
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("run", type=Path, help="run folder (its last checkpoint) or one checkpoint folder")
+        add_checkpoint_arguments(parser)
         parser.add_argument("--episodes", type=int, default=16, help="episodes to average over (default 16)")
         parser.add_argument("--seed", type=int, default=0, help="seed of the evaluation environments (default 0)")
         video = parser.add_mutually_exclusive_group()
@@ -39,11 +39,6 @@ class EvalCommand(Command):
             "--grid", type=int, default=1, help="episodes tiled in the video, at most --episodes (default 1; 4: 2x2)"
         )
         parser.add_argument("--json", type=Path, help="JSON of the results to write (default: RUN/eval.json)")
-        parser.add_argument(
-            "--trust-checkpoint",
-            action="store_true",
-            help="load a run folder written by someone else (its files may run code when loaded: trust it first)",
-        )
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
         if args.episodes < 1:

@@ -13,6 +13,7 @@ renamed into place (`joshua_core.atomic.atomic_directory`): every visible checkp
 
 from __future__ import annotations
 
+import argparse
 import errno
 import fcntl
 import json
@@ -216,6 +217,16 @@ def resume_run(root: Path, name: str | None, *, trainer: str, options: str) -> t
     if saved["trainer"] != trainer:
         raise ConfigError(f"{options}.resume: run {folder} was trained by '{saved['trainer']}', not '{trainer}'")
     return open_run(root, folder.name), saved
+
+
+def add_checkpoint_arguments(parser: argparse.ArgumentParser) -> None:
+    """The `run` argument and `--trust-checkpoint` of the commands that load a run's checkpoint (eval, export)."""
+    parser.add_argument("run", type=Path, help="run folder (its last checkpoint) or one checkpoint folder")
+    parser.add_argument(
+        "--trust-checkpoint",
+        action="store_true",
+        help="load a run folder written by someone else (its files may run code when loaded: trust it first)",
+    )
 
 
 def resolve_checkpoint(path: Path) -> Path:

@@ -192,9 +192,7 @@ def _actuators(model: Any, value: Any) -> Actuators:
             raise ValueError(f"actuator '{name}' drives no joint (its transmission is not a joint)")
         joints.append(_joint(model, int(model.actuator_trnid[index][0])))
         ids.append(index)
-    return Actuators(
-        tuple(names), tuple(j.qpos_adr for j in joints), tuple(j.dof_adr for j in joints), tuple(ids)
-    )
+    return Actuators(tuple(names), tuple(j.qpos_adr for j in joints), tuple(j.dof_adr for j in joints), tuple(ids))
 
 
 def _limits(model: Any, index: int) -> tuple[float, float]:

@@ -231,9 +231,7 @@ def randomize_joint_damping(
     operation: str = "scale",
 ) -> TermContext:
     """Draw the damping of the named joints' dofs (empty: every hinge and slide joint)."""
-    dofs = np.asarray(joints.dof_index)
-    drawn = _drawn(ctx, ctx.defaults["dof_damping"][dofs], range, distribution, operation)
-    return _written(ctx, "dof_damping", dofs, drawn)
+    return _drawn_dof_field(ctx, "dof_damping", joints, range, distribution, operation)
 
 
 def randomize_joint_armature(
@@ -244,9 +242,20 @@ def randomize_joint_armature(
     operation: str = "scale",
 ) -> TermContext:
     """Draw the armature (rotor inertia) of the named joints' dofs (empty: every hinge and slide joint)."""
+    return _drawn_dof_field(ctx, "dof_armature", joints, range, distribution, operation)
+
+
+def _drawn_dof_field(
+    ctx: TermContext,
+    field: str,
+    joints: Joints,
+    range: Range,
+    distribution: str,
+    operation: str,  # noqa: A002
+) -> TermContext:
+    """`ctx` with the model's per-dof `field` of the joints' dofs drawn around its default."""
     dofs = np.asarray(joints.dof_index)
-    values = _drawn(ctx, ctx.defaults["dof_armature"][dofs], range, distribution, operation)
-    return _written(ctx, "dof_armature", dofs, values)
+    return _written(ctx, field, dofs, _drawn(ctx, ctx.defaults[field][dofs], range, distribution, operation))
 
 
 # --- control and observation ------------------------------------------------------------------

@@ -110,13 +110,11 @@ ACTION_MODES = ("ctrl_range", "offset", "delta")
 
 
 def _action(spec: TaskSpec, action: Any) -> ActionSpec:
-    """The task's ActionSpec with a `joshua.ActionConfig`'s mode and scale where they are set."""
-    mode = action.mode or spec.action.mode
-    if mode not in ACTION_MODES:
-        raise ConfigError(f"task '{spec.name}': unknown action mode '{mode}' (use {', '.join(ACTION_MODES)})")
+    """The task's ActionSpec with a `joshua.ActionConfig`'s mode and scale where they are set (the mode is
+    checked where it is used: `actuation.action_mapping`)."""
     if action.scale < 0 or not math.isfinite(action.scale):
         raise ConfigError(f"task '{spec.name}': action scale must be a positive finite number, got {action.scale}")
-    return ActionSpec(mode, action.scale or spec.action.scale)
+    return ActionSpec(action.mode or spec.action.mode, action.scale or spec.action.scale)
 
 
 def parse_param(text: str) -> Any:

@@ -121,9 +121,7 @@ class Task:
         """Whether an action moves the controls in force ("delta") rather than setting them."""
         return self.spec.action.mode == "delta"
 
-    def action_to_ctrl(
-        self, xp: Any, action: Any, params: Mapping[str, Any] | None = None, ctrl: Any = None
-    ) -> Any:
+    def action_to_ctrl(self, xp: Any, action: Any, params: Mapping[str, Any] | None = None, ctrl: Any = None) -> Any:
         """Actuator controls for actions, (N, nu): clipped to [-1, 1], mapped (see ActionSpec), clipped to
         ctrlrange. "delta" adds to `ctrl`, the controls in force (N, nu); the other modes add each
         environment's randomized `ctrl_offset` where `params` has one (delta actions meet it at reset:

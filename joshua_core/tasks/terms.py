@@ -241,9 +241,7 @@ def carried_command_tanh(ctx: TermContext, body: Body, name: str, height: float,
     return body_command_tanh(ctx, body, name, std) * body_height_above(ctx, body, height)
 
 
-def pushed_command_tanh(
-    ctx: TermContext, site: Site, body: Body, name: str, radius: float, std: float = 0.1
-) -> Any:
+def pushed_command_tanh(ctx: TermContext, site: Site, body: Body, name: str, radius: float, std: float = 0.1) -> Any:
     """`body_command_tanh` while the site is within `radius` m of the body (an object the gripper moves to its
     goal, carried or pushed), else 0: an object left lying near its goal earns nothing."""
     near = _norm(ctx, site_to_body(ctx, site, body)) < radius

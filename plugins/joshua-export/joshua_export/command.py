@@ -14,7 +14,7 @@ from joshua_core.atomic import atomic_write_bytes, atomic_write_json
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command, RunContext
 from joshua_core.resources import resolve_data_path
-from joshua_core.runs import read_run_config, resolve_checkpoint
+from joshua_core.runs import add_checkpoint_arguments, read_run_config, resolve_checkpoint
 from joshua_export.contract import CONTRACT_FILE, ONNX_FILE, make_contract
 from joshua_export.graph import policy_graph
 from joshua_export.observer import Observer
@@ -27,13 +27,8 @@ class ExportCommand(Command):
     """`joshua export RUN [--out DIR]`: write policy.onnx and policy.json (into RUN's checkpoint folder)."""
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("run", type=Path, help="run folder (its last checkpoint) or one checkpoint folder")
+        add_checkpoint_arguments(parser)
         parser.add_argument("--out", type=Path, help="folder to write into (default: the checkpoint folder)")
-        parser.add_argument(
-            "--trust-checkpoint",
-            action="store_true",
-            help="load a run folder written by someone else (its files may run code when loaded: trust it first)",
-        )
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
         checkpoint = resolve_checkpoint(args.run)
