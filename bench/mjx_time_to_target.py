@@ -38,6 +38,7 @@ from joshua_core.atomic import atomic_write_bytes, atomic_write_json, json_safe
 from joshua_core.config import apply_override, finalize, load_file, load_preset
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.interfaces import EnvKind, EnvSpec
+from joshua_core.interrupts import reported
 from joshua_core.plugins import PluginHost
 from joshua_core.statistics import SUCCESS_METRIC, summarize
 from joshua_mjx import MjxBackend, MjxEnv
@@ -290,7 +291,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     }
 
 
-def main() -> None:
+def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--preset", default="so_arm100_pick_place_mjx", help="a preset's name or a .pbtxt file")
     parser.add_argument("--metric", choices=sorted(METRICS), default="success")
@@ -318,7 +319,8 @@ def main() -> None:
     atomic_write_bytes(args.out / "time_to_target.png", curve)
     print("\n".join(summary_lines(outcome, args.metric, args.target)))
     print(f"wrote {args.out / 'time_to_target.json'} and {args.out / 'time_to_target.png'}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(reported(main))  # a bad preset or --set is one line and exit 2, as in the CLI
