@@ -4,17 +4,16 @@
     python bench/mjx_time_to_target.py --preset trileg_train_mjx --metric return --target 2000 --out out/trileg
     python bench/mjx_time_to_target.py --preset so_arm100_pick_place_mjx --smoke --out /tmp/smoke   # tiny, on CPU
 
-Training stops at --max-seconds or --iterations, or earlier when the training value (the training return, or the
-success rate of the episodes that ended in the iteration: exploration noise included) reaches --stop-at. That
-defaults to the target for returns (the deterministic return runs ahead of the training return) and to never for
-success rates, which run the other way: on pick-and-place the training success reached 0.906 while the
-deterministic success of the same policy was 0.81. The
-policy is snapshotted every --snapshot-interval iterations and at the end; afterwards all snapshots are
-evaluated at once (one rollout vmapped over them) with the deterministic policy over --eval-envs whole
-episodes: the success rate with its 95 % Wilson interval (tasks with a `success` metric) and the mean return
-with its 95 % Student t interval, by joshua_core.statistics as `joshua eval` reports them. The time to the
-target is the training wall time (compile included, evaluations excluded) of the first snapshot whose
-deterministic value reaches it.
+Training stops at the first snapshot (every --snapshot-interval iterations) whose deterministic value reaches
+the target, at --max-seconds or --iterations, or when the training value (the training return, or the success
+rate of the episodes that ended in the iteration: exploration noise included) reaches --stop-at. That defaults
+to the target for returns (the deterministic return runs ahead of the training return) and to never for success
+rates, which run the other way: on pick-and-place the training success reached 0.906 while the deterministic
+success of the same policy was 0.81. Each snapshot is evaluated as it is taken, with the deterministic policy
+over --eval-envs whole episodes: the success rate with its 95 % Wilson interval (tasks with a `success` metric)
+and the mean return with its 95 % Student t interval, by joshua_core.statistics as `joshua eval` reports them.
+The time to the target is the training wall time (compile included, evaluations left out) of the first
+snapshot whose deterministic value reaches it.
 
 Prints a few lines: time to target (with and without compile), training env steps/s, raw physics steps/s of
 `vmap(mjx.step)` on the same batch measured in the same run (after training) and their ratio; writes
@@ -83,6 +82,28 @@ def raw_physics_rate(env: MjxEnv, steps: int = 50) -> float:
 Snapshot = tuple[Any, RunningStatistics]  # host copies of a policy's parameters and observation normaliser
 
 
+class SnapshotEvaluator:
+    """Evaluates each snapshot as it is taken, on `env`'s deterministic episodes (one compiled rollout for
+    all), so that training can stop at the first snapshot whose value reaches the target; it times itself,
+    and the training wall time leaves that time out."""
+
+    def __init__(self, settings: PpoSettings, env: MjxEnv, value_key: str, target: float) -> None:
+        self.rollout = jax.jit(make_rollout(env, settings.network, env.task.episode_length))
+        self.value_key, self.target = value_key, target
+        self.seconds = 0.0
+        self.results: list[dict[str, Any]] = []
+
+    def __call__(self, snapshot: Snapshot) -> bool:
+        """Evaluate one snapshot (as `evaluate_snapshots` does); whether it reaches the target."""
+        started = time.perf_counter()
+        raw = jax.device_get(self.rollout(*snapshot, jax.random.PRNGKey(1)))
+        self.results.append(summarize(episode_results(collect(raw))))
+        self.seconds += time.perf_counter() - started
+        value = self.results[-1][self.value_key]
+        print(f"  snapshot: deterministic {self.value_key} {value:.4g} (evaluations so far {self.seconds:.1f} s)")
+        return value >= self.target
+
+
 def train(
     settings: PpoSettings,
     env: MjxEnv,
@@ -91,12 +112,14 @@ def train(
     iterations: int | None,
     snapshot_interval: int = 0,
     metric: str = "return",
+    evaluator: SnapshotEvaluator | None = None,
 ) -> tuple[dict, list[tuple[dict, Snapshot]]]:
-    """Train until the training value of `metric` reaches `target` (the stopping value), the time limit or the
-    iteration limit.
+    """Train until the training value of `metric` reaches `target` (the stopping value), the time limit, the
+    iteration limit or (with an evaluator) the first snapshot whose deterministic value reaches its target.
 
     Returns the outcome and snapshots of the policy every `snapshot_interval` iterations and at the
-    end, each with its step and wall seconds, for `evaluate_snapshots`."""
+    end, each with its step and wall seconds (evaluations left out), for `evaluate_snapshots` where no
+    evaluator has evaluated them."""
     training_key = METRICS[metric][0]
     started = time.perf_counter()
     log: list[dict] = []
@@ -104,9 +127,10 @@ def train(
 
     def on_progress(report: IterationReport, state: TrainingState) -> None:
         metrics = report.metrics
+        wall = report.wall_seconds - (evaluator.seconds if evaluator else 0.0)
         entry = {
             "step": report.env_steps,
-            "wall": report.wall_seconds,
+            "wall": wall,
             "sps": report.steps_per_second,
             "return": metrics["mean_return"],
             "value": metrics.get(training_key, float("nan")),
@@ -115,11 +139,11 @@ def train(
         }
         log.append(entry)
         reached = metrics["episodes"] > 0 and entry["value"] >= target
-        out_of_budget = report.wall_seconds > max_seconds or report.iteration == iterations
+        out_of_budget = wall > max_seconds or report.iteration == iterations
         stopping = reached or out_of_budget or report.env_steps >= report.total_steps
         if report.iteration % 10 == 0 or stopping:
             print(
-                f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {report.wall_seconds:7.1f} s  "
+                f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {wall:7.1f} s  "
                 f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}  "
                 + (f"{metric} {entry['value']:.3f}  " if metric != "return" else "")
                 + f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}  "
@@ -129,8 +153,10 @@ def train(
             )
         if stopping or (snapshot_interval > 0 and report.iteration % snapshot_interval == 0):
             # a host copy: the state's buffers are donated to the next iteration
-            when = {"step": report.env_steps, "wall": report.wall_seconds}
-            snapshots.append((when, jax.device_get((state.params, state.normalizer))))
+            snapshots.append(
+                ({"step": report.env_steps, "wall": wall}, jax.device_get((state.params, state.normalizer)))
+            )
+            stopping = (evaluator is not None and evaluator(snapshots[-1][1])) or stopping
         if stopping:
             raise TargetReached  # or out of time, iterations or steps
 
@@ -151,7 +177,8 @@ def train(
     steady = [entry["sps"] for entry in log[1:]] or [entry["sps"] for entry in log]
     reached = [entry for entry in log if entry["episodes"] > 0 and entry["value"] >= target]
     return {
-        "wall_seconds": time.perf_counter() - started,
+        "wall_seconds": time.perf_counter() - started - (evaluator.seconds if evaluator else 0.0),
+        "evaluation_seconds": evaluator.seconds if evaluator else 0.0,
         "compile_seconds": compile_seconds,
         "train_steps_per_second": sorted(steady)[len(steady) // 2],
         "env_steps": log[-1]["step"] if log else 0,
@@ -263,8 +290,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     env = environment(config, plugins, config.num_envs or DEFAULT_NUM_ENVS, devices, training=True)
     if args.metric == "success" and SUCCESS_METRIC not in [term.name for term in env.task.metric_terms]:
         raise SystemExit(f"task {config.task} has no {SUCCESS_METRIC} metric: use --metric return")
+    value_key = METRICS[args.metric][1]
+    eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
+    evaluator = SnapshotEvaluator(settings, environment(config, plugins, eval_envs, devices), value_key, args.target)
     outcome, snapshots = train(
-        settings, env, stop_at(args), args.max_seconds, args.iterations, args.snapshot_interval, args.metric
+        settings, env, stop_at(args), args.max_seconds, args.iterations, args.snapshot_interval, args.metric, evaluator
     )
     raw = raw_physics_rate(env)
     outcome |= {
@@ -277,11 +307,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "raw_physics_steps_per_second": raw,
         "fraction_of_raw_physics": outcome["train_steps_per_second"] * env.task.frame_skip / raw,
     }
-    eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
-    eval_env = environment(config, plugins, eval_envs, devices)
-    evaluations = evaluate_snapshots(settings, eval_env, [snapshot for _, snapshot in snapshots])
-    evaluated = [when | result for (when, _), result in zip(snapshots, evaluations, strict=True)]
-    value_key = METRICS[args.metric][1]
+    evaluated = [when | result for (when, _), result in zip(snapshots, evaluator.results, strict=True)]
     reached = next((entry for entry in evaluated if entry[value_key] >= args.target), None)
     return outcome | {
         "snapshots": evaluated,
@@ -298,8 +324,9 @@ def main() -> int:
     parser.add_argument("--target", type=float, default=0.9, help="value of --metric to reach (default 0.9)")
     parser.add_argument("--max-seconds", type=float, default=900.0)
     parser.add_argument(
-        "--stop-at", type=float, help="stop once the training value reaches this (default: --target for returns, "
-        "never for success rates)"
+        "--stop-at",
+        type=float,
+        help="stop once the training value reaches this (default: --target for returns, never for success rates)",
     )
     parser.add_argument("--num-envs", type=int, help="override the preset's num_envs")
     parser.add_argument("--iterations", type=int, help="stop after this many iterations")
