@@ -122,12 +122,17 @@ def train(
     evaluator has evaluated them."""
     training_key = METRICS[metric][0]
     started = time.perf_counter()
+
+    def evaluation_seconds() -> float:
+        """Time spent evaluating so far: left out of every wall time."""
+        return evaluator.seconds if evaluator else 0.0
+
     log: list[dict] = []
     snapshots: list[tuple[dict, Snapshot]] = []
 
     def on_progress(report: IterationReport, state: TrainingState) -> None:
         metrics = report.metrics
-        wall = report.wall_seconds - (evaluator.seconds if evaluator else 0.0)
+        wall = report.wall_seconds - evaluation_seconds()
         entry = {
             "step": report.env_steps,
             "wall": wall,
@@ -177,8 +182,8 @@ def train(
     steady = [entry["sps"] for entry in log[1:]] or [entry["sps"] for entry in log]
     reached = [entry for entry in log if entry["episodes"] > 0 and entry["value"] >= target]
     return {
-        "wall_seconds": time.perf_counter() - started - (evaluator.seconds if evaluator else 0.0),
-        "evaluation_seconds": evaluator.seconds if evaluator else 0.0,
+        "wall_seconds": time.perf_counter() - started - evaluation_seconds(),
+        "evaluation_seconds": evaluation_seconds(),
         "compile_seconds": compile_seconds,
         "train_steps_per_second": sorted(steady)[len(steady) // 2],
         "env_steps": log[-1]["step"] if log else 0,
