@@ -4,10 +4,11 @@
     python bench/mjx_scene_cost.py --envs 64 --steps 2              # a quick look on CPU
 
 Each variant is the scene with MJCF appended inside <mujoco>...</mujoco> (an <option>, a <contact>
-block): the script prints, per variant, the contact slots MJX allocates per simulation (every pair
-that can collide reserves its maximum number of contacts, used or not), the compile seconds and the
-physics steps/s of `num_envs` simulations starting from the "home" keyframe, and the ratio to the
-first variant. A faster variant is only a candidate: check that it still solves the task
+block) and a number of physics steps per 20 ms control step (the task's frame_skip for that timestep):
+the script prints, per variant and number of simulations, the contact slots MJX allocates per
+simulation (every pair that can collide reserves its maximum number of contacts, used or not), the
+compile seconds, the physics steps/s of the simulations starting from the "home" keyframe, the
+control (env) steps/s that makes, and the ratio of the latter to the first line. A faster variant is only a candidate: check that it still solves the task
 (plugins/joshua-mjx/tests/test_pick_place_scripted.py) before adopting it.
 """
 
@@ -26,18 +27,29 @@ from joshua_mjx.physics import mjx
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 SCENE = MODELS / "so_arm100" / "pick_place_mjx.xml"
-# Bodies that cannot touch the cube, and arm links that cannot reach the table (the pan and lift links).
-EXCLUDE = """<contact>
-  <exclude body1="cube" body2="base"/><exclude body1="cube" body2="shoulder"/>
-  <exclude body1="cube" body2="upper_arm"/>
-  <exclude body1="world" body2="shoulder"/><exclude body1="world" body2="upper_arm"/>
-</contact>"""
+
+
+def pads_touch_cube(model: mujoco.MjModel) -> None:
+    """The cube touches only the pads: every other arm geom gets a contype that the cube's conaffinity lacks
+    but the table's has, so the table plane still stops the whole arm."""
+    cube, table = model.geom("cube").id, model.geom("table_top").id
+    model.geom_conaffinity[table] = 3
+    for geom in range(model.ngeom):
+        if model.geom_contype[geom] and model.geom_conaffinity[geom] == 0 and not model.geom(geom).name.endswith("_pad"):
+            model.geom_contype[geom] = 2
+    assert model.geom_contype[cube] == 1
+
+
+# name: (MJCF appended to the scene, physics steps per 20 ms control step, an edit of the compiled model)
 VARIANTS = {
-    "as shipped": "",
-    "pyramidal cones": '<option cone="pyramidal"/>',
-    "exclusions": EXCLUDE,
-    "exclusions + 4 solver iterations": EXCLUDE + '<option iterations="4" ls_iterations="8"/>',
-    "exclusions + pyramidal": EXCLUDE + '<option cone="pyramidal"/>',
+    "4 ms x 5 (the scene until 2026-11-25)": ('<option timestep="0.004"/>', 5, None),
+    "as shipped (10 ms x 2)": ("", 2, None),
+    "5 ms x 4": ('<option timestep="0.005"/>', 4, None),
+    "20 ms x 1": ('<option timestep="0.02"/>', 1, None),
+    "pyramidal cones": ('<option cone="pyramidal"/>', 2, None),
+    "4 solver iterations": ('<option iterations="4" ls_iterations="8"/>', 2, None),
+    "cube touches pads only": ("", 2, pads_touch_cube),
+    "cube touches pads only, 4 solver iterations": ('<option iterations="4" ls_iterations="8"/>', 2, pads_touch_cube),
 }
 
 
@@ -72,22 +84,28 @@ def rate(model: mujoco.MjModel, num_envs: int, steps: int) -> tuple[int, float, 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--scene", type=Path, default=SCENE)
-    parser.add_argument("--envs", type=int, default=8192)
+    parser.add_argument("--envs", type=int, nargs="+", default=[8192], help="numbers of simulations to measure")
     parser.add_argument("--steps", type=int, default=50, help="physics steps per timed call")
     parser.add_argument("--only", action="append", help="measure only these variants (repeatable)")
     args = parser.parse_args()
-    print(f"{args.scene.name} on {jax.devices()[0]}, {args.envs} simulations")
+    print(f"{args.scene.name} on {jax.devices()[0]}")
     reference = None
-    for name, extra in VARIANTS.items():
-        if args.only and name not in args.only:
-            continue
-        contacts, compile_seconds, steps_per_second = rate(variant_model(args.scene, extra), args.envs, args.steps)
-        reference = reference or steps_per_second
-        print(
-            f"  {name:34s} {contacts:4d} contact slots  compile {compile_seconds:5.1f} s  "
-            f"{steps_per_second:>12,.0f} steps/s  {steps_per_second / reference:5.2f}x",
-            flush=True,
-        )
+    for num_envs in args.envs:
+        for name, (extra, substeps, edit) in VARIANTS.items():
+            if args.only and name not in args.only:
+                continue
+            model = variant_model(args.scene, extra)
+            if edit:
+                edit(model)
+            contacts, compile_seconds, physics_rate = rate(model, num_envs, args.steps)
+            control_rate = physics_rate / substeps
+            reference = reference or control_rate
+            print(
+                f"  {num_envs:6d} x {name:36s} {contacts:4d} contact slots  compile {compile_seconds:5.1f} s  "
+                f"{physics_rate:>12,.0f} physics steps/s  {control_rate:>11,.0f} env steps/s  "
+                f"{control_rate / reference:5.2f}x",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

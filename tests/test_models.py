@@ -301,7 +301,7 @@ def test_trajectory_lifts_cube() -> None:
     _, _, rows = read_trajectory()
     model = load(ARM_DIR / "pick_place.xml")
     data = reset_home(model)
-    # the trajectory is sampled every 2 ms, the scene steps 4 ms: each step gets the targets of its start time
+    # the trajectory is sampled every 2 ms, the scene steps 10 ms: each step gets the targets of its start time
     times = rows[:, 0]
     for time in np.arange(0.0, times[-1], model.opt.timestep):
         data.ctrl[:] = rows[np.searchsorted(times, time - 1e-9), 1:]

@@ -101,7 +101,7 @@ SO_ARM100_PICK_PLACE = TaskSpec(
     name="so_arm100_pick_place",
     summary="SO-ARM100 picks up the cube and places it on a random goal on the table",
     model_path="so_arm100/pick_place.xml",
-    frame_skip=5,  # 5 x 4 ms (pick_place.xml): dt = 0.02 s (50 Hz control)
+    frame_skip=2,  # 2 x 10 ms (pick_place.xml): dt = 0.02 s (50 Hz control)
     episode_length=400,
     keyframe="home",
     commands={"goal": 3},
