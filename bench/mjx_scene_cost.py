@@ -3,13 +3,16 @@
     python bench/mjx_scene_cost.py                                  # the pick-and-place scene, 8192 envs (GPU)
     python bench/mjx_scene_cost.py --envs 64 --steps 2              # a quick look on CPU
 
-Each variant is the scene with MJCF appended inside <mujoco>...</mujoco> (an <option>, a <contact>
-block) and a number of physics steps per 20 ms control step (the task's frame_skip for that timestep):
-the script prints, per variant and number of simulations, the contact slots MJX allocates per
-simulation (every pair that can collide reserves its maximum number of contacts, used or not), the
-compile seconds, the physics steps/s of the simulations starting from the "home" keyframe, the
-control (env) steps/s that makes, and the ratio of the latter to the first line. A faster variant is only a candidate: check that it still solves the task
-(plugins/joshua-mjx/tests/test_pick_place_scripted.py) before adopting it.
+    python bench/mjx_scene_cost.py --envs 16384 32768 --only "as shipped (10 ms x 2)"
+
+Each variant is the scene with MJCF appended inside <mujoco>...</mujoco> (an <option>), possibly an edit
+of the compiled model, and a number of physics steps per 20 ms control step (the task's frame_skip for
+that timestep). The script prints, per variant and number of simulations, the contact slots MJX
+allocates per simulation (every pair that can collide reserves its maximum number of contacts, used or
+not), the compile seconds, the physics steps/s of the simulations starting from the "home" keyframe, the
+control (env) steps/s that makes, and the ratio of the latter to the first line. A faster variant is
+only a candidate: check that it still solves the task (plugins/joshua-mjx/tests/test_pick_place_scripted.py)
+before adopting it.
 """
 
 from __future__ import annotations
@@ -35,7 +38,8 @@ def pads_touch_cube(model: mujoco.MjModel) -> None:
     cube, table = model.geom("cube").id, model.geom("table_top").id
     model.geom_conaffinity[table] = 3
     for geom in range(model.ngeom):
-        if model.geom_contype[geom] and model.geom_conaffinity[geom] == 0 and not model.geom(geom).name.endswith("_pad"):
+        arm = model.geom_contype[geom] and model.geom_conaffinity[geom] == 0
+        if arm and not model.geom(geom).name.endswith("_pad"):
             model.geom_contype[geom] = 2
     assert model.geom_contype[cube] == 1
 
