@@ -2,17 +2,16 @@
 
     python bench/mjx_scene_cost.py                                  # the pick-and-place scene, 8192 envs (GPU)
     python bench/mjx_scene_cost.py --envs 64 --steps 2              # a quick look on CPU
-
     python bench/mjx_scene_cost.py --envs 16384 32768 --only "as shipped (10 ms x 2)"
 
 Each variant is the scene with MJCF appended inside <mujoco>...</mujoco> (an <option>), possibly an edit
 of the compiled model, and a number of physics steps per 20 ms control step (the task's frame_skip for
 that timestep). The script prints, per variant and number of simulations, the contact slots MJX
 allocates per simulation (every pair that can collide reserves its maximum number of contacts, used or
-not), the compile seconds, the physics steps/s of the simulations starting from the "home" keyframe, the
-control (env) steps/s that makes, and the ratio of the latter to the first line. A faster variant is
-only a candidate: check that it still solves the task (plugins/joshua-mjx/tests/test_pick_place_scripted.py)
-before adopting it.
+not), the compile seconds, the physics steps/s of the simulations starting from the "home" keyframe under
+random servo targets (see `rate`), the control (env) steps/s that makes, and the ratio of the latter to
+the first line. A faster variant is only a candidate: check that it still solves the task
+(plugins/joshua-mjx/tests/test_pick_place_scripted.py) before adopting it.
 """
 
 from __future__ import annotations
@@ -29,6 +28,7 @@ import mujoco
 from joshua_mjx.physics import mjx
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
+HOLD_SECONDS = 0.5  # how long a random servo target holds, on average, before the next is drawn
 SCENE = MODELS / "so_arm100" / "pick_place_mjx.xml"
 
 
@@ -51,9 +51,16 @@ VARIANTS = {
     "5 ms x 4": ('<option timestep="0.005"/>', 4, None),
     "20 ms x 1": ('<option timestep="0.02"/>', 1, None),
     "pyramidal cones": ('<option cone="pyramidal"/>', 2, None),
-    "4 solver iterations": ('<option iterations="4" ls_iterations="8"/>', 2, None),
+    "4 solver iterations (the cube drops)": ('<option iterations="4" ls_iterations="8"/>', 2, None),
+    "5 solver iterations": ('<option iterations="5"/>', 2, None),
+    "6 line-search iterations": ('<option ls_iterations="6"/>', 2, None),
+    "solver tolerance 1e-4": ('<option tolerance="1e-4"/>', 2, None),
     "cube touches pads only": ("", 2, pads_touch_cube),
-    "cube touches pads only, 4 solver iterations": ('<option iterations="4" ls_iterations="8"/>', 2, pads_touch_cube),
+    "pads only, 5 iterations, 6 line-search": (
+        '<option iterations="5" ls_iterations="6"/>',
+        2,
+        pads_touch_cube,
+    ),
 }
 
 
@@ -67,20 +74,33 @@ def variant_model(scene: Path, extra: str) -> mujoco.MjModel:
 
 
 def rate(model: mujoco.MjModel, num_envs: int, steps: int) -> tuple[int, float, float]:
-    """(contact slots, compile seconds, physics steps/s) of `num_envs` simulations from the "home" keyframe."""
+    """(contact slots, compile seconds, physics steps/s) of `num_envs` simulations from the "home" keyframe whose
+    servo targets jump to random points of their ranges (each env about every HOLD_SECONDS): the arms swing apart and
+    hit the table and the cube, so the constraint solver works as in training, not on arms at rest."""
     mx = mjx.put_model(model)
     data = mujoco.MjData(model)
     mujoco.mj_resetDataKeyframe(model, data, model.key("home").id)
     one = mjx.put_data(model, data)
     batch = jax.tree.map(lambda leaf: jnp.broadcast_to(leaf, (num_envs, *jnp.shape(leaf))), one)
-    run = jax.jit(lambda d: jax.lax.fori_loop(0, steps, lambda _, x: jax.vmap(mjx.step, (None, 0))(mx, x), d))
+    low, high = jnp.asarray(model.actuator_ctrlrange[:, 0]), jnp.asarray(model.actuator_ctrlrange[:, 1])
+    chance = model.opt.timestep / HOLD_SECONDS  # of a new target, per env and physics step
+
+    def step(_: int, carry: tuple[mjx.Data, jax.Array]) -> tuple[mjx.Data, jax.Array]:
+        data, key = carry
+        key, when, where = jax.random.split(key, 3)
+        redraw = jax.random.uniform(when, (num_envs, 1)) < chance
+        target = low + (high - low) * jax.random.uniform(where, data.ctrl.shape)
+        data = data.replace(ctrl=jnp.where(redraw, target.astype(data.ctrl.dtype), data.ctrl))
+        return jax.vmap(mjx.step, (None, 0))(mx, data), key
+
+    run = jax.jit(lambda carry: jax.lax.fori_loop(0, steps, step, carry))
     started = time.perf_counter()
-    batch = jax.block_until_ready(run(batch))
+    carry = jax.block_until_ready(run((batch, jax.random.PRNGKey(0))))
     compile_seconds = time.perf_counter() - started
     best = 0.0
     for _ in range(3):
         started = time.perf_counter()
-        batch = jax.block_until_ready(run(batch))
+        carry = jax.block_until_ready(run(carry))
         best = max(best, steps * num_envs / (time.perf_counter() - started))
     return int(one._impl.contact.dist.shape[0]), compile_seconds, best
 

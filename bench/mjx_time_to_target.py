@@ -16,7 +16,8 @@ The time to the target is the training wall time (compile included, evaluations 
 snapshot whose deterministic value reaches it.
 
 Prints a few lines: time to target (with and without compile), training env steps/s, raw physics steps/s of
-`vmap(mjx.step)` on the same batch measured in the same run (after training) and their ratio; writes
+`vmap(mjx.step)` on the same batch measured in the same run (after training) and their ratio, and the env
+steps/s of the environment alone under random actions (what PPO costs on top of the task); writes
 OUT/time_to_target.json and OUT/time_to_target.png (the metric and its interval against wall time).
 bench/mjx_train_ant.py is this bench for Ant, with its own figures (and throughput scaling over devices).
 """
@@ -75,6 +76,31 @@ def raw_physics_rate(env: MjxEnv, steps: int = 50) -> float:
     for _ in range(3):
         started = time.perf_counter()
         data = jax.block_until_ready(run(data))
+        best = max(best, steps * env.num_envs / (time.perf_counter() - started))
+    return best
+
+
+def environment_rate(env: MjxEnv, steps: int = 20) -> float:
+    """Env steps/s of `env.step` alone under uniform random actions (after compilation): the task's terms,
+    resets and physics with the arm moving and touching things, and no policy. Between it and the training
+    rate lies PPO's own cost; between it and `raw_physics_rate` the task's and what motion costs the solver."""
+    state = env.reset(jax.random.PRNGKey(0))
+    shape = (env.num_envs, env.action_size)
+
+    @jax.jit
+    def run(state: Any, key: jax.Array) -> tuple[Any, jax.Array]:
+        def step(_: int, carry: tuple[Any, jax.Array]) -> tuple[Any, jax.Array]:
+            state, key = carry
+            key, draw = jax.random.split(key)
+            return env.step(state, jax.random.uniform(draw, shape, minval=-1.0, maxval=1.0)), key
+
+        return jax.lax.fori_loop(0, steps, step, (state, key))
+
+    carry = jax.block_until_ready(run(state, jax.random.PRNGKey(1)))
+    best = 0.0
+    for _ in range(3):
+        started = time.perf_counter()
+        carry = jax.block_until_ready(run(*carry))
         best = max(best, steps * env.num_envs / (time.perf_counter() - started))
     return best
 
@@ -266,7 +292,9 @@ def summary_lines(outcome: dict[str, Any], metric: str, target: float) -> list[s
         f"{outcome['preset']}: {first}; compile {outcome['compile_seconds']:.1f} s",
         f"training {outcome['train_steps_per_second']:,.0f} env steps/s x frame_skip {outcome['frame_skip']} = "
         f"{outcome['fraction_of_raw_physics']:.0%} of raw MJX physics ({outcome['raw_physics_steps_per_second']:,.0f}"
-        f" steps/s) on {outcome['devices']} device(s)",
+        f" steps/s) on {outcome['devices']} device(s); the environment alone, under random actions, "
+        f"{outcome['environment_steps_per_second']:,.0f} env steps/s (training reaches "
+        f"{outcome['train_steps_per_second'] / outcome['environment_steps_per_second']:.0%} of it)",
     ]
     if last is not None:
         low, high = last[interval_key] or (float("nan"), float("nan"))
@@ -303,6 +331,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     )
     raw = raw_physics_rate(env)
     outcome |= {
+        "environment_steps_per_second": environment_rate(env),
         "preset": args.preset,
         "metric": args.metric,
         "target": args.target,
