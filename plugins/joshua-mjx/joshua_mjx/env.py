@@ -246,10 +246,12 @@ class MjxEnv:
     # --- pieces -------------------------------------------------------------------------------
 
     def _physics(self, function: Any, fields: dict[str, jax.Array], data: mjx.Data) -> mjx.Data:
-        """`function(model, data)` of every environment, each on its model (its randomized fields)."""
-        if not fields:
-            return jax.vmap(function, (None, 0))(self.mjx_model, data)
-        return jax.vmap(lambda f, d: function(self.randomization.model(f), d))(fields, data)
+        """`function(model, data)` of every environment, each on its model (its randomized fields); named
+        "physics" in profiles (bench/ppo_profile.py)."""
+        with jax.named_scope("physics"):
+            if not fields:
+                return jax.vmap(function, (None, 0))(self.mjx_model, data)
+            return jax.vmap(lambda f, d: function(self.randomization.model(f), d))(fields, data)
 
     def _fresh_episodes(self, keys: jax.Array) -> tuple[mjx.Data, dict[str, jax.Array], dict[str, jax.Array]]:
         """New episodes, one per key: the task's initial state with its reset terms and reset events applied,
@@ -365,6 +367,4 @@ def mjx_envs(spec: EnvSpec, plugins: PluginHost) -> MjxEnv:
     path = spec.model_path or mjx_variant(task_spec.model_path)
     model = compile_model(path, plugins=plugins)
     built = build_task(task_spec, model, plugins, spec.task_config)
-    return MjxEnv(
-        built, model, spec.num_envs, source=path, devices=spec.devices, desync_episodes=spec.desync_episodes
-    )
+    return MjxEnv(built, model, spec.num_envs, source=path, devices=spec.devices, desync_episodes=spec.desync_episodes)

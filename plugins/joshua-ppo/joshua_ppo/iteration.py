@@ -151,10 +151,12 @@ class _Iteration:
         grads = jax.lax.pmean(grads, self.axis)
         # the KL before this step, as every device sees it
         kl = jax.lax.pmean(losses["approx_kl"], self.axis) if self.optimization.desired_kl > 0 else None
-        opt_state = scheduled_learning_rate(opt_state, kl, self.optimization, self.env_steps_per_gradient_step)
-        updates, opt_state = self.optimizer.update(grads, opt_state, params)
+        with jax.named_scope("optimizer"):
+            opt_state = scheduled_learning_rate(opt_state, kl, self.optimization, self.env_steps_per_gradient_step)
+            updates, opt_state = self.optimizer.update(grads, opt_state, params)
+            params = optax.apply_updates(params, updates)
         losses["learning_rate"] = opt_state.hyperparams["learning_rate"]
-        return (optax.apply_updates(params, updates), opt_state, stats), losses
+        return (params, opt_state, stats), losses
 
     def updated_statistics(self, stats: RunningStatistics, samples: Sample | Unroll) -> RunningStatistics:
         """The observation statistics with this iteration's observations (every device's), when normalising."""
@@ -177,9 +179,13 @@ class _Iteration:
         env_state = self.empty_leaves.rebuild(filled, self.devices)
         key = jax.random.fold_in(key, jax.lax.axis_index(self.axis))
         rollout_key, epoch_key = jax.random.split(key)
-        (env_state, _, _), (samples, sums) = jax.lax.scan(
-            self.unroll, (env_state, params, stats), jax.random.split(rollout_key, self.rollout.unrolls_per_iteration)
-        )
+        # the named scopes group the compiled program's operations in profiles (bench/ppo_profile.py)
+        with jax.named_scope("rollout"):
+            (env_state, _, _), (samples, sums) = jax.lax.scan(
+                self.unroll,
+                (env_state, params, stats),
+                jax.random.split(rollout_key, self.rollout.unrolls_per_iteration),
+            )
         # steps (unrolls * steps * envs, ...) or, to recompute advantages, unrolls (unrolls * envs, steps, ...)
         samples = jax.tree.map(lambda x: x.reshape(-1, *x.shape[2 if self.recompute else 3 :]), samples)
         # Brax updates the observation statistics before the epochs. With a KL guard they are updated after
@@ -189,11 +195,12 @@ class _Iteration:
         statistics_first = self.optimization.desired_kl <= 0
         if statistics_first:
             stats = self.updated_statistics(stats, samples)
-        (params, opt_state, _), losses = jax.lax.scan(
-            lambda carry, key: self.epoch(carry, key, samples),
-            (params, opt_state, stats),
-            jax.random.split(epoch_key, self.optimization.num_epochs),
-        )
+        with jax.named_scope("update"):
+            (params, opt_state, _), losses = jax.lax.scan(
+                lambda carry, key: self.epoch(carry, key, samples),
+                (params, opt_state, stats),
+                jax.random.split(epoch_key, self.optimization.num_epochs),
+            )
         if not statistics_first:
             stats = self.updated_statistics(stats, samples)
         metrics = _episode_metrics(jax.tree.map(lambda x: jax.lax.psum(x.sum(), self.axis), sums))

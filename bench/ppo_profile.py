@@ -1,0 +1,146 @@
+"""Where a PPO iteration's device time goes: kernel time grouped by the part of the iteration it serves.
+
+    python bench/ppo_profile.py --preset ant_train_mjx_tuned --out out/profile            # GPU
+    python bench/ppo_profile.py --preset so_arm100_pick_place_mjx --out out/profile-pp    # GPU
+    python bench/ppo_profile.py --smoke --out /tmp/profile                                # tiny, on CPU
+
+Compiles a preset's training iteration on one device (as the trainer does), runs --warmup iterations,
+then traces --iterations more with jax.profiler. Each device operation in the trace names its HLO
+instruction; the compiled program's metadata gives that instruction's JAX name stack, where the
+iteration's named scopes say what it serves: "rollout" (inside it the environment's step, and in that
+"physics": MuJoCo's own step), "update" (forward and backward passes, and the "optimizer"). Prints the
+share of device time per group, the busiest instructions, and how much of the wall time the device
+was busy; writes OUT/profile.json and leaves the trace in OUT/trace (Perfetto / TensorBoard).
+"""
+
+from __future__ import annotations
+
+import argparse
+import gzip
+import json
+import re
+import time
+from collections import Counter
+from pathlib import Path
+
+import jax
+from mjx_time_to_target import SMOKE, environment, load_config
+
+from joshua_core.atomic import atomic_write_json
+from joshua_core.plugins import PluginHost
+from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.envs import DEFAULT_NUM_ENVS
+from joshua_ppo.iteration import make_iteration
+from joshua_ppo.state import init_state
+
+INSTRUCTION = re.compile(r"^\s*(?:ROOT )?%?([\w.\-]+) = .*?\b([a-z][a-z\-]*)\(.*?op_name=\"([^\"]*)\"", re.M)
+CONTAINERS = {"while", "conditional", "call", "async-start", "async-done"}  # their bodies' operations count
+
+
+def group(op_name: str) -> str:
+    """What an operation serves, from its JAX name stack (the iteration's and the environment's named scopes)."""
+    parts = op_name.split("/")
+    if "rollout" in parts:
+        if "physics" in parts:
+            return "rollout: physics (mjx)"
+        if any(part.startswith("jit(_step)") for part in parts):
+            return "rollout: task terms, actions, resets"
+        return "rollout: policy, sampling, returns"
+    if "update" in parts:
+        if "optimizer" in parts:
+            return "update: optimizer"
+        if any(part.startswith("transpose(") for part in parts):
+            return "update: backward passes"
+        return "update: forward passes, loss, minibatches"
+    return "other: statistics, metrics, keys"
+
+
+def instruction_groups(hlo_text: str) -> dict[str, str | None]:
+    """Instruction name -> group; None for loops and calls, whose time is their bodies' (counted there)."""
+    found = INSTRUCTION.findall(hlo_text)
+    return {name: None if opcode in CONTAINERS else group(op_name) for name, opcode, op_name in found}
+
+
+def device_times(trace_dir: Path, module: str) -> Counter[str]:
+    """Microseconds per HLO instruction of `module` in the Perfetto trace under `trace_dir`."""
+    files = sorted(trace_dir.rglob("*.trace.json.gz")) or sorted(trace_dir.rglob("*.json.gz"))
+    if not files:
+        raise SystemExit(f"no trace was written under {trace_dir}")
+    events = json.loads(gzip.decompress(files[-1].read_bytes()))["traceEvents"]
+    times: Counter[str] = Counter()
+    for event in events:
+        args = event.get("args", {})
+        if event.get("ph") == "X" and module in str(args.get("hlo_module", "")) and "hlo_op" in args:
+            times[args["hlo_op"]] += float(event.get("dur", 0.0))
+    return times
+
+
+def profile(args: argparse.Namespace) -> dict:
+    """Compile, warm up, trace; the time per group and per instruction."""
+    config = load_config(args.preset, (SMOKE if args.smoke else []) + args.set, args.num_envs)
+    settings = PpoSettings.from_config(config)
+    device = jax.devices()[:1]
+    env = environment(config, PluginHost.discover(), config.num_envs or DEFAULT_NUM_ENVS, device, training=True)
+    parts = {"rollout": settings.rollout, "optimization": settings.optimization}
+    parts |= {"returns": settings.returns, "network": settings.network}
+    state = init_state(env, seed=0, network=settings.network, optimization=settings.optimization)
+    compiled = make_iteration(env, **parts).lower(state).compile()
+    groups = instruction_groups(compiled.as_text())
+    for _ in range(args.warmup):
+        state, _ = jax.block_until_ready(compiled(state))
+    trace_dir = args.out / "trace"
+    jax.profiler.start_trace(str(trace_dir), create_perfetto_trace=True)
+    started = time.perf_counter()
+    for _ in range(args.iterations):
+        state, _ = jax.block_until_ready(compiled(state))
+    wall = time.perf_counter() - started
+    jax.profiler.stop_trace()
+    times = device_times(trace_dir, "iteration")
+    if not times:
+        raise SystemExit(f"the trace under {trace_dir} has no operations of the iteration (no hlo_op arguments)")
+    groups = {name: groups.get(name, "unattributed") for name in times}
+    times = Counter({name: micros for name, micros in times.items() if groups[name] is not None})
+    per_group: Counter[str] = Counter()
+    for name, micros in times.items():
+        per_group[groups[name]] += micros
+    total = sum(per_group.values())
+    env_steps = args.iterations * env.num_envs * settings.rollout.num_steps * settings.rollout.unrolls_per_iteration
+    return {
+        "preset": args.preset,
+        "device": str(device[0]),
+        "num_envs": env.num_envs,
+        "iterations": args.iterations,
+        "wall_seconds": wall,
+        "env_steps_per_second": env_steps / wall,
+        "device_busy_share": total / 1e6 / wall,
+        "groups": {name: micros / total for name, micros in per_group.most_common()},
+        "busiest": [(name, groups[name], micros / total) for name, micros in times.most_common(15)],
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--preset", default="so_arm100_pick_place_mjx", help="a preset's name or a .pbtxt file")
+    parser.add_argument("--num-envs", type=int, help="override the preset's num_envs")
+    parser.add_argument("--warmup", type=int, default=3, help="iterations before the trace")
+    parser.add_argument("--iterations", type=int, default=3, help="iterations traced")
+    parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
+    parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU)")
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args()
+    result = profile(args)
+    print(
+        f"{result['preset']} on {result['device']}, {result['num_envs']} envs: {result['env_steps_per_second']:,.0f} "
+        f"env steps/s while traced; the device was busy {result['device_busy_share']:.0%} of the wall time"
+    )
+    for name, share in result["groups"].items():
+        print(f"  {share:6.1%}  {name}")
+    print("busiest instructions:")
+    for name, where, share in result["busiest"]:
+        print(f"  {share:6.1%}  {name}  ({where})")
+    atomic_write_json(args.out / "profile.json", result)
+    print(f"wrote {args.out / 'profile.json'} and the trace under {args.out / 'trace'}")
+
+
+if __name__ == "__main__":
+    main()
