@@ -11,7 +11,6 @@ too, but MJX reads them only for muscles and sensors that no randomized model he
 
 from __future__ import annotations
 
-from typing import Any
 
 import jax
 import jax.numpy as jnp
