@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-import time
 from pathlib import Path
 
 import jax
 import jax.numpy as jnp
 import mujoco
+from mjx_time_to_target import best_rate
 
 from joshua_mjx.physics import mjx
 
@@ -95,14 +95,7 @@ def rate(model: mujoco.MjModel, num_envs: int, steps: int) -> tuple[int, float, 
         return jax.vmap(mjx.step, (None, 0))(mx, data), key
 
     run = jax.jit(lambda carry: jax.lax.fori_loop(0, steps, step, carry))
-    started = time.perf_counter()
-    carry = jax.block_until_ready(run((batch, jax.random.PRNGKey(0))))
-    compile_seconds = time.perf_counter() - started
-    best = 0.0
-    for _ in range(3):
-        started = time.perf_counter()
-        carry = jax.block_until_ready(run(carry))
-        best = max(best, steps * num_envs / (time.perf_counter() - started))
+    compile_seconds, best = best_rate(run, (batch, jax.random.PRNGKey(0)), steps * num_envs)
     return int(one._impl.contact.dist.shape[0]), compile_seconds, best
 
 

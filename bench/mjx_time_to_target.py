@@ -33,7 +33,6 @@ from pathlib import Path
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json, json_safe
@@ -47,10 +46,9 @@ from joshua_mjx import MjxBackend, MjxEnv
 from joshua_mjx.physics import mjx
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import DEFAULT_NUM_ENVS
-from joshua_ppo.normalizer import RunningStatistics, fresh_statistics
-from joshua_ppo.policy import make_network
+from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.rollout import collect, episode_results, make_rollout
-from joshua_ppo.state import TrainingState
+from joshua_ppo.state import TrainingState, abstract_state
 from joshua_ppo.train import IterationReport, train_ppo
 
 # Per metric: the training metric compared with the target while training, and the evaluation's value and interval.
@@ -66,6 +64,19 @@ class TargetReached(Exception):
     """Stops training once the target is reached (or the time, iteration or step budget is spent)."""
 
 
+def best_rate(run: Any, carry: Any, items: int) -> tuple[float, float]:
+    """(compile seconds, best items/s of three timed calls) of `run`, a compiled function of `carry` that returns
+    its next `carry` and does `items` units of work per call."""
+    started = time.perf_counter()
+    carry = jax.block_until_ready(run(carry))
+    compile_seconds, best = time.perf_counter() - started, 0.0
+    for _ in range(3):
+        started = time.perf_counter()
+        carry = jax.block_until_ready(run(carry))
+        best = max(best, items / (time.perf_counter() - started))
+    return compile_seconds, best
+
+
 def raw_physics_rate(env: MjxEnv, steps: int = 50) -> float:
     """Physics steps/s of `vmap(mjx.step)` on env's batch, sharded the same way (after compilation)."""
     state = env.reset(jax.random.PRNGKey(0))
@@ -74,38 +85,23 @@ def raw_physics_rate(env: MjxEnv, steps: int = 50) -> float:
     def run(data: mjx.Data) -> mjx.Data:
         return jax.lax.fori_loop(0, steps, lambda _, d: jax.vmap(mjx.step, (None, 0))(env.mjx_model, d), data)
 
-    data = jax.block_until_ready(run(state.data))
-    best = 0.0
-    for _ in range(3):
-        started = time.perf_counter()
-        data = jax.block_until_ready(run(data))
-        best = max(best, steps * env.num_envs / (time.perf_counter() - started))
-    return best
+    return best_rate(run, state.data, steps * env.num_envs)[1]
 
 
 def environment_rate(env: MjxEnv, steps: int = 20) -> float:
     """Env steps/s of `env.step` alone under uniform random actions (after compilation): the task's terms,
     resets and physics with the arm moving and touching things, and no policy. Between it and the training
     rate lies PPO's own cost; between it and `raw_physics_rate` the task's and what motion costs the solver."""
-    state = env.reset(jax.random.PRNGKey(0))
     shape = (env.num_envs, env.action_size)
 
-    @jax.jit
-    def run(state: Any, key: jax.Array) -> tuple[Any, jax.Array]:
-        def step(_: int, carry: tuple[Any, jax.Array]) -> tuple[Any, jax.Array]:
-            state, key = carry
-            key, draw = jax.random.split(key)
-            return env.step(state, jax.random.uniform(draw, shape, minval=-1.0, maxval=1.0)), key
+    def step(_: int, carry: tuple[Any, jax.Array]) -> tuple[Any, jax.Array]:
+        state, key = carry
+        key, draw = jax.random.split(key)
+        return env.step(state, jax.random.uniform(draw, shape, minval=-1.0, maxval=1.0)), key
 
-        return jax.lax.fori_loop(0, steps, step, (state, key))
-
-    carry = jax.block_until_ready(run(state, jax.random.PRNGKey(1)))
-    best = 0.0
-    for _ in range(3):
-        started = time.perf_counter()
-        carry = jax.block_until_ready(run(*carry))
-        best = max(best, steps * env.num_envs / (time.perf_counter() - started))
-    return best
+    run = jax.jit(lambda carry: jax.lax.fori_loop(0, steps, step, carry))
+    carry = (env.reset(jax.random.PRNGKey(0)), jax.random.PRNGKey(1))
+    return best_rate(run, carry, steps * env.num_envs)[1]
 
 
 Snapshot = tuple[Any, RunningStatistics]  # host copies of a policy's parameters and observation normaliser
@@ -119,12 +115,10 @@ class SnapshotEvaluator:
 
     def __init__(self, settings: PpoSettings, env: MjxEnv, value_key: str, target: float) -> None:
         rollout = make_rollout(env, settings.network, env.task.episode_length)
-        network = make_network(env, settings.network)
-        params = jax.eval_shape(lambda: network.init(jax.random.PRNGKey(0), jnp.zeros((1, env.observation_size))))
-        statistics = jax.eval_shape(lambda: fresh_statistics(env.observation_size))
+        shapes = abstract_state(env, network=settings.network, optimization=settings.optimization)
         key = jax.eval_shape(lambda: jax.random.PRNGKey(1))
         # traced here, compiled in the thread (XLA's compilation is what takes the time)
-        self.compiling = ThreadPoolExecutor(1).submit(rollout.lower(params["params"], statistics, key).compile)
+        self.compiling = ThreadPoolExecutor(1).submit(rollout.lower(shapes.params, shapes.normalizer, key).compile)
         self.value_key, self.target = value_key, target
         self.seconds = 0.0
         self.results: list[dict[str, Any]] = []

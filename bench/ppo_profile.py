@@ -81,10 +81,15 @@ def profile(args: argparse.Namespace) -> dict:
     settings = PpoSettings.from_config(config)
     device = jax.devices()[:1]
     env = environment(config, PluginHost.discover(), config.num_envs or DEFAULT_NUM_ENVS, device, training=True)
-    parts = {"rollout": settings.rollout, "optimization": settings.optimization}
-    parts |= {"returns": settings.returns, "network": settings.network}
     state = init_state(env, seed=0, network=settings.network, optimization=settings.optimization)
-    compiled = make_iteration(env, **parts).lower(state).compile()
+    iteration = make_iteration(
+        env,
+        rollout=settings.rollout,
+        optimization=settings.optimization,
+        returns=settings.returns,
+        network=settings.network,
+    )
+    compiled = iteration.lower(state).compile()
     groups = instruction_groups(compiled.as_text())
     for _ in range(args.warmup):
         state, _ = jax.block_until_ready(compiled(state))
@@ -98,11 +103,12 @@ def profile(args: argparse.Namespace) -> dict:
     times = device_times(trace_dir, "iteration")
     if not times:
         raise SystemExit(f"the trace under {trace_dir} has no operations of the iteration (no hlo_op arguments)")
-    groups = {name: groups.get(name, "unattributed") for name in times}
-    times = Counter({name: micros for name, micros in times.items() if groups[name] is not None})
+    # an instruction the program text did not name is "unattributed"; loops and calls (None) are left out
+    where = {name: groups.get(name, "unattributed") for name in times}
+    times = Counter({name: micros for name, micros in times.items() if where[name] is not None})
     per_group: Counter[str] = Counter()
     for name, micros in times.items():
-        per_group[groups[name]] += micros
+        per_group[where[name]] += micros
     total = sum(per_group.values())
     env_steps = args.iterations * env.num_envs * settings.rollout.num_steps * settings.rollout.unrolls_per_iteration
     return {
@@ -114,7 +120,7 @@ def profile(args: argparse.Namespace) -> dict:
         "env_steps_per_second": env_steps / wall,
         "device_busy_share": total / 1e6 / wall,
         "groups": {name: micros / total for name, micros in per_group.most_common()},
-        "busiest": [(name, groups[name], micros / total) for name, micros in times.most_common(15)],
+        "busiest": [(name, where[name], micros / total) for name, micros in times.most_common(15)],
     }
 
 
