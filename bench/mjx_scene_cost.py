@@ -55,6 +55,7 @@ VARIANTS = {
     "4 solver iterations (the cube drops)": ('<option iterations="4" ls_iterations="8"/>', 2, None),
     "5 solver iterations": ('<option iterations="5"/>', 2, None),
     "6 line-search iterations": ('<option ls_iterations="6"/>', 2, None),
+    "5 solver iterations, 6 line-search": ('<option iterations="5" ls_iterations="6"/>', 2, None),
     "solver tolerance 1e-4": ('<option tolerance="1e-4"/>', 2, None),
     "cube touches pads only": ("", 2, pads_touch_cube),
     "pads only, 5 iterations, 6 line-search": (
