@@ -20,7 +20,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from mjx_time_to_target import METRICS
+from time_to_target_report import METRICS
 
 BENCH = Path(__file__).with_name("mjx_time_to_target.py")
 

@@ -18,7 +18,9 @@ snapshot whose deterministic value reaches it.
 Prints a few lines: time to target (with and without compile), training env steps/s, raw physics steps/s of
 `vmap(mjx.step)` on the same batch measured in the same run (after training) and their ratio, and the env
 steps/s of the environment alone under random actions (what PPO costs on top of the task); writes
-OUT/time_to_target.json and OUT/time_to_target.png (the metric and its interval against wall time).
+OUT/time_to_target.json and OUT/time_to_target.png (the metric and its interval against wall time), and the
+training state at the end in OUT/state, which --resume OUT continues in a later run (for targets further away
+than one sitting: its wall times go on from the first run's, and the second compilation counts).
 bench/mjx_train_ant.py is this bench for Ant, with its own figures (and throughput scaling over devices).
 """
 
@@ -26,14 +28,15 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import io
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import jax
 import numpy as np
+from flax import serialization
+from time_to_target_report import METRICS, plot_curve, summary_lines
 
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json, json_safe
 from joshua_core.config import apply_override, finalize, load_file, load_preset
@@ -44,24 +47,41 @@ from joshua_core.plugins import PluginHost
 from joshua_core.statistics import SUCCESS_METRIC, summarize
 from joshua_mjx import MjxBackend, MjxEnv
 from joshua_mjx.physics import mjx
+from joshua_ppo.checkpoints import checkpoint_payloads, load_state, read_json
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import DEFAULT_NUM_ENVS
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.rollout import collect, episode_results, make_rollout
-from joshua_ppo.state import TrainingState, abstract_state
+from joshua_ppo.state import Progress, TrainingState, abstract_state
 from joshua_ppo.train import IterationReport, train_ppo
 
-# Per metric: the training metric compared with the target while training, and the evaluation's value and interval.
-METRICS = {
-    "return": ("mean_return", "mean_return", "mean_return_ci95"),
-    "success": ("metrics/success", "success_rate", "success_rate_ci95"),
-}
 # --smoke: a tiny run that exercises every stage on a CPU in a minute or two (the figures mean nothing).
 SMOKE = ["training.num_envs=8", "training.num_steps=5", "training.minibatch_size=40", "training.num_epochs=1"]
 
 
 class TargetReached(Exception):
     """Stops training once the target is reached (or the time, iteration or step budget is spent)."""
+
+
+class Resumed(NamedTuple):
+    """Where an earlier run of this bench stopped: its training state and counters, and its outcome."""
+
+    state: TrainingState
+    progress: Progress
+    outcome: dict[str, Any]
+
+
+def resume_from(folder: Path, env: MjxEnv, settings: PpoSettings) -> Resumed:
+    """The run saved in `folder` (an earlier --out), on `env` (its environments freshly reset)."""
+    state, progress = load_state(folder / "state", env, settings)
+    return Resumed(state, progress, read_json(folder / "time_to_target.json"))
+
+
+def save_state(folder: Path, state: TrainingState, progress: Progress) -> None:
+    """The training state as a checkpoint saves it (`checkpoint_payloads`), for --resume."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, tree in checkpoint_payloads(state, progress).items():
+        atomic_write_bytes(folder / name, serialization.to_bytes(tree))
 
 
 def best_rate(run: Any, carry: Any, items: int) -> tuple[float, float]:
@@ -143,15 +163,19 @@ def train(
     snapshot_interval: int = 0,
     metric: str = "return",
     evaluator: SnapshotEvaluator | None = None,
+    resume: Resumed | None = None,
+    save_to: Path | None = None,
 ) -> tuple[dict, list[tuple[dict, Snapshot]]]:
     """Train until the training value of `metric` reaches `target` (the stopping value), the time limit, the
     iteration limit or (with an evaluator) the first snapshot whose deterministic value reaches its target.
 
     Returns the outcome and snapshots of the policy every `snapshot_interval` iterations and at the
     end, each with its step and wall seconds (evaluations left out), for `evaluate_snapshots` where no
-    evaluator has evaluated them."""
+    evaluator has evaluated them. `resume` continues an earlier run (its wall time counted, its compile added);
+    `save_to` gets the training state at the end."""
     training_key = METRICS[metric][0]
     started = time.perf_counter()
+    earlier = resume.outcome if resume else {"wall_seconds": 0.0, "compile_seconds": 0.0}
 
     def evaluation_seconds() -> float:
         """Time spent evaluating so far: left out of every wall time."""
@@ -162,7 +186,7 @@ def train(
 
     def on_progress(report: IterationReport, state: TrainingState) -> None:
         metrics = report.metrics
-        wall = report.wall_seconds - evaluation_seconds()
+        wall = earlier["wall_seconds"] + report.wall_seconds - evaluation_seconds()
         entry = {
             "step": report.env_steps,
             "wall": wall,
@@ -193,6 +217,8 @@ def train(
             )
             stopping = (evaluator is not None and evaluator(snapshots[-1][1])) or stopping
         if stopping:
+            if save_to is not None:
+                save_state(save_to, state, Progress(report.iteration, report.env_steps))
             raise TargetReached  # or out of time, iterations or steps
 
     try:
@@ -204,15 +230,16 @@ def train(
             network=settings.network,
             total_timesteps=settings.total_timesteps,
             seed=settings.seed,
+            resume=resume and (resume.state, resume.progress),
             on_progress=on_progress,
         )
     except TargetReached:
         pass
-    compile_seconds = log[0]["compile"] if log else float("nan")
+    compile_seconds = earlier["compile_seconds"] + (log[0]["compile"] if log else float("nan"))
     steady = [entry["sps"] for entry in log[1:]] or [entry["sps"] for entry in log]
     reached = [entry for entry in log if entry["episodes"] > 0 and entry["value"] >= target]
     return {
-        "wall_seconds": time.perf_counter() - started - evaluation_seconds(),
+        "wall_seconds": earlier["wall_seconds"] + time.perf_counter() - started - evaluation_seconds(),
         "evaluation_seconds": evaluation_seconds(),
         "compile_seconds": compile_seconds,
         "train_steps_per_second": sorted(steady)[len(steady) // 2],
@@ -255,60 +282,6 @@ def load_config(preset: str, assignments: list[str], num_envs: int | None) -> Tr
     return config
 
 
-def plot_curve(snapshots: list[dict[str, Any]], metric: str, target: float, title: str) -> bytes:
-    """PNG of the snapshots' deterministic value of `metric` and its 95 % interval against training wall time."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib import pyplot
-
-    _, value_key, interval_key = METRICS[metric]
-    wall = [entry["wall"] for entry in snapshots]
-    figure, axis = pyplot.subplots(figsize=(7, 3.5), layout="constrained")
-    axis.plot(wall, [entry[value_key] for entry in snapshots], marker=".", label=f"deterministic {metric}")
-    bands = [entry[interval_key] or [np.nan, np.nan] for entry in snapshots]
-    axis.fill_between(wall, [b[0] for b in bands], [b[1] for b in bands], alpha=0.25, label="95 % interval")
-    axis.axhline(target, color="grey", linestyle="--", label=f"target {target:g}")
-    axis.set_xlabel("training wall time, compile included (s)")
-    axis.set_ylabel(metric)
-    axis.grid(alpha=0.3)
-    axis.legend(fontsize=8)
-    figure.suptitle(title)
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
-    pyplot.close(figure)
-    return buffer.getvalue()
-
-
-def summary_lines(outcome: dict[str, Any], metric: str, target: float) -> list[str]:
-    """The few lines the bench prints: time to target, throughput against raw physics, the last snapshot."""
-    _, value_key, interval_key = METRICS[metric]
-    reached = outcome.get("reached_target_at_seconds")
-    last = outcome["snapshots"][-1] if outcome.get("snapshots") else None
-    if reached is not None:
-        without = outcome["reached_target_without_compile_seconds"]
-        first = f"{metric} >= {target:g} after {reached:.1f} s ({without:.1f} s without compile), "
-        first += f"{outcome['reached_target_at_steps']:,} env steps"
-    else:
-        first = f"{metric} >= {target:g} not reached in {outcome['wall_seconds']:.1f} s "
-        first += f"({outcome['env_steps']:,} env steps)"
-    lines = [
-        f"{outcome['preset']}: {first}; compile {outcome['compile_seconds']:.1f} s",
-        f"training {outcome['train_steps_per_second']:,.0f} env steps/s x frame_skip {outcome['frame_skip']} = "
-        f"{outcome['fraction_of_raw_physics']:.0%} of raw MJX physics ({outcome['raw_physics_steps_per_second']:,.0f}"
-        f" steps/s) on {outcome['devices']} device(s); the environment alone, under random actions, "
-        f"{outcome['environment_steps_per_second']:,.0f} env steps/s (training reaches "
-        f"{outcome['train_steps_per_second'] / outcome['environment_steps_per_second']:.0%} of it)",
-    ]
-    if last is not None:
-        low, high = last[interval_key] or (float("nan"), float("nan"))
-        lines.append(
-            f"last snapshot ({last['wall']:.1f} s): {metric} {last[value_key]:.4g} [{low:.4g}, {high:.4g}] (95 %, "
-            f"{last['episodes']} deterministic episodes), mean return {last['mean_return']:.4g}"
-        )
-    return lines
-
-
 def stop_at(args: argparse.Namespace) -> float:
     """The training value that stops training early: --stop-at, else the target for returns and never for
     success rates (see the module's docstring)."""
@@ -330,8 +303,18 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     value_key = METRICS[args.metric][1]
     eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
     evaluator = SnapshotEvaluator(settings, environment(config, plugins, eval_envs, devices), value_key, args.target)
+    resume = resume_from(args.resume, env, settings) if args.resume else None
     outcome, snapshots = train(
-        settings, env, stop_at(args), args.max_seconds, args.iterations, args.snapshot_interval, args.metric, evaluator
+        settings,
+        env,
+        stop_at(args),
+        args.max_seconds,
+        args.iterations,
+        args.snapshot_interval,
+        args.metric,
+        evaluator,
+        resume,
+        save_to=args.out / "state",
     )
     raw = raw_physics_rate(env)
     outcome |= {
@@ -345,7 +328,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "raw_physics_steps_per_second": raw,
         "fraction_of_raw_physics": outcome["train_steps_per_second"] * env.task.frame_skip / raw,
     }
-    evaluated = [when | result for (when, _), result in zip(snapshots, evaluator.results, strict=True)]
+    evaluated = resume.outcome["snapshots"] if resume else []
+    evaluated += [when | result for (when, _), result in zip(snapshots, evaluator.results, strict=True)]
     reached = next((entry for entry in evaluated if entry[value_key] >= args.target), None)
     return outcome | {
         "snapshots": evaluated,
@@ -373,6 +357,7 @@ def main() -> int:
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
     parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU): 8 envs, 2 iterations, 4 episodes")
     parser.add_argument("--out", type=Path, required=True, help="folder for time_to_target.json and .png")
+    parser.add_argument("--resume", type=Path, help="continue the run an earlier --out holds (its state/ and JSON)")
     args = parser.parse_args()
     if args.smoke:
         args.iterations, args.eval_envs, args.snapshot_interval = args.iterations or 2, 4, 1

@@ -43,6 +43,19 @@ class NetworkMismatchError(CorruptCheckpointError, UsageError):
     """The parameters saved in a checkpoint have other shapes than the network its config describes (exit 2)."""
 
 
+def checkpoint_payloads(state: TrainingState, progress: Progress) -> dict[str, Any]:
+    """Host copies of what a checkpoint saves of a training state: the policy (PARAMS_FILE) and what resuming
+    needs besides it (TRAIN_STATE_FILE); not the environments, which `load_state` resets."""
+    params = {"params": state.params, "normalizer": state.normalizer._asdict()}
+    train_state = {
+        "opt_state": state.opt_state,
+        "key": state.key,
+        "iteration": progress.iteration,
+        "env_steps": progress.env_steps,
+    }
+    return {PARAMS_FILE: jax.device_get(params), TRAIN_STATE_FILE: jax.device_get(train_state)}
+
+
 def write_checkpoint(run: RunFolder, step: int, payloads: dict[str, Any], documents: dict[str, Any]) -> Path:
     """Publish checkpoint `step` of the run: the msgpack payloads and JSON documents, atomically."""
     with run.publish(step) as folder:

@@ -22,7 +22,7 @@ from joshua_core.options import message_to_dict, options_of
 from joshua_core.progress import progress_bar
 from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
 from joshua_ppo import options_pb2
-from joshua_ppo.checkpoints import PARAMS_FILE, TRAIN_STATE_FILE, read_json, write_checkpoint
+from joshua_ppo.checkpoints import checkpoint_payloads, read_json, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.rollout import collect, make_rollout, render_video
@@ -177,17 +177,9 @@ class Run:
                 self.viewer = None
 
     def on_checkpoint(self, state: TrainingState, progress: Progress, report: IterationReport | None) -> None:
-        params = {"params": state.params, "normalizer": state.normalizer._asdict()}
-        train_state = {
-            "opt_state": state.opt_state,
-            "key": state.key,
-            "iteration": progress.iteration,
-            "env_steps": progress.env_steps,
-        }
         metrics = self.metrics_document(progress)
         documents = {CONFIG_FILE: self.config_document(), METRICS_FILE: metrics}
-        payloads = {PARAMS_FILE: jax.device_get(params), TRAIN_STATE_FILE: jax.device_get(train_state)}
-        write_checkpoint(self.run_folder, progress.env_steps, payloads, documents)
+        write_checkpoint(self.run_folder, progress.env_steps, checkpoint_payloads(state, progress), documents)
         atomic_write_json(self.folder / METRICS_FILE, json_safe(metrics))
         write_training_curves(
             self.history, self.folder / "training_curves.png", title=f"{self.config.task}: ppo", series=CURVE_SERIES

@@ -1,0 +1,68 @@
+"""What bench/mjx_time_to_target.py reports: the metrics it compares, its curve (PNG) and its summary lines."""
+
+from __future__ import annotations
+
+import io
+from typing import Any
+
+import numpy as np
+
+# Per metric: the training metric compared with the target while training, and the evaluation's value and interval.
+METRICS = {
+    "return": ("mean_return", "mean_return", "mean_return_ci95"),
+    "success": ("metrics/success", "success_rate", "success_rate_ci95"),
+}
+
+
+def plot_curve(snapshots: list[dict[str, Any]], metric: str, target: float, title: str) -> bytes:
+    """PNG of the snapshots' deterministic value of `metric` and its 95 % interval against training wall time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot
+
+    _, value_key, interval_key = METRICS[metric]
+    wall = [entry["wall"] for entry in snapshots]
+    figure, axis = pyplot.subplots(figsize=(7, 3.5), layout="constrained")
+    axis.plot(wall, [entry[value_key] for entry in snapshots], marker=".", label=f"deterministic {metric}")
+    bands = [entry[interval_key] or [np.nan, np.nan] for entry in snapshots]
+    axis.fill_between(wall, [b[0] for b in bands], [b[1] for b in bands], alpha=0.25, label="95 % interval")
+    axis.axhline(target, color="grey", linestyle="--", label=f"target {target:g}")
+    axis.set_xlabel("training wall time, compile included (s)")
+    axis.set_ylabel(metric)
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    figure.suptitle(title)
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    pyplot.close(figure)
+    return buffer.getvalue()
+
+
+def summary_lines(outcome: dict[str, Any], metric: str, target: float) -> list[str]:
+    """The few lines the bench prints: time to target, throughput against raw physics, the last snapshot."""
+    _, value_key, interval_key = METRICS[metric]
+    reached = outcome.get("reached_target_at_seconds")
+    last = outcome["snapshots"][-1] if outcome.get("snapshots") else None
+    if reached is not None:
+        without = outcome["reached_target_without_compile_seconds"]
+        first = f"{metric} >= {target:g} after {reached:.1f} s ({without:.1f} s without compile), "
+        first += f"{outcome['reached_target_at_steps']:,} env steps"
+    else:
+        first = f"{metric} >= {target:g} not reached in {outcome['wall_seconds']:.1f} s "
+        first += f"({outcome['env_steps']:,} env steps)"
+    lines = [
+        f"{outcome['preset']}: {first}; compile {outcome['compile_seconds']:.1f} s",
+        f"training {outcome['train_steps_per_second']:,.0f} env steps/s x frame_skip {outcome['frame_skip']} = "
+        f"{outcome['fraction_of_raw_physics']:.0%} of raw MJX physics ({outcome['raw_physics_steps_per_second']:,.0f}"
+        f" steps/s) on {outcome['devices']} device(s); the environment alone, under random actions, "
+        f"{outcome['environment_steps_per_second']:,.0f} env steps/s (training reaches "
+        f"{outcome['train_steps_per_second'] / outcome['environment_steps_per_second']:.0%} of it)",
+    ]
+    if last is not None:
+        low, high = last[interval_key] or (float("nan"), float("nan"))
+        lines.append(
+            f"last snapshot ({last['wall']:.1f} s): {metric} {last[value_key]:.4g} [{low:.4g}, {high:.4g}] (95 %, "
+            f"{last['episodes']} deterministic episodes), mean return {last['mean_return']:.4g}"
+        )
+    return lines
