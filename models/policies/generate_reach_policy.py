@@ -3,7 +3,7 @@
 The `joshua deploy` test drives a simulated arm with this policy over ROS 2 and checks that the gripper reaches
 its target. Training it inside the test would cost a minute or more of CPU (a short run reaches only ~7 cm), so
 it is trained here from the shipped preset (`so_arm100_reach_sb3`: SB3 PPO), with 600k steps and the task's
-action-rate penalty x30 (about a minute on 2 idle cores; final distance 1.7 mm), and exported by the real
+action-rate penalty x30 (about a minute on 2 idle cores; final distance 1.7-4.4 mm), and exported by the real
 `joshua export`. Run from the repository root after changing the task, its model or the
 export format:
 
