@@ -52,7 +52,7 @@ VARIANTS = {
     "5 ms x 4": ('<option timestep="0.005"/>', 4, None),
     "20 ms x 1": ('<option timestep="0.02"/>', 1, None),
     "pyramidal cones": ('<option cone="pyramidal"/>', 2, None),
-    "5 solver iterations (the cube drops)": ('<option iterations="5"/>', 2, None),
+    "5 solver iterations (fails the scripted controller)": ('<option iterations="5"/>', 2, None),
     "solver tolerance 1e-4": ('<option tolerance="1e-4"/>', 2, None),
 }
 

@@ -35,7 +35,6 @@ from typing import Any, NamedTuple
 
 import jax
 import numpy as np
-from flax import serialization
 from time_to_target_report import METRICS, plot_curve, summary_lines
 
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json, json_safe
@@ -47,7 +46,7 @@ from joshua_core.plugins import PluginHost
 from joshua_core.statistics import SUCCESS_METRIC, summarize
 from joshua_mjx import MjxBackend, MjxEnv
 from joshua_mjx.physics import mjx
-from joshua_ppo.checkpoints import checkpoint_payloads, load_state, read_json
+from joshua_ppo.checkpoints import checkpoint_payloads, load_state, read_json, write_payloads
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import DEFAULT_NUM_ENVS
 from joshua_ppo.normalizer import RunningStatistics
@@ -80,8 +79,7 @@ def resume_from(folder: Path, env: MjxEnv, settings: PpoSettings) -> Resumed:
 def save_state(folder: Path, state: TrainingState, progress: Progress) -> None:
     """The training state as a checkpoint saves it (`checkpoint_payloads`), for --resume."""
     folder.mkdir(parents=True, exist_ok=True)
-    for name, tree in checkpoint_payloads(state, progress).items():
-        atomic_write_bytes(folder / name, serialization.to_bytes(tree))
+    write_payloads(folder, checkpoint_payloads(state, progress))
 
 
 def best_rate(run: Any, carry: Any, items: int) -> tuple[float, float]:
@@ -328,8 +326,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "raw_physics_steps_per_second": raw,
         "fraction_of_raw_physics": outcome["train_steps_per_second"] * env.task.frame_skip / raw,
     }
-    evaluated = resume.outcome["snapshots"] if resume else []
-    evaluated += [when | result for (when, _), result in zip(snapshots, evaluator.results, strict=True)]
+    earlier = resume.outcome["snapshots"] if resume else []
+    evaluated = earlier + [when | result for (when, _), result in zip(snapshots, evaluator.results, strict=True)]
     reached = next((entry for entry in evaluated if entry[value_key] >= args.target), None)
     return outcome | {
         "snapshots": evaluated,

@@ -11,7 +11,6 @@ too, but MJX reads them only for muscles and sensors that no randomized model he
 
 from __future__ import annotations
 
-
 import jax
 import jax.numpy as jnp
 import mujoco
@@ -80,4 +79,3 @@ def _dof_averaging(model: mujoco.MjModel) -> np.ndarray:
             average[start : start + size, start : start + size] = 1.0 / size
             start += size
     return average
-

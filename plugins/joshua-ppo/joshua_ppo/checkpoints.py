@@ -21,7 +21,7 @@ from typing import Any
 import jax
 from flax import serialization
 
-from joshua_core.atomic import atomic_write_json, json_safe
+from joshua_core.atomic import atomic_write_bytes, atomic_write_json, json_safe
 from joshua_core.errors import JoshuaError, UsageError
 from joshua_core.runs import RunFolder
 from joshua_ppo.config_settings import PpoSettings
@@ -56,11 +56,16 @@ def checkpoint_payloads(state: TrainingState, progress: Progress) -> dict[str, A
     return {PARAMS_FILE: jax.device_get(params), TRAIN_STATE_FILE: jax.device_get(train_state)}
 
 
+def write_payloads(folder: Path, payloads: dict[str, Any]) -> None:
+    """Each payload (`checkpoint_payloads`) as the msgpack file `folder/name`, written atomically."""
+    for name, tree in payloads.items():
+        atomic_write_bytes(folder / name, serialization.to_bytes(tree))
+
+
 def write_checkpoint(run: RunFolder, step: int, payloads: dict[str, Any], documents: dict[str, Any]) -> Path:
     """Publish checkpoint `step` of the run: the msgpack payloads and JSON documents, atomically."""
     with run.publish(step) as folder:
-        for name, tree in payloads.items():
-            (folder / name).write_bytes(serialization.to_bytes(tree))
+        write_payloads(folder, payloads)
         for name, document in documents.items():
             atomic_write_json(folder / name, json_safe(document))  # NaN/inf are not JSON: null
     return run.checkpoint_path(step)
