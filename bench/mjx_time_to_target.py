@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -76,10 +77,20 @@ def resume_from(folder: Path, env: MjxEnv, settings: PpoSettings) -> Resumed:
     return Resumed(state, progress, read_json(folder / "time_to_target.json"))
 
 
-def save_state(folder: Path, state: TrainingState, progress: Progress) -> None:
-    """The training state as a checkpoint saves it (`checkpoint_payloads`), for --resume."""
-    folder.mkdir(parents=True, exist_ok=True)
-    write_payloads(folder, checkpoint_payloads(state, progress))
+def keeper(out: Path, evaluator: SnapshotEvaluator, resume: Resumed | None) -> Callable[..., None]:
+    """What `train` calls at every snapshot: the training state in OUT/state (as a checkpoint saves it) and, in
+    OUT/time_to_target.json, the snapshots evaluated so far with the wall and compile seconds that --resume
+    reads; the end of the run replaces that JSON with the whole outcome."""
+    earlier = resume.outcome["snapshots"] if resume else []
+
+    def keep(state: TrainingState, progress: Progress, seconds: dict[str, float], taken: list[dict]) -> None:
+        (out / "state").mkdir(parents=True, exist_ok=True)
+        write_payloads(out / "state", checkpoint_payloads(state, progress))
+        evaluated = [when | result for when, result in zip(taken, evaluator.results, strict=True)]
+        partial = {"wall_seconds": seconds["wall"], "compile_seconds": seconds["compile"], "partial": True}
+        atomic_write_json(out / "time_to_target.json", json_safe(partial | {"snapshots": earlier + evaluated}))
+
+    return keep
 
 
 def best_rate(run: Any, carry: Any, items: int) -> tuple[float, float]:
@@ -162,7 +173,7 @@ def train(
     metric: str = "return",
     evaluator: SnapshotEvaluator | None = None,
     resume: Resumed | None = None,
-    save_to: Path | None = None,
+    keep: Callable[[TrainingState, Progress, dict[str, float], list[dict]], None] | None = None,
 ) -> tuple[dict, list[tuple[dict, Snapshot]]]:
     """Train until the training value of `metric` reaches `target` (the stopping value), the time limit, the
     iteration limit or (with an evaluator) the first snapshot whose deterministic value reaches its target.
@@ -170,7 +181,8 @@ def train(
     Returns the outcome and snapshots of the policy every `snapshot_interval` iterations and at the
     end, each with its step and wall seconds (evaluations left out), for `evaluate_snapshots` where no
     evaluator has evaluated them. `resume` continues an earlier run (its wall time counted, its compile added);
-    `save_to` gets the training state at the end."""
+    `keep` gets the training state, its counters and the wall and compile seconds at every snapshot (after its
+    evaluation), so that a run stopped from outside (a time limit) can be resumed from its last snapshot."""
     training_key = METRICS[metric][0]
     started = time.perf_counter()
     earlier = resume.outcome if resume else {"wall_seconds": 0.0, "compile_seconds": 0.0}
@@ -196,7 +208,7 @@ def train(
         }
         log.append(entry)
         reached = metrics["episodes"] > 0 and entry["value"] >= target
-        out_of_budget = wall > max_seconds or report.iteration == iterations
+        out_of_budget = wall > max_seconds or (iterations is not None and report.iteration >= iterations)
         stopping = reached or out_of_budget or report.env_steps >= report.total_steps
         if report.iteration % 10 == 0 or stopping:
             print(
@@ -214,9 +226,11 @@ def train(
                 ({"step": report.env_steps, "wall": wall}, jax.device_get((state.params, state.normalizer)))
             )
             stopping = (evaluator is not None and evaluator(snapshots[-1][1])) or stopping
+            if keep is not None:
+                compile_seconds = earlier["compile_seconds"] + log[0]["compile"]
+                seconds = {"wall": wall, "compile": compile_seconds}
+                keep(state, Progress(report.iteration, report.env_steps), seconds, [when for when, _ in snapshots])
         if stopping:
-            if save_to is not None:
-                save_state(save_to, state, Progress(report.iteration, report.env_steps))
             raise TargetReached  # or out of time, iterations or steps
 
     try:
@@ -312,7 +326,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         args.metric,
         evaluator,
         resume,
-        save_to=args.out / "state",
+        keep=keeper(args.out, evaluator, resume),
     )
     raw = raw_physics_rate(env)
     outcome |= {
@@ -349,7 +363,9 @@ def main() -> int:
         help="stop once the training value reaches this (default: --target for returns, never for success rates)",
     )
     parser.add_argument("--num-envs", type=int, help="override the preset's num_envs")
-    parser.add_argument("--iterations", type=int, help="stop after this many iterations")
+    parser.add_argument(
+        "--iterations", type=int, help="stop after this many iterations (counted from the first run when resuming)"
+    )
     parser.add_argument("--eval-envs", type=int, default=128, help="episodes of each deterministic evaluation")
     parser.add_argument("--snapshot-interval", type=int, default=20, help="snapshot every this many iterations")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
