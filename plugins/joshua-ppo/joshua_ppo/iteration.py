@@ -170,7 +170,9 @@ class _Iteration:
         shape = (self.num_minibatches, self.local_minibatch)
         minibatches = jax.tree.map(lambda x: x[order].reshape(*shape, *x.shape[1:]), samples)
         keys = jax.random.split(entropy_key, self.num_minibatches)
-        return jax.lax.scan(self.gradient_step, carry, (minibatches, keys))
+        # 4 gradient steps per loop trip: tuned Ant trained 2.2 % faster on an H200 (1.635 -> 1.672 M env steps/s;
+        # all 32 unrolled: the same, with twice the compile time)
+        return jax.lax.scan(self.gradient_step, carry, (minibatches, keys), unroll=min(self.num_minibatches, 4))
 
     def local(
         self, params: Any, opt_state: Any, stats: RunningStatistics, filled: list[jax.Array], key: jax.Array
