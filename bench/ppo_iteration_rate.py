@@ -1,0 +1,122 @@
+"""Env steps/s of a preset's compiled PPO iteration under XLA and matmul-precision variants, against the default.
+
+    python bench/ppo_iteration_rate.py --preset ant_train_mjx_tuned                     # GPU: every variant
+    python bench/ppo_iteration_rate.py --variant default --variant "bfloat16 products"  # some of them
+    python bench/ppo_iteration_rate.py --smoke                                          # tiny, on CPU
+
+XLA reads its flags and JAX its default precision when the backend starts, so each variant runs in a
+process of its own: it compiles the preset's training iteration on one device (as the trainer does), runs
+--warmup iterations, then times --iterations more. The default's process also measures raw physics
+(`vmap(mjx.step)` on the same batch). Prints each variant's env steps/s, its ratio to the default measured
+in the same run, and the share of raw physics training reaches. What the figures said for tuned Ant is in
+docs/training-mjx.md: the update is bound by its many small kernels, not by its matrix products.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+# name -> environment the variant's process runs with (added to this one's)
+VARIANTS: dict[str, dict[str, str]] = {
+    "default": {},
+    "cuBLASLt epilogue fusion": {"XLA_FLAGS": "--xla_gpu_enable_cublaslt=true"},
+    "Triton fusion of any product": {"XLA_FLAGS": "--xla_gpu_triton_gemm_any=true"},
+    "bfloat16 products": {"JAX_DEFAULT_MATMUL_PRECISION": "bfloat16"},
+    "full float32 products": {"JAX_DEFAULT_MATMUL_PRECISION": "float32"},
+    "XLA command buffers off": {"XLA_FLAGS": "--xla_gpu_enable_command_buffer="},
+}
+
+
+def measure(args: argparse.Namespace) -> dict[str, float]:
+    """In a variant's process: compile, warm up, time; env steps/s (and raw physics steps/s with --raw)."""
+    import jax
+    from mjx_time_to_target import SMOKE, environment, load_config, raw_physics_rate
+
+    from joshua_core.plugins import PluginHost
+    from joshua_ppo.config_settings import PpoSettings
+    from joshua_ppo.envs import DEFAULT_NUM_ENVS
+    from joshua_ppo.iteration import make_iteration
+    from joshua_ppo.state import init_state
+
+    config = load_config(args.preset, SMOKE if args.smoke else [], None)
+    settings = PpoSettings.from_config(config)
+    env = environment(config, PluginHost.discover(), config.num_envs or DEFAULT_NUM_ENVS, jax.devices()[:1], True)
+    state = init_state(env, seed=0, network=settings.network, optimization=settings.optimization)
+    iteration = make_iteration(
+        env,
+        rollout=settings.rollout,
+        optimization=settings.optimization,
+        returns=settings.returns,
+        network=settings.network,
+    )
+    started = time.perf_counter()
+    compiled = iteration.lower(state).compile()
+    result = {"compile_seconds": time.perf_counter() - started}
+    for _ in range(args.warmup):
+        state, _ = jax.block_until_ready(compiled(state))
+    started = time.perf_counter()
+    for _ in range(args.iterations):
+        state, _ = compiled(state)
+    jax.block_until_ready(state)
+    seconds = (time.perf_counter() - started) / args.iterations
+    env_steps = env.num_envs * settings.rollout.num_steps * settings.rollout.unrolls_per_iteration
+    result |= {"env_steps_per_second": env_steps / seconds, "iteration_ms": seconds * 1e3}
+    if args.raw:
+        result["physics_steps_per_env_step"] = env.task.frame_skip
+        result["raw_physics_steps_per_second"] = raw_physics_rate(env)
+    return result
+
+
+def run_variant(args: argparse.Namespace, name: str) -> dict[str, float]:
+    """One variant in a process of its own (its flags read at its start); its measurement."""
+    extra = VARIANTS[name]
+    env = os.environ | extra
+    if "XLA_FLAGS" in extra:
+        env["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {extra['XLA_FLAGS']}".strip()
+    command = [sys.executable, __file__, "--measure", "--preset", args.preset]
+    command += ["--warmup", str(args.warmup), "--iterations", str(args.iterations)]
+    command += ["--smoke"] * args.smoke + ["--raw"] * (name == "default")
+    done = subprocess.run(command, env=env, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise SystemExit(f"variant {name!r} failed: {done.stderr.strip().splitlines()[-1:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--preset", default="ant_train_mjx_tuned", help="a preset's name or a .pbtxt file")
+    parser.add_argument("--variant", action="append", choices=sorted(VARIANTS), help="default: every variant")
+    parser.add_argument("--warmup", type=int, default=3, help="iterations before the timed ones")
+    parser.add_argument("--iterations", type=int, default=12, help="iterations timed")
+    parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU)")
+    parser.add_argument("--measure", action="store_true", help=argparse.SUPPRESS)  # a variant's own process
+    parser.add_argument("--raw", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.measure:
+        print(json.dumps(measure(args)))
+        return 0
+    names = ["default"] + [name for name in args.variant or VARIANTS if name != "default"]
+    results = {}
+    for name in names:
+        results[name] = run_variant(args, name)
+        print(f"  {name}: {results[name]['env_steps_per_second']:,.0f} env steps/s", flush=True)
+    default = results["default"]
+    raw = default["raw_physics_steps_per_second"] / default["physics_steps_per_env_step"]
+    print(f"{args.preset}: one device, {args.iterations} iterations timed after {args.warmup}")
+    for name, result in results.items():
+        rate = result["env_steps_per_second"]
+        print(
+            f"  {name:32s} {rate:>12,.0f} env steps/s  {result['iteration_ms']:7.1f} ms/iteration  "
+            f"x{rate / default['env_steps_per_second']:.3f}  {rate / raw:6.1%} of raw physics  "
+            f"compile {result['compile_seconds']:.0f} s"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
