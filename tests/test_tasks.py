@@ -57,7 +57,9 @@ EXTRA_ANT_TERMS = TaskSpec(
         TermSpec("alive", 0.5),
         TermSpec("body_upright_above", 0.1, {"body": "torso", "min_upright": 0.93}),
         TermSpec("joints_near_upper_limit", -0.1, {**_ANT_JOINTS, "threshold": 0.0}),
+        TermSpec("free_body_command_progress", 1.0, {"joint": "root", "name": "spot"}),
     ),
+    commands={"spot": 3},
 )
 CONSTANT_TERMS = {"alive"}  # the same on every state by design
 
@@ -421,3 +423,23 @@ def test_a_bad_action_config_is_an_error_naming_the_task(plugins: PluginHost) ->
     for scale in ("-1", "inf", "nan"):
         with pytest.raises(ConfigError, match="action scale must be a positive finite number"):
             build_reach(plugins, f"action {{ scale: {scale} }}")
+
+
+def test_progress_is_the_speed_of_closing_on_the_command_and_a_round_trip_earns_nothing(plugins: PluginHost) -> None:
+    task = build_task(EXTRA_ANT_TERMS, compile_model(EXTRA_ANT_TERMS), plugins)
+    progress = next(term for term in task.reward_terms if term.function.__name__ == "free_body_command_progress")
+    ctx = random_states(task, compile_model(EXTRA_ANT_TERMS), seed=0)
+    goal = np.zeros((NUM_ENVS, 3))
+    start = ctx.qpos.copy()
+    start[:, :3] = [0.3, 0.0, 0.0]  # 0.3 m from the goal along x
+    toward, sideways = start.copy(), start.copy()
+    toward[:, 0] = 0.29
+    sideways[:, 1] = 0.01
+    ctx = ctx.replace(commands={"spot": goal})
+    closing = progress(ctx.replace(prev_qpos=start, qpos=toward))
+    np.testing.assert_allclose(closing, 0.01 / ctx.dt, rtol=1e-6)  # 1 cm closer over one step
+    np.testing.assert_allclose(progress(ctx.replace(prev_qpos=toward, qpos=start)), -0.01 / ctx.dt, rtol=1e-6)
+    # 1 cm sideways at 0.3 m: only the second-order lengthening of the distance, 60x less than 1 cm closer
+    aside = progress(ctx.replace(prev_qpos=start, qpos=sideways))
+    np.testing.assert_allclose(aside, (0.3 - np.hypot(0.3, 0.01)) / ctx.dt, rtol=1e-6)
+    assert np.all(np.abs(aside) < closing / 50)

@@ -248,6 +248,15 @@ def pushed_command_tanh(ctx: TermContext, site: Site, body: Body, name: str, rad
     return body_command_tanh(ctx, body, name, std) * near.astype(ctx.xpos.dtype)
 
 
+def free_body_command_progress(ctx: TermContext, joint: Joint, name: str) -> Any:
+    """Speed in m/s at which a free joint's body closes on a position command over the step (negative moving
+    away): the change of a potential, -distance (Ng et al., 1999), so it pays for moving an object toward its
+    goal as it moves, without changing which policy is best."""
+    columns = slice(joint.qpos_adr, joint.qpos_adr + 3)
+    before = _norm(ctx, ctx.commands[name] - ctx.prev_qpos[:, columns])
+    return (before - _norm(ctx, ctx.commands[name] - ctx.qpos[:, columns])) / ctx.dt
+
+
 def body_command_within(ctx: TermContext, body: Body, name: str, radius: float) -> Any:
     """1 where a body is within `radius` m of a position command (a success flag), else 0."""
     return (body_command_distance(ctx, body, name) < radius).astype(ctx.xpos.dtype)
@@ -350,6 +359,7 @@ BUILTIN_TERMS: dict[str, Callable[..., Any]] = {
         body_command_tanh,
         carried_command_tanh,
         pushed_command_tanh,
+        free_body_command_progress,
         body_command_within,
         sensors_above,
         unhealthy,
