@@ -20,6 +20,7 @@ import os
 import subprocess
 import sys
 import time
+from typing import Any
 
 # name -> environment the variant's process runs with (added to this one's)
 VARIANTS: dict[str, dict[str, str]] = {
@@ -32,10 +33,11 @@ VARIANTS: dict[str, dict[str, str]] = {
 }
 
 
-def measure(args: argparse.Namespace) -> dict[str, float]:
-    """In a variant's process: compile, warm up, time; env steps/s (and raw physics steps/s with --raw)."""
+def compiled_iteration(config: Any) -> tuple[Any, Any, Any, Any]:
+    """(env, settings, initial state, compiled iteration) of a training config on one device, as the trainer
+    compiles it."""
     import jax
-    from mjx_time_to_target import SMOKE, environment, load_config, raw_physics_rate
+    from mjx_time_to_target import environment
 
     from joshua_core.plugins import PluginHost
     from joshua_ppo.config_settings import PpoSettings
@@ -43,7 +45,6 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
     from joshua_ppo.iteration import make_iteration
     from joshua_ppo.state import init_state
 
-    config = load_config(args.preset, SMOKE if args.smoke else [], None)
     settings = PpoSettings.from_config(config)
     env = environment(config, PluginHost.discover(), config.num_envs or DEFAULT_NUM_ENVS, jax.devices()[:1], True)
     state = init_state(env, seed=0, network=settings.network, optimization=settings.optimization)
@@ -54,8 +55,16 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
         returns=settings.returns,
         network=settings.network,
     )
+    return env, settings, state, iteration.lower(state).compile()
+
+
+def measure(args: argparse.Namespace) -> dict[str, float]:
+    """In a variant's process: compile, warm up, time; env steps/s (and raw physics steps/s with --raw)."""
+    import jax
+    from mjx_time_to_target import SMOKE, load_config, raw_physics_rate
+
     started = time.perf_counter()
-    compiled = iteration.lower(state).compile()
+    env, settings, state, compiled = compiled_iteration(load_config(args.preset, SMOKE if args.smoke else [], None))
     result = {"compile_seconds": time.perf_counter() - started}
     for _ in range(args.warmup):
         state, _ = jax.block_until_ready(compiled(state))

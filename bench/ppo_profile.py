@@ -28,14 +28,10 @@ from pathlib import Path
 # grouping reads (on an H200 they held 85-97% of the device time); without them each kernel is its own event
 os.environ["XLA_FLAGS"] = os.environ.get("XLA_FLAGS", "") + " --xla_gpu_enable_command_buffer="
 import jax  # noqa: E402  (after XLA_FLAGS, which jax reads when its backend starts)
-from mjx_time_to_target import SMOKE, environment, load_config
+from mjx_time_to_target import SMOKE, load_config
+from ppo_iteration_rate import compiled_iteration
 
 from joshua_core.atomic import atomic_write_json
-from joshua_core.plugins import PluginHost
-from joshua_ppo.config_settings import PpoSettings
-from joshua_ppo.envs import DEFAULT_NUM_ENVS
-from joshua_ppo.iteration import make_iteration
-from joshua_ppo.state import init_state
 
 INSTRUCTION = re.compile(r"^\s*(?:ROOT )?%?([\w.\-]+) = .*?\b([a-z][a-z\-]*)\(.*?op_name=\"([^\"]*)\"", re.M)
 CONTAINERS = {"while", "conditional", "call", "async-start", "async-done"}  # their bodies' operations count
@@ -86,18 +82,7 @@ def device_times(trace_dir: Path, module: str) -> Counter[str]:
 def profile(args: argparse.Namespace) -> dict:
     """Compile, warm up, trace; the time per group and per instruction."""
     config = load_config(args.preset, (SMOKE if args.smoke else []) + args.set, args.num_envs)
-    settings = PpoSettings.from_config(config)
-    device = jax.devices()[:1]
-    env = environment(config, PluginHost.discover(), config.num_envs or DEFAULT_NUM_ENVS, device, training=True)
-    state = init_state(env, seed=0, network=settings.network, optimization=settings.optimization)
-    iteration = make_iteration(
-        env,
-        rollout=settings.rollout,
-        optimization=settings.optimization,
-        returns=settings.returns,
-        network=settings.network,
-    )
-    compiled = iteration.lower(state).compile()
+    env, settings, state, compiled = compiled_iteration(config)
     groups = instruction_groups(compiled.as_text())
     for _ in range(args.warmup):
         state, _ = jax.block_until_ready(compiled(state))
@@ -121,7 +106,7 @@ def profile(args: argparse.Namespace) -> dict:
     env_steps = args.iterations * env.num_envs * settings.rollout.num_steps * settings.rollout.unrolls_per_iteration
     return {
         "preset": args.preset,
-        "device": str(device[0]),
+        "device": str(jax.devices()[0]),
         "num_envs": env.num_envs,
         "iterations": args.iterations,
         "wall_seconds": wall,
