@@ -6,10 +6,13 @@
 
 XLA reads its flags and JAX its default precision when the backend starts, so each variant runs in a
 process of its own: it compiles the preset's training iteration on one device (as the trainer does), runs
---warmup iterations, then times --iterations more. The default's process also measures raw physics
-(`vmap(mjx.step)` on the same batch). Prints each variant's env steps/s, its ratio to the default measured
-in the same run, and the share of raw physics training reaches. What the figures said for tuned Ant is in
-docs/training-mjx.md: the update is bound by its many small kernels, not by its matrix products.
+--warmup iterations, then times --iterations more, dispatched back to back: the compiled iteration alone,
+which is what the variants change (the trainer's loop adds, per iteration, `redraw_starts`, one
+`mjx.forward` over the batch, and a wait for the iteration's metrics). The default's process also
+measures raw physics (`vmap(mjx.step)` on the same batch). Prints each variant's env steps/s, its ratio
+to the default measured in the same run, and the share of raw physics it reaches. What the figures said
+for tuned Ant is in docs/training-mjx.md: the update is bound by its many small kernels, not by its
+matrix products.
 """
 
 from __future__ import annotations
