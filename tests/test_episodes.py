@@ -13,8 +13,17 @@ import pytest
 
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
-from joshua_core.tasks import EpisodeSums, StepOutcome, Task, TaskSpec, TermContext, TermSpec, build_task
-from joshua_core.tasks import account_step, nonfinite
+from joshua_core.tasks import (
+    EpisodeSums,
+    StepOutcome,
+    Task,
+    TaskSpec,
+    TermContext,
+    TermSpec,
+    account_step,
+    build_task,
+    nonfinite,
+)
 
 HEALTHY = {"joint": "root", "min_z": 0.2, "max_z": 1.0}
 SPEC = TaskSpec(

@@ -16,10 +16,10 @@ from typing import Any
 
 import numpy as np
 import pytest
-from joshua_lerobot import export_trajectory
 
 from joshua_core.resources import models_dir
 from joshua_core.trajectory import Trajectory, load_trajectory, write_trajectory
+from joshua_lerobot import export_trajectory
 from joshua_modes import iter_offscreen_frames, model_joint_ranges
 from joshua_mujoco import compile_model
 

@@ -8,11 +8,11 @@ import math
 import mujoco
 import numpy as np
 from google.protobuf import text_format
-from joshua_export import Observer
 from numpy.typing import NDArray
 
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.plugins import PluginHost
+from joshua_export import Observer
 from joshua_mirror.controller import PolicyController
 from joshua_mirror.joints import MirroredJoint
 

@@ -19,13 +19,13 @@ from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import EpisodeSums, account_step
+from joshua_mujoco.task_options import task_config_from_options
 from joshua_mujoco.vector import (
     BatchedSimulation,
     BatchedVectorEnv,
     load_task_model,
     make_vector_env,
 )
-from joshua_mujoco.task_options import task_config_from_options
 
 # Gymnasium ids of the built-in tasks.
 ENV_IDS = {

@@ -48,7 +48,6 @@ from joshua_mujoco.models import compiled, read_spec  # noqa: E402
 from joshua_mujoco.task_options import task_config_from_options  # noqa: E402
 from joshua_render import camera_id, create_renderer, render_with_commands  # noqa: E402
 
-
 DEFAULT_NUM_ENVS = 16
 # Bound per-environment fields of mujoco.batch, by the TermContext field that reads them.
 _DERIVED_FIELDS = ("xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext")

@@ -28,8 +28,8 @@ if TYPE_CHECKING:
         open_display,
     )
     from joshua_render.frames import camera_id, create_renderer, render_with_commands
-    from joshua_render.grid import GridVideoWriter, episode_label, grid_shape
     from joshua_render.gl import RenderingUnavailableError, choose_headless_gl, has_display
+    from joshua_render.grid import GridVideoWriter, episode_label, grid_shape
     from joshua_render.video import VideoWriter, write_png
     from joshua_render.viewer import LiveViewer, open_viewer
 

@@ -41,6 +41,7 @@ from joshua_core.runs import (
 )
 from joshua_sb3 import options_pb2
 from joshua_sb3.export import saved_policy
+from joshua_sb3.rollout import roll_out
 from joshua_sb3.run_folder import (
     MODEL_FILE,
     NORMALIZATION_FILE,
@@ -49,7 +50,6 @@ from joshua_sb3.run_folder import (
     verify_checkpoint,
     write_checkpoint,
 )
-from joshua_sb3.rollout import roll_out
 from joshua_sb3.settings import DEFAULT_NUM_ENVS, Settings
 from joshua_sb3.vec_env import METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv
 

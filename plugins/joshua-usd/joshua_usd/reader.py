@@ -11,7 +11,6 @@ import mujoco
 from joshua_core.interfaces import ModelReader
 from joshua_usd.importer import import_usd
 
-
 # Warnings already printed by this process: a stage loaded again (one per environment) does not repeat them.
 _PRINTED: set[str] = set()
 
