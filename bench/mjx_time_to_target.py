@@ -18,9 +18,10 @@ snapshot whose deterministic value reaches it.
 Prints a few lines: time to target (with and without compile), training env steps/s, raw physics steps/s of
 `vmap(mjx.step)` on the same batch measured in the same run (after training) and their ratio, and the env
 steps/s of the environment alone under random actions (what PPO costs on top of the task); writes
-OUT/time_to_target.json and OUT/time_to_target.png (the metric and its interval against wall time), and the
-training state at the end in OUT/state, which --resume OUT continues in a later run (for targets further away
-than one sitting: its wall times go on from the first run's, and the second compilation counts).
+OUT/time_to_target.json and OUT/time_to_target.png (the metric and its interval against wall time). At every
+snapshot it keeps the training state in OUT/state and the snapshots so far in the JSON, which --resume OUT
+continues in a later run, also after a run stopped from outside (for targets further away than one sitting:
+its wall times go on from the first run's, and the second compilation counts).
 bench/mjx_train_ant.py is this bench for Ant, with its own figures (and throughput scaling over devices).
 """
 
@@ -77,18 +78,27 @@ def resume_from(folder: Path, env: MjxEnv, settings: PpoSettings) -> Resumed:
     return Resumed(state, progress, read_json(folder / "time_to_target.json"))
 
 
-def keeper(out: Path, evaluator: SnapshotEvaluator, resume: Resumed | None) -> Callable[..., None]:
+def evaluated(resume: Resumed | None, taken: list[dict], results: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The run's snapshot records: the resumed run's, then each snapshot taken here (step, wall) with its
+    evaluation."""
+    earlier = resume.outcome["snapshots"] if resume else []
+    return earlier + [when | result for when, result in zip(taken, results, strict=True)]
+
+
+Keep = Callable[[TrainingState, Progress, dict[str, float], list[dict]], None]
+
+
+def keeper(out: Path, evaluator: SnapshotEvaluator, resume: Resumed | None) -> Keep:
     """What `train` calls at every snapshot: the training state in OUT/state (as a checkpoint saves it) and, in
     OUT/time_to_target.json, the snapshots evaluated so far with the wall and compile seconds that --resume
     reads; the end of the run replaces that JSON with the whole outcome."""
-    earlier = resume.outcome["snapshots"] if resume else []
 
     def keep(state: TrainingState, progress: Progress, seconds: dict[str, float], taken: list[dict]) -> None:
         (out / "state").mkdir(parents=True, exist_ok=True)
         write_payloads(out / "state", checkpoint_payloads(state, progress))
-        evaluated = [when | result for when, result in zip(taken, evaluator.results, strict=True)]
         partial = {"wall_seconds": seconds["wall"], "compile_seconds": seconds["compile"], "partial": True}
-        atomic_write_json(out / "time_to_target.json", json_safe(partial | {"snapshots": earlier + evaluated}))
+        records = evaluated(resume, taken, evaluator.results)
+        atomic_write_json(out / "time_to_target.json", json_safe(partial | {"snapshots": records}))
 
     return keep
 
@@ -173,7 +183,7 @@ def train(
     metric: str = "return",
     evaluator: SnapshotEvaluator | None = None,
     resume: Resumed | None = None,
-    keep: Callable[[TrainingState, Progress, dict[str, float], list[dict]], None] | None = None,
+    keep: Keep | None = None,
 ) -> tuple[dict, list[tuple[dict, Snapshot]]]:
     """Train until the training value of `metric` reaches `target` (the stopping value), the time limit, the
     iteration limit or (with an evaluator) the first snapshot whose deterministic value reaches its target.
@@ -340,11 +350,10 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "raw_physics_steps_per_second": raw,
         "fraction_of_raw_physics": outcome["train_steps_per_second"] * env.task.frame_skip / raw,
     }
-    earlier = resume.outcome["snapshots"] if resume else []
-    evaluated = earlier + [when | result for (when, _), result in zip(snapshots, evaluator.results, strict=True)]
-    reached = next((entry for entry in evaluated if entry[value_key] >= args.target), None)
+    records = evaluated(resume, [when for when, _ in snapshots], evaluator.results)
+    reached = next((entry for entry in records if entry[value_key] >= args.target), None)
     return outcome | {
-        "snapshots": evaluated,
+        "snapshots": records,
         "reached_target_at_seconds": reached and reached["wall"],
         "reached_target_without_compile_seconds": reached and reached["wall"] - outcome["compile_seconds"],
         "reached_target_at_steps": reached and reached["step"],

@@ -426,9 +426,10 @@ def test_a_bad_action_config_is_an_error_naming_the_task(plugins: PluginHost) ->
 
 
 def test_progress_is_the_speed_of_closing_on_the_command_and_a_round_trip_earns_nothing(plugins: PluginHost) -> None:
-    task = build_task(EXTRA_ANT_TERMS, compile_model(EXTRA_ANT_TERMS), plugins)
+    model = compile_model(EXTRA_ANT_TERMS)
+    task = build_task(EXTRA_ANT_TERMS, model, plugins)
     progress = next(term for term in task.reward_terms if term.function.__name__ == "free_body_command_progress")
-    ctx = random_states(task, compile_model(EXTRA_ANT_TERMS), seed=0)
+    ctx = random_states(task, model, seed=0)
     goal = np.zeros((NUM_ENVS, 3))
     start = ctx.qpos.copy()
     start[:, :3] = [0.3, 0.0, 0.0]  # 0.3 m from the goal along x

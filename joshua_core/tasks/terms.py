@@ -252,9 +252,8 @@ def free_body_command_progress(ctx: TermContext, joint: Joint, name: str) -> Any
     """Speed in m/s at which a free joint's body closes on a position command over the step (negative moving
     away): the change of a potential, -distance (Ng et al., 1999), so it pays for moving an object toward its
     goal as it moves, without changing which policy is best."""
-    columns = slice(joint.qpos_adr, joint.qpos_adr + 3)
-    before = _norm(ctx, ctx.commands[name] - ctx.prev_qpos[:, columns])
-    return (before - _norm(ctx, ctx.commands[name] - ctx.qpos[:, columns])) / ctx.dt
+    goal, columns = ctx.commands[name], slice(joint.qpos_adr, joint.qpos_adr + 3)
+    return (_norm(ctx, goal - ctx.prev_qpos[:, columns]) - _norm(ctx, goal - ctx.qpos[:, columns])) / ctx.dt
 
 
 def body_command_within(ctx: TermContext, body: Body, name: str, radius: float) -> Any:
