@@ -38,6 +38,7 @@ EXTRA_TERMS = TaskSpec(
         TermSpec("joint_vel_l2", -1.0),
         TermSpec("body_command_tanh", 1.0, {"body": "moving_jaw", "name": "spot", "std": 0.2}),
         TermSpec("carried_command_tanh", 1.0, {"body": "moving_jaw", "name": "spot", "height": 0.1, "std": 0.2}),
+        TermSpec("sensors_above", 1.0, {"first": "gripper_touch_fixed", "second": "gripper_touch_moving", "threshold": 0.1}),
     ),
     commands={"spot": 3},
 )
@@ -100,6 +101,9 @@ def random_states(task: Task, model: mujoco.MjModel, seed: int) -> TermContext:
     arrays["xpos"][1, :, 2] = 0.1  # bodies lifted
     arrays["xpos"][2, :, 2] = -0.1  # bodies dropped
     arrays["sensordata"][1, :] = 1.0  # touch pads pressed
+    # ... with the sites on alternate sides of the last body (the SO-ARM100's pads, sites 2 and 3: a grasp)
+    arrays["site_xpos"][1, 0::2] = arrays["xpos"][1, -1] + [0.02, 0.0, 0.0]
+    arrays["site_xpos"][1, 1::2] = arrays["xpos"][1, -1] - [0.02, 0.0, 0.0]
     arrays["site_xpos"][3] = arrays["xpos"][3, -1] + 0.01  # every site (the gripper's) at the last body
     for value in commands.values():
         value[1] = arrays["xpos"][1, -1, : value.shape[1]]  # the last body (the cube) at its goal

@@ -7,7 +7,7 @@ namespace `ctx.xp`), so the same task runs on numpy (joshua-mujoco) and inside `
 
 from joshua_core.tasks.context import STATE_FIELDS, JaxRandom, NumpyRandom, RandomSource, TermContext, set_columns
 from joshua_core.tasks.episodes import Episode, EpisodeSums, StepOutcome, account_step, nonfinite
-from joshua_core.tasks.handles import Actuators, Bodies, Body, Geoms, Joint, Joints, Sensor, Site
+from joshua_core.tasks.handles import Actuators, Bodies, Body, Geoms, Joint, Joints, Sensor, Site, Touch
 from joshua_core.tasks.randomization import (
     INERTIAL_FIELDS,
     MODEL_FIELDS,
@@ -47,6 +47,7 @@ __all__ = [
     "TermContext",
     "TermKind",
     "TermSpec",
+    "Touch",
     "account_step",
     "build_task",
     "delayed_action",

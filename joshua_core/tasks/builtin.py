@@ -119,10 +119,12 @@ SO_ARM100_PICK_PLACE = TaskSpec(
     rewards=(
         # std 0.1: the gripper starts 0.11-0.17 m from the cube, where std 0.05 paid almost nothing (< 0.02)
         TermSpec("site_body_tanh", 1.0, {"site": "gripper", "body": "cube", "std": 0.1}, name="reach"),
+        # the cube between both pads: pressing the closed jaw's tips on its top touches both pads too, and a
+        # reward for any touch of both paid policies that pressed the cube 5-9 mm into the table and dragged it
         TermSpec(
-            "sensors_above",
+            "body_pinched",
             0.5,
-            {"first": "gripper_touch_fixed", "second": "gripper_touch_moving", "threshold": 0.05},
+            {"body": "cube", "first": "gripper_touch_fixed", "second": "gripper_touch_moving", "threshold": 0.05},
             name="grasp",
         ),
         TermSpec("body_height_above", 1.0, {"body": "cube", "height": 0.04}, name="lift"),

@@ -19,6 +19,7 @@ from typing import Any
 _FREE, _BALL = 0, 1
 _JOINT_SIZES = {0: (7, 6), 1: (4, 3), 2: (1, 1), 3: (1, 1)}
 _JOINT_TRANSMISSIONS = (0, 1)  # mjtTrn: an actuator driving a joint (mjTRN_JOINT, mjTRN_JOINTINPARENT)
+_TOUCH_SENSOR = 0  # mjtSensor.mjSENS_TOUCH
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,16 @@ class Sensor:
     @property
     def index(self) -> slice:
         return slice(self.adr, self.adr + self.dim)
+
+
+@dataclass(frozen=True)
+class Touch:
+    """A touch sensor: its reading (the normal force of the contacts inside its site's volume) is
+    `sensordata[:, adr]`, and `site` indexes site_xpos: where it feels (a gripper's pad)."""
+
+    name: str
+    adr: int
+    site: int
 
 
 @dataclass(frozen=True)
@@ -104,7 +115,7 @@ class Geoms:
     ids: tuple[int, ...]
 
 
-HANDLE_TYPES = (Body, Site, Sensor, Joint, Joints, Actuators, Bodies, Geoms)
+HANDLE_TYPES = (Body, Site, Sensor, Touch, Joint, Joints, Actuators, Bodies, Geoms)
 
 
 def _names(model: Any, kind: str) -> list[str]:
@@ -148,6 +159,11 @@ def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
     if handle_type is Sensor:
         index = _lookup(model, "sensor", value)
         return Sensor(value, int(model.sensor_adr[index]), int(model.sensor_dim[index]))
+    if handle_type is Touch:
+        index = _lookup(model, "sensor", value)
+        if int(model.sensor_type[index]) != _TOUCH_SENSOR:
+            raise ValueError(f"sensor '{value}' is not a touch sensor")
+        return Touch(value, int(model.sensor_adr[index]), int(model.sensor_objid[index]))
     if handle_type is Joint:
         return _joint(model, _lookup(model, "joint", value))
     if handle_type is Joints:

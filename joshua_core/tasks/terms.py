@@ -6,7 +6,7 @@ Reset terms return a new context (`ctx.replace(qpos=...)`) with the state they r
 task applies them in order, so a later reset term sees what an earlier one set.
 
 Written only with `ctx.xp` operations and without in-place writes, so every term runs on numpy and
-inside `jax.jit`. Parameters annotated with a handle type (Body, Site, Sensor, Joint, Joints) are
+inside `jax.jit`. Parameters annotated with a handle type (Body, Site, Sensor, Touch, Joint, Joints) are
 given as names and arrive resolved (see `joshua_core.tasks.handles`).
 """
 
@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from joshua_core.tasks.context import RandomSource, TermContext, set_columns
-from joshua_core.tasks.handles import Actuators, Body, Joint, Joints, Sensor, Site
+from joshua_core.tasks.handles import Actuators, Body, Joint, Joints, Sensor, Site, Touch
 
 # --- helpers shared by several terms ----------------------------------------------------------
 
@@ -267,6 +267,18 @@ def sensors_above(ctx: TermContext, first: Sensor, second: Sensor, threshold: fl
     return both.astype(ctx.sensordata.dtype)
 
 
+def body_pinched(ctx: TermContext, body: Body, first: Touch, second: Touch, threshold: float) -> Any:
+    """1 where two touch sensors (a gripper's pads) both read above `threshold` and the body's origin lies
+    between their sites (inside the sphere whose diameter joins them), else 0: a grasp of the body. The pads'
+    tips pressing on the body's top touch both sensors too, with the body below the pads, not between them;
+    a policy paid for that pressed the cube into the table instead of picking it up."""
+    touching = (ctx.sensordata[:, first.adr] > threshold) & (ctx.sensordata[:, second.adr] > threshold)
+    position = ctx.xpos[:, body.id]
+    to_first, to_second = ctx.site_xpos[:, first.site] - position, ctx.site_xpos[:, second.site] - position
+    between = ctx.xp.sum(to_first * to_second, axis=-1) < 0  # the pads on opposite sides: an obtuse angle at the body
+    return (touching & between).astype(ctx.xpos.dtype)
+
+
 # --- terminations -----------------------------------------------------------------------------
 
 
@@ -361,6 +373,7 @@ BUILTIN_TERMS: dict[str, Callable[..., Any]] = {
         free_body_command_progress,
         body_command_within,
         sensors_above,
+        body_pinched,
         unhealthy,
         body_below,
         body_tilted,

@@ -11,7 +11,7 @@ moves at most `scale` per step and the script's lines are followed at that speed
 
 from __future__ import annotations
 
-from collections.abc import Generator
+from collections.abc import Callable, Generator
 from dataclasses import dataclass
 
 import mujoco
@@ -68,11 +68,15 @@ class PickPlaceScript:
         self.qpos_addresses = [int(joint.qposadr[0]) for joint in joints]
         self.dofs = [int(joint.dofadr[0]) for joint in joints]
 
-    def actions(self, qpos: NDArray[np.float64], cube: NDArray[np.float64], goal: NDArray[np.float64]) -> Generator[
-        tuple[str, NDArray[np.float64]], NDArray[np.float64], None
-    ]:
-        """(phase name, action) for every control step of the script, starting from joint positions `qpos`; send
-        the joint positions after each step. An integral term on the arm's targets takes out the servos' sag under
+    def actions(
+        self,
+        qpos: NDArray[np.float64],
+        cube: NDArray[np.float64],
+        goal: NDArray[np.float64],
+        plan: Callable[[NDArray[np.float64], NDArray[np.float64]], list[Phase]] = phases,
+    ) -> Generator[tuple[str, NDArray[np.float64]], NDArray[np.float64], None]:
+        """(phase name, action) for every control step of `plan` (pick and place by default), starting from joint
+        positions `qpos`; send the joint positions after each step. An integral term on the arm's targets takes out the servos' sag under
         gravity, which is a few centimetres at the far end of the workspace."""
         self.data.qpos[:] = qpos  # the IK starts from here and from each solution after
         mujoco.mj_kinematics(self.model, self.data)
@@ -80,7 +84,7 @@ class PickPlaceScript:
         self.across = np.array([np.copysign(1.0, self.data.site_xmat[self.site][2]), 0.0, 0.0])
         sag = np.zeros(len(ARM))
         start = self._grasp_point()
-        for phase in phases(cube, goal):
+        for phase in plan(cube, goal):
             for step in range(phase.steps):
                 # the target moves in a straight line over the first half of the phase: no sweeping through the cube
                 share = min(1.0, (step + 1) / (phase.steps / 2))

@@ -10,7 +10,7 @@ from typing import Any
 import jax
 import numpy as np
 import pytest
-from pick_place_script import PickPlaceScript
+from pick_place_script import JAW_CLOSED, Phase, PickPlaceScript
 
 from joshua_mjx import make_mjx_env
 from joshua_mujoco import make_vector_env
@@ -62,6 +62,29 @@ def test_the_script_solves_the_cpu_scene(seed: int) -> None:
         rewards.append({name: float(value[0]) for name, value in infos["reward_terms"].items()})
         phases.append(phase)
     check_solved(rewards, float(infos["metrics"]["success"][0]), phases)
+
+
+def press(cube: np.ndarray, goal: np.ndarray) -> list[Phase]:
+    """The closed jaw's tips come down on the cube's top and push on through it, as policies paid for any touch of
+    both pads learnt to do (pressing the cube into the table and dragging it along)."""
+    return [Phase("above", cube + [0.0, 0.0, 0.08], JAW_CLOSED, 40), Phase("press", cube - [0.0, 0.0, 0.03], JAW_CLOSED, 60)]
+
+
+def test_pressing_on_the_cube_touches_both_pads_but_is_no_grasp() -> None:
+    env = make_vector_env(TASK, 1, seed=0, nthread=1)
+    env.reset(seed=0)
+    simulation = env.simulation
+    model = simulation.model
+    touch = [model.sensor(name).adr[0] for name in ("gripper_touch_fixed", "gripper_touch_moving")]
+    script = PickPlaceScript(model, simulation.task)
+    cube = simulation.derived["xpos"][0, model.body("cube").id].copy()
+    pressed, grasps = 0, 0
+    actions = script.actions(simulation.qpos[0].copy(), cube, simulation.commands["goal"][0], plan=press)
+    for _, action in drive(actions, lambda: simulation.qpos[0].copy()):
+        _, _, _, _, infos = env.step(action[None])
+        pressed += bool(np.all(simulation.derived["sensordata"][0, touch] > 0.05))
+        grasps += infos["reward_terms"]["grasp"][0] > 0
+    assert pressed >= 10 and grasps == 0, (pressed, grasps)
 
 
 def test_the_script_solves_the_mjx_scene() -> None:
