@@ -259,6 +259,13 @@ def test_unknown_model_name_suggests_the_close_one(plugins: PluginHost) -> None:
     assert "term 'distance', parameter 'site'" in str(error.value) and "Did you mean: gripper" in str(error.value)
 
 
+def test_a_touch_parameter_naming_another_kind_of_sensor_is_an_error_naming_it(plugins: PluginHost) -> None:
+    params = {"body": "moving_jaw", "first": "wrist_force", "second": "gripper_touch_moving", "threshold": "0.05"}
+    text = " ".join(f'params {{ key: "{key}" value: "{value}" }}' for key, value in params.items())
+    with pytest.raises(ConfigError, match=r"term 'held', parameter 'first': sensor 'wrist_force' is not a touch sensor"):
+        build_reach(plugins, f'terms {{ name: "held" term: "body_pinched" kind: REWARD {text} }}')
+
+
 def test_handles_know_free_joints_limits_and_the_joints_actuators_drive() -> None:
     model = compile_model(EXTRA_ANT_TERMS)
     torso, thigh = resolve_handle(model, Body, "torso"), resolve_handle(model, Body, "back_thigh")
