@@ -377,7 +377,7 @@ def main() -> int:
     )
     # 1024: at a true success rate of 0.9, 128 episodes read 0.9 or more only about half the time (95 %: +-0.05),
     # so the first snapshot to read it was often a lucky one; 1024 read it within +-0.02. The rollout's steps
-    # are sequential, so on a GPU more environments add little to an evaluation's time.
+    # are sequential, so on a GPU more environments should add little to an evaluation's time (not yet measured).
     parser.add_argument("--eval-envs", type=int, default=1024, help="episodes of each deterministic evaluation")
     parser.add_argument("--snapshot-interval", type=int, default=20, help="snapshot every this many iterations")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
