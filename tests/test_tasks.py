@@ -38,7 +38,9 @@ EXTRA_TERMS = TaskSpec(
         TermSpec("joint_vel_l2", -1.0),
         TermSpec("body_command_tanh", 1.0, {"body": "moving_jaw", "name": "spot", "std": 0.2}),
         TermSpec("carried_command_tanh", 1.0, {"body": "moving_jaw", "name": "spot", "height": 0.1, "std": 0.2}),
-        TermSpec("sensors_above", 1.0, {"first": "gripper_touch_fixed", "second": "gripper_touch_moving", "threshold": 0.1}),
+        TermSpec(
+            "sensors_above", 1.0, {"first": "gripper_touch_fixed", "second": "gripper_touch_moving", "threshold": 0.1}
+        ),
     ),
     commands={"spot": 3},
 )
@@ -262,7 +264,8 @@ def test_unknown_model_name_suggests_the_close_one(plugins: PluginHost) -> None:
 def test_a_touch_parameter_naming_another_kind_of_sensor_is_an_error_naming_it(plugins: PluginHost) -> None:
     params = {"body": "moving_jaw", "first": "wrist_force", "second": "gripper_touch_moving", "threshold": "0.05"}
     text = " ".join(f'params {{ key: "{key}" value: "{value}" }}' for key, value in params.items())
-    with pytest.raises(ConfigError, match=r"term 'held', parameter 'first': sensor 'wrist_force' is not a touch sensor"):
+    expected = r"term 'held', parameter 'first': sensor 'wrist_force' is not a touch sensor"
+    with pytest.raises(ConfigError, match=expected):
         build_reach(plugins, f'terms {{ name: "held" term: "body_pinched" kind: REWARD {text} }}')
 
 

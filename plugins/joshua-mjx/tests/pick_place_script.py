@@ -76,8 +76,8 @@ class PickPlaceScript:
         plan: Callable[[NDArray[np.float64], NDArray[np.float64]], list[Phase]] = phases,
     ) -> Generator[tuple[str, NDArray[np.float64]], NDArray[np.float64], None]:
         """(phase name, action) for every control step of `plan` (pick and place by default), starting from joint
-        positions `qpos`; send the joint positions after each step. An integral term on the arm's targets takes out the servos' sag under
-        gravity, which is a few centimetres at the far end of the workspace."""
+        positions `qpos`; send the joint positions after each step. An integral term on the arm's targets takes out
+        the servos' sag under gravity, which is a few centimetres at the far end of the workspace."""
         self.data.qpos[:] = qpos  # the IK starts from here and from each solution after
         mujoco.mj_kinematics(self.model, self.data)
         # the jaw closes along +x or -x, whichever the gripper is nearer to now: no half turn of the wrist

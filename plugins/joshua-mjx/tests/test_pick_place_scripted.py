@@ -67,7 +67,8 @@ def test_the_script_solves_the_cpu_scene(seed: int) -> None:
 def press(cube: np.ndarray, goal: np.ndarray) -> list[Phase]:
     """The closed jaw's tips come down on the cube's top and push on through it, as policies paid for any touch of
     both pads learnt to do (pressing the cube into the table and dragging it along)."""
-    return [Phase("above", cube + [0.0, 0.0, 0.08], JAW_CLOSED, 40), Phase("press", cube - [0.0, 0.0, 0.03], JAW_CLOSED, 60)]
+    above, through = cube + [0.0, 0.0, 0.08], cube - [0.0, 0.0, 0.03]
+    return [Phase("above", above, JAW_CLOSED, 40), Phase("press", through, JAW_CLOSED, 60)]
 
 
 def test_pressing_on_the_cube_touches_both_pads_but_is_no_grasp() -> None:

@@ -7,9 +7,13 @@ for 1 s, all on the model exactly as imported.
 
 from __future__ import annotations
 
+import itertools
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
+from pxr import Usd, UsdPhysics
 
 from joshua_core.resources import models_dir
 from joshua_usd.exporter import export_model
@@ -178,3 +182,36 @@ def test_ball_joint_damping_and_a_margin_with_a_gap_come_back(tmp_path) -> None:
     imported = import_usd(export_model(xml, tmp_path / "passive.usda")).spec.compile()
     for field in ("dof_damping", "dof_frictionloss", "dof_armature", "geom_margin", "geom_gap"):
         np.testing.assert_allclose(getattr(imported, field), getattr(original, field), rtol=1e-6, err_msg=field)
+
+
+def _touching(model: mujoco.MjModel) -> set[frozenset[tuple[str, int, tuple[float, ...]]]]:
+    """The pairs of colliders that may touch (contype/conaffinity and body exclusions), each collider known by
+    its body's name, its type and its position in the body."""
+
+    def key(geom: int) -> tuple[str, int, tuple[float, ...]]:
+        return model.body(model.geom_bodyid[geom]).name, int(model.geom_type[geom]), tuple(model.geom_pos[geom].round(5))
+
+    excluded = {frozenset((int(s) >> 16, int(s) & 0xFFFF)) for s in model.exclude_signature}
+    colliders = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]
+    pairs = set()
+    for a, b in itertools.combinations(colliders, 2):
+        bits = model.geom_contype[a] & model.geom_conaffinity[b] or model.geom_contype[b] & model.geom_conaffinity[a]
+        if bits and frozenset((int(model.geom_bodyid[a]), int(model.geom_bodyid[b]))) not in excluded:
+            pairs.add(frozenset((key(a), key(b))))
+    return pairs
+
+
+def test_which_colliders_may_touch_comes_back(tmp_path) -> None:
+    """pick_place_mjx.xml's filtering (the cube touches only the table and the fingertips; five body pairs
+    excluded) as CollisionGroups and FilteredPairsAPI, and back as contype/conaffinity bits and exclusions."""
+    original_path = models_dir() / "so_arm100/pick_place_mjx.xml"
+    stage = Usd.Stage.Open(str(export_model(original_path, tmp_path / "pick_place.usda")))
+    groups = [prim for prim in stage.Traverse() if prim.IsA(UsdPhysics.CollisionGroup)]
+    assert len(groups) == 4  # the classes (contype, conaffinity): table, arm, fingertips, cube
+    imported = import_usd(Path(stage.GetRootLayer().realPath))
+    assert imported.report.warnings == []
+    original, model = mujoco.MjModel.from_xml_path(str(original_path)), imported.spec.compile()
+    pairs = _touching(original)
+    assert _touching(model) == pairs
+    cube_touches = {name for pair in pairs for name, _, _ in pair if "cube" in {key[0] for key in pair}} - {"cube"}
+    assert cube_touches == {"world", "fixed_jaw", "moving_jaw"}

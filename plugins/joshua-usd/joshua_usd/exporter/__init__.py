@@ -1,8 +1,8 @@
 """MuJoCo -> USD: a UsdPhysics articulation Isaac loads, written from the compiled model at qpos0.
 
 Layout: /<model> (default prim, ArticulationRootAPI) holds the bodies as sibling rigid-body Xforms
-in world poses, the `joints` Scope, `Looks` and `PhysicsMaterials`; /PhysicsScene and /Environment
-(world geoms and cameras) lie beside it, so referencing the file's default prim brings the robot only.
+in world poses, the `joints` Scope, `Looks` and `PhysicsMaterials`; /PhysicsScene, /CollisionGroups and
+/Environment (world geoms and cameras) lie beside it, so referencing the file's default prim brings the robot only.
 The output is text (usda, also in .usd files), byte-identical when rerun, and written atomically.
 """
 
@@ -18,6 +18,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdPhysics, Vt
 from joshua_core.errors import ModelError, UsageError
 from joshua_usd.exporter.bodies import write_bodies, write_root, write_scene
 from joshua_usd.exporter.context import NOTES_ATTR, Context, set_raw
+from joshua_usd.exporter.filtering import write_filtering
 from joshua_usd.exporter.geoms import write_geoms
 from joshua_usd.exporter.joints import write_drives, write_joints
 from joshua_usd.exporter.sensors import write_cameras, write_sensors
@@ -59,6 +60,7 @@ def build_stage(model: mujoco.MjModel) -> Usd.Stage:
     write_bodies(ctx)
     write_drives(ctx, write_joints(ctx))
     write_geoms(ctx)
+    write_filtering(ctx)
     write_cameras(ctx)
     write_sensors(ctx)
     if ctx.notes:

@@ -27,6 +27,7 @@ class Context:
     stage: Usd.Stage
     root: Sdf.Path
     body_paths: dict[int, Sdf.Path] = field(default_factory=dict)
+    collider_paths: dict[int, Sdf.Path] = field(default_factory=dict)  # by geom id
     notes: list[str] = field(default_factory=list)
     _taken: defaultdict[Sdf.Path, set[str]] = field(default_factory=lambda: defaultdict(set))
     _scopes: dict[str, Sdf.Path] = field(default_factory=dict)

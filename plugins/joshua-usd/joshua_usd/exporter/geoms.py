@@ -49,6 +49,7 @@ def write_geoms(ctx: Context) -> None:
             gprim.CreateExtentAttr(extent)
         materials.bind_look(prim, geom)
         if collider:
+            ctx.collider_paths[geom] = prim.GetPath()
             _collider(ctx, prim, geom, name)
             materials.bind_friction(prim, geom)
 

@@ -17,7 +17,7 @@ from joshua_usd.importer.joints import add_joint, place
 from joshua_usd.importer.mass import probe, set_inertial
 from joshua_usd.importer.pose import IDENTITY, Pose, Vec
 from joshua_usd.importer.report import ImportReport
-from joshua_usd.importer.scene import set_articulations, set_scene
+from joshua_usd.importer.scene import set_articulations, set_collision_groups, set_scene
 from joshua_usd.importer.stage import StageFrame, open_stage, read
 from joshua_usd.importer.topology import Link, build_tree, joint_prims, rigid_bodies, walk
 
@@ -59,11 +59,16 @@ def import_usd(path: Path) -> Imported:
     found = shapes(stage, body_paths, report)
     geom_names = unique_names(shape.prim.GetPath() for shape in found)
     world = _Body(spec.worldbody, IDENTITY, np.ones(3))
+    colliders: dict[Sdf.Path, mujoco.MjsGeom] = {}
     for shape in found:
         body = made[shape.owner.GetPath()] if shape.owner is not None else world
-        add_geom(spec, body.spec, body.pose, shape, geom_names[shape.prim.GetPath()], frame, report)
+        geom = add_geom(spec, body.spec, body.pose, shape, geom_names[shape.prim.GetPath()], frame, report)
+        if geom is not None and shape.collider:
+            colliders[shape.prim.GetPath()] = geom
     set_scene(spec, stage, frame, report)
-    set_articulations(spec, stage, roots, names, report)
+    set_collision_groups(stage, colliders, report)
+    static = {shape.prim.GetPath() for shape in found if shape.owner is None and shape.collider}
+    set_articulations(spec, stage, roots, names, static, report)
     model = probe(spec, report)
     for link in links:
         body = made[link.prim.GetPath()]
