@@ -1,4 +1,4 @@
-"""Env steps/s of a preset's compiled PPO iteration under XLA and matmul-precision variants, against the default.
+"""Env steps/s of a preset's compiled PPO iteration under XLA, matmul-precision and optimizer variants, against the default.
 
     python bench/ppo_iteration_rate.py --preset ant_train_mjx_tuned                     # GPU: every variant
     python bench/ppo_iteration_rate.py --variant default --variant "bfloat16 products"  # some of them
@@ -25,6 +25,7 @@ import sys
 import time
 from typing import Any
 
+FLAT_ADAM = "JOSHUA_BENCH_FLAT_ADAM"  # set in a variant's process: Adam runs on the flattened parameters
 # name -> environment the variant's process runs with (added to this one's)
 VARIANTS: dict[str, dict[str, str]] = {
     "default": {},
@@ -33,6 +34,9 @@ VARIANTS: dict[str, dict[str, str]] = {
     "bfloat16 products": {"JAX_DEFAULT_MATMUL_PRECISION": "bfloat16"},
     "full float32 products": {"JAX_DEFAULT_MATMUL_PRECISION": "float32"},
     "XLA command buffers off": {"XLA_FLAGS": "--xla_gpu_enable_command_buffer="},
+    # a candidate for the update's many small kernels: Adam on one vector of all parameters (optax.flatten), the
+    # same arithmetic element by element, instead of a few kernels per parameter array
+    "one Adam over all parameters": {FLAT_ADAM: "1"},
 }
 
 
@@ -64,8 +68,12 @@ def compiled_iteration(config: Any) -> tuple[Any, Any, Any, Any]:
 def measure(args: argparse.Namespace) -> dict[str, float]:
     """In a variant's process: compile, warm up, time; env steps/s (and raw physics steps/s with --raw)."""
     import jax
+    import optax
     from mjx_time_to_target import SMOKE, load_config, raw_physics_rate
 
+    if os.environ.get(FLAT_ADAM):
+        adam = optax.adam  # joshua_ppo.optimizer builds its chain from optax.adam when called
+        optax.adam = lambda *args, **kwargs: optax.flatten(adam(*args, **kwargs))
     started = time.perf_counter()
     env, settings, state, compiled = compiled_iteration(load_config(args.preset, SMOKE if args.smoke else [], None))
     result = {"compile_seconds": time.perf_counter() - started}
