@@ -1,4 +1,4 @@
-"""Env steps/s of a preset's compiled PPO iteration under XLA, matmul-precision and optimizer variants, against the default.
+"""Env steps/s of a preset's compiled PPO iteration under XLA, precision and optimizer variants, against the default.
 
     python bench/ppo_iteration_rate.py --preset ant_train_mjx_tuned                     # GPU: every variant
     python bench/ppo_iteration_rate.py --variant default --variant "bfloat16 products"  # some of them
