@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from pick_place_script import JAW_CLOSED, Phase, PickPlaceScript
 
+from joshua_core.config import finalize, load_preset
 from joshua_mjx import make_mjx_env
 from joshua_mujoco import make_vector_env
 
@@ -88,8 +89,11 @@ def test_pressing_on_the_cube_touches_both_pads_but_is_no_grasp() -> None:
     assert pressed >= 10 and grasps == 0, (pressed, grasps)
 
 
-def test_the_script_solves_the_mjx_scene() -> None:
-    env = make_mjx_env(TASK, 1)
+@pytest.mark.parametrize("preset", ["so_arm100_pick_place_mjx", "so_arm100_pick_place_mjx_dr"])
+def test_the_script_solves_the_mjx_scene(preset: str) -> None:
+    """The MJX scene, and the randomized preset's: friction, cube mass, servo gains, action delay, observation
+    noise and pushes on the cube leave the task solvable."""
+    env = make_mjx_env(TASK, 1, task_config=finalize(load_preset(preset)).training.task_config)
     state = env.reset(jax.random.PRNGKey(3))
     script = PickPlaceScript(env.model, env.task)
     qpos = np.asarray(state.data.qpos[0])
@@ -97,8 +101,10 @@ def test_the_script_solves_the_mjx_scene() -> None:
     step = jax.jit(env.step)
     rewards, phases = [], []
     actions = script.actions(qpos, cube, np.asarray(state.commands["goal"][0]))
-    for phase, action in drive(actions, lambda: np.asarray(state.data.qpos[0], dtype=np.float64)):
+    measured = qpos
+    for phase, action in drive(actions, lambda: measured):
         state = step(state, jax.numpy.asarray(action[None], dtype=jax.numpy.float32))
+        measured = np.asarray(state.data.qpos[0], dtype=np.float64)
         assert not (state.terminated[0] or state.truncated[0])
         rewards.append({name: float(value[0]) for name, value in state.reward_terms.items()})
         phases.append(phase)
