@@ -101,10 +101,10 @@ def test_the_script_solves_the_mjx_scene(preset: str) -> None:
     step = jax.jit(env.step)
     rewards, phases = [], []
     actions = script.actions(qpos, cube, np.asarray(state.commands["goal"][0]))
-    measured = qpos
-    for phase, action in drive(actions, lambda: measured):
+    latest = {"qpos": qpos}  # the joint positions after each step, for the script
+    for phase, action in drive(actions, lambda: latest["qpos"]):
         state = step(state, jax.numpy.asarray(action[None], dtype=jax.numpy.float32))
-        measured = np.asarray(state.data.qpos[0], dtype=np.float64)
+        latest["qpos"] = np.asarray(state.data.qpos[0], dtype=np.float64)
         assert not (state.terminated[0] or state.truncated[0])
         rewards.append({name: float(value[0]) for name, value in state.reward_terms.items()})
         phases.append(phase)
