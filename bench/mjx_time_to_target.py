@@ -201,6 +201,10 @@ def train(
         """Time spent evaluating so far: left out of every wall time."""
         return evaluator.seconds if evaluator else 0.0
 
+    def compile_seconds() -> float:
+        """This run's compile (nan before its first iteration) added to the resumed run's."""
+        return earlier["compile_seconds"] + (log[0]["compile"] if log else float("nan"))
+
     log: list[dict] = []
     snapshots: list[tuple[dict, Snapshot]] = []
 
@@ -237,8 +241,7 @@ def train(
             )
             stopping = (evaluator is not None and evaluator(snapshots[-1][1])) or stopping
             if keep is not None:
-                compile_seconds = earlier["compile_seconds"] + log[0]["compile"]
-                seconds = {"wall": wall, "compile": compile_seconds}
+                seconds = {"wall": wall, "compile": compile_seconds()}
                 keep(state, Progress(report.iteration, report.env_steps), seconds, [when for when, _ in snapshots])
         if stopping:
             raise TargetReached  # or out of time, iterations or steps
@@ -257,13 +260,12 @@ def train(
         )
     except TargetReached:
         pass
-    compile_seconds = earlier["compile_seconds"] + (log[0]["compile"] if log else float("nan"))
     steady = [entry["sps"] for entry in log[1:]] or [entry["sps"] for entry in log]
     reached = [entry for entry in log if entry["episodes"] > 0 and entry["value"] >= target]
     return {
         "wall_seconds": earlier["wall_seconds"] + time.perf_counter() - started - evaluation_seconds(),
         "evaluation_seconds": evaluation_seconds(),
-        "compile_seconds": compile_seconds,
+        "compile_seconds": compile_seconds(),
         "train_steps_per_second": sorted(steady)[len(steady) // 2],
         "env_steps": log[-1]["step"] if log else 0,
         "final_return": next((e["return"] for e in reversed(log) if e["episodes"] > 0), float("nan")),

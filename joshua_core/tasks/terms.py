@@ -27,6 +27,11 @@ def _norm(ctx: TermContext, vector: Any) -> Any:
     return ctx.xp.sqrt(ctx.xp.sum(vector * vector, axis=-1))
 
 
+def _both_above(ctx: TermContext, first_adr: int, second_adr: int, threshold: float) -> Any:
+    """Where both sensor readings (at `sensordata` columns first_adr and second_adr) exceed `threshold`."""
+    return (ctx.sensordata[:, first_adr] > threshold) & (ctx.sensordata[:, second_adr] > threshold)
+
+
 def _upright(ctx: TermContext, body: Body) -> Any:
     """World z component of the body's z axis, from its quaternion (1 upright, -1 upside down)."""
     quat = ctx.xquat[:, body.id]
@@ -263,8 +268,7 @@ def body_command_within(ctx: TermContext, body: Body, name: str, radius: float) 
 
 def sensors_above(ctx: TermContext, first: Sensor, second: Sensor, threshold: float) -> Any:
     """1 where both sensors' first readings exceed `threshold` (two touch pads: a grasp), else 0."""
-    both = (ctx.sensordata[:, first.adr] > threshold) & (ctx.sensordata[:, second.adr] > threshold)
-    return both.astype(ctx.sensordata.dtype)
+    return _both_above(ctx, first.adr, second.adr, threshold).astype(ctx.sensordata.dtype)
 
 
 def body_pinched(ctx: TermContext, body: Body, first: Touch, second: Touch, threshold: float) -> Any:
@@ -272,7 +276,7 @@ def body_pinched(ctx: TermContext, body: Body, first: Touch, second: Touch, thre
     between their sites (inside the sphere whose diameter joins them), else 0: a grasp of the body. The pads'
     tips pressing on the body's top touch both sensors too, with the body below the pads, not between them;
     a policy paid for that pressed the cube into the table instead of picking it up."""
-    touching = (ctx.sensordata[:, first.adr] > threshold) & (ctx.sensordata[:, second.adr] > threshold)
+    touching = _both_above(ctx, first.adr, second.adr, threshold)
     position = ctx.xpos[:, body.id]
     to_first, to_second = ctx.site_xpos[:, first.site] - position, ctx.site_xpos[:, second.site] - position
     between = ctx.xp.sum(to_first * to_second, axis=-1) < 0  # the pads on opposite sides: an obtuse angle at the body

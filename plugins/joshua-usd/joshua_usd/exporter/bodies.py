@@ -9,6 +9,7 @@ import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdPhysics
 
 from joshua_usd.exporter.context import Context, set_pose, set_raw
+from joshua_usd.exporter.filtering import bits, can_touch
 from joshua_usd.exporter.frames import gf_quatf, gf_vec3f
 
 SCENE_PATH = Sdf.Path("/PhysicsScene")
@@ -60,9 +61,7 @@ def self_collides(model: mujoco.MjModel) -> bool:
         body_a, body_b = weld[model.geom_bodyid[a]], weld[model.geom_bodyid[b]]
         parent_a, parent_b = weld[model.body_parentid[body_a]], weld[model.body_parentid[body_b]]
         related = body_a == body_b or parent_a == body_b or parent_b == body_a
-        contype, conaffinity = model.geom_contype, model.geom_conaffinity
-        touching = contype[a] & conaffinity[b] or contype[b] & conaffinity[a]
-        if touching and not related:
+        if not related and can_touch(bits(model, a), bits(model, b)):
             return True
     return False
 

@@ -9,12 +9,18 @@ from __future__ import annotations
 
 import itertools
 
+import mujoco
 from pxr import Sdf, UsdPhysics
 
 from joshua_usd.exporter.context import Context
 
 GROUPS = Sdf.Path("/CollisionGroups")
 Bits = tuple[int, int]  # a geom's (contype, conaffinity)
+
+
+def bits(model: mujoco.MjModel, geom: int) -> Bits:
+    """A geom's (contype, conaffinity)."""
+    return int(model.geom_contype[geom]), int(model.geom_conaffinity[geom])
 
 
 def can_touch(first: Bits, second: Bits) -> bool:
@@ -24,24 +30,23 @@ def can_touch(first: Bits, second: Bits) -> bool:
 
 def write_filtering(ctx: Context) -> None:
     """Collision groups where some colliders cannot touch others, and the model's body exclusions."""
-    model = ctx.model
     classes: dict[Bits, list[Sdf.Path]] = {}
     for geom, path in sorted(ctx.collider_paths.items()):
-        classes.setdefault((int(model.geom_contype[geom]), int(model.geom_conaffinity[geom])), []).append(path)
+        classes.setdefault(bits(ctx.model, geom), []).append(path)
     if not all(can_touch(first, second) for first, second in itertools.combinations_with_replacement(classes, 2)):
         _write_groups(ctx, classes)
     _write_exclusions(ctx)
 
 
 def _write_groups(ctx: Context, classes: dict[Bits, list[Sdf.Path]]) -> None:
-    paths = {bits: GROUPS.AppendChild(f"contype{bits[0]}_conaffinity{bits[1]}") for bits in classes}
+    paths = {pair: GROUPS.AppendChild(f"contype{pair[0]}_conaffinity{pair[1]}") for pair in classes}
     ctx.stage.DefinePrim(GROUPS, "Scope")
-    for bits, members in classes.items():
-        group = UsdPhysics.CollisionGroup.Define(ctx.stage, paths[bits])
+    for pair, members in classes.items():
+        group = UsdPhysics.CollisionGroup.Define(ctx.stage, paths[pair])
         includes = group.GetCollidersCollectionAPI().CreateIncludesRel()
         for member in members:
             includes.AddTarget(member)
-        filtered = [paths[other] for other in classes if not can_touch(bits, other)]
+        filtered = [paths[other] for other in classes if not can_touch(pair, other)]
         if filtered:
             group.CreateFilteredGroupsRel().SetTargets(filtered)
 
