@@ -8,9 +8,10 @@ XLA reads its flags and JAX its default precision when the backend starts, so ea
 process of its own: it compiles the preset's training iteration on one device (as the trainer does), runs
 --warmup iterations, then times --iterations more, dispatched back to back: the compiled iteration alone,
 which is what the variants change (the trainer's loop adds, per iteration, `redraw_starts`, one
-`mjx.forward` over the batch, and a wait for the iteration's metrics). The default's process also
-measures raw physics (`vmap(mjx.step)` on the same batch). Prints each variant's env steps/s, its ratio
-to the default measured in the same run, and the share of raw physics it reaches. What the figures said
+`mjx.forward` over the batch, and a wait for the iteration's metrics). Each process also measures raw
+physics (`vmap(mjx.step)` on the same batch) under its own flags, since a flag may speed the physics too.
+Prints each variant's env steps/s, its ratio to the default measured in the same run, and the share of
+raw physics it reaches: of the default's and of its own. What the figures said
 for tuned Ant is in docs/training-mjx.md: the update is bound by its many small kernels, not by its
 matrix products.
 """
@@ -25,7 +26,6 @@ import sys
 import time
 from typing import Any
 
-FLAT_ADAM = "JOSHUA_BENCH_FLAT_ADAM"  # set in a variant's process: Adam runs on the flattened parameters
 # name -> environment the variant's process runs with (added to this one's)
 VARIANTS: dict[str, dict[str, str]] = {
     "default": {},
@@ -34,9 +34,9 @@ VARIANTS: dict[str, dict[str, str]] = {
     "bfloat16 products": {"JAX_DEFAULT_MATMUL_PRECISION": "bfloat16"},
     "full float32 products": {"JAX_DEFAULT_MATMUL_PRECISION": "float32"},
     "XLA command buffers off": {"XLA_FLAGS": "--xla_gpu_enable_command_buffer="},
-    # a candidate for the update's many small kernels: Adam on one vector of all parameters (optax.flatten), the
-    # same arithmetic element by element, instead of a few kernels per parameter array
-    "one Adam over all parameters": {FLAT_ADAM: "1"},
+    # while loops (the scans over rollout steps and gradient steps, MJX's solver) recorded into the command
+    # buffers as CUDA graph conditional nodes: the loop's trips no longer return to the host for the predicate
+    "while loops in command buffers": {"XLA_FLAGS": "--xla_gpu_enable_command_buffer=+WHILE"},
 }
 
 
@@ -66,14 +66,10 @@ def compiled_iteration(config: Any) -> tuple[Any, Any, Any, Any]:
 
 
 def measure(args: argparse.Namespace) -> dict[str, float]:
-    """In a variant's process: compile, warm up, time; env steps/s (and raw physics steps/s with --raw)."""
+    """In a variant's process: compile, warm up, time; env steps/s and raw physics env steps/s."""
     import jax
-    import optax
     from mjx_time_to_target import SMOKE, load_config, raw_physics_rate
 
-    if os.environ.get(FLAT_ADAM):
-        adam = optax.adam  # joshua_ppo.optimizer builds its chain from optax.adam when called
-        optax.adam = lambda *args, **kwargs: optax.flatten(adam(*args, **kwargs))
     started = time.perf_counter()
     env, settings, state, compiled = compiled_iteration(load_config(args.preset, SMOKE if args.smoke else [], None))
     result = {"compile_seconds": time.perf_counter() - started}
@@ -85,11 +81,8 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
     jax.block_until_ready(state)
     seconds = (time.perf_counter() - started) / args.iterations
     env_steps = env.num_envs * settings.rollout.num_steps * settings.rollout.unrolls_per_iteration
-    result |= {"env_steps_per_second": env_steps / seconds, "iteration_ms": seconds * 1e3}
-    if args.raw:
-        result["physics_steps_per_env_step"] = env.task.frame_skip
-        result["raw_physics_steps_per_second"] = raw_physics_rate(env)
-    return result
+    raw = raw_physics_rate(env) / env.task.frame_skip
+    return result | {"env_steps_per_second": env_steps / seconds, "iteration_ms": seconds * 1e3, "raw": raw}
 
 
 def run_variant(args: argparse.Namespace, name: str) -> dict[str, float]:
@@ -100,7 +93,7 @@ def run_variant(args: argparse.Namespace, name: str) -> dict[str, float]:
         env["XLA_FLAGS"] = f"{os.environ.get('XLA_FLAGS', '')} {extra['XLA_FLAGS']}".strip()
     command = [sys.executable, __file__, "--measure", "--preset", args.preset]
     command += ["--warmup", str(args.warmup), "--iterations", str(args.iterations)]
-    command += ["--smoke"] * args.smoke + ["--raw"] * (name == "default")
+    command += ["--smoke"] * args.smoke
     done = subprocess.run(command, env=env, capture_output=True, text=True, check=False)
     if done.returncode != 0:
         raise SystemExit(f"variant {name!r} failed: {done.stderr.strip().splitlines()[-1:]}")
@@ -115,7 +108,6 @@ def main() -> int:
     parser.add_argument("--iterations", type=int, default=12, help="iterations timed")
     parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU)")
     parser.add_argument("--measure", action="store_true", help=argparse.SUPPRESS)  # a variant's own process
-    parser.add_argument("--raw", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.measure:
         print(json.dumps(measure(args)))
@@ -126,13 +118,13 @@ def main() -> int:
         results[name] = run_variant(args, name)
         print(f"  {name}: {results[name]['env_steps_per_second']:,.0f} env steps/s", flush=True)
     default = results["default"]
-    raw = default["raw_physics_steps_per_second"] / default["physics_steps_per_env_step"]
     print(f"{args.preset}: one device, {args.iterations} iterations timed after {args.warmup}")
     for name, result in results.items():
         rate = result["env_steps_per_second"]
         print(
             f"  {name:32s} {rate:>12,.0f} env steps/s  {result['iteration_ms']:7.1f} ms/iteration  "
-            f"x{rate / default['env_steps_per_second']:.3f}  {rate / raw:6.1%} of raw physics  "
+            f"x{rate / default['env_steps_per_second']:.3f}  {rate / default['raw']:6.1%} of raw physics "
+            f"({rate / result['raw']:.1%} of its own, {result['raw']:,.0f} env steps/s)  "
             f"compile {result['compile_seconds']:.0f} s"
         )
     return 0
