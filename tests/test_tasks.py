@@ -108,7 +108,8 @@ def random_states(task: Task, model: mujoco.MjModel, seed: int) -> TermContext:
     arrays["site_xpos"][1, 1::2] = arrays["xpos"][1, -1] - [0.02, 0.0, 0.0]
     arrays["site_xpos"][3] = arrays["xpos"][3, -1] + 0.01  # every site (the gripper's) at the last body
     for value in commands.values():
-        value[1] = arrays["xpos"][1, -1, : value.shape[1]]  # the last body (the cube) at its goal
+        value[1] = arrays["xpos"][1, -1, : value.shape[1]]  # the last body (the cube) at its goal, pinched
+        value[3] = arrays["xpos"][3, -1, : value.shape[1]]  # ... and at its goal, the pads free (let go)
     return TermContext(
         xp=np,
         dt=task.dt,

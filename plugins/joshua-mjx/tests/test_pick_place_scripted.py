@@ -1,6 +1,6 @@
 """A scripted controller picks up the cube and places it on the goal, on the CPU scene (mujoco.batch) and on
 the MJX scene (MJX), through the task's own environments: the task is solvable in both physics, and the
-reward stages fire in order (reach, grasp, lift, place, at the goal)."""
+reward stages fire in order (reach, grasp, lift, place, at the goal, let go there)."""
 
 from __future__ import annotations
 
@@ -18,8 +18,8 @@ from joshua_mujoco import make_vector_env
 
 TASK = "so_arm100_pick_place"
 # A stage has fired once its reward term exceeds this share of its weight.
-STAGES = {"reach": 0.6, "grasp": 0.5, "lift": 0.5, "place": 0.8, "at_goal": 0.5}
-WEIGHTS = {"reach": 1.0, "grasp": 0.5, "lift": 1.0, "place": 2.0, "at_goal": 5.0}
+STAGES = {"reach": 0.6, "grasp": 0.5, "lift": 0.5, "place": 0.8, "at_goal": 0.5, "released": 0.5}
+WEIGHTS = {"reach": 1.0, "grasp": 0.5, "lift": 1.0, "place": 2.0, "at_goal": 5.0, "released": 1.0}
 
 
 def drive(actions: Generator[Any, Any, None], measure: Callable[[], Any]) -> Iterator[tuple[str, Any]]:
@@ -45,6 +45,7 @@ def check_solved(rewards: list[dict[str, float]], success: float, phases: list[s
     fired = first_steps(rewards)
     assert list(fired.values()) == sorted(fired.values()), fired  # in the order of the task's stages
     assert phases[fired["grasp"]] in ("close", "lift") and phases[fired["at_goal"]] in ("lower", "release"), fired
+    assert phases[fired["released"]] == "release" and rewards[-1]["released"] == WEIGHTS["released"], fired
     assert success == 1.0
 
 
