@@ -25,10 +25,11 @@ def joshua_register_tasks(registry: Registrar) -> None:
 
 @hookimpl
 def joshua_register_terms(registry: Registrar) -> None:
+    from joshua_core.tasks.grasping import GRASP_TERMS
     from joshua_core.tasks.randomization import EVENT_TERMS
     from joshua_core.tasks.terms import BUILTIN_TERMS
 
-    for name, function in {**BUILTIN_TERMS, **EVENT_TERMS}.items():
+    for name, function in {**BUILTIN_TERMS, **GRASP_TERMS, **EVENT_TERMS}.items():
         registry.add(name, function, (function.__doc__ or "").strip().splitlines()[0])
 
 

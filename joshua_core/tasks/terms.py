@@ -6,8 +6,9 @@ Reset terms return a new context (`ctx.replace(qpos=...)`) with the state they r
 task applies them in order, so a later reset term sees what an earlier one set.
 
 Written only with `ctx.xp` operations and without in-place writes, so every term runs on numpy and
-inside `jax.jit`. Parameters annotated with a handle type (Body, Site, Sensor, Touch, Joint, Joints) are
-given as names and arrive resolved (see `joshua_core.tasks.handles`).
+inside `jax.jit`. Parameters annotated with a handle type (Body, Site, Sensor, Joint, Joints) are
+given as names and arrive resolved (see `joshua_core.tasks.handles`). The terms that read a gripper's
+touch pads are in `joshua_core.tasks.grasping`.
 """
 
 from __future__ import annotations
@@ -18,18 +19,13 @@ from typing import Any
 import numpy as np
 
 from joshua_core.tasks.context import RandomSource, TermContext, set_columns
-from joshua_core.tasks.handles import Actuators, Body, Joint, Joints, Sensor, Site, Touch
+from joshua_core.tasks.handles import Actuators, Body, Joint, Joints, Sensor, Site
 
 # --- helpers shared by several terms ----------------------------------------------------------
 
 
 def _norm(ctx: TermContext, vector: Any) -> Any:
     return ctx.xp.sqrt(ctx.xp.sum(vector * vector, axis=-1))
-
-
-def _both_above(ctx: TermContext, first_adr: int, second_adr: int, threshold: float) -> Any:
-    """Where both sensor readings (at `sensordata` columns first_adr and second_adr) exceed `threshold`."""
-    return (ctx.sensordata[:, first_adr] > threshold) & (ctx.sensordata[:, second_adr] > threshold)
 
 
 def _upright(ctx: TermContext, body: Body) -> Any:
@@ -266,34 +262,6 @@ def body_command_within(ctx: TermContext, body: Body, name: str, radius: float) 
     return (body_command_distance(ctx, body, name) < radius).astype(ctx.xpos.dtype)
 
 
-def sensors_above(ctx: TermContext, first: Sensor, second: Sensor, threshold: float) -> Any:
-    """1 where both sensors' first readings exceed `threshold` (two touch pads: a grasp), else 0."""
-    return _both_above(ctx, first.adr, second.adr, threshold).astype(ctx.sensordata.dtype)
-
-
-def body_pinched(ctx: TermContext, body: Body, first: Touch, second: Touch, threshold: float) -> Any:
-    """1 where two touch sensors (a gripper's pads) both read above `threshold` and the body's origin lies
-    between their sites (inside the sphere whose diameter joins them), else 0: a grasp of the body. The pads'
-    tips pressing on the body's top touch both sensors too, with the body below the pads, not between them;
-    a policy paid for that pressed the cube into the table instead of picking it up."""
-    touching = _both_above(ctx, first.adr, second.adr, threshold)
-    position = ctx.xpos[:, body.id]
-    to_first, to_second = ctx.site_xpos[:, first.site] - position, ctx.site_xpos[:, second.site] - position
-    between = ctx.xp.sum(to_first * to_second, axis=-1) < 0  # the pads on opposite sides: an obtuse angle at the body
-    return (touching & between).astype(ctx.xpos.dtype)
-
-
-def body_released_at_command(
-    ctx: TermContext, body: Body, name: str, radius: float, first: Touch, second: Touch, threshold: float
-) -> Any:
-    """1 where the body lies within `radius` m of a position command and the two touch sensors (a gripper's
-    pads) do not both read above `threshold`: an object placed and let go (one pad may still rest on it), else
-    0. Paid alike at the goal, held or not, nothing asked a policy to let go of a placed cube; the failed
-    episodes of runs that plateaued at 70-89 % success had spent 80-160 steps at the goal before the cube left."""
-    let_go = ~_both_above(ctx, first.adr, second.adr, threshold)
-    return (let_go & (body_command_distance(ctx, body, name) < radius)).astype(ctx.xpos.dtype)
-
-
 # --- terminations -----------------------------------------------------------------------------
 
 
@@ -387,9 +355,6 @@ BUILTIN_TERMS: dict[str, Callable[..., Any]] = {
         pushed_command_tanh,
         free_body_command_progress,
         body_command_within,
-        sensors_above,
-        body_pinched,
-        body_released_at_command,
         unhealthy,
         body_below,
         body_tilted,
