@@ -174,7 +174,10 @@ def run_joshua(name: str, config: Any, plugins: PluginHost, args: argparse.Names
     outcome, snapshots = train(settings, env, args.target, args.max_seconds, args.iterations, args.snapshot_interval)
     eval_env = environment(config, plugins, args.eval_envs, jax.devices()[:1])
     evaluations = evaluate_returns(settings, eval_env, [snapshot for _, snapshot in snapshots])
-    evaluated = [when | result | {"sps": outcome["train_steps_per_second"]} for (when, _), result in zip(snapshots, evaluations, strict=True)]
+    evaluated = [
+        when | result | {"sps": outcome["train_steps_per_second"]}
+        for (when, _), result in zip(snapshots, evaluations, strict=True)
+    ]
     summary = summarize(name, evaluated, args.target, compile_seconds=outcome["compile_seconds"])
     raw_env_steps = raw_physics_rate(env) / env.task.frame_skip
     return summary | {"fraction_of_raw_physics": summary["env_steps_per_second"] / raw_env_steps}
@@ -214,7 +217,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--target", type=float, default=6000.0)
     parser.add_argument("--brax-steps", type=int, default=60_000_000, help="Brax's num_timesteps")
-    parser.add_argument("--brax-evals", type=int, default=13, help="Brax's num_evals (evaluations, the first at step 0)")
+    parser.add_argument(
+        "--brax-evals", type=int, default=13, help="Brax's num_evals (evaluations, the first at step 0)"
+    )
     parser.add_argument("--max-seconds", type=float, default=200.0, help="time limit of each JOSHUA run")
     parser.add_argument("--iterations", type=int, help="stop each JOSHUA run after this many iterations")
     parser.add_argument("--snapshot-interval", type=int, default=10)
@@ -223,7 +228,11 @@ def main() -> None:
     parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU): checks that every run works")
     parser.add_argument("--json", help="write the results here")
     args = parser.parse_args()
-    smoke = ("training.num_envs=64", "training.minibatch_size=80", "training.ppo.unrolls_per_iteration=1") if args.smoke else ()
+    smoke = (
+        ("training.num_envs=64", "training.minibatch_size=80", "training.ppo.unrolls_per_iteration=1")
+        if args.smoke
+        else ()
+    )
     if args.smoke:
         args.brax_steps, args.brax_evals, args.iterations, args.eval_envs = 20_000, 2, 2, 8
     plugins = PluginHost.discover()
@@ -231,7 +240,9 @@ def main() -> None:
     results = {}
     for name in args.runs.split(","):
         if name == "brax":
-            results[name] = run_brax(config_with(smoke), plugins, args.brax_steps, args.brax_evals, args.target, args.smoke)
+            results[name] = run_brax(
+                config_with(smoke), plugins, args.brax_steps, args.brax_evals, args.target, args.smoke
+            )
         elif name == "joshua-brax-settings":
             results[name] = run_joshua(name, config_with(BRAX_SETTINGS + smoke), plugins, args)
         elif name == "joshua-tuned":
@@ -250,7 +261,9 @@ def main() -> None:
             }
             result["vs_brax"] = ratios
             print(f"{name} vs brax: {json.dumps(ratios)}")
-    print(json.dumps({name: {k: v for k, v in r.items() if k != "evaluations"} for name, r in results.items()}, indent=1))
+    print(
+        json.dumps({name: {k: v for k, v in r.items() if k != "evaluations"} for name, r in results.items()}, indent=1)
+    )
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=1))
 

@@ -127,7 +127,8 @@ class Robot:
 def config_file(folder: Path) -> Path:
     """The sim_mirror preset with a command topic per actuator (what deploy publishes on)."""
     commands = "".join(
-        f'command_topics {{ key: "{m.mujoco_actuator}" value: "{topic}" }} ' for m, topic in zip(MAPPINGS, COMMANDS)
+        f'command_topics {{ key: "{m.mujoco_actuator}" value: "{topic}" }} '
+        for m, topic in zip(MAPPINGS, COMMANDS, strict=True)
     )
     path = folder / "bench_deploy.pbtxt"
     path.write_text(f'extends: "sim_mirror"\nsimulation {{ mirror {{ {commands}}} }}\n')

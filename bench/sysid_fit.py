@@ -55,13 +55,24 @@ def main() -> None:
         evaluations.append(time.perf_counter() - start)
     reference = min(evaluations)
     result = fit.fit(spec, servos, loaded, fit.KINDS, max_iters=50)
-    worst = max(abs(result.identified[j][k] / v - 1) for j, kinds in _truth(true, servos).items() for k, v in kinds.items())
-    print(f"{args.recordings} recordings x {args.seconds:g} s at {RATE_HZ:g} Hz, {len(servos) * len(fit.KINDS)} parameters")
+    worst = max(
+        abs(result.identified[j][k] / v - 1) for j, kinds in _truth(true, servos).items() for k, v in kinds.items()
+    )
+    print(
+        f"{args.recordings} recordings x {args.seconds:g} s at {RATE_HZ:g} Hz, "
+        f"{len(servos) * len(fit.KINDS)} parameters"
+    )
     print(f"one simulation of every recording (reference): {reference * 1e3:.1f} ms")
-    print(f"fit: {result.seconds:.1f} s, {result.iterations} iterations, {result.seconds / result.iterations:.2f} s/iteration")
+    print(
+        f"fit: {result.seconds:.1f} s, {result.iterations} iterations, "
+        f"{result.seconds / result.iterations:.2f} s/iteration"
+    )
     print(f"fit / reference: {result.seconds / reference:.0f} simulations")
-    print(f"tracking RMS {np.sqrt(np.mean(result.rms_before**2)):.2e} -> {np.sqrt(np.mean(result.rms_after**2)):.2e} rad; "
-          f"worst parameter error {worst * 100:.3f} %")
+    print(
+        f"tracking RMS {np.sqrt(np.mean(result.rms_before**2)):.2e} -> "
+        f"{np.sqrt(np.mean(result.rms_after**2)):.2e} rad; "
+        f"worst parameter error {worst * 100:.3f} %"
+    )
 
 
 def _truth(true: mujoco.MjModel, servos: list[recordings.Servo]) -> dict[str, dict[str, float]]:

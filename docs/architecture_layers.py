@@ -42,13 +42,23 @@ FLOORS: list[tuple[str, list[tuple[str, str, str, str]]]] = [
     (
         "1  rendering",
         [
-            ("joshua-render", "GL selection, frame renderer, command overlays,", "video writer, display/recording, live viewer", "#fbcfe8"),
+            (
+                "joshua-render",
+                "GL selection, frame renderer, command overlays,",
+                "video writer, display/recording, live viewer",
+                "#fbcfe8",
+            ),
         ],
     ),
     (
         "0  core",
         [
-            ("joshua-core", "config + options, plugin host + hooks, ABCs (Engine, Backend, Mode,", "Trainer, EnvKind), task terms + episode bookkeeping, run folders, CLI", "#ddd6fe"),
+            (
+                "joshua-core",
+                "config + options, plugin host + hooks, ABCs (Engine, Backend, Mode,",
+                "Trainer, EnvKind), task terms + episode bookkeeping, run folders, CLI",
+                "#ddd6fe",
+            ),
         ],
     ),
 ]
@@ -57,7 +67,8 @@ FLOORS: list[tuple[str, list[tuple[str, str, str, str]]]] = [
 def _box(x: float, y: float, width: float, name: str, line1: str, line2: str, fill: str) -> str:
     centre = x + width / 2
     return (
-        f'<rect x="{x:.0f}" y="{y:.0f}" width="{width:.0f}" height="{BOX_HEIGHT}" rx="8" fill="{fill}" stroke="#374151"/>'
+        f'<rect x="{x:.0f}" y="{y:.0f}" width="{width:.0f}" height="{BOX_HEIGHT}" rx="8" '
+        f'fill="{fill}" stroke="#374151"/>'
         f'<text x="{centre:.0f}" y="{y + 24:.0f}" font-weight="bold" text-anchor="middle">{escape(name)}</text>'
         f'<text x="{centre:.0f}" y="{y + 44:.0f}" font-size="12" text-anchor="middle">{escape(line1)}</text>'
         f'<text x="{centre:.0f}" y="{y + 60:.0f}" font-size="12" text-anchor="middle">{escape(line2)}</text>'
@@ -77,8 +88,14 @@ def render() -> str:
     inner = WIDTH - 2 * MARGIN - LABEL_WIDTH
     for index, (label, boxes) in enumerate(FLOORS):
         y = MARGIN + index * FLOOR_HEIGHT
-        parts.append(f'<rect x="{MARGIN}" y="{y}" width="{WIDTH - 2 * MARGIN}" height="{FLOOR_HEIGHT - FLOOR_GAP}" fill="#f9fafb" stroke="#d1d5db"/>')
-        parts.append(f'<text x="{MARGIN + 10}" y="{y + (FLOOR_HEIGHT - FLOOR_GAP) / 2 + 5:.0f}" font-weight="bold">{escape(label)}</text>')
+        parts.append(
+            f'<rect x="{MARGIN}" y="{y}" width="{WIDTH - 2 * MARGIN}" height="{FLOOR_HEIGHT - FLOOR_GAP}" '
+            f'fill="#f9fafb" stroke="#d1d5db"/>'
+        )
+        parts.append(
+            f'<text x="{MARGIN + 10}" y="{y + (FLOOR_HEIGHT - FLOOR_GAP) / 2 + 5:.0f}" '
+            f'font-weight="bold">{escape(label)}</text>'
+        )
         gap = 12
         width = (inner - gap * (len(boxes) + 1)) / len(boxes)
         for position, (name, line1, line2, fill) in enumerate(boxes):
@@ -92,7 +109,8 @@ def render() -> str:
                 )
     footer_y = MARGIN + len(FLOORS) * FLOOR_HEIGHT - FLOOR_GAP + 24
     parts.append(
-        f'<text x="{MARGIN}" y="{footer_y}" font-size="13">Imports point down only: a floor may import the floors below it; '
+        f'<text x="{MARGIN}" y="{footer_y}" font-size="13">'
+        "Imports point down only: a floor may import the floors below it; "
         "across plugins only the names a plugin exports (its __init__ __all__).</text>"
     )
     parts.append(

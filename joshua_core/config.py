@@ -281,7 +281,8 @@ def training_plugins(training: TrainingConfig) -> tuple[str, str]:
 # It validates the example trajectory against the SO-ARM100 and records its replay (PASSIVE of joshua-modes,
 # which ./setup.sh installs; without it, `joshua` says to install it). The CLI then prints what to try next.
 DEFAULT_CONFIG_TEXT = """
-description: "Validates the SO-ARM100's example trajectory and records its replay headless: joshua_output/passive_replay.mp4 and passive_report.json"
+description: "Validates the SO-ARM100's example trajectory and records its replay headless: \
+joshua_output/passive_replay.mp4 and passive_report.json"
 operation_mode: SIMULATION
 simulation {
   mode: PASSIVE

@@ -143,7 +143,9 @@ def as_text(fields: list[tuple[str, str]]) -> str:
         node[leaf.split("[")[0]] = value
 
     def render(node: dict[str, Any]) -> str:
-        return " ".join(f"{key} {{ {render(item)} }}" if isinstance(item, dict) else f"{key}: {item}" for key, item in node.items())
+        return " ".join(
+            f"{key} {{ {render(item)} }}" if isinstance(item, dict) else f"{key}: {item}" for key, item in node.items()
+        )
 
     return render(tree)
 

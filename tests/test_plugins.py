@@ -52,7 +52,9 @@ def test_broken_plugin_is_reported_and_the_others_still_load(tmp_path: Path, run
     assert "ImportError: libfoo.so.1: cannot open shared object file" in listing.stdout
     assert "backend  mujoco" in listing.stdout
 
-    run = run_joshua("--set", "simulation.mode=HEADLESS", "--set", "simulation.duration=0.2", env={"PYTHONPATH": str(site)})
+    run = run_joshua(
+        "--set", "simulation.mode=HEADLESS", "--set", "simulation.duration=0.2", env={"PYTHONPATH": str(site)}
+    )
     assert run.returncode == 0, run.stderr
     assert "warning: plugin 'broken' (joshua-broken 0.3) is broken" in run.stderr
     assert "Traceback" not in run.stderr
@@ -70,7 +72,13 @@ def test_duplicate_names_are_rejected_naming_both_providers(tmp_path: Path, run_
     run = run_joshua(env=env)
     assert run.returncode == 2
     assert "registered by both" in run.stderr and "JOSHUA_DISABLE_PLUGINS=mujoco_fork" in run.stderr
-    fixed = run_joshua("--set", "simulation.mode=HEADLESS", "--set", "simulation.duration=0.2", env={**env, "JOSHUA_DISABLE_PLUGINS": "mujoco-fork"})
+    fixed = run_joshua(
+        "--set",
+        "simulation.mode=HEADLESS",
+        "--set",
+        "simulation.duration=0.2",
+        env={**env, "JOSHUA_DISABLE_PLUGINS": "mujoco-fork"},
+    )
     assert fixed.returncode == 0, fixed.stderr
 
 
@@ -290,7 +298,9 @@ def test_options_are_loaded_from_their_registered_extensions() -> None:
     ],
 )
 def test_an_option_that_is_not_an_extension_of_its_name_breaks_only_its_plugin(target: str, problem: str) -> None:
-    host = host_of(("odd", plugin_registering("option", "odd", target)), ("good", plugin_registering("mode", "GOOD", GoodMode)))
+    host = host_of(
+        ("odd", plugin_registering("option", "odd", target)), ("good", plugin_registering("mode", "GOOD", GoodMode))
+    )
     options = host.options()  # the other plugins' options and components stay usable
     assert "odd" not in options.names(SimulationConfig.DESCRIPTOR)
     assert isinstance(host.mode("GOOD"), GoodMode)
@@ -315,7 +325,8 @@ def test_a_plugin_with_broken_options_breaks_only_itself_on_the_command_line(tmp
     site = tmp_path / "site"
     install_fake_distribution(site, "joshua-odd", "odd", "joshua_odd_plugin", BROKEN_OPTIONS_PLUGIN)
     env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")]))}
-    run = run_joshua("--set", "simulation.mode=HEADLESS", "--set", "simulation.duration=0.1", env=env)  # the embedded default, another plugin's mode
+    # the embedded default, another plugin's mode
+    run = run_joshua("--set", "simulation.mode=HEADLESS", "--set", "simulation.duration=0.1", env=env)
     assert run.returncode == 0, run.stderr
     assert "joshua: warning: plugin 'odd' (joshua-odd 0.3) is broken: option 'odd'" in run.stderr
     odd = run_joshua("--set", "simulation.mode=ODD", env=env)

@@ -20,12 +20,16 @@ NO_RESET_NOISE = 'terms { name: "reset_joints_uniform" weight: 0 } terms { name:
 
 
 def event(name: str, term: str, mode: str = "RESET", interval: int = 0, **params: str) -> str:
-    listed = " ".join(f"params {{ key: {json.dumps(key)} value: {json.dumps(value)} }}" for key, value in params.items())
+    listed = " ".join(
+        f"params {{ key: {json.dumps(key)} value: {json.dumps(value)} }}" for key, value in params.items()
+    )
     return f'events {{ name: "{name}" term: "{term}" mode: {mode} interval_steps: {interval} {listed} }} '
 
 
 def env_with(text: str, num_envs: int = 4, **options):
-    return make_vector_env(TASK, num_envs, seed=1, nthread=1, task_config=text_format.Parse(text, TaskConfig()), **options)
+    return make_vector_env(
+        TASK, num_envs, seed=1, nthread=1, task_config=text_format.Parse(text, TaskConfig()), **options
+    )
 
 
 def test_the_randomized_preset_builds_and_draws_within_its_ranges() -> None:
@@ -43,7 +47,10 @@ def test_the_randomized_preset_builds_and_draws_within_its_ranges() -> None:
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        (event("m", "randomize_body_mass", bodies='["cub"]', range="[0.7, 1.3]"), "no body named 'cub'. Did you mean: cube"),
+        (
+            event("m", "randomize_body_mass", bodies='["cub"]', range="[0.7, 1.3]"),
+            "no body named 'cub'. Did you mean: cube",
+        ),
         (event("m", "randomize_body_mass", bodies='["cube"]', range="[1.3, 0.7]"), "range \\[1.3, 0.7\\] is inverted"),
         (event("m", "randomize_body_mass", bodies='["cube"]', range='[0.7, "inf"]'), "range of two numbers"),
         (event("m", "randomize_body_mass", bodies='["cube"]', range="[0.7, 1e999]"), "is not finite"),
@@ -75,7 +82,11 @@ def test_mass_changes_recompute_the_derived_inverse_weights() -> None:
 
 @pytest.mark.parametrize("mode", ["offset", "delta"])
 def test_action_delay_feeds_the_previous_action_and_offsets_shift_the_targets(mode: str) -> None:
-    text = NO_RESET_NOISE + event("a", "action_delay", range="[1, 1]") + event("o", "randomize_joint_offset", range="[0.05, 0.05]")
+    text = (
+        NO_RESET_NOISE
+        + event("a", "action_delay", range="[1, 1]")
+        + event("o", "randomize_joint_offset", range="[0.05, 0.05]")
+    )
     env = env_with(text + f'action {{ mode: "{mode}" }}', 2)
     task, ctrl = env.task, env.simulation.ctrl
     first, second = np.full((2, 6), 0.1), np.full((2, 6), -0.2)

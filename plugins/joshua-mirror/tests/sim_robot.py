@@ -9,8 +9,8 @@ received on a command topic as its position actuator's ctrl (value + offset), pr
 notes how many commands came so far, "estop" publishes true on the e-stop topic and "target X Y Z" the point on
 the target topic (geometry_msgs/Point; it becomes the target the distance is measured to), each once a
 subscriber is there, "await N" prints "received N" once N commands have come (messages still on their way when
-the deploy stopped), "quit" prints the result as JSON ("result {...}": commands counted, marks, the last command and the encoder
-value of each joint, the distance) and exits.
+the deploy stopped), "quit" prints the result as JSON ("result {...}": commands counted, marks, the last command and
+the encoder value of each joint, the distance) and exits.
 """
 
 from __future__ import annotations

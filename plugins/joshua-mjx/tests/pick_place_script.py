@@ -118,7 +118,9 @@ class PickPlaceScript:
             grasp = self._grasp_point()
             mujoco.mj_comPos(model, data)
             frame = data.site_xmat[self.site].reshape(3, 3)
-            error = np.concatenate([target - grasp, np.cross(frame[:, 0], [0, 0, -1.0]), np.cross(frame[:, 2], self.across)])
+            error = np.concatenate(
+                [target - grasp, np.cross(frame[:, 0], [0, 0, -1.0]), np.cross(frame[:, 2], self.across)]
+            )
             if np.linalg.norm(error) < 1e-6:
                 break
             mujoco.mj_jac(model, data, jacp, jacr, grasp, body)

@@ -47,7 +47,9 @@ def test_columns_match_joints_by_name_in_any_order_and_subsets(engine, write_csv
 
 
 def test_target_columns_are_read_beside_their_joints(engine, write_csv) -> None:
-    path = write_csv(["joint_1.target,timestamp,joint_3,joint_1,joint_3.target", "0.2,0.0,0.5,0.1,0.6", "0.3,0.1,0.6,0.2,0.7"])
+    path = write_csv(
+        ["joint_1.target,timestamp,joint_3,joint_1,joint_3.target", "0.2,0.0,0.5,0.1,0.6", "0.3,0.1,0.6,0.2,0.7"]
+    )
     trajectory = read_trajectory(path, model_joint_names(engine.model))
     assert trajectory.joint_names == ("joint_3", "joint_1")
     assert trajectory.positions.tolist() == [[0.5, 0.1], [0.6, 0.2]]

@@ -111,7 +111,9 @@ class BatchedSimulation:
         self.episode_step = np.zeros(num_envs, dtype=np.int64)
         self.commands = {name: np.zeros((num_envs, size)) for name, size in task.commands.items()}
         # domain randomization: each simulation's randomized quantities, its own model fields, the pushes
-        self.params = {name: np.array(value) for name, value in tiled(np, task.defaults, num_envs, task.param_fields).items()}
+        self.params = {
+            name: np.array(value) for name, value in tiled(np, task.defaults, num_envs, task.param_fields).items()
+        }
         self.model_fields = {name: self.batch.expand(name) for name in task.param_fields if name in MODEL_FIELDS}
         self.xfrc_applied = self.batch.bind("xfrc_applied") if "xfrc_applied" in self.params else None
         self.history = np.zeros((num_envs, task.max_action_delay + 1, task.action_size))

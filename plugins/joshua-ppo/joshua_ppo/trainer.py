@@ -188,7 +188,8 @@ class PpoTrainer(Trainer):
         return episode_results(episode)
 
     def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:
-        checkpoint, _, config = saved_training(run_dir, RUN_FORMAT, context.plugins.options())  # msgpack runs no code: nothing to trust
+        # msgpack runs no code: nothing to trust
+        checkpoint, _, config = saved_training(run_dir, RUN_FORMAT, context.plugins.options())
         policy = mlp_policy(checkpoint, PpoSettings.from_config(config).network)
         return ExportedPolicy(TRAINER_NAME, checkpoint, config, policy)
 

@@ -89,7 +89,9 @@ def _load(path: Path, model_joints: dict[str, tuple[float, float]], servos: list
         )
     untargeted = [name for i, name in enumerate(trajectory.joint_names) if np.isnan(trajectory.targets[:, i]).all()]
     if untargeted:
-        raise UsageError(f"{path}: no commanded targets for {', '.join(untargeted)}; every fitted joint needs its target")
+        raise UsageError(
+            f"{path}: no commanded targets for {', '.join(untargeted)}; every fitted joint needs its target"
+        )
     trajectory.require_playable()
     duration = trajectory.timestamps[-1] - trajectory.timestamps[0]
     if trajectory.rows < MIN_SAMPLES or duration < MIN_DURATION_S:

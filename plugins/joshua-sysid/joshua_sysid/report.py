@@ -62,7 +62,9 @@ def report_document(
     after = float(np.sqrt(np.mean(result.rms_after**2)))
     return {
         "model": str(model_path),
-        "recordings": [{"path": str(r.path), "samples": len(r.times), "seconds": float(r.times[-1])} for r in recordings],
+        "recordings": [
+            {"path": str(r.path), "samples": len(r.times), "seconds": float(r.times[-1])} for r in recordings
+        ],
         "parameters": {
             joint: {kind: {"nominal": result.nominal[joint][kind], "identified": result.identified[joint][kind]}
                     for kind in result.identified[joint]}

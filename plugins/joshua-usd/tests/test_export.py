@@ -205,7 +205,7 @@ def test_colliders_have_shapes_sizes_and_friction(exported) -> None:
     expected = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]
     expected.sort(key=lambda g: model.geom_bodyid[g] == 0)  # world geoms are in /Environment, after the robot
     assert len(colliders) == len(expected)
-    for geom, prim in zip(expected, colliders):
+    for geom, prim in zip(expected, colliders, strict=True):
         size = model.geom_size[geom]
         kind = mujoco.mjtGeom(model.geom_type[geom])
         if kind == mujoco.mjtGeom.mjGEOM_BOX:
@@ -230,7 +230,7 @@ def test_so100_visual_meshes_and_looks(tmp_path: Path) -> None:
     meshes = [prim for prim in stage.Traverse() if prim.IsA(UsdGeom.Mesh)]
     geoms = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH]
     assert len(meshes) == len(geoms) and not any(prim.HasAPI(UsdPhysics.CollisionAPI) for prim in meshes)
-    for geom, prim in zip(geoms, meshes):
+    for geom, prim in zip(geoms, meshes, strict=True):
         mesh_id = model.geom_dataid[geom]
         points = np.array(UsdGeom.Mesh(prim).GetPointsAttr().Get())
         np.testing.assert_allclose(points, model.mesh_vert[model.mesh_vertadr[mesh_id]:][:len(points)], atol=1e-7)

@@ -100,7 +100,9 @@ def test_upright_bonus_needs_up_projection_above_0_93(ant: tuple[Task, mujoco.Mj
         assert by_name["upright"].weight * by_name["upright"](ctx)[0] == pytest.approx(bonus)
 
 
-def test_joint_terms_use_the_model_limits_and_energy_pairs_actions_with_driven_joints(ant: tuple[Task, mujoco.MjModel]) -> None:
+def test_joint_terms_use_the_model_limits_and_energy_pairs_actions_with_driven_joints(
+    ant: tuple[Task, mujoco.MjModel],
+) -> None:
     task, model = ant
     data = state(model, quaternion(0.0, 0.0), np.zeros(3))
     action = np.linspace(-1.0, 1.0, 8)

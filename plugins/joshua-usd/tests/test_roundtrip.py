@@ -88,10 +88,10 @@ def test_masses_and_inertias_agree_within_0_1_percent(pair) -> None:
     assert names[0] == names[1]
     np.testing.assert_allclose(imported.body_mass, original.body_mass, rtol=1e-3)
     data = [mujoco.MjData(model) for model in (original, imported)]
-    for model, datum in zip((original, imported), data):
+    for model, datum in zip((original, imported), data, strict=True):
         mujoco.mj_kinematics(model, datum)
     for b in range(1, original.nbody):
-        tensors = [_world_inertia(m, d, b) for m, d in zip((original, imported), data)]
+        tensors = [_world_inertia(m, d, b) for m, d in zip((original, imported), data, strict=True)]
         np.testing.assert_allclose(tensors[1], tensors[0], atol=1e-3 * np.abs(tensors[0]).max())
         np.testing.assert_allclose(data[1].xipos[b], data[0].xipos[b], atol=1e-6)
 
@@ -113,7 +113,7 @@ def test_anchors_and_axes_agree_at_random_poses(pair) -> None:
                 low, high = original.jnt_range[j] if original.jnt_limited[j] else (-np.pi, np.pi)
                 data[0].qpos[address] = rng.uniform(low, high)
         _copy_state(original, imported, joints, data[0], data[1])
-        for model, datum in zip((original, imported), data):
+        for model, datum in zip((original, imported), data, strict=True):
             mujoco.mj_kinematics(model, datum)
         for j, k in joints:
             np.testing.assert_allclose(data[1].xanchor[k], data[0].xanchor[j], atol=1e-6)
@@ -158,7 +158,7 @@ def _max_trajectory_difference(original: mujoco.MjModel, imported: mujoco.MjMode
         if step % 50 == 0:
             ctrl = rng.uniform(*original.actuator_ctrlrange.T)
             data[0].ctrl[:] = data[1].ctrl[index] = ctrl
-        for model, datum in zip((original, imported), data):
+        for model, datum in zip((original, imported), data, strict=True):
             mujoco.mj_step(model, datum)
         _copy_state(original, imported, joints, data[0], mirrored)
         worst = max(worst, float(np.abs(mirrored.qpos - data[1].qpos).max()))
@@ -189,7 +189,11 @@ def _touching(model: mujoco.MjModel) -> set[frozenset[tuple[str, int, tuple[floa
     its body's name, its type and its position in the body."""
 
     def key(geom: int) -> tuple[str, int, tuple[float, ...]]:
-        return model.body(model.geom_bodyid[geom]).name, int(model.geom_type[geom]), tuple(model.geom_pos[geom].round(5))
+        return (
+            model.body(model.geom_bodyid[geom]).name,
+            int(model.geom_type[geom]),
+            tuple(model.geom_pos[geom].round(5)),
+        )
 
     excluded = {frozenset((int(s) >> 16, int(s) & 0xFFFF)) for s in model.exclude_signature}
     colliders = [g for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g]]

@@ -9,6 +9,8 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdPhysics
 
+NO_ROTATION = Gf.Rotation(Gf.Vec3d(1, 0, 0), 0)  # the identity: joint()'s default frame orientation
+
 
 def new_stage(path: Path, up: str = "Z", meters_per_unit: float = 1.0) -> Usd.Stage:
     """A new stage file with a PhysicsScene and a /World default prim."""
@@ -51,7 +53,7 @@ def world_matrix(prim: Usd.Prim | None) -> Gf.Matrix4d:
 
 
 def joint(stage: Usd.Stage, schema: type, path: str, body0: Usd.Prim | None, body1: Usd.Prim,
-          world_position: Sequence[float], world_rotation: Gf.Rotation = Gf.Rotation(Gf.Vec3d(1, 0, 0), 0),
+          world_position: Sequence[float], world_rotation: Gf.Rotation = NO_ROTATION,
           axis: str = "X") -> Usd.Prim:
     """A joint whose frame sits at `world_position`/`world_rotation`, written as localPos/localRot of both
     bodies the way Isaac's importers do (consistent with the bodies' world transforms)."""

@@ -51,7 +51,9 @@ def set_inertial(
         positive(prim, "physics:diagonalInertia", value, report)
     center = read(prim, "physics:centerOfMass", report, allow_inf=True)
     if empty and (not mass or not diagonal.any()):
-        report.warn(prim.GetPath(), "no collider to weigh: its mass is 1 kg unless authored, its inertia a 10 cm sphere's")
+        report.warn(
+            prim.GetPath(), "no collider to weigh: its mass is 1 kg unless authored, its inertia a 10 cm sphere's"
+        )
     mass = mass or (FALLBACK_MASS if empty else geometric)
     body.explicitinertial = True
     body.mass = mass
