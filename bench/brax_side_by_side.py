@@ -256,7 +256,8 @@ def main() -> None:
                 continue
             ratios = {
                 "speedup_time_to_target": (brax["seconds_to_target"] / result["seconds_to_target"])
-                if brax["seconds_to_target"] and result["seconds_to_target"] else None,
+                if brax["seconds_to_target"] and result["seconds_to_target"]
+                else None,
                 "throughput_ratio": result["env_steps_per_second"] / brax["env_steps_per_second"],
             }
             result["vs_brax"] = ratios

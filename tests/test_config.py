@@ -64,9 +64,10 @@ def test_simulation_config_keeps_the_seed_field_numbers() -> None:
         "mirror_topic_mappings": 4,
     }
     assert (fields["render_width"], fields["render_height"]) == (5, 6)
-    assert SimulationConfig.DESCRIPTOR.fields_by_name["mode"].type == SimulationConfig.DESCRIPTOR.fields_by_name[
-        "model_path"
-    ].type  # a string: plugins add modes by name
+    assert (
+        SimulationConfig.DESCRIPTOR.fields_by_name["mode"].type
+        == SimulationConfig.DESCRIPTOR.fields_by_name["model_path"].type
+    )  # a string: plugins add modes by name
 
 
 def test_the_seed_mode_names_parse_bare_or_quoted_and_empty_means_interactive(tmp_path: Path) -> None:

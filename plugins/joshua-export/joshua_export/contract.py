@@ -149,4 +149,3 @@ def make_contract(exported: ExportedPolicy, observer: Observer, onnx_bytes: byte
         "observation": _observation(exported, observer),
         "action": _action(observer),
     }
-

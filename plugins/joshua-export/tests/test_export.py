@@ -178,4 +178,3 @@ def test_the_model_hash_does_not_depend_on_where_the_checkout_lies(tmp_path: Pat
     assert model_sha256(here) == model_sha256(elsewhere)
     elsewhere.actuator_gainprm[0, 0] *= 1.01
     assert model_sha256(here) != model_sha256(elsewhere)
-

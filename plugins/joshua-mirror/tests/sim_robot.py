@@ -95,7 +95,6 @@ class SimRobot:
             self.target = np.array(target)
         self.target_publisher.publish(Point(x=target[0], y=target[1], z=target[2]))
 
-
     def result(self) -> dict:
         encoders = self.encoder_values()
         with self.lock:

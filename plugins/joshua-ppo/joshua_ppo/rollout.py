@@ -122,9 +122,7 @@ def tile_label(rollout: Rollout, index: int, frame: int) -> str:
     return episode_label(index, float(rollout.returns[position[0]]), outcome)
 
 
-def render_video(
-    model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None = None
-) -> Path:
+def render_video(model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None = None) -> Path:
     """Render the recorded environments' episodes, tiled and labelled, to an MP4 at `path` (returned), with
     their commands drawn as markers; a tile whose episode ended holds its last frame."""
     tiles = len(rollout.qpos)

@@ -192,4 +192,3 @@ class PpoTrainer(Trainer):
         checkpoint, _, config = saved_training(run_dir, RUN_FORMAT, context.plugins.options())
         policy = mlp_policy(checkpoint, PpoSettings.from_config(config).network)
         return ExportedPolicy(TRAINER_NAME, checkpoint, config, policy)
-

@@ -304,7 +304,6 @@ class Sb3Trainer(Trainer):
         finally:
             environments.close()
 
-
     def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:
         checkpoint, saved, training = saved_training(run_dir, RUN_FORMAT, context.plugins.options())
         algorithm = saved.get("algorithm")
@@ -312,7 +311,6 @@ class Sb3Trainer(Trainer):
             raise UsageError(f"{checkpoint / CONFIG_FILE}: unknown algorithm {algorithm!r}")
         policy = saved_policy(checkpoint, ALGORITHM_CLASSES[algorithm], trust=trust_checkpoint, device=DEVICE)
         return ExportedPolicy(TRAINER_NAME, checkpoint, training, policy)
-
 
 
 def _learn(run: RunWriter, model: BaseAlgorithm, bar: Any, *, first_leg: bool) -> Path:

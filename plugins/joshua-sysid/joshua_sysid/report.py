@@ -66,8 +66,10 @@ def report_document(
             {"path": str(r.path), "samples": len(r.times), "seconds": float(r.times[-1])} for r in recordings
         ],
         "parameters": {
-            joint: {kind: {"nominal": result.nominal[joint][kind], "identified": result.identified[joint][kind]}
-                    for kind in result.identified[joint]}
+            joint: {
+                kind: {"nominal": result.nominal[joint][kind], "identified": result.identified[joint][kind]}
+                for kind in result.identified[joint]
+            }
             for joint in joints
         },
         "tracking_rms": {
@@ -125,4 +127,3 @@ def write_report(document: dict[str, Any], folder: Path) -> Path:
     path = folder / REPORT_FILE
     atomic_write_json(path, document)
     return path
-

@@ -124,8 +124,11 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str, expected: s
         "non_finite": [write(tmp_path, "nan.csv", [HEADER, *rows(30), *rows(1, value="nan")[0:1]])],
         "too_short": [write(tmp_path, "short.csv", [HEADER, *rows(5)])],
         "missing_joint": [
-            write(tmp_path, "five.csv", [",".join(["timestamp", *JOINTS[:5], *(f"{j}.target" for j in JOINTS[:5])]),
-                                         *rows(150, columns=5)])
+            write(
+                tmp_path,
+                "five.csv",
+                [",".join(["timestamp", *JOINTS[:5], *(f"{j}.target" for j in JOINTS[:5])]), *rows(150, columns=5)],
+            )
         ],
         "no_position_actuators": [good, "--model", write(tmp_path, "bare.xml", [BARE_MODEL])],
         "bad_kind": [good, "--fit", "kp,dampng"],

@@ -16,8 +16,9 @@ class UsdCommand(Command):
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
         inspect = actions.add_parser(
-            "inspect", help="print the bodies, joints (limits in radians and degrees), drives in SI units, "
-            "colliders, masses and warnings the importer reads from a USD file"
+            "inspect",
+            help="print the bodies, joints (limits in radians and degrees), drives in SI units, "
+            "colliders, masses and warnings the importer reads from a USD file",
         )
         inspect.add_argument("file", type=Path, help="a .usd/.usda/.usdc/.usdz stage")
         export = actions.add_parser("export", help="write a MuJoCo model as a UsdPhysics articulation Isaac loads")

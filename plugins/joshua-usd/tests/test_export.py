@@ -233,7 +233,7 @@ def test_so100_visual_meshes_and_looks(tmp_path: Path) -> None:
     for geom, prim in zip(geoms, meshes, strict=True):
         mesh_id = model.geom_dataid[geom]
         points = np.array(UsdGeom.Mesh(prim).GetPointsAttr().Get())
-        np.testing.assert_allclose(points, model.mesh_vert[model.mesh_vertadr[mesh_id]:][:len(points)], atol=1e-7)
+        np.testing.assert_allclose(points, model.mesh_vert[model.mesh_vertadr[mesh_id] :][: len(points)], atol=1e-7)
         assert len(points) == model.mesh_vertnum[mesh_id]
         assert len(UsdGeom.Mesh(prim).GetFaceVertexIndicesAttr().Get()) == 3 * model.mesh_facenum[mesh_id]
         look = UsdShade.MaterialBindingAPI(prim).GetDirectBinding().GetMaterial()

@@ -77,8 +77,13 @@ def tetrahedron_mesh(stage: Usd.Stage, path: str, approximation: str | None) -> 
 def test_mesh_collision_approximations(tmp_path: Path) -> None:
     stage = new_stage(tmp_path / "meshes.usda")
     body(stage, "/World/part")
-    kinds = {"hull": "convexHull", "raw": None, "decomposed": "convexDecomposition", "cube": "boundingCube",
-             "ball": "boundingSphere"}
+    kinds = {
+        "hull": "convexHull",
+        "raw": None,
+        "decomposed": "convexDecomposition",
+        "cube": "boundingCube",
+        "ball": "boundingSphere",
+    }
     for name, approximation in kinds.items():
         tetrahedron_mesh(stage, f"/World/part/{name}", approximation)
     stage.Save()

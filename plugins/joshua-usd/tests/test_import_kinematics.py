@@ -41,12 +41,36 @@ def arm(path: Path, up: str, meters_per_unit: float) -> Usd.Stage:
     link2 = body(stage, "/World/arm/link2", (0.2 * u, 0.4 * u, 0.5 * u), rotation((0, 1, 0), -25), 0.1 * u)
     link3 = body(stage, "/World/arm/link3", (0.3 * u, 0.4 * u, 0.7 * u), None, 0.1 * u)
     joint(stage, UsdPhysics.FixedJoint, "/World/arm/anchor", None, base, (0.1 * u, 0.2 * u, 0))
-    joint(stage, UsdPhysics.RevoluteJoint, "/World/arm/shoulder", base, link1, (0.1 * u, 0.25 * u, 0.15 * u),
-          rotation((0, 1, 0), 30), axis="Z")
-    joint(stage, UsdPhysics.PrismaticJoint, "/World/arm/slider", link1, link2, (0.15 * u, 0.35 * u, 0.4 * u),
-          rotation((1, 0, 0), 60), axis="Y")
-    joint(stage, UsdPhysics.RevoluteJoint, "/World/arm/wrist", link2, link3, (0.25 * u, 0.4 * u, 0.6 * u),
-          rotation((1, 0, 0), 180), axis="Z")  # the joint frame is flipped: its Z is the world's -Z
+    joint(
+        stage,
+        UsdPhysics.RevoluteJoint,
+        "/World/arm/shoulder",
+        base,
+        link1,
+        (0.1 * u, 0.25 * u, 0.15 * u),
+        rotation((0, 1, 0), 30),
+        axis="Z",
+    )
+    joint(
+        stage,
+        UsdPhysics.PrismaticJoint,
+        "/World/arm/slider",
+        link1,
+        link2,
+        (0.15 * u, 0.35 * u, 0.4 * u),
+        rotation((1, 0, 0), 60),
+        axis="Y",
+    )
+    joint(
+        stage,
+        UsdPhysics.RevoluteJoint,
+        "/World/arm/wrist",
+        link2,
+        link3,
+        (0.25 * u, 0.4 * u, 0.6 * u),
+        rotation((1, 0, 0), 180),
+        axis="Z",
+    )  # the joint frame is flipped: its Z is the world's -Z
     stage.Save()
     return stage
 
@@ -69,8 +93,9 @@ def expected_frames(stage: Usd.Stage, qpos: dict[str, float]) -> dict[str, tuple
     frames = {}
     for name in ("shoulder", "slider", "wrist"):
         prim = stage.GetPrimAtPath(f"/World/arm/{name}")
-        body0, body1 = (stage.GetPrimAtPath(t[0]) for t in (prim.GetRelationship(f"physics:body{i}").GetTargets()
-                                                          for i in "01"))
+        body0, body1 = (
+            stage.GetPrimAtPath(t[0]) for t in (prim.GetRelationship(f"physics:body{i}").GetTargets() for i in "01")
+        )
         parent = worlds.get(str(body0.GetPath()), world_matrix(body0))
         frame = local_matrix(prim, "0") * parent
         axis = AXIS[prim.GetAttribute("physics:axis").Get()]

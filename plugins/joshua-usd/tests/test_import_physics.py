@@ -89,8 +89,11 @@ def test_mass_api_sets_mass_inertia_principal_axes_and_center_of_mass(tmp_path: 
     mujoco.mju_quat2Mat(tensor, model.body("explicit").iquat)
     rotation = tensor.reshape(3, 3)
     gf_axes = np.array(Gf.Matrix3d(Gf.Rotation(Gf.Vec3d(1, 2, 3), 50))).T  # column vectors
-    np.testing.assert_allclose(rotation @ np.diag(model.body("explicit").inertia) @ rotation.T,
-                               gf_axes @ np.diag([0.2, 0.3, 0.4]) @ gf_axes.T, atol=1e-6)
+    np.testing.assert_allclose(
+        rotation @ np.diag(model.body("explicit").inertia) @ rotation.T,
+        gf_axes @ np.diag([0.2, 0.3, 0.4]) @ gf_axes.T,
+        atol=1e-6,
+    )
     np.testing.assert_allclose(model.body("explicit").ipos, [0.01, 0.02, -0.03], atol=1e-7)
     assert model.body("heavy").mass[0] == pytest.approx(2.0)
     np.testing.assert_allclose(model.body("heavy").inertia, [2.0 * 2 * 0.2**2 / 12] * 3)
@@ -149,16 +152,22 @@ def test_physx_joint_and_articulation_attributes(tmp_path: Path) -> None:
     assert model.dof_armature[model.joint("hinge").dofadr[0]] == pytest.approx(0.05)
     assert model.dof_frictionloss[model.joint("hinge").dofadr[0]] == pytest.approx(0.3)
     assert model.opt.iterations == 32
-    excluded = {frozenset((model.body(int(a)).name, model.body(int(b)).name))
-                for a, b in (divmod(int(signature), 1 << 16) for signature in model.exclude_signature)}
+    excluded = {
+        frozenset((model.body(int(a)).name, model.body(int(b)).name))
+        for a, b in (divmod(int(signature), 1 << 16) for signature in model.exclude_signature)
+    }
     assert excluded == {frozenset(pair) for pair in [("base", "arm"), ("base", "carriage"), ("arm", "carriage")]}
     assert any(w.startswith("/World/slider: physxJoint:maxJointVelocity 2") for w in imported.report.warnings)
 
 
 def test_physx_joint_axis_attributes_are_damping_frictionloss_and_armature(tmp_path: Path) -> None:
     stage, hinge, slider = pendulum(tmp_path / "axis.usda", meters_per_unit=0.01)
-    values = {"viscousFrictionCoefficient": 0.01, "dynamicFrictionEffort": 2e4, "staticFrictionEffort": 3e4,
-              "armature": 500.0}  # per degree; torques in kg cm^2/s^2, inertia in kg cm^2
+    values = {
+        "viscousFrictionCoefficient": 0.01,
+        "dynamicFrictionEffort": 2e4,
+        "staticFrictionEffort": 3e4,
+        "armature": 500.0,
+    }  # per degree; torques in kg cm^2/s^2, inertia in kg cm^2
     hinge.CreateAttribute("physxJoint:armature", Sdf.ValueTypeNames.Float).Set(9.0)  # the axis' value wins
     for name, value in values.items():
         hinge.CreateAttribute(f"physxJointAxis:angular:{name}", Sdf.ValueTypeNames.Float).Set(value)
@@ -199,8 +208,11 @@ def test_collision_offsets_become_margin_and_gap(tmp_path: Path) -> None:
 def test_joshua_attributes_restore_solver_options_gear_and_free_joint_name(tmp_path: Path) -> None:
     stage, hinge, _ = pendulum(tmp_path / "joshua.usda")
     scene = stage.GetPrimAtPath("/World/physicsScene")
-    for name, kind, value in (("integrator", "Token", "implicitfast"), ("cone", "Token", "cone"),
-                              ("impratio", "Double", 10.0)):
+    for name, kind, value in (
+        ("integrator", "Token", "implicitfast"),
+        ("cone", "Token", "cone"),
+        ("impratio", "Double", 10.0),
+    ):
         scene.CreateAttribute(f"joshua:option:{name}", getattr(Sdf.ValueTypeNames, kind), custom=True).Set(value)
     drive(hinge, "angular", stiffness=4 * 17.8 / DEG, damping=0.0, maxForce=6.0, targetPosition=30.0)
     for name, kind, value in (("", "String", "servo"), (":gear", "Float", 2.0), (":ctrlRange", "Float2", (-1, 1))):

@@ -37,8 +37,12 @@ def robot(path: Path) -> Path:
 
 
 def run_inspect(path: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "joshua_core.cli", "usd", "inspect", str(path)],
-                          capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "joshua_core.cli", "usd", "inspect", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 def test_describe_lists_bodies_joints_in_radians_and_degrees_and_drives_in_si(tmp_path: Path) -> None:

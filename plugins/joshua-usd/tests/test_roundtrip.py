@@ -62,16 +62,26 @@ def test_actuators_solver_options_and_margins_come_back(pair) -> None:
     original, imported, _ = pair
     index = _matched_actuators(original, imported)
     for field in ("gear", "gainprm", "biasprm", "ctrlrange", "ctrllimited"):
-        np.testing.assert_allclose(getattr(imported, f"actuator_{field}")[index],
-                                   getattr(original, f"actuator_{field}"), rtol=1e-6, atol=1e-9, err_msg=field)
+        np.testing.assert_allclose(
+            getattr(imported, f"actuator_{field}")[index],
+            getattr(original, f"actuator_{field}"),
+            rtol=1e-6,
+            atol=1e-9,
+            err_msg=field,
+        )
     for a, b in enumerate(index):  # an unlimited motor comes back limited to what its control range gives
         if original.actuator_forcelimited[a]:
             np.testing.assert_allclose(imported.actuator_forcerange[b], original.actuator_forcerange[a], rtol=1e-6)
     for option in SOLVER_OPTIONS:
         assert getattr(imported.opt, option) == getattr(original.opt, option), option
-    margins = [sorted((model.body(model.geom_bodyid[g]).name, model.geom_margin[g], model.geom_gap[g])
-                      for g in range(model.ngeom) if model.geom_contype[g] or model.geom_conaffinity[g])
-               for model in (original, imported)]
+    margins = [
+        sorted(
+            (model.body(model.geom_bodyid[g]).name, model.geom_margin[g], model.geom_gap[g])
+            for g in range(model.ngeom)
+            if model.geom_contype[g] or model.geom_conaffinity[g]
+        )
+        for model in (original, imported)
+    ]
     assert [m[0] for m in margins[1]] == [m[0] for m in margins[0]]
     np.testing.assert_allclose([m[1:] for m in margins[1]], [m[1:] for m in margins[0]], atol=1e-9)
 
@@ -106,9 +116,9 @@ def test_anchors_and_axes_agree_at_random_poses(pair) -> None:
         for j, _k in joints:
             address, kind = original.jnt_qposadr[j], original.jnt_type[j]
             if kind == mujoco.mjtJoint.mjJNT_FREE:
-                data[0].qpos[address:address + 7] = [*rng.uniform(-1, 1, 3), *_unit(rng.normal(size=4))]
+                data[0].qpos[address : address + 7] = [*rng.uniform(-1, 1, 3), *_unit(rng.normal(size=4))]
             elif kind == mujoco.mjtJoint.mjJNT_BALL:
-                data[0].qpos[address:address + 4] = _unit(rng.normal(size=4))
+                data[0].qpos[address : address + 4] = _unit(rng.normal(size=4))
             else:
                 low, high = original.jnt_range[j] if original.jnt_limited[j] else (-np.pi, np.pi)
                 data[0].qpos[address] = rng.uniform(low, high)
@@ -141,9 +151,9 @@ def _copy_state(
         width, dofs = WIDTHS.get(int(original.jnt_type[j]), (1, 1))
         qj, qk = original.jnt_qposadr[j], imported.jnt_qposadr[k]
         shift = (imported.qpos0[qk] - original.qpos0[qj]) if width == 1 else 0.0
-        target.qpos[qk:qk + width] = source.qpos[qj:qj + width] + shift
+        target.qpos[qk : qk + width] = source.qpos[qj : qj + width] + shift
         vj, vk = original.jnt_dofadr[j], imported.jnt_dofadr[k]
-        target.qvel[vk:vk + dofs] = source.qvel[vj:vj + dofs]
+        target.qvel[vk : vk + dofs] = source.qvel[vj : vj + dofs]
 
 
 def _max_trajectory_difference(original: mujoco.MjModel, imported: mujoco.MjModel) -> float:

@@ -101,8 +101,7 @@ def test_ant_env_on_the_cpu_trains_with_sb3_ppo() -> None:
     model.learn(total_timesteps=512)
     assert model.num_timesteps == 512
     assert any(
-        not np.allclose(a.numpy(), b.detach().numpy())
-        for a, b in zip(before, model.policy.parameters(), strict=True)
+        not np.allclose(a.numpy(), b.detach().numpy()) for a, b in zip(before, model.policy.parameters(), strict=True)
     )
     env.close()
 

@@ -22,8 +22,12 @@ def new_stage(path: Path, up: str = "Z", meters_per_unit: float = 1.0) -> Usd.St
     return stage
 
 
-def place(prim: Usd.Prim, position: Sequence[float] = (0, 0, 0), rotation: Gf.Rotation | None = None,
-          scale: Sequence[float] | None = None) -> None:
+def place(
+    prim: Usd.Prim,
+    position: Sequence[float] = (0, 0, 0),
+    rotation: Gf.Rotation | None = None,
+    scale: Sequence[float] | None = None,
+) -> None:
     """Author translate / orient / scale ops on a prim."""
     xform = UsdGeom.Xformable(prim)
     xform.AddTranslateOp().Set(Gf.Vec3d(*position))
@@ -33,8 +37,13 @@ def place(prim: Usd.Prim, position: Sequence[float] = (0, 0, 0), rotation: Gf.Ro
         xform.AddScaleOp().Set(Gf.Vec3f(*scale))
 
 
-def body(stage: Usd.Stage, path: str, position: Sequence[float] = (0, 0, 0), rotation: Gf.Rotation | None = None,
-         size: float = 0.1) -> Usd.Prim:
+def body(
+    stage: Usd.Stage,
+    path: str,
+    position: Sequence[float] = (0, 0, 0),
+    rotation: Gf.Rotation | None = None,
+    size: float = 0.1,
+) -> Usd.Prim:
     """A rigid body Xform with a cube collider child `<path>/box` of edge `size`."""
     prim = UsdGeom.Xform.Define(stage, path).GetPrim()
     place(prim, position, rotation)
@@ -52,9 +61,16 @@ def world_matrix(prim: Usd.Prim | None) -> Gf.Matrix4d:
     return UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
 
 
-def joint(stage: Usd.Stage, schema: type, path: str, body0: Usd.Prim | None, body1: Usd.Prim,
-          world_position: Sequence[float], world_rotation: Gf.Rotation = NO_ROTATION,
-          axis: str = "X") -> Usd.Prim:
+def joint(
+    stage: Usd.Stage,
+    schema: type,
+    path: str,
+    body0: Usd.Prim | None,
+    body1: Usd.Prim,
+    world_position: Sequence[float],
+    world_rotation: Gf.Rotation = NO_ROTATION,
+    axis: str = "X",
+) -> Usd.Prim:
     """A joint whose frame sits at `world_position`/`world_rotation`, written as localPos/localRot of both
     bodies the way Isaac's importers do (consistent with the bodies' world transforms)."""
     made = schema.Define(stage, path)
@@ -70,8 +86,9 @@ def joint(stage: Usd.Stage, schema: type, path: str, body0: Usd.Prim | None, bod
     return made.GetPrim()
 
 
-def joint_local(end: Usd.Prim | None, world_position: Sequence[float], world_rotation: Gf.Rotation
-                ) -> tuple[Gf.Vec3f, Gf.Quatf]:
+def joint_local(
+    end: Usd.Prim | None, world_position: Sequence[float], world_rotation: Gf.Rotation
+) -> tuple[Gf.Vec3f, Gf.Quatf]:
     """The joint frame in a body's local coordinates (scale included), from its world pose."""
     matrix = world_matrix(end)
     local_pos = matrix.GetInverse().Transform(Gf.Vec3d(*world_position))

@@ -28,13 +28,13 @@ def write_geoms(ctx: Context) -> None:
         body = int(model.geom_bodyid[geom])
         collider = bool(model.geom_contype[geom] or model.geom_conaffinity[geom])
         kind = G(model.geom_type[geom])
-        label = kind.name[len("mjGEOM_"):].lower()
+        label = kind.name[len("mjGEOM_") :].lower()
         if kind == G.mjGEOM_MESH:
             label = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MESH, model.geom_dataid[geom]) or label
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, geom) or label
         if kind not in SHAPES or (kind == G.mjGEOM_PLANE and body):
             where = " on moving bodies" if body else ""
-            ctx.note(f"geom '{name}': {kind.name[len('mjGEOM_'):].lower()} geoms{where} are not exported")
+            ctx.note(f"geom '{name}': {kind.name[len('mjGEOM_') :].lower()} geoms{where} are not exported")
             continue
         parent = _group(ctx, groups, body, collider)
         prim = SHAPES[kind](ctx, ctx.child_path(parent, name), geom)
@@ -133,10 +133,10 @@ def _mesh(ctx: Context, path: Sdf.Path, geom: int) -> Usd.Prim:
     start, count = model.mesh_vertadr[mesh_id], model.mesh_vertnum[mesh_id]
     first, faces = model.mesh_faceadr[mesh_id], model.mesh_facenum[mesh_id]
     mesh = UsdGeom.Mesh.Define(ctx.stage, path)
-    points = np.ascontiguousarray(model.mesh_vert[start:start + count], np.float32)
+    points = np.ascontiguousarray(model.mesh_vert[start : start + count], np.float32)
     mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
     mesh.CreateFaceVertexCountsAttr(Vt.IntArray([3] * int(faces)))
-    indices = np.ascontiguousarray(model.mesh_face[first:first + faces].ravel(), np.int32)
+    indices = np.ascontiguousarray(model.mesh_face[first : first + faces].ravel(), np.int32)
     mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(indices))
     mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     return mesh.GetPrim()

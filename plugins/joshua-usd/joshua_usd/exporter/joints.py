@@ -27,8 +27,10 @@ def write_joints(ctx: Context) -> dict[int, Usd.Prim]:
             continue
         if count > 1:
             name = ctx.name(mujoco.mjtObj.mjOBJ_BODY, body, "body")
-            raise ModelError(f"body '{name}' has {count} joints; USD joints connect two bodies with one joint "
-                             "each: give each joint its own body")
+            raise ModelError(
+                f"body '{name}' has {count} joints; USD joints connect two bodies with one joint "
+                "each: give each joint its own body"
+            )
         if count == 0:
             _fixed_joint(ctx, scope, body)
             continue
@@ -109,8 +111,12 @@ def _joint_properties(ctx: Context, prim: Usd.Prim, joint_id: int) -> None:
     damping = float(model.dof_damping[dof])
     set_raw(prim, f"{prefix}:staticFrictionEffort", Sdf.ValueTypeNames.Float, friction)
     set_raw(prim, f"{prefix}:dynamicFrictionEffort", Sdf.ValueTypeNames.Float, friction)
-    set_raw(prim, f"{prefix}:viscousFrictionCoefficient", Sdf.ValueTypeNames.Float,
-            per_degree(damping) if angular else damping)
+    set_raw(
+        prim,
+        f"{prefix}:viscousFrictionCoefficient",
+        Sdf.ValueTypeNames.Float,
+        per_degree(damping) if angular else damping,
+    )
     if model.jnt_stiffness[joint_id]:
         ctx.note(f"joint '{prim.GetName()}': spring stiffness {model.jnt_stiffness[joint_id]:g}")
 

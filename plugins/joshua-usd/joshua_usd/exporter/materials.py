@@ -50,7 +50,8 @@ class Materials:
         shininess = model.mat_shininess[matid] if matid >= 0 else DEFAULT_SHININESS
         shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(float(max(metallic, 0.0)))
         shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(
-            float(roughness if roughness >= 0 else 1.0 - shininess))
+            float(roughness if roughness >= 0 else 1.0 - shininess)
+        )
         emission = model.mat_emission[matid] if matid >= 0 else 0.0
         if emission > 0:
             emissive = Gf.Vec3f(*(float(emission * c) for c in rgba[:3]))
@@ -72,4 +73,5 @@ class Materials:
             set_raw(material.GetPrim(), "physxMaterial:frictionCombineMode", Sdf.ValueTypeNames.Token, "max")
             self._physics[friction] = material
         UsdShade.MaterialBindingAPI.Apply(prim).Bind(
-            self._physics[friction], UsdShade.Tokens.weakerThanDescendants, "physics")
+            self._physics[friction], UsdShade.Tokens.weakerThanDescendants, "physics"
+        )

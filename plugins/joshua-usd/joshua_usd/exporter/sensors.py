@@ -32,7 +32,7 @@ def write_cameras(ctx: Context) -> None:
         extent = model.stat.extent
         clipping = Gf.Vec2f(float(model.vis.map.znear * extent), float(model.vis.map.zfar * extent))
         camera.CreateClippingRangeAttr(clipping)
-        mode = mujoco.mjtCamLight(model.cam_mode[cam]).name[len("mjCAMLIGHT_"):].lower()
+        mode = mujoco.mjtCamLight(model.cam_mode[cam]).name[len("mjCAMLIGHT_") :].lower()
         if mode != "fixed":
             set_raw(camera.GetPrim(), "joshua:camera:mode", Sdf.ValueTypeNames.Token, mode, custom=True)
 
@@ -46,7 +46,7 @@ def write_sensors(ctx: Context) -> None:
     groups: dict[int, Sdf.Path] = {}
     for sensor in range(model.nsensor):
         name = ctx.name(mujoco.mjtObj.mjOBJ_SENSOR, sensor, "sensor")
-        kind = mujoco.mjtSensor(model.sensor_type[sensor]).name[len("mjSENS_"):].lower()
+        kind = mujoco.mjtSensor(model.sensor_type[sensor]).name[len("mjSENS_") :].lower()
         if model.sensor_objtype[sensor] != mujoco.mjtObj.mjOBJ_SITE:
             ctx.note(f"sensor '{name}': {kind} sensors are not exported (only sensors at sites)")
             continue
@@ -65,7 +65,7 @@ def write_sensors(ctx: Context) -> None:
             if value > 0:
                 set_raw(prim, f"joshua:sensor:{field}", Sdf.ValueTypeNames.Float, value, custom=True)
         if kind in CONTACT_SENSORS:
-            zone = mujoco.mjtGeom(model.site_type[site]).name[len("mjGEOM_"):].lower()
+            zone = mujoco.mjtGeom(model.site_type[site]).name[len("mjGEOM_") :].lower()
             set_raw(prim, "joshua:sensor:zoneType", Sdf.ValueTypeNames.Token, zone, custom=True)
             size = gf_vec3f(model.site_size[site])
             set_raw(prim, "joshua:sensor:zoneSize", Sdf.ValueTypeNames.Float3, size, custom=True)

@@ -48,7 +48,9 @@ def add_drive(
     gear = _gear(prim, report)
     attribute = f"drive:{instance}:physics:"
     stiffness, damping = (
-        positive(prim, attribute + key, read(prim, attribute + key, report), report) * force_unit / position_unit
+        positive(prim, attribute + key, read(prim, attribute + key, report), report)
+        * force_unit
+        / position_unit
         / gear**2
         for key in ("stiffness", "damping")
     )
@@ -117,7 +119,12 @@ def joint_properties(prim: Usd.Prim, joint: mujoco.MjsJoint, frame: StageFrame, 
 
 
 def _joint_value(
-    prim: Usd.Prim, instances: tuple[str, ...], key: str, report: ImportReport, *, joint_level: bool = True,
+    prim: Usd.Prim,
+    instances: tuple[str, ...],
+    key: str,
+    report: ImportReport,
+    *,
+    joint_level: bool = True,
     allow_inf: bool = False,
 ) -> tuple[str, float] | None:
     """(attribute, value) of physxJointAxis:<instance>:<key> for the joint's axis instances (the largest where a
@@ -142,8 +149,11 @@ def _friction_effort(prim: Usd.Prim, instances: tuple[str, ...], report: ImportR
     dynamic = _joint_value(prim, instances, "dynamicFrictionEffort", report, joint_level=False)
     static = _joint_value(prim, instances, "staticFrictionEffort", report, joint_level=False)
     if dynamic and static and abs(dynamic[1] - static[1]) > 1e-9:
-        report.warn(prim.GetPath(), f"staticFrictionEffort {static[1]:.6g} differs from dynamicFrictionEffort "
-                    f"{dynamic[1]:.6g}: MuJoCo's frictionloss is the dynamic one")
+        report.warn(
+            prim.GetPath(),
+            f"staticFrictionEffort {static[1]:.6g} differs from dynamicFrictionEffort "
+            f"{dynamic[1]:.6g}: MuJoCo's frictionloss is the dynamic one",
+        )
     if dynamic or static:
         return dynamic or static
     for name in FRICTION_ATTRIBUTES:

@@ -146,4 +146,3 @@ def _density(
             density = positive(source, "physics:density", density, report)
             geom.density = density * frame.kilograms_per_unit / frame.meters_per_unit**3
             return
-

@@ -141,4 +141,3 @@ def _articulation(root: Sdf.Path, roots: list[Link]) -> Iterator[Link]:
         tree = list(walk(top))
         if any(link.prim.GetPath().HasPrefix(root) for link in tree):
             yield from tree
-

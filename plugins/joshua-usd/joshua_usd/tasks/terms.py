@@ -98,9 +98,7 @@ def heading_projection(ctx: TermContext, body: Body, target: Sequence[float] = F
     return ((1.0 - 2.0 * (y * y + z * z)) * dx + 2.0 * (x * y + w * z) * dy) / distance
 
 
-def heading_reward(
-    ctx: TermContext, body: Body, target: Sequence[float] = FAR_TARGET, threshold: float = 0.8
-) -> Any:
+def heading_reward(ctx: TermContext, body: Body, target: Sequence[float] = FAR_TARGET, threshold: float = 0.8) -> Any:
     """1 while the heading projection exceeds `threshold`, else projection / threshold (Isaac's move-to-target)."""
     projection = heading_projection(ctx, body, target)
     return ctx.xp.where(projection > threshold, 1.0, projection / threshold)
@@ -116,4 +114,3 @@ def energy(ctx: TermContext, actuators: Actuators = (), vel_scale: float = 0.2) 
     """Sum over actuators of |action x velocity of the driven joint x vel_scale| (Isaac's electricity cost)."""
     velocities = ctx.qvel[:, np.asarray(actuators.dof_index)]
     return ctx.xp.sum(ctx.xp.abs(ctx.action * velocities * vel_scale), axis=1)
-
