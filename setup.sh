@@ -9,7 +9,7 @@
 #                       (joshua sysid: fit servo and joint parameters to recordings with mujoco.sysid),
 #                       joshua-export (onnx, onnxruntime: `joshua export` writes policies as ONNX with their contract) and
 #                       joshua-lerobot (LeRobot datasets in and out: pyarrow, PyAV)
-#   ./setup.sh --dev    --all and what the tests need: pytest, protoc (grpcio-tools), trimesh,
+#   ./setup.sh --dev    --all and what the tests need: pytest, ruff, protoc (grpcio-tools), trimesh,
 #                       Gymnasium's MuJoCo environments (the reference of bench/cpu_env_throughput.py),
 #                       Xvfb, xwd and xdotool for the viewer tests, and the real lerobot 0.4.4 for
 #                       joshua-lerobot's tests in .cache/lerobot-site (with FFmpeg's libraries from apt)
