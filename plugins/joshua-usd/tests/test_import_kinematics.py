@@ -41,36 +41,13 @@ def arm(path: Path, up: str, meters_per_unit: float) -> Usd.Stage:
     link2 = body(stage, "/World/arm/link2", (0.2 * u, 0.4 * u, 0.5 * u), rotation((0, 1, 0), -25), 0.1 * u)
     link3 = body(stage, "/World/arm/link3", (0.3 * u, 0.4 * u, 0.7 * u), None, 0.1 * u)
     joint(stage, UsdPhysics.FixedJoint, "/World/arm/anchor", None, base, (0.1 * u, 0.2 * u, 0))
-    joint(
-        stage,
-        UsdPhysics.RevoluteJoint,
-        "/World/arm/shoulder",
-        base,
-        link1,
-        (0.1 * u, 0.25 * u, 0.15 * u),
-        rotation((0, 1, 0), 30),
-        axis="Z",
+    moving = (  # (kind, name, parent, child, position, rotation, axis); the wrist's frame is flipped: its Z is -Z
+        (UsdPhysics.RevoluteJoint, "shoulder", base, link1, (0.1, 0.25, 0.15), rotation((0, 1, 0), 30), "Z"),
+        (UsdPhysics.PrismaticJoint, "slider", link1, link2, (0.15, 0.35, 0.4), rotation((1, 0, 0), 60), "Y"),
+        (UsdPhysics.RevoluteJoint, "wrist", link2, link3, (0.25, 0.4, 0.6), rotation((1, 0, 0), 180), "Z"),
     )
-    joint(
-        stage,
-        UsdPhysics.PrismaticJoint,
-        "/World/arm/slider",
-        link1,
-        link2,
-        (0.15 * u, 0.35 * u, 0.4 * u),
-        rotation((1, 0, 0), 60),
-        axis="Y",
-    )
-    joint(
-        stage,
-        UsdPhysics.RevoluteJoint,
-        "/World/arm/wrist",
-        link2,
-        link3,
-        (0.25 * u, 0.4 * u, 0.6 * u),
-        rotation((1, 0, 0), 180),
-        axis="Z",
-    )  # the joint frame is flipped: its Z is the world's -Z
+    for kind, name, parent, child, position, turn, axis in moving:
+        joint(stage, kind, f"/World/arm/{name}", parent, child, tuple(c * u for c in position), turn, axis=axis)
     stage.Save()
     return stage
 
