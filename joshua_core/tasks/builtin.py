@@ -121,8 +121,10 @@ SO_ARM100_PICK_PLACE = TaskSpec(
         # std 0.1: the gripper starts 0.11-0.17 m from the cube, where std 0.05 paid almost nothing (< 0.02)
         TermSpec("site_body_tanh", 1.0, {"site": "gripper", "body": "cube", "std": 0.1}, name="reach"),
         # the cube between both pads: pressing the closed jaw's tips on its top touches both pads too, and a
-        # reward for any touch of both paid policies that pressed the cube 5-9 mm into the table and dragged it
-        TermSpec("body_pinched", 0.5, {"body": "cube", **_PADS, "threshold": 0.05}, name="grasp"),
+        # reward for any touch of both paid policies that pressed the cube 5-9 mm into the table and dragged it.
+        # The scripted grasp holds the cube's centre 0.8-1.5 cm from the line joining the pads' sites, the press
+        # 2.9-3.1 cm (test_pick_place_scripted.py)
+        TermSpec("body_pinched", 0.5, {"body": "cube", **_PADS, "threshold": 0.05, "radius": 0.02}, name="grasp"),
         TermSpec("body_height_above", 1.0, {"body": "cube", "height": 0.04}, name="lift"),
         # while the gripper is at the cube: a reward for a cube lying near its goal paid the policy for leaving it
         # alone, and one only for a lifted cube paid nothing until a grasp and a lift were found together

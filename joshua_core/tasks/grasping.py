@@ -24,15 +24,19 @@ def sensors_above(ctx: TermContext, first: Sensor, second: Sensor, threshold: fl
     return _both_above(ctx, first.adr, second.adr, threshold).astype(ctx.sensordata.dtype)
 
 
-def body_pinched(ctx: TermContext, body: Body, first: Touch, second: Touch, threshold: float) -> Any:
-    """1 where two touch sensors (a gripper's pads) both read above `threshold` and the body's origin lies
-    between their sites (inside the sphere whose diameter joins them), else 0: a grasp of the body. The pads'
-    tips pressing on the body's top touch both sensors too, with the body below the pads, not between them;
-    a policy paid for that pressed the cube into the table instead of picking it up."""
+def body_pinched(
+    ctx: TermContext, body: Body, first: Touch, second: Touch, threshold: float, radius: float = 0.02
+) -> Any:
+    """1 where two touch sensors (a gripper's pads) both read above `threshold` and the body's origin lies between
+    their sites: its projection on the line joining them falls between them, within `radius` m of that line;
+    else 0: a grasp of the body. The pads' tips pressing on the body's top touch both sensors too, with the body
+    below the pads, not between them; a policy paid for that pressed the cube into the table."""
     touching = _both_above(ctx, first.adr, second.adr, threshold)
-    position = ctx.xpos[:, body.id]
-    to_first, to_second = ctx.site_xpos[:, first.site] - position, ctx.site_xpos[:, second.site] - position
-    between = ctx.xp.sum(to_first * to_second, axis=-1) < 0  # the pads on opposite sides: an obtuse angle at the body
+    first_site = ctx.site_xpos[:, first.site]
+    axis, offset = ctx.site_xpos[:, second.site] - first_site, ctx.xpos[:, body.id] - first_site
+    along = ctx.xp.sum(offset * axis, axis=-1) / ctx.xp.maximum(ctx.xp.sum(axis * axis, axis=-1), 1e-12)
+    across = offset - along[:, None] * axis
+    between = (along > 0) & (along < 1) & (ctx.xp.sum(across * across, axis=-1) < radius**2)
     return (touching & between).astype(ctx.xpos.dtype)
 
 

@@ -46,6 +46,8 @@ def check_solved(rewards: list[dict[str, float]], success: float, phases: list[s
     assert list(fired.values()) == sorted(fired.values()), fired  # in the order of the task's stages
     assert phases[fired["grasp"]] in ("close", "lift") and phases[fired["at_goal"]] in ("lower", "release"), fired
     assert phases[fired["released"]] == "release" and rewards[-1]["released"] == WEIGHTS["released"], fired
+    held = [terms["grasp"] for terms, phase in zip(rewards, phases, strict=True) if phase in ("carry", "lower")]
+    assert min(held) == WEIGHTS["grasp"], held  # a grasp all the while the cube is carried and lowered
     assert success == 1.0
 
 
