@@ -10,11 +10,13 @@ is stale: where the joint is is not known, so its last target stays).
 
 from __future__ import annotations
 
+import signal
 import sys
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
+from joshua_core.interrupts import StopRequest, stop_requests
 from joshua_mirror.controller import PolicyController
 from joshua_mirror.graph import TypeChecker
 from joshua_mirror.link import RobotLink
@@ -85,10 +87,13 @@ class DeployLoop:
         self.stopped_in_place = False  # the stop-in-place targets went out (at the e-stop or the end)
 
     def run(self, duration: float) -> str:
-        """Loop until `duration` seconds (0: no limit); return what stopped it."""
+        """Loop until `duration` seconds (0: no limit); return what stopped it. The first Ctrl-C or SIGTERM ends
+        the loop between steps, so that a step's targets go out whole and counted (raised in the middle of one,
+        it sent the robot 2 of 6 targets that the report did not count); a second one interrupts at once."""
         start = time.monotonic()
         try:
-            return self._loop(start, start + duration if duration > 0 else float("inf"))
+            with stop_requests() as request:
+                return self._loop(start, start + duration if duration > 0 else float("inf"), request)
         except KeyboardInterrupt as interrupt:
             return str(interrupt) or "SIGINT"  # Terminated's text is SIGTERM
         finally:
@@ -96,12 +101,14 @@ class DeployLoop:
             self._leave_state(time.monotonic())
             self.stop_in_place()
 
-    def _loop(self, start: float, deadline: float) -> str:
+    def _loop(self, start: float, deadline: float, request: StopRequest) -> str:
         self.start = start
         next_due, next_status = start, start + self.status_period
         if self._wrong_types():
             return "wrong message type"
         while True:
+            if request.signum is not None:
+                return signal.Signals(request.signum).name
             now = time.monotonic()
             if now >= deadline:
                 return "duration"
