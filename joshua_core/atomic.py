@@ -38,6 +38,26 @@ def atomic_write_bytes(path: Path, payload: bytes) -> None:
         raise
 
 
+def atomic_create_bytes(path: Path, payload: bytes) -> bool:
+    """Create `path` holding `payload` unless a file is there already; True when this call created it. The file is
+    written whole under a temporary name and hard-linked into place (which fails where the path exists), so a
+    process racing this one finds no file or the whole file, never an empty one between creation and write.
+    Owner-only permissions, as for a key."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=temporary_prefix(path), suffix=".tmp")
+    try:
+        with os.fdopen(descriptor, "wb") as handle:
+            handle.write(payload)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.link(temporary, path)
+        return True
+    except FileExistsError:
+        return False
+    finally:
+        Path(temporary).unlink(missing_ok=True)
+
+
 def _umask() -> int:
     """The process's umask (reading it means setting it, so it is set straight back)."""
     mask = os.umask(0o022)

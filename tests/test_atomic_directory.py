@@ -1,14 +1,15 @@
-"""atomic_directory: a folder appears complete or not at all."""
+"""joshua_core.atomic: a folder or a file appears complete or not at all."""
 
 from __future__ import annotations
 
 import json
 import os
+import stat
 from pathlib import Path
 
 import pytest
 
-from joshua_core.atomic import atomic_directory, atomic_write_bytes, atomic_write_json, json_safe
+from joshua_core.atomic import atomic_create_bytes, atomic_directory, atomic_write_bytes, atomic_write_json, json_safe
 
 
 def test_folder_appears_only_when_the_block_succeeds(tmp_path: Path) -> None:
@@ -53,3 +54,10 @@ def test_json_is_never_written_with_nan_or_infinity(tmp_path: Path) -> None:
     atomic_write_json(path, json_safe({"rates": [1.0, float("nan")], "worst": (float("-inf"), 2)}))
     assert json.loads(path.read_text()) == {"rates": [1.0, None], "worst": [None, 2]}
     assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind
+
+
+def test_create_makes_the_file_once_owner_only_and_leaves_no_temporary(tmp_path: Path) -> None:
+    path = tmp_path / "keys" / "checkpoint.key"
+    assert atomic_create_bytes(path, b"first") and not atomic_create_bytes(path, b"second")
+    assert path.read_bytes() == b"first" and stat.S_IMODE(path.stat().st_mode) == 0o600
+    assert [entry.name for entry in path.parent.iterdir()] == ["checkpoint.key"]

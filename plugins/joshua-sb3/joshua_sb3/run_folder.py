@@ -28,7 +28,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from joshua_core.atomic import atomic_write_json, json_safe
+from joshua_core.atomic import atomic_create_bytes, atomic_write_json, json_safe
 from joshua_core.curves import write_training_curves
 from joshua_core.errors import UsageError
 from joshua_core.runs import METRICS_FILE, RunFolder
@@ -59,14 +59,9 @@ def signing_key(*, create: bool) -> bytes | None:
     """This user's secret key; created (mode 0600) when `create` and missing, else None when missing."""
     path = key_path()
     if not path.exists() and create:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-        except FileExistsError:  # another run created it meanwhile
-            pass
-        else:
-            with os.fdopen(descriptor, "wb") as handle:
-                handle.write(secrets.token_bytes(KEY_BYTES))
+        # whole or not at all: created and then written, a key read by a run starting beside this one could be
+        # empty, which stopped that run ("shorter than 32 bytes"); a run that loses the race uses the winner's
+        atomic_create_bytes(path, secrets.token_bytes(KEY_BYTES))
     if not path.exists():
         return None
     key = path.read_bytes()

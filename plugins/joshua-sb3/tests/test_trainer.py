@@ -243,14 +243,21 @@ def test_runs_started_together_get_their_own_folders_and_a_name_in_use_is_refuse
         "training.total_timesteps=10000000",
     ]
     environment = {**os.environ, KEY_ENV_VAR: str(key)}
-    first = [
-        subprocess.Popen([str(JOSHUA), *settings], cwd=tmp_path, env=environment, stderr=subprocess.DEVNULL)
-        for _ in range(2)
-    ]
+    logs, first = [tmp_path / f"stderr_{index}.txt" for index in range(2)], []
+    for log in logs:
+        with log.open("w") as stderr:
+            first.append(subprocess.Popen([str(JOSHUA), *settings], cwd=tmp_path, env=environment, stderr=stderr))
+
+    def running() -> bool:
+        return all(process.poll() is None for process in first)
+
+    def why() -> list[str]:
+        return [log.read_text()[-1500:] for log in logs]  # what a run that stopped said
+
     try:
         deadline = time.monotonic() + 120
         while len(runs := list_runs(tmp_path / "runs")) < 2:  # both made their folder and wrote its config
-            assert all(process.poll() is None for process in first) and time.monotonic() < deadline
+            assert running() and time.monotonic() < deadline, why()
             time.sleep(0.1)
         assert all(run.name.startswith("so_arm100_reach_ppo_") for run in runs), runs
         holders = {int((run / ".lock").read_text()): run for run in runs}
@@ -263,7 +270,7 @@ def test_runs_started_together_get_their_own_folders_and_a_name_in_use_is_refuse
         holder = next(pid for pid, run in holders.items() if run == taken)
         assert len(errors) == 1 and f"run '{taken.name}'" in errors[0] and f"process {holder}" in errors[0], errors
         assert (taken / "config.json").read_bytes() == config and (taken / ".lock").read_text().strip() == str(holder)
-        assert all(process.poll() is None for process in first)  # both still training
+        assert running(), why()  # both still training
     finally:
         for process in first:
             process.kill()
