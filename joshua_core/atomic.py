@@ -24,14 +24,8 @@ def atomic_write_bytes(path: Path, payload: bytes) -> None:
     The file gets the permissions a plain `open()` would give it (0666 less the umask), not the
     owner-only ones of the temporary file.
     """
-    path.parent.mkdir(parents=True, exist_ok=True)
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=temporary_prefix(path), suffix=".tmp")
+    temporary = _written_temporary(path, payload, 0o666 & ~_umask())
     try:
-        with os.fdopen(descriptor, "wb") as handle:
-            os.fchmod(handle.fileno(), 0o666 & ~_umask())
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
@@ -43,19 +37,31 @@ def atomic_create_bytes(path: Path, payload: bytes) -> bool:
     written whole under a temporary name and hard-linked into place (which fails where the path exists), so a
     process racing this one finds no file or the whole file, never an empty one between creation and write.
     Owner-only permissions, as for a key."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=temporary_prefix(path), suffix=".tmp")
+    temporary = _written_temporary(path, payload, None)
     try:
-        with os.fdopen(descriptor, "wb") as handle:
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
         os.link(temporary, path)
         return True
     except FileExistsError:
         return False
     finally:
         Path(temporary).unlink(missing_ok=True)
+
+
+def _written_temporary(path: Path, payload: bytes, mode: int | None) -> str:
+    """A temporary file beside `path` holding `payload`, on disk (owner-only, or `mode`); its name."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=temporary_prefix(path), suffix=".tmp")
+    try:
+        with os.fdopen(descriptor, "wb") as handle:
+            if mode is not None:
+                os.fchmod(handle.fileno(), mode)
+            handle.write(payload)
+            handle.flush()
+            os.fsync(handle.fileno())
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+    return temporary
 
 
 def _umask() -> int:

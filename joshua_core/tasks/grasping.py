@@ -11,7 +11,7 @@ from typing import Any
 
 from joshua_core.tasks.context import TermContext
 from joshua_core.tasks.handles import Body, Sensor, Touch
-from joshua_core.tasks.terms import body_command_distance
+from joshua_core.tasks.terms import body_command_within
 
 
 def _both_above(ctx: TermContext, first_adr: int, second_adr: int, threshold: float) -> Any:
@@ -48,7 +48,7 @@ def body_released_at_command(
     0. Paid alike at the goal, held or not, nothing asked a policy to let go of a placed cube; the failed
     episodes of runs that plateaued at 70-89 % success had spent 80-160 steps at the goal before the cube left."""
     let_go = ~_both_above(ctx, first.adr, second.adr, threshold)
-    return (let_go & (body_command_distance(ctx, body, name) < radius)).astype(ctx.xpos.dtype)
+    return body_command_within(ctx, body, name, radius) * let_go.astype(ctx.xpos.dtype)
 
 
 GRASP_TERMS: dict[str, Callable[..., Any]] = {

@@ -10,7 +10,6 @@ is stale: where the joint is is not known, so its last target stays).
 
 from __future__ import annotations
 
-import signal
 import sys
 import time
 from dataclasses import dataclass, field
@@ -107,8 +106,8 @@ class DeployLoop:
         if self._wrong_types():
             return "wrong message type"
         while True:
-            if request.signum is not None:
-                return signal.Signals(request.signum).name
+            if request.requested:
+                return str(request.interrupted())  # the signal's name
             now = time.monotonic()
             if now >= deadline:
                 return "duration"
