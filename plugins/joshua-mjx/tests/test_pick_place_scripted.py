@@ -19,7 +19,7 @@ from joshua_mujoco import make_vector_env
 TASK = "so_arm100_pick_place"
 # A stage has fired once its reward term exceeds this share of its weight.
 STAGES = {"reach": 0.6, "grasp": 0.5, "lift": 0.5, "place": 0.8, "at_goal": 0.5, "released": 0.5}
-WEIGHTS = {"reach": 1.0, "grasp": 0.5, "lift": 1.0, "place": 2.0, "at_goal": 5.0, "released": 1.0}
+WEIGHTS = {"reach": 1.0, "grasp": 0.5, "lift": 1.0, "place": 2.0, "at_goal": 5.0, "released": 3.0}
 
 
 def drive(actions: Generator[Any, Any, None], measure: Callable[[], Any]) -> Iterator[tuple[str, Any]]:
