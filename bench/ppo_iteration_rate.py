@@ -34,9 +34,6 @@ VARIANTS: dict[str, dict[str, str]] = {
     "bfloat16 products": {"JAX_DEFAULT_MATMUL_PRECISION": "bfloat16"},
     "full float32 products": {"JAX_DEFAULT_MATMUL_PRECISION": "float32"},
     "XLA command buffers off": {"XLA_FLAGS": "--xla_gpu_enable_command_buffer="},
-    # while loops (the scans over rollout steps and gradient steps, MJX's solver) recorded into the command
-    # buffers as CUDA graph conditional nodes: the loop's trips no longer return to the host for the predicate
-    "while loops in command buffers": {"XLA_FLAGS": "--xla_gpu_enable_command_buffer=+WHILE"},
 }
 
 

@@ -44,11 +44,11 @@ def minibatch_shapes(steps: _Iteration, size: int, obs: int, act: int) -> Sample
         return jax.ShapeDtypeStruct(dims, dtype)
 
     if not steps.recompute:
-        return Sample(shape(size, obs), shape(size, act), shape(size), shape(size), shape(size))
+        return Sample(shape(size, obs), None, shape(size, act), shape(size), shape(size), shape(size))
     unrolls, length = size // steps.rollout.num_steps, steps.rollout.num_steps
     per_step, flags = shape(unrolls, length), shape(unrolls, length, dtype=jnp.bool_)
     observations, actions = shape(unrolls, length, obs), shape(unrolls, length, act)
-    return Unroll(observations, actions, per_step, per_step, flags, flags, per_step, shape(unrolls, obs))
+    return Unroll(observations, None, actions, per_step, per_step, flags, flags, per_step, shape(unrolls, obs), None)
 
 
 def main() -> None:
@@ -66,9 +66,9 @@ def main() -> None:
     stats = fresh_statistics(obs)
 
     def rollout(params: Any, observation: jax.Array, final_observation: jax.Array) -> tuple[jax.Array, ...]:
-        mean, log_std, value = steps.apply(params, stats, observation)
+        mean, log_std, value = steps.apply(params, stats, observation, None)
         kept = (mean, log_std) if steps.recompute else (mean, log_std, value)  # the update recomputes the value
-        return *kept, steps.apply(params, stats, final_observation)[2]
+        return *kept, steps.apply(params, stats, final_observation, None)[2]
 
     def gradient(params: Any, batch: Sample | Unroll, key: jax.Array) -> Any:
         return jax.grad(steps.loss, has_aux=True)(params, stats, batch, key)

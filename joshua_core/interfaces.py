@@ -110,18 +110,18 @@ class EnvKind(enum.Enum):
     arrays of this step); where an episode ended, "final_obs" (valid where "_final_obs") and "episode"
     ("r" return, "l" length, "reward/<term>" the term's episode sum; valid where "_episode").
 
-    JAX: a functional environment whose methods are pure JAX functions of all environments at once:
-    `reset(key) -> state`, `step(state, action) -> state` (jit-compatible, and callable inside
-    `jax.shard_map` on each device's slice of the environments) and `redraw_starts(state) -> state`
-    (new start states for the next episodes; called between rollouts). `state` is a pytree with the
-    environments on every leaf's leading axis and the fields `observation`, `reward`, `terminated`,
-    `truncated`, `final_observation` (the last observation before an autoreset), `reward_terms`,
-    `commands`, `data.qpos` (for drawing) and `episode`, the finished-episode record (`done`, `return_`,
-    `length`, `reward_terms`, `metrics`; valid where `done`). Attributes: `num_envs`, `observation_size`,
-    `action_size`, `task` (the built `Task`), `model` (the host `mujoco.MjModel`, for rendering), `source`
-    (the model file), `mesh` (a `jax.sharding.Mesh` with one axis, of any name, that the environments are
-    spread over), `sharding` (the state's `NamedSharding` over it) and `replicated` (the mesh's
-    replicated sharding, for parameters).
+    JAX: a functional environment whose methods are pure JAX functions of all environments at once: `reset(key) ->
+    state`, `step(state, action) -> state` (jit-compatible, and callable inside `jax.shard_map` on each device's
+    slice of the environments) and `redraw_starts(state) -> state` (new start states for the next episodes; called
+    between rollouts). `state` is a pytree with the environments on every leaf's leading axis and the fields
+    `observation`, `reward`, `terminated`, `truncated`, `final_observation` (the last observation before an
+    autoreset), `value_observation` and `final_value_observation` (both without the task's observation noise, for a
+    value network; None when the task adds none), `reward_terms`, `commands`, `data.qpos` (for drawing) and
+    `episode`, the finished-episode record (`done`, `return_`, `length`, `reward_terms`, `metrics`; valid where
+    `done`). Attributes: `num_envs`, `observation_size`, `action_size`, `task` (the built `Task`), `model` (the
+    host `mujoco.MjModel`, for rendering), `source` (the model file), `mesh` (a `jax.sharding.Mesh` with one axis,
+    of any name, that the environments are spread over), `sharding` (the state's `NamedSharding` over it) and
+    `replicated` (the mesh's replicated sharding, for parameters).
     """
 
     NUMPY = "numpy"

@@ -83,11 +83,17 @@ class Task:
 
     # --- evaluation (pure functions of the context) ---
 
-    def observe(self, ctx: TermContext) -> Any:
-        """The observation, (N, observation_size): every observation term flattened and concatenated."""
+    def observe(self, ctx: TermContext, noise: bool = True) -> Any:
+        """The observation, (N, observation_size): every observation term flattened and concatenated, plus
+        the observation noise the task's events drew (`noise`=False: without it, as a value network may see)."""
         parts = [term(ctx).reshape(ctx.num_envs, -1) for term in self.observation_terms]
         observation = ctx.xp.concatenate(parts, axis=1)
-        return observation + ctx.params["obs_noise"] if "obs_noise" in self.param_fields else observation
+        return observation + ctx.params["obs_noise"] if noise and self.noisy_observations else observation
+
+    @property
+    def noisy_observations(self) -> bool:
+        """Whether an event (observation_noise) adds noise to the observations."""
+        return "obs_noise" in self.param_fields
 
     def rewards(self, ctx: TermContext) -> tuple[Any, dict[str, Any]]:
         """The total reward (N,) and each reward term's weighted value by name."""

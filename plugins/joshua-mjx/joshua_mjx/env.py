@@ -62,10 +62,14 @@ class EnvState(NamedTuple):
 
     data: mjx.Data
     observation: jax.Array  # (N, obs) float32: what the policy sees next (a new episode's first one after autoreset)
+    # the same without the observation noise, for a value network (asymmetric actor-critic); None when the task
+    # adds no noise
+    value_observation: jax.Array | None
     reward: jax.Array  # (N,) float32 reward of the last step
     terminated: jax.Array  # (N,) bool: the last step ended the episode (task termination or a non-finite state)
     truncated: jax.Array  # (N,) bool: the last step reached the episode length
     final_observation: jax.Array  # (N, obs) the last step's observation before any autoreset
+    final_value_observation: jax.Array | None  # and without its noise (None as value_observation)
     action: jax.Array  # (N, nu) the last clipped action (zero after a reset)
     episode_step: jax.Array  # (N,) int32 steps taken in the current episode
     commands: dict[str, jax.Array]  # task commands (targets, goals) of the current episode
@@ -159,15 +163,19 @@ class MjxEnv:
         n = self.num_envs
         zeros = jnp.zeros(n, jnp.float32)
         action = jnp.zeros((n, self.action_size), jnp.float32)
-        observation = self._observe(data, data.qpos, action, action, episode_step, commands, params)
+        observation, value_observation = self._observe(
+            self._context(data, data.qpos, action, action, episode_step, commands, params)
+        )
         sums = EpisodeSums.zeros(jnp, self.task, n, jnp.float32)
         return EnvState(
             data=data,
             observation=observation,
+            value_observation=value_observation,
             reward=zeros,
             terminated=jnp.zeros(n, bool),
             truncated=jnp.zeros(n, bool),
             final_observation=observation,
+            final_value_observation=value_observation,
             action=action,
             episode_step=episode_step,
             commands=commands,
@@ -211,7 +219,7 @@ class MjxEnv:
         ctx = self._context(data, state.data.qpos, action, state.action, episode_step, state.commands, params)
         outcome = account_step(task, ctx, nonfinite(jnp, data.qpos, data.qvel), state.sums, jnp.float32)
         done = outcome.episode.done
-        final_observation = jnp.nan_to_num(task.observe(ctx).astype(jnp.float32), posinf=0.0, neginf=0.0)
+        final_observation, final_value_observation = self._observe(ctx)
 
         data = _where_env(done, state.start, data)  # autoreset
         commands = _where_env(done, state.start_commands, state.commands)
@@ -221,14 +229,18 @@ class MjxEnv:
         previous_action = jnp.where(done[:, None], 0.0, state.action)
         episode_step = jnp.where(done, 0, episode_step)
         previous_qpos = jnp.where(done[:, None], data.qpos, state.data.qpos)
-        observation = self._observe(data, previous_qpos, action, previous_action, episode_step, commands, params)
+        observation, value_observation = self._observe(
+            self._context(data, previous_qpos, action, previous_action, episode_step, commands, params)
+        )
         return EnvState(
             data=data,
             observation=observation,
+            value_observation=value_observation,
             reward=outcome.reward,
             terminated=outcome.terminated,
             truncated=outcome.truncated,
             final_observation=final_observation,
+            final_value_observation=final_value_observation,
             action=action,
             episode_step=episode_step,
             commands=commands,
@@ -302,9 +314,15 @@ class MjxEnv:
             **derived,
         )
 
-    def _observe(self, data: mjx.Data, *context: Any) -> jax.Array:
-        observation = self.task.observe(self._context(data, *context)).astype(jnp.float32)
-        return jnp.nan_to_num(observation, posinf=0.0, neginf=0.0)
+    def _observe(self, ctx: TermContext) -> tuple[jax.Array, jax.Array | None]:
+        """The policy's observation and, where the task adds observation noise, the value network's (without it;
+        XLA computes the terms once for both)."""
+
+        def finite(noise: bool) -> jax.Array:
+            observation = self.task.observe(ctx, noise).astype(jnp.float32)
+            return jnp.nan_to_num(observation, posinf=0.0, neginf=0.0)
+
+        return finite(True), finite(False) if self.task.noisy_observations else None
 
 
 class _PerEnvRandom:

@@ -93,3 +93,25 @@ def test_mjx_recomputes_the_inverse_weights_mj_setconst_derives() -> None:
         expected = simulation.batch.expanded(name)  # mj_setConst of each simulation, per simulation
         np.testing.assert_allclose(np.asarray(drawn[name]), expected, rtol=2e-4, atol=1e-6)
         assert not np.allclose(expected, getattr(env.model, name)[None], rtol=1e-2)  # they did change
+
+
+NOISE = """
+events { name: "noise" term: "observation_noise" mode: INTERVAL interval_steps: 1 params { key: "std" value: "0.5" } }
+"""
+
+
+def test_the_value_observation_is_the_observation_without_its_noise() -> None:
+    plain = make_mjx_env(TASK, ENVS, model_path=MODEL)
+    noisy = make_mjx_env(TASK, ENVS, model_path=MODEL, task_config=text_format.Parse(NOISE, TaskConfig()))
+    states = [env.reset(jax.random.PRNGKey(3)) for env in (plain, noisy)]
+    assert states[0].value_observation is None and states[0].final_value_observation is None  # nothing to hide
+    for action in _actions():
+        states = [
+            env.step(state, jnp.asarray(action, jnp.float32)) for env, state in zip((plain, noisy), states, strict=True)
+        ]
+        clean, noise = np.asarray(states[1].value_observation), np.asarray(states[1].params["obs_noise"])
+        # the noise changes what the policy sees, not the physics: the clean view is the noise-free task's
+        np.testing.assert_allclose(clean, np.asarray(states[0].observation), rtol=1e-5, atol=1e-5)
+        np.testing.assert_allclose(np.asarray(states[1].observation) - clean, noise, rtol=1e-5, atol=1e-5)
+        np.testing.assert_allclose(np.asarray(states[1].final_value_observation), clean, rtol=1e-5, atol=1e-5)
+        assert 0.3 < noise.std() < 0.7

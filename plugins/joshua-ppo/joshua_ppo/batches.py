@@ -1,4 +1,9 @@
-"""What one iteration collects and learns from: transitions as stepped, and the two forms minibatches take."""
+"""What one iteration collects and learns from: transitions as stepped, and the two forms minibatches take.
+
+`value_observation` is what a separate value network sees: the observation without the noise the task adds
+to the policy's (an asymmetric actor-critic); None when the task adds none or the value network shares the
+policy's trunk, and the value network then sees `observation`.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +16,7 @@ class Transition(NamedTuple):
     """One step of every environment (time-major when stacked over an unroll)."""
 
     observation: jax.Array
+    value_observation: jax.Array | None
     action: jax.Array
     log_prob: jax.Array
     value: jax.Array
@@ -24,6 +30,7 @@ class Sample(NamedTuple):
     """One transition with its advantage and value target, computed when it was collected."""
 
     observation: jax.Array
+    value_observation: jax.Array | None
     action: jax.Array
     log_prob: jax.Array
     advantage: jax.Array
@@ -37,6 +44,7 @@ class Unroll(NamedTuple):
     """
 
     observation: jax.Array
+    value_observation: jax.Array | None
     action: jax.Array
     log_prob: jax.Array
     reward: jax.Array
@@ -44,3 +52,4 @@ class Unroll(NamedTuple):
     truncated: jax.Array
     final_value: jax.Array
     last_observation: jax.Array  # (obs,): after the unroll's last step, to bootstrap from
+    last_value_observation: jax.Array | None

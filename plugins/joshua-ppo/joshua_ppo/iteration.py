@@ -77,19 +77,33 @@ class _Iteration:
         self.reward_terms = [term.name for term in env.task.reward_terms]
         self.metric_terms = [term.name for term in env.task.metric_terms]
 
-    def apply(self, params: Any, stats: RunningStatistics, observation: jax.Array) -> tuple[jax.Array, ...]:
-        return self.net.apply({"params": params}, normalize(stats, observation, self.network.normalize_observations))
+    def apply(
+        self, params: Any, stats: RunningStatistics, observation: jax.Array, value_observation: jax.Array | None
+    ) -> tuple[jax.Array, ...]:
+        """(mean, log_std, value); the value of `value_observation` where given (one normaliser for both)."""
+        inputs = [x for x in (observation, value_observation) if x is not None]
+        return self.net.apply(
+            {"params": params}, *(normalize(stats, x, self.network.normalize_observations) for x in inputs)
+        )
+
+    def value_view(self, value_observation: jax.Array | None) -> jax.Array | None:
+        """What the value network sees apart from the policy: the environment's observation without noise, for
+        a separate value network (a shared trunk sees the policy's observation)."""
+        return value_observation if self.network.value_hidden_sizes else None
 
     def env_step(self, carry: Carry, key: jax.Array) -> tuple[Carry, tuple[Transition, Metrics]]:
         env_state, params, stats = carry
         # outputs never read (the policy on the final observation; with recompute_advantages, the value on the
         # observation) are dropped when JAX traces the iteration: tests/test_iteration_work.py counts the rest
-        mean, log_std, value = self.apply(params, stats, env_state.observation)
+        value_observation = self.value_view(env_state.value_observation)
+        mean, log_std, value = self.apply(params, stats, env_state.observation, value_observation)
         action = mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape)
         next_state = self.env.step(env_state, env_actions(action, self.network))
-        _, _, final_value = self.apply(params, stats, next_state.final_observation)
+        final = (next_state.final_observation, self.value_view(next_state.final_value_observation))
+        _, _, final_value = self.apply(params, stats, *final)
         transition = Transition(
             observation=env_state.observation,
+            value_observation=value_observation,
             action=action,
             log_prob=gaussian_log_prob(action, mean, log_std),
             value=value,
@@ -107,27 +121,30 @@ class _Iteration:
         carry, (steps, sums) = jax.lax.scan(self.env_step, carry, jax.random.split(key, self.rollout.num_steps))
         env_state, params, stats = carry
         sums = jax.tree.map(lambda x: x.sum(axis=0), sums)
+        last = (env_state.observation, self.value_view(env_state.value_observation))
         if self.recompute:
-            fields = {name: getattr(steps, name) for name in Unroll._fields[:-1]}
+            fields = {name: getattr(steps, name) for name in Unroll._fields[:-2]}
             batch_major = jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), fields)
-            return carry, (Unroll(**batch_major, last_observation=env_state.observation), sums)
-        _, _, last_value = self.apply(params, stats, env_state.observation)
+            return carry, (Unroll(**batch_major, last_observation=last[0], last_value_observation=last[1]), sums)
+        _, _, last_value = self.apply(params, stats, *last)
         advantage, target = estimate_advantages(self.returns, steps.value, last_value, steps)
-        return carry, (Sample(steps.observation, steps.action, steps.log_prob, advantage, target), sums)
+        sample = Sample(steps.observation, steps.value_observation, steps.action, steps.log_prob, advantage, target)
+        return carry, (sample, sums)
 
     def current_advantages(
         self, params: Any, stats: RunningStatistics, batch: Unroll, value: jax.Array
     ) -> tuple[jax.Array, jax.Array]:
         """A minibatch of unrolls' advantages and targets (batch-major) from the current value network."""
-        _, _, last_value = self.apply(params, stats, batch.last_observation)
-        time_major = jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), batch._replace(last_observation=None))
+        _, _, last_value = self.apply(params, stats, batch.last_observation, batch.last_value_observation)
+        unrolled = batch._replace(last_observation=None, last_value_observation=None)
+        time_major = jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), unrolled)
         advantage, target = estimate_advantages(self.returns, value.T, last_value, time_major)
         return jax.lax.stop_gradient((advantage.T, target.T))
 
     def loss(
         self, params: Any, stats: RunningStatistics, batch: Sample | Unroll, key: jax.Array
     ) -> tuple[jax.Array, Metrics]:
-        mean, log_std, value = self.apply(params, stats, batch.observation)
+        mean, log_std, value = self.apply(params, stats, batch.observation, batch.value_observation)
         if self.recompute:
             advantage, target = self.current_advantages(params, stats, batch, value)
         else:

@@ -68,10 +68,11 @@ class SeparateActorCritic(nn.Module):
     state_dependent_std: bool = False
 
     @nn.compact
-    def __call__(self, x: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
+    def __call__(self, x: jax.Array, value_x: jax.Array | None = None) -> tuple[jax.Array, jax.Array, jax.Array]:
+        """`value_x`: what the value network sees instead of `x` (the observation without its noise)."""
         policy = _mlp(x, self.policy_hidden_sizes, self.activation)
         mean, log_std = _gaussian_head(self, policy, self.action_dim, self.state_dependent_std)
-        value = nn.Dense(1)(_mlp(x, self.value_hidden_sizes, self.activation))
+        value = nn.Dense(1)(_mlp(x if value_x is None else value_x, self.value_hidden_sizes, self.activation))
         return mean, log_std, value[..., 0]
 
 

@@ -159,6 +159,7 @@ def test_both_advantage_estimators_match_their_definitions() -> None:
     truncated[3, 1] = True
     steps = Transition(
         observation=None,
+        value_observation=None,
         action=None,
         log_prob=None,
         value=value,
