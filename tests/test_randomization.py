@@ -61,6 +61,11 @@ def test_the_randomized_preset_builds_and_draws_within_its_ranges() -> None:
         (event("n", "observation_noise", "INTERVAL", 0), "needs interval_steps of at least 1"),
         (event("n", "observation_noise", "MODE_UNSPECIFIED"), "set `mode` to RESET or INTERVAL"),
         (event("a", "action_delay", range="[0, 1.5]"), "whole numbers of steps"),
+        (
+            event("n", "observation_noise", "INTERVAL", 1, terms='["cube_ofset"]'),
+            "event 'n', parameter 'terms': the task has no observation term 'cube_ofset'. Did you mean: cube_offset",
+        ),
+        (event("n", "observation_noise", "INTERVAL", 1, terms='"cube_offset"'), "a list of observation term names"),
         (event("x", "randomize_mass"), "randomize_body_mass"),
     ],
 )
@@ -115,6 +120,20 @@ def test_interval_events_fire_every_n_steps_and_pushes_last_one_step() -> None:
     assert active == [5, 10]  # drawn on steps 5 and 10, applied during the next one, then cleared
     cube_x = env.simulation.qpos[:, 6 + 0]
     assert (cube_x > quiet.simulation.qpos[:, 6] + 1e-4).all()  # 2 N along +x for 0.02 s moved the cube
+
+
+def test_observation_noise_per_group_of_terms() -> None:
+    """One event per group of observation terms, each with its own std; the terms named in neither stay clean."""
+    text = NO_RESET_NOISE + event("n1", "observation_noise", "INTERVAL", 1, std="0.1", terms='["joint_pos"]')
+    text += event("n2", "observation_noise", "INTERVAL", 1, std="0.01", terms='["cube_offset", "goal_offset"]')
+    env, quiet = env_with(text, 64), env_with(NO_RESET_NOISE, 64)
+    noisy, *_ = env.step(np.zeros((64, 6)))
+    clean, *_ = quiet.step(np.zeros((64, 6)))
+    noise = noisy - clean  # joint_pos 0-5, joint_vel 6-11, servo_error 12-17, cube_offset 18-20, goal_offset 21-23
+    assert 0.08 < noise[:, :6].std() < 0.12
+    assert 0.008 < noise[:, 18:24].std() < 0.012
+    np.testing.assert_allclose(noise[:, 6:18], 0.0, atol=1e-9)
+    np.testing.assert_allclose(noise[:, 24:], 0.0, atol=1e-9)
 
 
 def test_desynchronised_first_episodes_end_in_every_stretch_of_steps() -> None:

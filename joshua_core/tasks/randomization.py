@@ -22,13 +22,15 @@ Bad ranges and names fail when the task is built. docs/tasks.md#domain-randomiza
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
+from joshua_core.errors import ConfigError
 from joshua_core.tasks.context import TermContext, set_columns
 from joshua_core.tasks.handles import Actuators, Bodies, Body, Geoms, Joints
 
@@ -69,6 +71,55 @@ class Range:
         if low > high:
             raise ValueError(f"the range {list(value)} is inverted (low > high)")
         return cls(low, high)
+
+
+@dataclass(frozen=True)
+class ObservationTerms:
+    """Observation terms by name, given in configs as a list of names (none: the whole observation).
+    `columns`, the observation entries they fill, are set when the task is built (`with_observation_columns`)."""
+
+    names: tuple[str, ...] = ()
+    columns: tuple[int, ...] | None = None
+
+    @classmethod
+    def parse(cls, value: Any) -> ObservationTerms:
+        """The ObservationTerms of a list of names; ValueError for anything else."""
+        if isinstance(value, ObservationTerms):
+            return value
+        if not isinstance(value, Sequence) or isinstance(value, str) or not all(isinstance(v, str) for v in value):
+            raise ValueError(f"expected a list of observation term names, got {value!r}")
+        return cls(tuple(value))
+
+    def resolved(self, layout: Sequence[tuple[str, int]]) -> ObservationTerms:
+        """These terms with their columns, from the observation's layout ((name, width) of each observation
+        term, in order); ValueError naming the close names and all names for an unknown one."""
+        names = [name for name, _ in layout]
+        for name in self.names:
+            if name not in names:
+                close = difflib.get_close_matches(name, names, n=3)
+                hint = f" Did you mean: {', '.join(close)}?" if close else ""
+                raise ValueError(f"the task has no observation term '{name}'.{hint} Its terms: {', '.join(names)}")
+        starts = np.cumsum([0, *(width for _, width in layout)])
+        columns = [
+            int(start) + k
+            for (name, width), start in zip(layout, starts, strict=False)
+            if not self.names or name in self.names
+            for k in range(width)
+        ]
+        return replace(self, columns=tuple(columns))
+
+
+def with_observation_columns(task: str, event: Any, layout: Sequence[tuple[str, int]]) -> Any:
+    """The bound event term with each ObservationTerms parameter's columns set from the observation's layout;
+    ConfigError for an unknown term name."""
+    params = dict(event.params)
+    for name, value in event.params.items():
+        if isinstance(value, ObservationTerms):
+            try:
+                params[name] = value.resolved(layout)
+            except ValueError as error:
+                raise ConfigError(f"task '{task}': event '{event.name}', parameter '{name}': {error}") from None
+    return replace(event, params=params)
 
 
 def default_params(model: Any, observation_size: int) -> dict[str, np.ndarray]:
@@ -274,17 +325,26 @@ def randomize_joint_offset(
     return _written(ctx, "ctrl_offset", ids, offset)
 
 
-def observation_noise(ctx: TermContext, std: float = 0.01, distribution: str = "gaussian") -> TermContext:
-    """Draw noise added to every observation entry: std x N(0, 1) ("gaussian") or U(-std, std) ("uniform").
-    As an INTERVAL event with interval_steps 1 it is fresh on every step."""
+def observation_noise(
+    ctx: TermContext,
+    std: float = 0.01,
+    distribution: str = "gaussian",
+    terms: ObservationTerms = ObservationTerms(),  # noqa: B008 (frozen: one shared instance is safe)
+) -> TermContext:
+    """Draw noise added to the entries of the observation terms `terms` (default: every entry): std x N(0, 1)
+    ("gaussian") or U(-std, std) ("uniform"). Each event draws its own terms' entries and leaves the others,
+    so one event per group of terms gives each its own std. As an INTERVAL event with interval_steps 1 it is
+    fresh on every step. The policy sees it; a value network may see the observation without it."""
     if not (math.isfinite(std) and std >= 0):
         raise ValueError(f"std must be a finite number >= 0, got {std}")
-    shape = tuple(np.shape(ctx.params["obs_noise"]))
+    if terms.columns is None:
+        raise ValueError("the observation terms' columns are set when the task is built")
+    shape = (ctx.num_envs, len(terms.columns))
     if _choice("distribution", distribution, ("gaussian", "uniform")) == "uniform":
         noise = ctx.random.uniform(shape, -std, std)  # type: ignore[union-attr]
     else:
         noise = std * ctx.random.normal(shape)  # type: ignore[union-attr]
-    return ctx.replace(params={**ctx.params, "obs_noise": noise})
+    return _written(ctx, "obs_noise", terms.columns, noise)
 
 
 def action_delay(ctx: TermContext, range: Range = Range(0.0, 0.0)) -> TermContext:  # noqa: A002

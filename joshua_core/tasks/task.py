@@ -24,7 +24,14 @@ from joshua_core.plugins import Kind, PluginHost
 from joshua_core.tasks.actuation import action_mapping, initial_state, keyframe_id
 from joshua_core.tasks.context import STATE_FIELDS, NumpyRandom, TermContext
 from joshua_core.tasks.handles import HANDLE_TYPES, resolve_handle
-from joshua_core.tasks.randomization import Range, action_delay, default_params, tiled
+from joshua_core.tasks.randomization import (
+    ObservationTerms,
+    Range,
+    action_delay,
+    default_params,
+    tiled,
+    with_observation_columns,
+)
 from joshua_core.tasks.spec import TaskSpec, TermKind, TermSpec, with_config
 
 _PROBE_ENVS = 2
@@ -190,7 +197,12 @@ def build_task(task: TaskSpec | str, model: Any, plugins: PluginHost, config: An
         for kind in TermKind
     }
     built = Task(spec, model, terms)
-    built.observation_size, built.fields = _probe(built, model)
+    layout, built.fields = _probe(built, model)
+    built.observation_size = sum(width for _, width in layout)
+    built.reset_events, built.interval_events = (
+        tuple(with_observation_columns(built.name, event, layout) for event in events)
+        for events in (built.reset_events, built.interval_events)
+    )
     built.defaults = default_params(model, built.observation_size)
     built.param_fields, built.interval_fields = _probe_events(built)
     return built
@@ -242,9 +254,9 @@ def _type_hints(function: Callable[..., Any]) -> dict[str, Any]:
 
 def _coerce(where: str, value: Any, default: Any, hint: Any, model: Any) -> Any:
     """Resolve model names for handle parameters and check a value against its default's type."""
-    if hint is Range:
+    if hint in (Range, ObservationTerms):
         try:
-            return Range.parse(value)
+            return hint.parse(value)
         except ValueError as error:
             raise ConfigError(f"{where}: {error}") from None
     if hint in HANDLE_TYPES:
@@ -271,9 +283,10 @@ def _coerce(where: str, value: Any, default: Any, hint: Any, model: Any) -> Any:
     return value
 
 
-def _probe(task: Task, model: Any) -> tuple[int, frozenset[str]]:
-    """Evaluate every term once on a neutral state: check output shapes, measure the observation, and
-    record which state fields the terms read (backends then compute only those)."""
+def _probe(task: Task, model: Any) -> tuple[list[tuple[str, int]], frozenset[str]]:
+    """Evaluate every term once on a neutral state: check output shapes, measure the observation's layout
+    ((name, width) of each observation term, in order), and record which state fields the terms read
+    (backends then compute only those)."""
     read: set[str] = set()
 
     class ProbeContext(TermContext):
@@ -302,13 +315,13 @@ def _probe(task: Task, model: Any) -> tuple[int, frozenset[str]]:
         commands={name: np.zeros((n, size)) for name, size in task.commands.items()},
         random=NumpyRandom(np.random.default_rng(0)),
     )
-    observation_size = 0
+    layout: list[tuple[str, int]] = []
     with np.errstate(all="ignore"):
         for term in task.observation_terms:
             value = _evaluate(task, term, ctx)
             if value.ndim < 1 or value.shape[0] != n:
                 raise ConfigError(_shape_message(task, term, value, "(N,) or (N, k)"))
-            observation_size += int(np.prod(value.shape[1:], dtype=np.int64))
+            layout.append((term.name, int(np.prod(value.shape[1:], dtype=np.int64))))
         for term in task.reward_terms + task.termination_terms + task.metric_terms:
             value = _evaluate(task, term, ctx)
             if value.shape != (n,):
@@ -324,7 +337,7 @@ def _probe(task: Task, model: Any) -> tuple[int, frozenset[str]]:
             for name in ("qpos", "qvel"):
                 if np.shape(getattr(reset_ctx, name)) != np.shape(getattr(ctx, name)):
                     raise ConfigError(f"task '{task.name}': reset term '{term.name}' changed the shape of {name}")
-    return observation_size, frozenset(read)
+    return layout, frozenset(read)
 
 
 def _probe_events(task: Task) -> tuple[tuple[str, ...], frozenset[str]]:
