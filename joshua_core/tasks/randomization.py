@@ -99,10 +99,10 @@ class ObservationTerms:
                 close = difflib.get_close_matches(name, names, n=3)
                 hint = f" Did you mean: {', '.join(close)}?" if close else ""
                 raise ValueError(f"the task has no observation term '{name}'.{hint} Its terms: {', '.join(names)}")
-        starts = np.cumsum([0, *(width for _, width in layout)])
+        starts = np.cumsum([0, *(width for _, width in layout)])[:-1]  # each term's first column
         columns = [
             int(start) + k
-            for (name, width), start in zip(layout, starts, strict=False)
+            for (name, width), start in zip(layout, starts, strict=True)
             if not self.names or name in self.names
             for k in range(width)
         ]
