@@ -432,6 +432,21 @@ def test_servo_error_is_each_target_minus_its_joint(plugins: PluginHost) -> None
     np.testing.assert_allclose(task.observation_terms[-1](ctx), np.full((2, 6), 0.25) + task.initial_ctrl - ctx.qpos)
 
 
+def test_a_saturated_sensor_reads_about_its_reading_inside_the_range_and_never_beyond_it(plugins: PluginHost) -> None:
+    config = 'terms {{ name: "touch" term: "sensor" kind: OBSERVATION {} }}'
+    sensor = 'params { key: "sensor" value: "gripper_touch_fixed" }'
+    task = build_reach(plugins, config.format(f'{sensor} params {{ key: "saturation" value: "100" }}'))
+    adr = task.observation_terms[-1].params["sensor"].adr
+    sensordata = np.zeros((4, adr + 1))
+    sensordata[:, adr] = [0.0, 46.0, 1e4, 1e6]  # none, a grasp, pressing spikes
+    touch = task.observation_terms[-1](task.reset_context(np, 4, None).replace(sensordata=sensordata))[:, 0]
+    assert touch[0] == 0.0 and 42.0 < touch[1] < 46.0 and touch[1] < touch[2] <= touch[3] <= 100.0
+    for bad, shown in (("0", "0"), ("-5", "-5"), ("1e999", "inf")):
+        expected = f"term 'touch'.*saturation must be a positive finite number, got {shown}"
+        with pytest.raises(ConfigError, match=expected):
+            build_reach(plugins, config.format(f'{sensor} params {{ key: "saturation" value: "{bad}" }}'))
+
+
 def test_a_bad_action_config_is_an_error_naming_the_task(plugins: PluginHost) -> None:
     unknown = r"task 'so_arm100_reach': unknown action mode 'relative' \(use ctrl_range, offset, delta\)"
     with pytest.raises(ConfigError, match=unknown):
