@@ -37,7 +37,7 @@ from typing import Any, NamedTuple
 
 import jax
 import numpy as np
-from time_to_target_report import METRICS, plot_curve, summary_lines
+from time_to_target_report import METRICS, normaliser_line, plot_curve, summary_lines
 
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json, json_safe
 from joshua_core.config import apply_override, finalize, load_file, load_preset
@@ -231,6 +231,7 @@ def train(
                 + (f"{metric} {entry['value']:.3f}  " if metric != "return" else "")
                 + f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}  "
                 f"kl {metrics['approx_kl']:.4f}  lr {metrics['learning_rate']:.2e}  "
+                f"vloss {metrics['value_loss']:.3g}  clip {metrics['clip_fraction']:.3f}  "
                 + " ".join(f"{key[7:]} {value:.1f}" for key, value in metrics.items() if key.startswith("reward/")),
                 flush=True,
             )
@@ -239,6 +240,7 @@ def train(
             snapshots.append(
                 ({"step": report.env_steps, "wall": wall}, jax.device_get((state.params, state.normalizer)))
             )
+            print(normaliser_line(env.task.observation_layout, snapshots[-1][1][1].variance))
             stopping = (evaluator is not None and evaluator(snapshots[-1][1])) or stopping
             if keep is not None:
                 seconds = {"wall": wall, "compile": compile_seconds()}

@@ -66,3 +66,13 @@ def summary_lines(outcome: dict[str, Any], metric: str, target: float) -> list[s
             f"{last['episodes']} deterministic episodes), mean return {last['mean_return']:.4g}"
         )
     return lines
+
+
+def normaliser_line(layout: tuple[tuple[str, int], ...], variance: np.ndarray) -> str:
+    """The observation normaliser's standard deviation per observation term (the largest of its entries): a term
+    whose scale jumps between snapshots (contact-force or velocity spikes) shows here."""
+    widths = [width for _, width in layout]
+    stds = np.split(np.sqrt(np.asarray(variance)), np.cumsum(widths)[:-1])
+    return "  normaliser std: " + "  ".join(
+        f"{name} {std.max():.3g}" for (name, _), std in zip(layout, stds, strict=True)
+    )

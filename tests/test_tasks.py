@@ -234,6 +234,10 @@ def test_every_builtin_task_builds_and_reads_only_what_it_needs(plugins: PluginH
     assert sizes["ant_locomotion"] == 105  # Gymnasium Ant-v5: 13 qpos + 14 qvel + 13 bodies x 6 forces
     ant = build_task(BUILTIN_TASKS["ant_locomotion"], compile_model(BUILTIN_TASKS["ant_locomotion"]), plugins)
     assert "cfrc_ext" in ant.fields and "site_xpos" not in ant.fields
+    pick_place = build_task("so_arm100_pick_place", compile_model(BUILTIN_TASKS["so_arm100_pick_place"]), plugins)
+    layout = dict(pick_place.observation_layout)  # (name, width) of each observation term, in order
+    assert [name for name, _ in pick_place.observation_layout] == [t.name for t in pick_place.observation_terms]
+    assert layout["joint_vel"] == 6 and layout["touch_fixed"] == 1 and sum(layout.values()) == sizes[pick_place.name]
 
 
 def task_config(text: str) -> TaskConfig:

@@ -83,6 +83,7 @@ class Task:
             spec, model, self.initial_ctrl
         )
         self.observation_size = 0
+        self.observation_layout: tuple[tuple[str, int], ...] = ()  # (name, width) of each observation term, in order
         self.fields: frozenset[str] = frozenset()
         self.defaults: dict[str, np.ndarray] = {}  # every randomizable quantity's model value
         self.param_fields: tuple[str, ...] = ()  # those the events randomize: backends keep them per env
@@ -198,6 +199,7 @@ def build_task(task: TaskSpec | str, model: Any, plugins: PluginHost, config: An
     }
     built = Task(spec, model, terms)
     layout, built.fields = _probe(built, model)
+    built.observation_layout = tuple(layout)
     built.observation_size = sum(width for _, width in layout)
     built.reset_events, built.interval_events = (
         tuple(with_observation_columns(built.name, event, layout) for event in events)
