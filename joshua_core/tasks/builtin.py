@@ -113,7 +113,7 @@ SO_ARM100_PICK_PLACE = TaskSpec(
         TermSpec("site_to_body", params={"site": "gripper", "body": "cube"}, name="cube_offset"),
         TermSpec("body_to_command", params={"body": "cube", "name": "goal"}, name="goal_offset"),
         TermSpec("body_pos", params={"body": "cube"}, name="cube_position"),
-        # saturated at 100 N (a grasp reads ~46 N): pressing the cube into the table read up to 10^4 N, spikes that
+        # saturated at 100 N (a grasp reads ~46 N): pressing the cube into the table read up to 87 kN, spikes that
         # inflated the normaliser's variance (see terms.sensor)
         TermSpec("sensor", params={"sensor": "gripper_touch_fixed", "saturation": 100.0}, name="touch_fixed"),
         TermSpec("sensor", params={"sensor": "gripper_touch_moving", "saturation": 100.0}, name="touch_moving"),

@@ -147,7 +147,7 @@ def servo_error(ctx: TermContext, actuators: Actuators = ()) -> Any:  # type: ig
 def sensor(ctx: TermContext, sensor: Sensor, saturation: float | None = None) -> Any:
     """Readings of one sensor, (N, dim); with `saturation`, `saturation * tanh(reading / saturation)`: about the
     reading well inside that range, never beyond it, as a real sensor's range ends. A contact force is unbounded
-    in simulation (MJX's pick-and-place pads read ~46 N in a grasp and up to 10^4 N when the jaw presses the cube
+    in simulation (MJX's pick-and-place pads read ~46 N in a grasp and up to 87 kN when the jaw presses the cube
     into the table), and such rare spikes, unsaturated, inflate the observation normaliser's variance until a
     grasp's reading normalises to almost nothing."""
     reading = ctx.sensordata[:, sensor.index]
