@@ -82,12 +82,16 @@ class Task:
         self.ctrl_low, self.ctrl_high, self.ctrl_offset, self.ctrl_scale = action_mapping(
             spec, model, self.initial_ctrl
         )
-        self.observation_size = 0
         self.observation_layout: tuple[tuple[str, int], ...] = ()  # (name, width) of each observation term, in order
         self.fields: frozenset[str] = frozenset()
         self.defaults: dict[str, np.ndarray] = {}  # every randomizable quantity's model value
         self.param_fields: tuple[str, ...] = ()  # those the events randomize: backends keep them per env
         self.interval_fields: frozenset[str] = frozenset()  # those the interval events randomize
+
+    @property
+    def observation_size(self) -> int:
+        """Entries of the observation: the widths of its terms together."""
+        return sum(width for _, width in self.observation_layout)
 
     # --- evaluation (pure functions of the context) ---
 
@@ -200,7 +204,6 @@ def build_task(task: TaskSpec | str, model: Any, plugins: PluginHost, config: An
     built = Task(spec, model, terms)
     layout, built.fields = _probe(built, model)
     built.observation_layout = tuple(layout)
-    built.observation_size = sum(width for _, width in layout)
     built.reset_events, built.interval_events = (
         tuple(with_observation_columns(built.name, event, layout) for event in events)
         for events in (built.reset_events, built.interval_events)
