@@ -23,11 +23,17 @@ def fresh_statistics(size: int) -> RunningStatistics:
     return RunningStatistics(jnp.zeros((), jnp.float32), jnp.zeros(size), jnp.ones(size))
 
 
+def _std(stats: RunningStatistics) -> jax.Array:
+    """The scale `normalize` divides by: the standard deviation, kept above 1e-4 for observations that never
+    changed yet."""
+    return jnp.sqrt(stats.variance + 1e-8)
+
+
 def normalize(stats: RunningStatistics, observation: jax.Array, enabled: bool) -> jax.Array:
     """Observations scaled by the running statistics and clipped (unchanged when normalisation is off)."""
     if not enabled:
         return observation
-    scaled = (observation - stats.mean) / jnp.sqrt(stats.variance + 1e-8)
+    scaled = (observation - stats.mean) / _std(stats)
     return jnp.clip(scaled, -OBSERVATION_CLIP, OBSERVATION_CLIP)
 
 
@@ -38,7 +44,7 @@ def update_statistics(stats: RunningStatistics, observations: jax.Array, axis: s
     its mean, where `normalize` clips anyway: a physics blow-up (an MJX arm thrown at 3000 rad/s, a cube flung
     13 m) adds at most that much to the variance instead of rescaling, once and for good, every observation
     the policy has learned to read."""
-    bound = OBSERVATION_CLIP * jnp.sqrt(stats.variance)
+    bound = OBSERVATION_CLIP * _std(stats)  # not 0 where every observation so far was the same
     clipped = jnp.clip(observations, stats.mean - bound, stats.mean + bound)
     observations = jnp.where(stats.count > 0, clipped, observations)
     batch_count = jax.lax.psum(jnp.asarray(observations.shape[0], jnp.float32), axis)

@@ -35,6 +35,16 @@ def test_a_blow_up_moves_the_statistics_no_further_than_the_clip() -> None:
     batch[7, 0] = 3000.0  # an arm joint thrown by the solver, in rad/s
     merged = updated(stats, batch)
     clipped = batch.copy()
-    clipped[7, 0] = stats.mean[0] + OBSERVATION_CLIP * np.sqrt(stats.variance[0])
+    clipped[7, 0] = stats.mean[0] + OBSERVATION_CLIP * np.sqrt(stats.variance[0] + 1e-8)
     np.testing.assert_allclose(merged.variance, np.concatenate([seen, clipped]).var(axis=0), rtol=1e-4)
     assert merged.variance[0] < 1.2 * stats.variance[0]  # unclipped, the one sample would make it ~820
+
+
+def test_an_observation_that_never_changed_can_still_change() -> None:
+    """A touch sensor that read 0 throughout the first batch: its statistics catch up with the first touches
+    within ten updates (clipped at 10 standard deviations of a variance of 0, they would stay at 0)."""
+    stats = updated(fresh_statistics(1), np.zeros((100, 1)))
+    assert stats.variance[0] == 0.0
+    for _ in range(10):
+        stats = updated(stats, np.full((100, 1), 40.0))
+    assert stats.mean[0] > 5.0 and np.sqrt(stats.variance[0]) > 5.0
