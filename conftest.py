@@ -1,12 +1,15 @@
-"""Settings and fixtures for every test run, core and plugins alike: SIGINT for child processes, and a
-real X server (Xvfb) with screenshots of it, for the tests of the viewers."""
+"""Settings and fixtures for every test run, core and plugins alike: SIGINT for child processes, one JAX
+compilation cache per run, and a real X server (Xvfb) with screenshots of it, for the tests of the viewers."""
 
 from __future__ import annotations
 
+import os
 import shutil
 import signal
 import struct
 import subprocess
+import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -25,6 +28,24 @@ def pytest_configure(config: pytest.Config) -> None:
     """
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+    _share_compiled_programs(config)
+
+
+def _share_compiled_programs(config: pytest.Config) -> None:
+    """Let this run's tests and the processes they start reuse what JAX compiled for one another.
+
+    Many tests compile the same program (an MJX scene's step, a training iteration of the same small config,
+    each `joshua train` or `joshua eval` process anew): on two CPU cores that compiling was most of the run.
+    The cache lives in a folder of this run's own, removed at its end, so every run starts cold, as CI does;
+    a JAX_COMPILATION_CACHE_DIR already set is kept.
+    """
+    if "JAX_COMPILATION_CACHE_DIR" in os.environ:
+        return
+    folder = tempfile.mkdtemp(prefix="joshua-tests-jax-cache-")
+    os.environ["JAX_COMPILATION_CACHE_DIR"] = folder  # read by jax when imported, here and in child processes
+    if "jax" in sys.modules:  # imported already (by a plugin of pytest's): tell it too
+        sys.modules["jax"].config.update("jax_compilation_cache_dir", folder)
+    config.add_cleanup(lambda: shutil.rmtree(folder, ignore_errors=True))
 
 
 def _free_display_number() -> int:
