@@ -4,15 +4,14 @@ compilation cache per run, and a real X server (Xvfb) with screenshots of it, fo
 from __future__ import annotations
 
 import os
+import select
 import shutil
 import signal
 import struct
 import subprocess
 import sys
 import tempfile
-import time
 from collections.abc import Callable, Iterator
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -49,30 +48,28 @@ def _share_compiled_programs(config: pytest.Config) -> None:
     config.add_cleanup(lambda: shutil.rmtree(folder, ignore_errors=True))
 
 
-def _free_display_number() -> int:
-    for number in range(90, 200):
-        if not Path(f"/tmp/.X{number}-lock").exists() and not Path(f"/tmp/.X11-unix/X{number}").exists():
-            return number
-    raise RuntimeError("no free X display number between :90 and :199")
-
-
 @pytest.fixture(scope="module")
 def xvfb() -> Iterator[str]:
     """A running Xvfb (1024x768, 24 bit); yields its DISPLAY. setup.sh --dev installs it, so it must exist."""
     executable = shutil.which("Xvfb")
     assert executable, "Xvfb is not installed; ./setup.sh --dev installs it (Debian package xvfb)"
-    number = _free_display_number()
-    server = subprocess.Popen(
-        [executable, f":{number}", "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+    read_end, write_end = os.pipe()
+    server = subprocess.Popen(  # -displayfd: Xvfb takes the first free display (its lock files settle races
+        # between runs and between pytest-xdist workers) and writes its number to write_end
+        [executable, "-displayfd", str(write_end), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
+        pass_fds=(write_end,),
     )
-    socket = Path(f"/tmp/.X11-unix/X{number}")
-    deadline = time.monotonic() + 20
-    while not socket.exists():
-        assert server.poll() is None, f"Xvfb :{number} exited: {server.stderr.read().decode() if server.stderr else ''}"
-        assert time.monotonic() < deadline, f"Xvfb :{number} did not start within 20 s"
-        time.sleep(0.05)
+    os.close(write_end)
+    with os.fdopen(read_end) as announced:
+        ready, _, _ = select.select([announced], [], [], 20)
+        line = announced.readline() if ready else ""
+    if not line.strip().isdigit():
+        server.kill()
+        reason = server.stderr.read().decode() if server.stderr else ""
+        pytest.fail(f"Xvfb did not announce a display within 20 s: {reason.strip()}", pytrace=False)
+    number = int(line)
     try:
         yield f":{number}"
     finally:

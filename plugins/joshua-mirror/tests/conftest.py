@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import random
 import signal
 import subprocess
@@ -16,7 +17,18 @@ import pytest
 from joshua_mirror.ros import local_only_environment
 
 PUBLISHER = Path(__file__).with_name("publisher.py")
-DOMAIN_ID = random.randint(1, 100)  # one per test run
+
+
+def _domain_id() -> int:
+    """This process's ROS domain, 1-100: random per test run, and apart for each pytest-xdist worker of a run
+    (xdist gives all workers of a run one PYTEST_XDIST_TESTRUNUID and each its own PYTEST_XDIST_WORKER, gwN)."""
+    run = os.environ.get("PYTEST_XDIST_TESTRUNUID")
+    first = int(run, 16) if run else random.randrange(100)
+    worker = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw"))
+    return 1 + (first + worker) % 100
+
+
+DOMAIN_ID = _domain_id()
 
 
 @pytest.fixture
