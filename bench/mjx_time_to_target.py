@@ -236,7 +236,7 @@ def train(
                 flush=True,
             )
         if stopping or (snapshot_interval > 0 and report.iteration % snapshot_interval == 0):
-            # a host copy: the state's buffers are donated to the next iteration
+            # a host copy, off the device's memory
             snapshots.append(
                 ({"step": report.env_steps, "wall": wall}, jax.device_get((state.params, state.normalizer)))
             )

@@ -26,6 +26,7 @@ import sys
 import time
 from typing import Any
 
+COMPILER_OPTIONS = "PPO_ITERATION_COMPILER_OPTIONS"  # a variant's JSON for GPU_COMPILER_OPTIONS
 # name -> environment the variant's process runs with (added to this one's)
 VARIANTS: dict[str, dict[str, str]] = {
     "default": {},
@@ -34,6 +35,8 @@ VARIANTS: dict[str, dict[str, str]] = {
     "bfloat16 products": {"JAX_DEFAULT_MATMUL_PRECISION": "bfloat16"},
     "full float32 products": {"JAX_DEFAULT_MATMUL_PRECISION": "float32"},
     "XLA command buffers off": {"XLA_FLAGS": "--xla_gpu_enable_command_buffer="},
+    # joshua_ppo.iteration.GPU_COMPILER_OPTIONS (which the iteration's compilation applies over XLA_FLAGS) replaced
+    "serial command buffers (XLA's default)": {COMPILER_OPTIONS: '{"xla_gpu_command_buffer_scheduling_mode": "LHS"}'},
 }
 
 
@@ -67,6 +70,10 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
     import jax
     from mjx_time_to_target import SMOKE, load_config, raw_physics_rate
 
+    if COMPILER_OPTIONS in os.environ:
+        import joshua_ppo.iteration
+
+        joshua_ppo.iteration.GPU_COMPILER_OPTIONS = json.loads(os.environ[COMPILER_OPTIONS])
     started = time.perf_counter()
     env, settings, state, compiled = compiled_iteration(load_config(args.preset, SMOKE if args.smoke else [], None))
     result = {"compile_seconds": time.perf_counter() - started}

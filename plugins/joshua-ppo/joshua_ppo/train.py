@@ -98,15 +98,19 @@ def train_ppo(
     if resume is None and on_checkpoint is not None:
         on_checkpoint(state, progress, None)
     next_checkpoint = progress.env_steps + checkpoint_interval if checkpoint_interval > 0 else None
-    for _ in range(iterations):
-        iteration_started = time.perf_counter()
-        # every iteration's episodes start from fresh draws of the task's reset terms
-        state = state._replace(env_state=env.redraw_starts(state.env_state))
-        candidate, metrics = compiled(state)
+    # one iteration ahead: the next is queued on the device before this one's metrics are read, so the device
+    # never waits for the host (reading metrics, reporting, checkpoints, dispatching; 4 ms of a 175 ms iteration
+    # of tuned Ant on an H200). The iteration does not donate its input, so each state stays readable for the
+    # callbacks after its successor was queued
+    pending = _queue(env, compiled, state) if iterations else None
+    last_read = time.perf_counter()
+    for number in range(iterations):
+        state, metrics = pending  # the previous state is let go before the next iteration's outputs are made
+        pending = _queue(env, compiled, state) if number + 1 < iterations else None
         values = {name: float(value) for name, value in jax.device_get(metrics).items()}
         _check_finite(values, progress)
-        state = candidate
-        elapsed = time.perf_counter() - iteration_started
+        read = time.perf_counter()
+        elapsed, last_read = read - last_read, read
         progress = Progress(progress.iteration + 1, progress.env_steps + steps_per_iteration)
         report = IterationReport(
             iteration=progress.iteration,
@@ -129,6 +133,12 @@ def train_ppo(
         if stopping:
             break
     return state, progress
+
+
+def _queue(env: JaxEnv, compiled: Callable, state: TrainingState) -> tuple[TrainingState, dict[str, jax.Array]]:
+    """Queue an iteration from `state` on the device; every iteration's episodes start from fresh draws of the
+    task's reset terms."""
+    return compiled(state._replace(env_state=env.redraw_starts(state.env_state)))
 
 
 def _check_finite(values: dict[str, float], progress: Progress) -> None:

@@ -103,7 +103,7 @@ def test_the_kl_guard_measures_the_policy_change_alone(env: MjxEnv) -> None:
         state = init_state(env, seed=0, network=network, optimization=optimization)
         returns = ReturnSettings()
         iteration = make_iteration(env, rollout=ROLLOUT, optimization=optimization, returns=returns, network=network)
-        before = np.asarray(state.normalizer.mean)  # the state's buffers are donated to the iteration
+        before = np.asarray(state.normalizer.mean)
         next_state, metrics = iteration(state)
         assert not np.allclose(next_state.normalizer.mean, before)  # updated in both
         kls.append(abs(float(metrics["approx_kl"])))
