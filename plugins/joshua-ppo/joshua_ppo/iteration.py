@@ -40,8 +40,8 @@ from joshua_ppo.state import TrainingState, state_shardings
 
 # XLA runs the kernels of a loop body as one CUDA graph (a command buffer), by default one after another; here
 # only their data dependencies order them. A gradient step's policy and value passes are two chains of small
-# kernels that fill a GPU only together: tuned Ant on one H200 went from 1.67 to 1.91 M env steps/s
-# (bench/ppo_iteration_rate.py, docs/training-mjx.md)
+# kernels that fill a GPU only together: tuned Ant on one H200 went from 1.66-1.67 to 1.85-1.91 M env steps/s,
+# pick-and-place from 230 to 246 k (bench/ppo_iteration_rate.py, docs/training-mjx.md)
 GPU_COMPILER_OPTIONS = {"xla_gpu_command_buffer_scheduling_mode": "CONCURRENT"}
 Carry = tuple[Any, Any, RunningStatistics]  # (environments or optimiser state, params, normaliser) in scans
 Metrics = dict[str, jax.Array]
