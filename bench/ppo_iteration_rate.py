@@ -7,13 +7,13 @@
 XLA reads its flags and JAX its default precision when the backend starts, so each variant runs in a
 process of its own: it compiles the preset's training iteration on one device (as the trainer does), runs
 --warmup iterations, then times --iterations more, dispatched back to back: the compiled iteration alone,
-which is what the variants change (the trainer's loop adds, per iteration, `redraw_starts`, one
-`mjx.forward` over the batch, and a wait for the iteration's metrics). Each process also measures raw
-physics (`vmap(mjx.step)` on the same batch) under its own flags, since a flag may speed the physics too.
-Prints each variant's env steps/s, its ratio to the default measured in the same run, and the share of
-raw physics it reaches: of the default's and of its own. What the figures said
-for tuned Ant is in docs/training-mjx.md: the update is bound by its many small kernels, not by its
-matrix products.
+which is what the variants change; then `train_ppo`'s own loop (which adds, per iteration, `redraw_starts`,
+one `mjx.forward` over the batch, and reading the iteration's metrics, one iteration ahead). Each process
+also measures raw physics (`vmap(mjx.step)` on the same batch) under its own flags, since a flag may speed
+the physics too. Prints each variant's env steps/s, its ratio to the default measured in the same run, and
+the share of raw physics it reaches: of the default's and of its own; and the loop's rate. What the figures
+said for tuned Ant is in docs/training-mjx.md: the update is bound by its many small kernels, not by its
+matrix products, and its policy and value passes run side by side.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from typing import Any
 
@@ -74,6 +75,9 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
         import joshua_ppo.iteration
 
         joshua_ppo.iteration.GPU_COMPILER_OPTIONS = json.loads(os.environ[COMPILER_OPTIONS])
+    # train_ppo's loop, timed after the compiled iteration alone, compiles the same program: from this cache
+    jax.config.update("jax_compilation_cache_dir", tempfile.mkdtemp(prefix="ppo-iteration-rate-"))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
     started = time.perf_counter()
     env, settings, state, compiled = compiled_iteration(load_config(args.preset, SMOKE if args.smoke else [], None))
     result = {"compile_seconds": time.perf_counter() - started}
@@ -86,7 +90,32 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
     seconds = (time.perf_counter() - started) / args.iterations
     env_steps = env.num_envs * settings.rollout.num_steps * settings.rollout.unrolls_per_iteration
     raw = raw_physics_rate(env) / env.task.frame_skip
-    return result | {"env_steps_per_second": env_steps / seconds, "iteration_ms": seconds * 1e3, "raw": raw}
+    loop = loop_seconds(env, settings, args.warmup, args.iterations)
+    return result | {
+        "env_steps_per_second": env_steps / seconds,
+        "iteration_ms": seconds * 1e3,
+        "loop_env_steps_per_second": env_steps / loop,
+        "raw": raw,
+    }
+
+
+def loop_seconds(env: Any, settings: Any, warmup: int, iterations: int) -> float:
+    """Seconds per iteration of `train_ppo`'s own loop (start draws, the iteration, its metrics read, one
+    iteration ahead), over `iterations` after `warmup`; its compilation is a hit of the cache `measure` set."""
+    from joshua_ppo.train import train_ppo
+
+    done: list[float] = []
+    steps = env.num_envs * settings.rollout.num_steps * settings.rollout.unrolls_per_iteration
+    train_ppo(
+        env,
+        rollout=settings.rollout,
+        optimization=settings.optimization,
+        returns=settings.returns,
+        network=settings.network,
+        total_timesteps=steps * (warmup + iterations),
+        on_progress=lambda report, state: done.append(time.perf_counter()),
+    )
+    return (done[-1] - done[warmup - 1]) / iterations
 
 
 def run_variant(args: argparse.Namespace, name: str) -> dict[str, float]:
@@ -113,6 +142,8 @@ def main() -> int:
     parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU)")
     parser.add_argument("--measure", action="store_true", help=argparse.SUPPRESS)  # a variant's own process
     args = parser.parse_args()
+    if args.warmup < 1:
+        parser.error("--warmup must be at least 1 (train_ppo's loop is timed from the end of a warm-up iteration)")
     if args.measure:
         print(json.dumps(measure(args)))
         return 0
@@ -129,6 +160,8 @@ def main() -> int:
             f"  {name:32s} {rate:>12,.0f} env steps/s  {result['iteration_ms']:7.1f} ms/iteration  "
             f"x{rate / default['env_steps_per_second']:.3f}  {rate / default['raw']:6.1%} of raw physics "
             f"({rate / result['raw']:.1%} of its own, {result['raw']:,.0f} env steps/s)  "
+            f"train_ppo's loop {result['loop_env_steps_per_second']:,.0f} env steps/s "
+            f"({result['loop_env_steps_per_second'] / result['raw']:.1%} of its own raw physics)  "
             f"compile {result['compile_seconds']:.0f} s"
         )
     return 0
