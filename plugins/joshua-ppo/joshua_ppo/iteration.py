@@ -261,11 +261,11 @@ def make_iteration(
         return TrainingState(params, opt_state, stats, steps.empty_leaves.rebuild(filled), key), metrics
 
     # explicit output shardings: XLA would otherwise replicate the empty per-env arrays (act, plugin_state)
-    # and the next call would no longer match the compiled input shardings. The input is not donated:
-    # train_ppo reads a state after queuing the next iteration from it
+    # and the next call would no longer match the compiled input shardings
     on_gpu = env.mesh.devices.flat[0].platform in ("gpu", "cuda", "rocm")
     return jax.jit(
         iteration,
+        donate_argnums=0,
         out_shardings=(state_shardings(env), env.replicated),
         compiler_options=GPU_COMPILER_OPTIONS if on_gpu else None,
     )
