@@ -13,13 +13,15 @@ from __future__ import annotations
 import re
 from collections import Counter
 
+import jax.numpy as jnp
+import numpy as np
 import pytest
 
 from joshua_core.config_pb2 import TaskConfig
 from joshua_mjx.env import MjxEnv, make_mjx_env
-from joshua_ppo.iteration import make_iteration
+from joshua_ppo.iteration import _Iteration, make_iteration
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
-from joshua_ppo.state import abstract_state
+from joshua_ppo.state import abstract_state, init_state
 
 ENVS, STEPS = 12, 5
 POLICY, VALUE = 40, 52  # first-layer widths: no MJX array of the Ant has them
@@ -53,7 +55,8 @@ def test_recomputing_advantages_evaluates_only_what_it_uses(env: MjxEnv) -> None
     evaluations = network_evaluations(env, recompute=True, minibatch_size=unrolls * STEPS)
     assert evaluations == {
         ("policy", f"{ENVS}"): 1,  # per env step: the policy on the observation
-        ("value", f"{ENVS}"): 1,  # ... and the value on the final observation alone
+        ("value", f"{ENVS}"): 1,  # ... and the value on the final observation alone (on a step truncating many)
+        ("value", "1"): 1,  # ... or on the one truncated environment gathered (1 in 64, at least 1)
         ("policy", f"{unrolls}x{STEPS}"): 1,  # per minibatch: both networks on its observations
         ("value", f"{unrolls}x{STEPS}"): 1,
         ("value", f"{unrolls}"): 1,  # ... and the value on its unrolls' last observations
@@ -67,6 +70,23 @@ def test_advantages_once_per_iteration_evaluate_only_what_they_use(env: MjxEnv) 
         ("policy", f"{ENVS}"): 1,  # per env step: the policy on the observation
         # per env step the value on the observation and on the final observation, per unroll on its last
         ("value", f"{ENVS}"): 3,
+        ("value", "1"): 1,  # ... the final observation's on the one truncated environment gathered
         ("policy", f"{minibatch}"): 1,  # per minibatch: both networks on its observations
         ("value", f"{minibatch}"): 1,
     }, evaluations
+
+
+@pytest.mark.parametrize("truncated", [[], [5], [0, 3, 7]])
+def test_final_values_are_the_value_network_s_where_episodes_were_truncated(env: MjxEnv, truncated: list[int]) -> None:
+    """Gathered (one truncated environment: final_rows is 1 of 12) or over every environment (more), the final
+    values of truncated episodes are the value network's on their final observations."""
+    optimization = OptimizationSettings(num_epochs=1, minibatch_size=ENVS)
+    steps = _Iteration(env, RolloutSettings(num_steps=1), optimization, ReturnSettings(), NETWORK)
+    state = init_state(env, seed=0, network=NETWORK, optimization=optimization)
+    stepped = env.step(state.env_state, jnp.full((ENVS, env.action_size), 0.3))
+    mask = jnp.zeros(ENVS, bool).at[jnp.array(truncated, int)].set(True)
+    stepped = stepped._replace(truncated=mask)
+    final = (stepped.final_observation, steps.value_view(stepped.final_value_observation))
+    expected = steps.apply(state.params, state.normalizer, *final)[2]
+    got = steps.final_values(state.params, state.normalizer, stepped)
+    np.testing.assert_allclose(np.where(mask, got, 0.0), np.where(mask, expected, 0.0), rtol=1e-5, atol=1e-6)
