@@ -16,7 +16,7 @@ import pytest
 
 from joshua_core.errors import ConfigError, ModelError
 from joshua_mjx.engine import MjxEngine
-from joshua_mjx.env import make_mjx_env
+from joshua_mjx.env import _where_env, make_mjx_env
 from joshua_mujoco import MuJoCoEngine
 from joshua_mujoco.vector import make_vector_env, task_config_from_options
 
@@ -118,6 +118,27 @@ def test_episodes_restart_from_the_start_state_until_it_is_redrawn(noisy_ant_env
         state = env.step(state, action)
     assert np.asarray(state.truncated).all()
     np.testing.assert_allclose(np.asarray(state.data.qpos), new_starts, atol=1e-6)
+
+
+def test_autoreset_takes_only_what_the_next_step_and_the_terms_read(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
+    """Episodes restarted from part of their start's Data run exactly as from all of it."""
+    config = task_config_from_options({"episode_length": 3})
+    whole = make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", task_config=config)
+    whole._autoreset = lambda done, start, data: _where_env(done, start, data)  # the whole Data, before tracing
+    partial_state = whole_state = noisy_ant_env.reset(jax.random.PRNGKey(3))
+    for action in np.random.default_rng(1).uniform(-1, 1, (6, 4, 8)):  # restarts on steps 3 and 6
+        partial_state = noisy_ant_env.step(partial_state, jnp.asarray(action))
+        whole_state = whole.step(whole_state, jnp.asarray(action))
+        for name in ("observation", "reward", "final_observation"):
+            np.testing.assert_array_equal(
+                np.asarray(getattr(partial_state, name)), np.asarray(getattr(whole_state, name))
+            )
+        for name in ("qpos", "qvel", "qacc_warmstart"):
+            np.testing.assert_array_equal(
+                np.asarray(getattr(partial_state.data, name)), np.asarray(getattr(whole_state.data, name))
+            )
+    assert np.asarray(partial_state.truncated).all()  # just restarted: what the step recomputes was left as it was
+    assert not np.array_equal(np.asarray(partial_state.data.geom_xpos), np.asarray(whole_state.data.geom_xpos))
 
 
 def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> None:
