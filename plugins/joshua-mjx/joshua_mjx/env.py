@@ -8,11 +8,11 @@ with numpy, so rewards and observations match the `mujoco` backend's.
 - Autoreset: an environment whose episode ended (terminated or truncated) starts a new one within
   the same `step`, from its start state `state.start`: the task's reset terms drawn for that
   environment. Of the start's Data it takes what the next `mjx.step` reads (MuJoCo's integration
-  state) and what the task's terms read; the rest the step recomputes. `redraw_starts(state)` draws new start states for every environment (the PPO
-  trainer does before every iteration), so episodes begin from fresh draws without a `mjx.forward`
-  over the whole batch on every step. `state.final_observation` keeps the last observation of the
-  ended episode (for bootstrapping truncated episodes), `state.episode` its return, length,
-  per-term reward sums and final metrics.
+  state) and what the task's terms read; the rest the step recomputes. `redraw_starts(state)` draws
+  new start states for every environment (the PPO trainer does before every iteration), so episodes
+  begin from fresh draws without a `mjx.forward` over the whole batch on every step.
+  `state.final_observation` keeps the last observation of the ended episode (for bootstrapping
+  truncated episodes), `state.episode` its return, length, per-term reward sums and final metrics.
 - Rewards, terminations, truncations and the episode records follow `joshua_core.tasks.episodes`
   (the same code as the `mujoco` backend's): a simulation whose state becomes non-finite is
   terminated with zero reward, never propagated.
@@ -229,7 +229,7 @@ class MjxEnv:
         if self._kinematics_after_step:
             data = self._physics(mjx.kinematics, fields, data)
         if self._contact_forces:
-            data = self._physics(mjx.rne_postconstraint, fields, data)
+            data = self._external_forces(fields, data)
         episode_step = state.episode_step + 1
         params, key = state.params, state.key
         if task.interval_events or "xfrc_applied" in params:
@@ -287,6 +287,12 @@ class MjxEnv:
                 return jax.vmap(function, (None, 0))(self.mjx_model, data)
             return jax.vmap(lambda f, d: function(self.randomization.model(f), d))(fields, data)
 
+    def _external_forces(self, fields: dict[str, jax.Array], data: mjx.Data) -> mjx.Data:
+        """`data` with rne_postconstraint's cfrc_ext (contact and applied forces on each body), which the terms
+        read. Its other outputs (cacc, cfrc_int: two passes over the body tree) are not kept, so XLA drops them."""
+        cfrc_ext = self._physics(mjx.rne_postconstraint, fields, data)._impl.cfrc_ext
+        return data.replace(_impl=data._impl.replace(cfrc_ext=cfrc_ext))
+
     def _autoreset(self, done: jax.Array, start: mjx.Data, data: mjx.Data) -> mjx.Data:
         """`data` with the start state of every environment whose episode ended (`done`): of the start's Data only
         what the next mjx.step reads and what the task's terms read. The rest, which the step recomputes, keeps
@@ -314,7 +320,7 @@ class MjxEnv:
         fields = self.randomization.model_params(params)
         data = self._physics(mjx.forward, fields, data)
         if self._contact_forces:
-            data = self._physics(mjx.rne_postconstraint, fields, data)
+            data = self._external_forces(fields, data)
         return data, {name: value.astype(jnp.float32) for name, value in ctx.commands.items()}, params
 
     def _context(

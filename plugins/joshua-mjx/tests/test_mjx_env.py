@@ -17,6 +17,7 @@ import pytest
 from joshua_core.errors import ConfigError, ModelError
 from joshua_mjx.engine import MjxEngine
 from joshua_mjx.env import _where_env, make_mjx_env
+from joshua_mjx.physics import mjx
 from joshua_mujoco import MuJoCoEngine
 from joshua_mujoco.vector import make_vector_env, task_config_from_options
 
@@ -60,6 +61,10 @@ def test_mjx_contacts_hold_the_ant_up_like_mujoco() -> None:
         state = env.step(state, jnp.asarray(posture))
     torso_height = np.asarray(state.observation)[:, 0]
     assert 0.3 < torso_height.min()  # standing, not fallen through the floor
+    # the contact forces the terms read are rne_postconstraint's, though the step keeps no other of its outputs
+    full = jax.vmap(mjx.rne_postconstraint, (None, 0))(env.mjx_model, state.data)._impl.cfrc_ext
+    assert np.abs(np.asarray(full)).max() > 1.0  # the feet press on the floor
+    np.testing.assert_allclose(np.asarray(state.data._impl.cfrc_ext), np.asarray(full), rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(torso_height, cpu_observation[:, 0], atol=1e-4)
     np.testing.assert_allclose(np.asarray(state.reward), cpu_reward, atol=5e-3)
     cpu.close()
