@@ -48,6 +48,7 @@ from joshua_core.tasks import (
     nonfinite,
     step_params,
 )
+from joshua_mjx.batch import STEP_INPUTS, PerEnvRandom, split_each, where_env
 from joshua_mjx.engine import mjx_variant, put_model
 from joshua_mjx.physics import mjx
 from joshua_mjx.randomized import ModelRandomization
@@ -58,23 +59,6 @@ ENV_AXIS = "envs"  # name of the device-mesh axis the environments are spread ov
 _KINEMATIC_FIELDS = frozenset({"xpos", "xquat", "site_xpos"})
 # Data fields the task's terms may read besides the state (cfrc_ext, in MJX's `_impl`, apart)
 _DERIVED_FIELDS = ("xpos", "xquat", "site_xpos", "sensordata")
-# What mjx.step reads of a Data (MuJoCo's integration state, mjSTATE_INTEGRATION); it recomputes the rest
-_STEP_INPUTS = (
-    "time",
-    "qpos",
-    "qvel",
-    "act",
-    "history",
-    "plugin_state",
-    "ctrl",
-    "qfrc_applied",
-    "xfrc_applied",
-    "eq_active",
-    "mocap_pos",
-    "mocap_quat",
-    "userdata",
-    "qacc_warmstart",
-)
 
 
 class EnvState(NamedTuple):
@@ -146,7 +130,7 @@ class MjxEnv:
         self.randomization = ModelRandomization(task, model, self.mjx_model, self._initial_data)
         self.desync_episodes = desync_episodes
         self._draw_starts = jax.jit(self._fresh_episodes, in_shardings=self.sharding, out_shardings=self.sharding)
-        self._split_keys = jax.jit(_split_each, in_shardings=self.sharding, out_shardings=self.sharding)
+        self._split_keys = jax.jit(split_each, in_shardings=self.sharding, out_shardings=self.sharding)
         self._begin = jax.jit(self._begin_episodes, out_shardings=self.sharding)
         self.step = jax.jit(self._step)
 
@@ -233,7 +217,7 @@ class MjxEnv:
         episode_step = state.episode_step + 1
         params, key = state.params, state.key
         if task.interval_events or "xfrc_applied" in params:
-            random = _PerEnvRandom(key)
+            random = PerEnvRandom(key)
             ctx = self._context(data, state.data.qpos, action, state.action, episode_step, state.commands, params)
             params, key = step_params(task, ctx.replace(random=random)), random.keys
             if self.randomization.derives_on_steps:
@@ -244,8 +228,8 @@ class MjxEnv:
         final_observation, final_value_observation = self._observe(ctx)
 
         data = self._autoreset(done, state.start, data)
-        commands = _where_env(done, state.start_commands, state.commands)
-        params = _where_env(done, state.start_params, params)
+        commands = where_env(done, state.start_commands, state.commands)
+        params = where_env(done, state.start_params, params)
         history = jnp.where(done[:, None, None], 0.0, history)
         action = jnp.where(done[:, None], 0.0, action)
         previous_action = jnp.where(done[:, None], 0.0, state.action)
@@ -297,10 +281,10 @@ class MjxEnv:
         """`data` with the start state of every environment whose episode ended (`done`): of the start's Data only
         what the next mjx.step reads and what the task's terms read. The rest, which the step recomputes, keeps
         the ended episode's values until then: copying all of it cost 3 ms of a 176 ms tuned-Ant iteration."""
-        names = _STEP_INPUTS + self._derived
-        data = data.replace(**{name: _where_env(done, getattr(start, name), getattr(data, name)) for name in names})
+        names = STEP_INPUTS + self._derived
+        data = data.replace(**{name: where_env(done, getattr(start, name), getattr(data, name)) for name in names})
         if self._contact_forces:
-            cfrc_ext = _where_env(done, start._impl.cfrc_ext, data._impl.cfrc_ext)
+            cfrc_ext = where_env(done, start._impl.cfrc_ext, data._impl.cfrc_ext)
             data = data.replace(_impl=data._impl.replace(cfrc_ext=cfrc_ext))
         return data
 
@@ -308,7 +292,7 @@ class MjxEnv:
         """New episodes, one per key: the task's initial state with its reset terms and reset events applied,
         forward done."""
         task, n = self.task, keys.shape[0]
-        ctx = task.reset(task.reset_context(jnp, n, _PerEnvRandom(keys)))
+        ctx = task.reset(task.reset_context(jnp, n, PerEnvRandom(keys)))
         params = self.randomization.with_derived(episode_params(task, ctx))
         data = jax.tree.map(lambda leaf: jnp.broadcast_to(leaf, (n, *jnp.shape(leaf))), self._initial_data)
         dtype = data.qpos.dtype
@@ -361,40 +345,6 @@ class MjxEnv:
             return jnp.nan_to_num(observation, posinf=0.0, neginf=0.0)
 
         return finite(True), finite(False) if self.task.noisy_observations else None
-
-
-class _PerEnvRandom:
-    """A RandomSource with one key per environment (not one for the batch), so that each device draws
-    for its own slice of the environments and an environment's draws do not depend on the batch size."""
-
-    def __init__(self, keys: jax.Array) -> None:
-        self.keys = keys
-
-    def _draw(self, shape: tuple[int, ...], sample: Any) -> jax.Array:
-        self.keys, subkeys = _split_each(self.keys)
-        return jax.vmap(lambda key: sample(key, shape[1:]))(subkeys)
-
-    def uniform(self, shape: tuple[int, ...], low: Any = 0.0, high: Any = 1.0) -> jax.Array:
-        unit = self._draw(shape, lambda key, s: jax.random.uniform(key, s))
-        return low + (jnp.asarray(high) - low) * unit
-
-    def normal(self, shape: tuple[int, ...]) -> jax.Array:
-        return self._draw(shape, lambda key, s: jax.random.normal(key, s))
-
-
-def _split_each(keys: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """Split every environment's key: (the keys to keep, fresh subkeys to draw from)."""
-    pairs = jax.vmap(jax.random.split)(keys)
-    return pairs[:, 0], pairs[:, 1]
-
-
-def _where_env(mask: jax.Array, new: Any, old: Any) -> Any:
-    """`new` where `mask` (N,) is set, else `old`, leaf by leaf along the leading environment axis."""
-
-    def pick(a: jax.Array, b: jax.Array) -> jax.Array:
-        return jnp.where(mask.reshape(mask.shape + (1,) * (jnp.ndim(a) - 1)), a, b)
-
-    return jax.tree.map(pick, new, old)
 
 
 def make_mjx_env(

@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from joshua_core.errors import ConfigError, ModelError
+from joshua_mjx.batch import where_env
 from joshua_mjx.engine import MjxEngine
-from joshua_mjx.env import _where_env, make_mjx_env
+from joshua_mjx.env import make_mjx_env
 from joshua_mjx.physics import mjx
 from joshua_mujoco import MuJoCoEngine
 from joshua_mujoco.vector import make_vector_env, task_config_from_options
@@ -129,7 +130,7 @@ def test_autoreset_takes_only_what_the_next_step_and_the_terms_read(noisy_ant_en
     """Episodes restarted from part of their start's Data run exactly as from all of it."""
     config = task_config_from_options({"episode_length": 3})
     whole = make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", task_config=config)
-    whole._autoreset = lambda done, start, data: _where_env(done, start, data)  # the whole Data, before tracing
+    whole._autoreset = lambda done, start, data: where_env(done, start, data)  # the whole Data, before tracing
     partial_state = whole_state = noisy_ant_env.reset(jax.random.PRNGKey(3))
     for action in np.random.default_rng(1).uniform(-1, 1, (6, 4, 8)):  # restarts on steps 3 and 6
         partial_state = noisy_ant_env.step(partial_state, jnp.asarray(action))

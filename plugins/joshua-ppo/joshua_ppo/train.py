@@ -99,10 +99,8 @@ def train_ppo(
     if resume is None and on_checkpoint is not None:
         on_checkpoint(state, progress, None)
     next_checkpoint = progress.env_steps + checkpoint_interval if checkpoint_interval > 0 else None
-    # one iteration ahead: the next is queued (taking its input's buffers) before this one's metrics are read, so
-    # the device does not wait while the host reports and checkpoints. The queuing call itself returns only once
-    # the program's last loop is launched (about 40 ms before a tuned-Ant iteration ends), so each report's
-    # interval is read that much after its iteration ended, but for the last one's
+    # one iteration ahead: the next is queued (taking its input's buffers) before this one's metrics are read, so the
+    # device need not wait while the host reports; the last interval reads short (see docs/training-mjx.md)
     pending = _queue(env, compiled, state) if iterations else None
     last_read = time.perf_counter()
     for number in range(iterations):
