@@ -251,10 +251,7 @@ def train(
     try:
         train_ppo(
             env,
-            rollout=settings.rollout,
-            optimization=settings.optimization,
-            returns=settings.returns,
-            network=settings.network,
+            **settings.groups,
             total_timesteps=settings.total_timesteps,
             seed=settings.seed,
             resume=resume and (resume.state, resume.progress),

@@ -56,13 +56,7 @@ def compiled_iteration(config: Any) -> tuple[Any, Any, Any, Any]:
     settings = PpoSettings.from_config(config)
     env = environment(config, PluginHost.discover(), config.num_envs or DEFAULT_NUM_ENVS, jax.devices()[:1], True)
     state = init_state(env, seed=0, network=settings.network, optimization=settings.optimization)
-    iteration = make_iteration(
-        env,
-        rollout=settings.rollout,
-        optimization=settings.optimization,
-        returns=settings.returns,
-        network=settings.network,
-    )
+    iteration = make_iteration(env, **settings.groups)
     return env, settings, state, iteration.lower(state).compile()
 
 
@@ -111,10 +105,7 @@ def loop_seconds(env: Any, settings: Any, env_steps: int, warmup: int, iteration
     seconds: list[float] = []
     train_ppo(
         env,
-        rollout=settings.rollout,
-        optimization=settings.optimization,
-        returns=settings.returns,
-        network=settings.network,
+        **settings.groups,
         total_timesteps=env_steps * (warmup + iterations + 1),
         on_progress=lambda report, state: seconds.append(report.iteration_seconds),
     )

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
@@ -27,6 +28,16 @@ class PpoSettings:
     total_timesteps: int
     checkpoint_interval: int
     seed: int
+
+    @property
+    def groups(self) -> dict[str, Any]:
+        """The four settings groups as the keyword arguments `train_ppo` and `make_iteration` take."""
+        return {
+            "rollout": self.rollout,
+            "optimization": self.optimization,
+            "returns": self.returns,
+            "network": self.network,
+        }
 
     @classmethod
     def from_config(cls, config: TrainingConfig) -> PpoSettings:

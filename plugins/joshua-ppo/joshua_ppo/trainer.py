@@ -146,10 +146,7 @@ class PpoTrainer(Trainer):
         try:
             _, progress = train_ppo(
                 env,
-                rollout=settings.rollout,
-                optimization=settings.optimization,
-                returns=settings.returns,
-                network=settings.network,
+                **settings.groups,
                 total_timesteps=settings.total_timesteps,
                 seed=settings.seed,
                 checkpoint_interval=settings.checkpoint_interval,
