@@ -56,7 +56,9 @@ def xvfb() -> Iterator[str]:
     read_end, write_end = os.pipe()
     server = subprocess.Popen(  # -displayfd: Xvfb takes the first free display (its lock files settle races
         # between runs and between pytest-xdist workers) and writes its number to write_end
-        [executable, "-displayfd", str(write_end), "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
+        # and -noreset: a server that resets whenever its last client leaves (a screenshot) refuses a viewer that
+        # connects meanwhile ("Failed to open display", seen once in CI while a test polled screenshots)
+        [executable, "-displayfd", str(write_end), "-noreset", "-screen", "0", "1024x768x24", "-nolisten", "tcp"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         pass_fds=(write_end,),
