@@ -209,7 +209,7 @@ class MjxEnv:
         if "xfrc_applied" in state.params:
             data = data.replace(xfrc_applied=state.params["xfrc_applied"].astype(data.xfrc_applied.dtype))
         fields = self.randomization.model_params(state.params)
-        data = jax.lax.fori_loop(0, task.frame_skip, lambda _, d: self._physics(mjx.step, fields, d), data)
+        data = self._advance(fields, data)
         if self._kinematics_after_step:
             data = self._physics(mjx.kinematics, fields, data)
         if self._contact_forces:
@@ -270,6 +270,20 @@ class MjxEnv:
             if not fields:
                 return jax.vmap(function, (None, 0))(self.mjx_model, data)
             return jax.vmap(lambda f, d: function(self.randomization.model(f), d))(fields, data)
+
+    def _advance(self, fields: dict[str, jax.Array], data: mjx.Data) -> mjx.Data:
+        """`data` after frame_skip physics steps. Only MuJoCo's integration state goes from one to the next: what
+        else the steps before the last compute, the last recomputes, so XLA drops it (positions of cameras and
+        geoms, inertias, constraint rows, ... stay on chip or go unwritten). Tuned Ant's iteration took 152 ms
+        instead of 163 on an H200; the Data is bitwise what frame_skip whole steps give."""
+
+        def inputs_step(_: int, inputs: dict[str, jax.Array]) -> dict[str, jax.Array]:
+            stepped = self._physics(mjx.step, fields, data.replace(**inputs))
+            return {name: getattr(stepped, name) for name in STEP_INPUTS}
+
+        first = {name: getattr(data, name) for name in STEP_INPUTS}
+        inputs = jax.lax.fori_loop(0, self.task.frame_skip - 1, inputs_step, first)
+        return self._physics(mjx.step, fields, data.replace(**inputs))
 
     def _external_forces(self, fields: dict[str, jax.Array], data: mjx.Data) -> mjx.Data:
         """`data` with rne_postconstraint's cfrc_ext (contact and applied forces on each body), which the terms

@@ -147,6 +147,24 @@ def test_autoreset_takes_only_what_the_next_step_and_the_terms_read(noisy_ant_en
     assert not np.array_equal(np.asarray(partial_state.data.geom_xpos), np.asarray(whole_state.data.geom_xpos))
 
 
+def test_physics_steps_pass_on_only_the_integration_state(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
+    """An env step's physics steps hand only MuJoCo's integration state on; the Data it ends with is, field for
+    field, bitwise what frame_skip whole `mjx.step` calls give (restarts on steps 3 and 6 included)."""
+    config = task_config_from_options({"episode_length": 3})
+    whole = make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", task_config=config)
+    assert whole.task.frame_skip > 1
+    whole._advance = lambda fields, data: jax.lax.fori_loop(  # before tracing
+        0, whole.task.frame_skip, lambda _, d: whole._physics(mjx.step, fields, d), data
+    )
+    state = whole_state = noisy_ant_env.reset(jax.random.PRNGKey(4))
+    for action in np.random.default_rng(2).uniform(-1, 1, (6, 4, 8)):
+        state = noisy_ant_env.step(state, jnp.asarray(action))
+        whole_state = whole.step(whole_state, jnp.asarray(action))
+        for ours, theirs in zip(jax.tree.leaves(state.data), jax.tree.leaves(whole_state.data), strict=True):
+            np.testing.assert_array_equal(np.asarray(ours), np.asarray(theirs))
+        np.testing.assert_array_equal(np.asarray(state.observation), np.asarray(whole_state.observation))
+
+
 def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> None:
     script = textwrap.dedent(
         """
