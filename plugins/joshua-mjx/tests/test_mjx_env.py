@@ -87,10 +87,15 @@ def test_autoreset_ends_episodes_at_the_length_and_reports_them(ant_env) -> None
     np.testing.assert_allclose(np.asarray(state.data.qpos), np.tile(ant_env.task.initial_qpos, (4, 1)), atol=1e-6)
 
 
-@pytest.fixture(scope="module")
-def noisy_ant_env():  # type: ignore[no-untyped-def]
+def make_noisy_ant():  # type: ignore[no-untyped-def]
+    """4 Ants with the task's reset noise and 3-step episodes; tests that patch one before tracing make their own."""
     config = task_config_from_options({"episode_length": 3})
     return make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", task_config=config)
+
+
+@pytest.fixture(scope="module")
+def noisy_ant_env():  # type: ignore[no-untyped-def]
+    return make_noisy_ant()
 
 
 def test_reset_terms_draw_per_environment_and_repeat_with_the_key(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
@@ -128,8 +133,7 @@ def test_episodes_restart_from_the_start_state_until_it_is_redrawn(noisy_ant_env
 
 def test_autoreset_takes_only_what_the_next_step_and_the_terms_read(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
     """Episodes restarted from part of their start's Data run exactly as from all of it."""
-    config = task_config_from_options({"episode_length": 3})
-    whole = make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", task_config=config)
+    whole = make_noisy_ant()
     whole._autoreset = lambda done, start, data: where_env(done, start, data)  # the whole Data, before tracing
     partial_state = whole_state = noisy_ant_env.reset(jax.random.PRNGKey(3))
     for action in np.random.default_rng(1).uniform(-1, 1, (6, 4, 8)):  # restarts on steps 3 and 6
@@ -150,8 +154,7 @@ def test_autoreset_takes_only_what_the_next_step_and_the_terms_read(noisy_ant_en
 def test_physics_steps_pass_on_only_the_integration_state(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
     """An env step's physics steps hand only MuJoCo's integration state on; the Data it ends with is, field for
     field, bitwise what frame_skip whole `mjx.step` calls give (restarts on steps 3 and 6 included)."""
-    config = task_config_from_options({"episode_length": 3})
-    whole = make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", task_config=config)
+    whole = make_noisy_ant()
     assert whole.task.frame_skip > 1
     whole._advance = lambda fields, data: jax.lax.fori_loop(  # before tracing
         0, whole.task.frame_skip, lambda _, d: whole._physics(mjx.step, fields, d), data
