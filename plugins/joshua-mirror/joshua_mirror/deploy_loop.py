@@ -140,7 +140,8 @@ class DeployLoop:
         return self.link.target if self.link.target is not None else self.fixed_target
 
     def _update_state(self, now: float) -> None:
-        """RUNNING, or why not (E-STOP latched, HOLD on stale values, WAITING for first values or a target)."""
+        """RUNNING, or why not (E-STOP latched, HOLD on stale values, WAITING for first values, a target or a
+        subscriber on every command topic)."""
         link = self.link
         ages = link.ages(time.perf_counter_ns())
         names = [joint.joint for joint in link.joints]
@@ -154,6 +155,8 @@ class DeployLoop:
             state, reason = HOLD, f"no value for {self.stale_after:g} s from " + ", ".join(stale)
         elif self.target() is None:
             state, reason = WAITING, "no target yet"
+        elif unheard := link.unheard():  # the first targets would be lost before the robot's side is matched
+            state, reason = WAITING, "no subscriber yet on " + ", ".join(unheard)
         else:
             state, reason = RUNNING, ""
         if state != self.state:

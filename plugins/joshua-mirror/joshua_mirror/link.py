@@ -173,6 +173,11 @@ class RobotLink:
             arrived = self.arrived_ns.copy()
         return np.where(arrived > 0, (now_ns - arrived) / 1e9, np.inf)
 
+    def unheard(self) -> list[str]:
+        """Command topics that no subscriber has matched yet: what is published there now reaches no one."""
+        pairs = zip(self.publishers, self.commanded, strict=True)
+        return [joint.command_topic for publisher, joint in pairs if publisher.get_subscription_count() == 0]
+
     def publish(self, targets: NDArray[np.float64]) -> None:
         """Send each target (sim units, in the order of `commanded`) as target - offset, the robot's units."""
         for publisher, joint, target in zip(self.publishers, self.commanded, targets, strict=True):

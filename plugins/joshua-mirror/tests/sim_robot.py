@@ -1,7 +1,7 @@
 """A simulated robot behind ROS 2 topics, for the deploy tests: MuJoCo stepping in real time, encoders out, targets in.
 
 Plan (JSON, argv[1]): {"model": scene.xml, "keyframe": "home", "rate": Hz, "site": "gripper", "target": [x, y, z],
-"estop_topic": T, "target_topic": T,
+"estop_topic": T, "target_topic": T, "deaf": bool (optional), "lifetime": seconds,
 "joints": [{"joint": j, "actuator": a, "encoder": topic, "command": topic, "offset": o}, ...]}.
 It publishes each joint's qpos - offset (std_msgs/Float64) on its encoder topic at `rate`, applies each Float64
 received on a command topic as its position actuator's ctrl (value + offset), prints "ready", then every 0.1 s
@@ -9,7 +9,8 @@ received on a command topic as its position actuator's ctrl (value + offset), pr
 notes how many commands came so far, "estop" publishes true on the e-stop topic and "target X Y Z" the point on
 the target topic (geometry_msgs/Point; it becomes the target the distance is measured to), each once a
 subscriber is there, "await N" prints "received N" once N commands have come (messages still on their way when
-the deploy stopped), "quit" prints the result as JSON ("result {...}": commands counted, marks, the last command and
+the deploy stopped), "listen" subscribes to the command topics (at once unless the plan says "deaf"), "quit" (or
+the end of the lifetime) prints the result as JSON ("result {...}": commands counted, marks, the last command and
 the encoder value of each joint, the distance) and exits.
 """
 
@@ -49,11 +50,16 @@ class SimRobot:
         self.awaited: int | None = None  # "await N": the command count to report once reached
         self.node = rclpy.create_node("joshua_test_sim_robot")
         self.encoders = [self.node.create_publisher(Float64, joint["encoder"], 10) for joint in self.joints]
+        if not plan.get("deaf"):
+            self.listen()
+        self.estop = self.node.create_publisher(Bool, plan["estop_topic"], 10)
+        self.target_publisher = self.node.create_publisher(Point, plan["target_topic"], 10)
+
+    def listen(self) -> None:
+        """Subscribe to every joint's command topic."""
         for index, joint in enumerate(self.joints):
             callback = self._on_command(index, self.model.actuator(joint["actuator"]).id, joint["offset"])
             self.node.create_subscription(Float64, joint["command"], callback, 100)
-        self.estop = self.node.create_publisher(Bool, plan["estop_topic"], 10)
-        self.target_publisher = self.node.create_publisher(Point, plan["target_topic"], 10)
 
     def _on_command(self, index: int, actuator: int, offset: float):  # noqa: ANN202
         def apply(message: Float64) -> None:
@@ -117,6 +123,8 @@ def read_stdin(robot: SimRobot, quit_event: threading.Event) -> None:
         elif word == "mark":
             with robot.lock:
                 robot.marks.append(robot.commands)
+        elif word == "listen":
+            robot.listen()
         elif word == "estop":
             robot.send_estop()
         elif word.startswith("await "):
@@ -150,6 +158,8 @@ def main() -> None:
     ticks = 0
     while not quit_event.is_set():
         now = time.monotonic()
+        if now - start > plan["lifetime"]:
+            quit_event.set()  # a test that waits for a line that never comes fails instead of hanging
         robot.step_until(now - start)
         robot.publish_encoders()
         if robot.awaited is not None and robot.commands >= robot.awaited:

@@ -36,6 +36,7 @@ ESTOP = "/test/estop"
 TARGET_TOPIC = "/test/target"
 FAST = ["--status-period", "0.2", "--estop-topic", ESTOP]
 TIMEOUT_S = 60.0
+LIFETIME_S = 180.0  # the robot and deploy of a test end by themselves then: a test waiting for a line fails, not hangs
 Process = subprocess.Popen[str]
 
 
@@ -54,6 +55,7 @@ def robot_plan() -> dict[str, Any]:
         "estop_topic": ESTOP,
         "target_topic": TARGET_TOPIC,
         "joints": joints,
+        "lifetime": LIFETIME_S + 30,
     }
 
 
@@ -76,7 +78,12 @@ def tell(robot: subprocess.Popen[str], word: str) -> None:
     robot.stdin.flush()
 
 
-def robot_result(robot: subprocess.Popen[str]) -> dict[str, Any]:
+def robot_result(robot: subprocess.Popen[str], published: int | None = None) -> dict[str, Any]:
+    """What the robot saw, once the `published` commands (the deploy's count) have all arrived: the last
+    ones may still be on their way when the deploy has stopped."""
+    if published is not None:
+        tell(robot, f"await {published}")
+        next_line(robot.stdout, lambda line: line.startswith("received "), "every published target", robot)
     tell(robot, "quit")
     line = next_line(robot.stdout, lambda line: line.startswith("result "), "its result", robot)
     robot.communicate(timeout=30)
@@ -95,13 +102,25 @@ def stop_deploy(deploy: subprocess.Popen[str], cwd: Path, signum: int = signal.S
 def robot_and_deploy(
     request: pytest.FixtureRequest, tmp_path: Path, ros_env: dict[str, str]
 ) -> Iterator[tuple[Process, Process]]:
-    """The simulated robot and `joshua deploy` on its topics (with the target given as `--target`, or the
-    arguments of an indirect parameter), both running; stopped after the test."""
+    """The simulated robot and `joshua deploy` on its topics, both running; stopped after the test. An indirect
+    parameter may give the deploy's target arguments ("target", else `--target`) and plan keys ("plan")."""
     (tmp_path / "arm.pbtxt").write_text(CONFIG)
-    robot = start([sys.executable, str(SIM_ROBOT), json.dumps(robot_plan())], ros_env, tmp_path)
+    param = getattr(request, "param", {})
+    plan = {**robot_plan(), **param.get("plan", {})}
+    robot = start([sys.executable, str(SIM_ROBOT), json.dumps(plan)], ros_env, tmp_path)
     next_line(robot.stdout, lambda line: line == "ready\n", "ready")
-    target = getattr(request, "param", ["--target", ",".join(map(str, TARGET))])
-    command = [str(JOSHUA), "deploy", str(POLICY), "--config", "arm.pbtxt", *target, *FAST]
+    target = param.get("target", ["--target", ",".join(map(str, TARGET))])
+    command = [
+        str(JOSHUA),
+        "deploy",
+        str(POLICY),
+        "--config",
+        "arm.pbtxt",
+        *target,
+        *FAST,
+        "--duration",
+        str(LIFETIME_S),
+    ]
     deploy = start(command, ros_env, tmp_path)
     try:
         yield robot, deploy
@@ -129,9 +148,7 @@ def test_policy_reaches_the_target_and_holds_on_stale_encoders(
     next_line(deploy.stderr, lambda line: "deploy: RUNNING" in line, "RUNNING again")
     next_line(robot.stdout, lambda line: float(line.split()[1]) < REACHED_M, "the target was reached again")
     report = stop_deploy(deploy, tmp_path)  # it stops the arm in place: one more target per joint
-    tell(robot, f"await {report['published_messages']}")  # the last ones may still be on their way
-    next_line(robot.stdout, lambda line: line.startswith("received "), "every published target", robot)
-    result = robot_result(robot)
+    result = robot_result(robot, report["published_messages"])
     first, second = result["marks"]
     assert second - first <= 6, result  # at most a step already on its way while held (>= 0.2 s: 10 steps)
     assert result["commands"] > second  # and it resumed
@@ -150,7 +167,7 @@ def test_estop_stops_the_targets_until_restart(tmp_path: Path, robot_and_deploy:
     for _ in range(3):  # 0.6 s more: 30 steps if it still ran
         next_line(deploy.stderr, lambda line: line.startswith("[deploy") and "E-STOP" in line, "E-STOP status")
     report = stop_deploy(deploy, tmp_path, signal.SIGTERM)
-    result = robot_result(robot)
+    result = robot_result(robot, report["published_messages"])
     # after the e-stop: at most a step already on its way, then one target per joint to stop in place, then nothing
     assert result["estop_sent_at"] > 0 and result["commands"] - result["estop_sent_at"] <= 12, result
     for command, encoder in zip(result["last_commands"], result["encoders"], strict=True):
@@ -159,7 +176,23 @@ def test_estop_stops_the_targets_until_restart(tmp_path: Path, robot_and_deploy:
     assert report["published_messages"] == result["commands"]
 
 
-@pytest.mark.parametrize("robot_and_deploy", [["--target-topic", TARGET_TOPIC]], indirect=True)
+@pytest.mark.parametrize("robot_and_deploy", [{"plan": {"deaf": True}}], indirect=True)
+def test_nothing_is_published_before_the_robot_subscribes(
+    tmp_path: Path, robot_and_deploy: tuple[Process, Process]
+) -> None:
+    robot, deploy = robot_and_deploy  # its encoders come, but it does not listen to the command topics yet
+    next_line(deploy.stderr, lambda line: "WAITING no subscriber yet on /command/" in line, "waiting for a listener")
+    next_line(deploy.stderr, lambda line: "WAITING no subscriber yet on /command/" in line, "a second status line")
+    tell(robot, "mark")  # every target published so far would have been lost
+    tell(robot, "listen")
+    next_line(deploy.stderr, lambda line: "deploy: RUNNING" in line, "RUNNING")
+    next_line(robot.stdout, lambda line: float(line.split()[1]) < REACHED_M, "the target was reached")
+    report = stop_deploy(deploy, tmp_path)
+    result = robot_result(robot, report["published_messages"])
+    assert result["marks"] == [0] and report["published_messages"] == result["commands"] > 0, (report, result)
+
+
+@pytest.mark.parametrize("robot_and_deploy", [{"target": ["--target-topic", TARGET_TOPIC]}], indirect=True)
 def test_the_target_comes_from_a_point_topic(tmp_path: Path, robot_and_deploy: tuple[Process, Process]) -> None:
     robot, deploy = robot_and_deploy
     next_line(deploy.stderr, lambda line: "WAITING" in line and "no target yet" in line, "waiting for a target")

@@ -30,6 +30,9 @@ class SignallingLink:
     def ages(self, now_ns: int) -> Any:
         return np.zeros(JOINTS)
 
+    def unheard(self) -> list[str]:
+        return []
+
     def take(self) -> tuple[Any, Any, int]:
         return np.zeros(JOINTS), np.zeros(JOINTS), time.perf_counter_ns()
 
