@@ -10,7 +10,7 @@ import numpy as np
 from google.protobuf import text_format
 
 from joshua_core.config_pb2 import TaskConfig
-from joshua_mjx import MjxEnv, make_mjx_env
+from joshua_mjx import EnvState, MjxEnv, make_mjx_env
 from joshua_mujoco import make_vector_env
 
 TASK, MODEL, ENVS, STEPS = "so_arm100_pick_place", "so_arm100/pick_place_mjx.xml", 3, 10
@@ -58,15 +58,20 @@ def _cpu_run() -> tuple[dict[str, np.ndarray], np.ndarray, object]:
     return params, np.array(qpos), simulation
 
 
+def _split(env: MjxEnv, state: EnvState) -> EnvState:
+    """The state split by environment as reset returns it. The step's outputs come back replicated, and a
+    step called with them compiles again (about 45 s on the CPU for pick-and-place): one compile per env."""
+    return jax.device_put(state, env.sharding)
+
+
 def _mjx_run(env: MjxEnv, params: dict[str, np.ndarray]) -> np.ndarray:
     """MJX's trajectory with the given drawn parameters (and MJX's inverse weights of them)."""
     state = env.reset(jax.random.PRNGKey(0))
     drawn = env.randomization.with_derived({name: jnp.asarray(value) for name, value in params.items()})
-    state = state._replace(params=drawn, start_params=drawn)
-    step = env.step  # jitted once per env
+    state = _split(env, state._replace(params=drawn, start_params=drawn))
     qpos = []
     for action in _actions():
-        state = step(state, jnp.asarray(action, jnp.float32))
+        state = _split(env, env.step(state, jnp.asarray(action, jnp.float32)))
         qpos.append(np.asarray(state.data.qpos))
     return np.array(qpos)
 
