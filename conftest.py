@@ -34,8 +34,7 @@ def _share_compiled_programs(config: pytest.Config) -> None:
     """Let this run's tests and the processes they start reuse what JAX compiled for one another.
 
     Many tests compile the same program (an MJX scene's step, a training iteration of the same small config,
-    each `joshua train` or `joshua eval` process anew); sharing it took the suite from 2683 s to 2496 s on
-    two CPU cores (2026-11-26).
+    each `joshua train` or `joshua eval` process anew); sharing it shortens the suite (bench/RESULTS.md).
     The cache lives in a folder of this run's own, removed at its end, so every run starts cold, as CI does;
     a JAX_COMPILATION_CACHE_DIR already set is kept.
     """

@@ -33,8 +33,8 @@ SCENE = MODELS / "so_arm100" / "pick_place_mjx.xml"
 
 
 def cube_touches_whole_arm(model: mujoco.MjModel) -> None:
-    """The cube as it was until 2026-11-25: every arm collision geom touches it, not only the fingertips (its
-    conaffinity 1 instead of 2; see so_arm100.xml): 64 contact slots instead of 50."""
+    """The cube as it was before the fingertip-only contacts: every arm collision geom touches it (its conaffinity
+    1 instead of 2; see so_arm100.xml): 64 contact slots instead of 50."""
     model.geom_conaffinity[model.geom("cube").id] = 1
 
 

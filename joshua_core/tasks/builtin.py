@@ -113,8 +113,8 @@ SO_ARM100_PICK_PLACE = TaskSpec(
         TermSpec("site_to_body", params={"site": "gripper", "body": "cube"}, name="cube_offset"),
         TermSpec("body_to_command", params={"body": "cube", "name": "goal"}, name="goal_offset"),
         TermSpec("body_pos", params={"body": "cube"}, name="cube_position"),
-        # saturated at 100 N (a grasp reads ~46 N): pressing the cube into the table read up to 87 kN, spikes that
-        # inflated the normaliser's variance (see terms.sensor)
+        # saturated at 100 N (a grasp reads ~46 N): contact spikes would inflate the normaliser's variance
+        # (see terms.sensor; the spikes measured are in bench/RESULTS.md)
         TermSpec("sensor", params={"sensor": "gripper_touch_fixed", "saturation": 100.0}, name="touch_fixed"),
         TermSpec("sensor", params={"sensor": "gripper_touch_moving", "saturation": 100.0}, name="touch_moving"),
         TermSpec("last_action"),
@@ -122,23 +122,19 @@ SO_ARM100_PICK_PLACE = TaskSpec(
     rewards=(
         # std 0.1: the gripper starts 0.11-0.17 m from the cube, where std 0.05 paid almost nothing (< 0.02)
         TermSpec("site_body_tanh", 1.0, {"site": "gripper", "body": "cube", "std": 0.1}, name="reach"),
-        # the cube between both pads: pressing the closed jaw's tips on its top touches both pads too, and a
-        # reward for any touch of both paid policies that pressed the cube 5-9 mm into the table and dragged it.
-        # The scripted grasp holds the cube's centre 0.8-1.5 cm from the line joining the pads' sites, the press
-        # 2.9-3.1 cm (test_pick_place_scripted.py)
+        # the cube between both pads, not any touch of both: a press on the cube's top touches both pads too, and
+        # paid policies that pressed the cube into the table (test_pick_place_scripted.py, bench/RESULTS.md)
         TermSpec("body_pinched", 0.5, {"body": "cube", **_PADS, "threshold": 0.05, "radius": 0.02}, name="grasp"),
         TermSpec("body_height_above", 1.0, {"body": "cube", "height": 0.04}, name="lift"),
         # while the gripper is at the cube: a reward for a cube lying near its goal paid the policy for leaving it
         # alone, and one only for a lifted cube paid nothing until a grasp and a lift were found together
         TermSpec("pushed_command_tanh", 2.0, {**_AT_GOAL, "site": "gripper", "radius": 0.05, "std": 0.1}, name="place"),
         # the same, coarse (std 0.3, as Isaac Lab's Lift): it pays across the whole table, so carrying the cube
-        # toward the goal earns from the first grasp; without it 2 seeds of 3 stayed holding the cube (success 0)
+        # toward the goal earns from the first grasp, where runs otherwise settled on holding it (bench/RESULTS.md)
         TermSpec("pushed_command_tanh", 2.0, {**_AT_GOAL, "site": "gripper", "radius": 0.05, "std": 0.3}, name="carry"),
         TermSpec("body_command_within", 5.0, {"body": "cube", "name": "goal", "radius": 0.02}, name="at_goal"),
-        # the cube let go at its goal: paid the same there held or not, nothing asked a policy to let go; the failed
-        # episodes of runs that plateaued at 70-89 % success had spent 80-160 of 400 steps at the goal first. At
-        # weight 1 letting go gained 0.5 per step over a held cube's `grasp` (of ~10.5 either way): two seeds of
-        # three let go on 20-50 steps per episode (the third on 200) and plateaued at 0.47-0.78
+        # the cube let go at its goal: otherwise a cube at its goal pays as much held as released, and runs held
+        # placed cubes until they lost them; weight 3 makes letting go clearly pay (bench/RESULTS.md)
         TermSpec(
             "body_released_at_command", 3.0, {**_AT_GOAL, "radius": 0.02, **_PADS, "threshold": 0.05}, name="released"
         ),

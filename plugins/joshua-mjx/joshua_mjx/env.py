@@ -274,8 +274,8 @@ class MjxEnv:
     def _advance(self, fields: dict[str, jax.Array], data: mjx.Data) -> mjx.Data:
         """`data` after frame_skip physics steps. Only MuJoCo's integration state goes from one to the next: what
         else the steps before the last compute, the last recomputes, so XLA drops it (positions of cameras and
-        geoms, inertias, constraint rows, ... stay on chip or go unwritten). Tuned Ant's iteration took 152 ms
-        instead of 163 on an H200; the Data is bitwise what frame_skip whole steps give."""
+        geoms, inertias, constraint rows, ... stay on chip or go unwritten; the gain is in bench/RESULTS.md). The
+        Data is bitwise what frame_skip whole steps give."""
 
         def inputs_step(_: int, inputs: dict[str, jax.Array]) -> dict[str, jax.Array]:
             stepped = self._physics(mjx.step, fields, data.replace(**inputs))
@@ -294,7 +294,7 @@ class MjxEnv:
     def _autoreset(self, done: jax.Array, start: mjx.Data, data: mjx.Data) -> mjx.Data:
         """`data` with the start state of every environment whose episode ended (`done`): of the start's Data only
         what the next mjx.step reads and what the task's terms read. The rest, which the step recomputes, keeps
-        the ended episode's values until then: copying all of it cost 3 ms of a 176 ms tuned-Ant iteration."""
+        the ended episode's values until then, since copying all of it costs time (bench/RESULTS.md)."""
         names = STEP_INPUTS + self._derived
         data = data.replace(**{name: where_env(done, getattr(start, name), getattr(data, name)) for name in names})
         if self._contact_forces:

@@ -39,9 +39,8 @@ from joshua_ppo.settings import (
 from joshua_ppo.state import TrainingState, state_shardings
 
 # XLA runs the kernels of a loop body as one CUDA graph (a command buffer), by default one after another; here
-# only their data dependencies order them. A gradient step's policy and value passes are two chains of small
-# kernels that fill a GPU only together: tuned Ant on one H200 went from 1.66-1.67 to 1.85-1.91 M env steps/s,
-# pick-and-place from 230 to 246 k (bench/ppo_iteration_rate.py, docs/training-mjx.md)
+# only their data dependencies order them, since a gradient step's policy and value passes are two chains of small
+# kernels that fill a GPU only together (measured in bench/RESULTS.md)
 GPU_COMPILER_OPTIONS = {"xla_gpu_command_buffer_scheduling_mode": "CONCURRENT"}
 Carry = tuple[Any, Any, RunningStatistics]  # (environments or optimiser state, params, normaliser) in scans
 Metrics = dict[str, jax.Array]
@@ -211,8 +210,7 @@ class _Iteration:
         shape = (self.num_minibatches, self.local_minibatch)
         minibatches = jax.tree.map(lambda x: x[order].reshape(*shape, *x.shape[1:]), samples)
         keys = jax.random.split(entropy_key, self.num_minibatches)
-        # 4 gradient steps per loop trip: tuned Ant trained 2.2 % faster on an H200 (1.635 -> 1.672 M env steps/s;
-        # all 32 unrolled: the same, with twice the compile time)
+        # 4 gradient steps per loop trip: fewer loop trips run faster, more only compile longer (bench/RESULTS.md)
         return jax.lax.scan(self.gradient_step, carry, (minibatches, keys), unroll=min(self.num_minibatches, 4))
 
     def local(

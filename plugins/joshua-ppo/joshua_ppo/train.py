@@ -100,7 +100,7 @@ def train_ppo(
         on_checkpoint(state, progress, None)
     next_checkpoint = progress.env_steps + checkpoint_interval if checkpoint_interval > 0 else None
     # one iteration ahead: the next is queued (taking its input's buffers) before this one's metrics are read, so the
-    # device need not wait while the host reports; the last interval reads short (see docs/training-mjx.md)
+    # device need not wait while the host reports; the last interval reads short (see bench/RESULTS.md)
     pending = _queue(env, compiled, state) if iterations else None
     last_read = time.perf_counter()
     for number in range(iterations):
