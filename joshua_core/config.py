@@ -34,7 +34,7 @@ FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
     TrainingConfig.SB3: ("sb3", "mujoco"),
 }
 DEFAULT_SIMULATION_BACKEND = "mujoco"
-DEFAULT_MODE = "INTERACTIVE"  # the seed's enum default: a config that names no mode
+DEFAULT_MODE = "INTERACTIVE"  # a config that names no mode gets the viewer (config.proto, docs/configuration.md)
 
 
 @dataclass(frozen=True)
@@ -262,7 +262,7 @@ def required_components(config: JoshuaConfig) -> list[tuple[Kind, str]]:
 
 
 def simulation_mode(simulation: SimulationConfig) -> str:
-    """The mode a simulation runs: the one it names, else INTERACTIVE (the seed's default)."""
+    """The mode a simulation runs: the one it names, else INTERACTIVE (the documented default)."""
     return simulation.mode or DEFAULT_MODE
 
 

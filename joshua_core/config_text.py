@@ -25,7 +25,7 @@ from joshua_core.errors import ConfigError
 from joshua_core.options import OptionSet, close_names, field_or_option
 from joshua_core.plugins import KNOWN_PROVIDERS, Kind
 
-# String fields whose values configs may write bare, as the seed's enum values were (`mode: HEADLESS`).
+# String fields whose values configs may write bare, as enum values are (`mode: HEADLESS`; docs/configuration.md).
 BARE_STRING_FIELDS = frozenset({"joshua.SimulationConfig.mode"})
 _BARE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _QUOTED_BARE = re.compile(r'^"([A-Za-z_][A-Za-z0-9_]*)"$')

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-PRODUCT_PRESETS = {  # the nine of the product description; plugins' own presets come on top
+PRODUCT_PRESETS = {  # the nine presets shipped from the start (docs/presets.md); more come on top
     "so_arm100_sim_interactive", "sim_passive", "sim_offscreen", "sim_mirror", "so_arm100_train_mjx",
     "so_arm100_pick_place_mjx", "ant_train_mjx", "isaac_ant_locomotion", "isaac_trileg",
 }  # fmt: skip

@@ -84,7 +84,7 @@ PLUGIN_PRESETS = {
     "ant_train_mjx_tuned",
     "trileg_train_mjx",
     "so_arm100_pick_place_mjx_dr",
-}  # presets added with the plugins, beyond the product's nine
+}  # presets added with the plugins, beyond the first nine
 
 
 def test_the_shipped_presets_each_parse_with_a_description() -> None:

@@ -1,4 +1,4 @@
-"""OFFSCREEN mode and the seed API: render a trajectory replay (or the model at rest) without a display.
+"""OFFSCREEN mode and its Python API: render a trajectory replay (or the model at rest) without a display.
 
 `run_offscreen(...)` returns every frame as a list; `iter_offscreen_frames(...)` yields them one at a
 time so that a long run can be written to disk with bounded memory. The mode writes an MP4 and/or a PNG
@@ -140,7 +140,7 @@ def run_offscreen(
     camera: str | None = None,
     fps: float = DEFAULT_FPS,
 ) -> list[NDArray[np.uint8]]:
-    """All frames of the trajectory's kinematic replay as (height, width, 3) uint8 arrays (the seed's API).
+    """All frames of the trajectory's kinematic replay as (height, width, 3) uint8 arrays.
 
     For long trajectories prefer `iter_offscreen_frames`, which holds one frame at a time.
     """

@@ -1,4 +1,4 @@
-"""OFFSCREEN: the seed API, the streaming form, the mode's files, and the error when no GL platform works.
+"""OFFSCREEN: run_offscreen, the streaming form, the mode's files, and the error when no GL platform works.
 
 The choice of GL platform itself is tested with joshua-render, which makes it."""
 

@@ -1,4 +1,4 @@
-"""JOSHUA's MuJoCo backend: `MuJoCoEngine`, one MuJoCo simulation behind the seed's API, and batched
+"""JOSHUA's MuJoCo backend: `MuJoCoEngine`, one MuJoCo simulation behind the `Engine` API, and batched
 CPU environments of any task (`BatchedVectorEnv`, EnvKind.NUMPY).
 
 The package itself stays light (the `joshua` entry point imports `joshua_mujoco.plugin`);

@@ -34,7 +34,7 @@ _INSTABILITY_WARNINGS = (
 
 
 class MuJoCoEngine(Engine):
-    """One MuJoCo simulation: `model` (MjModel), `data` (MjData) and the seed's methods.
+    """One MuJoCo simulation: `model` (MjModel), `data` (MjData) and the `Engine` methods (README's example).
 
     Load from a file (`model_path`, relative paths also resolve against the shipped models) or from
     an XML string (`xml`, with optional in-memory `assets` such as meshes keyed by file name).

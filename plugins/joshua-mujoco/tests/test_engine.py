@@ -1,4 +1,4 @@
-"""MuJoCoEngine against real MuJoCo: the seed's API, input checks, keyframes, rendering, loading."""
+"""MuJoCoEngine against real MuJoCo: the `Engine` API, input checks, keyframes, rendering, loading."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""`train_mjx(model_path=..., config={...})`: the product description's Python entry point to GPU training."""
+"""`train_mjx(model_path=..., config={...})`: the Python entry point to GPU training (docs/training-mjx.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""PPO checkpoints in the core's run-folder layout (`joshua_core.runs`), as the product description shows:
+"""PPO checkpoints in the core's run-folder layout (`joshua_core.runs`), as docs/training-mjx.md describes:
 
     <checkpoint_dir>/<run>_step_<N>/
         params.msgpack       {"params": network parameters, "normalizer": {count, mean, variance}} (Flax msgpack)

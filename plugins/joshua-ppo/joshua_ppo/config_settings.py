@@ -19,7 +19,7 @@ CHECKPOINTS_PER_RUN = 10
 
 @dataclass(frozen=True)
 class PpoSettings:
-    """A TrainingConfig's PPO hyper-parameters with the defaults filled in (the product description's numbers)."""
+    """A TrainingConfig's PPO hyper-parameters with the defaults filled in (docs/training-mjx.md#ppo-options)."""
 
     rollout: RolloutSettings
     optimization: OptimizationSettings

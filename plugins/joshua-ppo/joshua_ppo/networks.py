@@ -1,4 +1,4 @@
-"""The policy networks: the seed's ActorCritic (shared trunk, the default), separate policy and value
+"""The policy networks: ActorCritic (shared trunk, the default), separate policy and value
 networks (Brax's layout), and the Gaussian policy's log-probability and entropy.
 
 Both networks map observations to (mean (N, A), log_std, value (N,)): a diagonal Gaussian and a
@@ -42,7 +42,7 @@ def _gaussian_head(
 
 
 class ActorCritic(nn.Module):
-    """The seed's network: one trunk (default ReLU 256-256) under the policy head and the value head."""
+    """The default network: one trunk (default ReLU 256-256) under the policy head and the value head."""
 
     action_dim: int
     hidden_sizes: tuple[int, ...] = (256, 256)

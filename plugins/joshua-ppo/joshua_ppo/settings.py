@@ -1,7 +1,7 @@
 """PPO's settings in four groups (rollout, optimisation, returns, network) and the check of their batch arithmetic.
 
-Plain frozen dataclasses with the product description's defaults; `joshua_ppo.config_settings` fills
-them from a TrainingConfig.
+Plain frozen dataclasses with the trainer's defaults (docs/training-mjx.md#ppo-options);
+`joshua_ppo.config_settings` fills them from a TrainingConfig.
 """
 
 from __future__ import annotations

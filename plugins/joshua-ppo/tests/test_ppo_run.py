@@ -66,7 +66,7 @@ def test_reach_policy_learns_and_the_run_folder_is_complete(reach_run: Path) -> 
         "reach_step_4000",
         "reach_step_8000",
     ]
-    saved = from_bytes(None, (reach_run / "reach_step_8000" / "params.msgpack").read_bytes())  # as the seed loads it
+    saved = from_bytes(None, (reach_run / "reach_step_8000" / "params.msgpack").read_bytes())  # as a user loads it
     assert set(saved) == {"params", "normalizer"} and saved["params"]["log_std"].shape == (6,)
     config = json.loads((reach_run / "reach_step_8000" / "config.json").read_text())
     assert config["trainer"] == "ppo" and config["task"] == "so_arm100_reach" and config["seed"] == 1

@@ -37,7 +37,7 @@ def choose_headless_gl() -> str | None:
     when neither works EGL is kept, and rendering fails with `rendering_unavailable`'s message.
     With a display, or with MUJOCO_GL set by the user, nothing changes and None is returned.
 
-    If mujoco was imported first (as the seed's snippet does), MuJoCo has already picked GLFW,
+    If mujoco was imported first (as README's example does), MuJoCo has already picked GLFW,
     which needs a display; its renderer's context class is then swapped for the chosen one.
     """
     if has_display() or "MUJOCO_GL" in os.environ:
