@@ -41,7 +41,7 @@ def cube_touches_whole_arm(model: mujoco.MjModel) -> None:
 # name: (MJCF appended to the scene, physics steps per 20 ms control step, an edit of the compiled model)
 VARIANTS = {
     "as shipped (10 ms x 2)": ("", 2, None),
-    "the scene until 2026-11-25 (4 ms x 5)": (
+    "the earlier scene (4 ms x 5, whole arm, 12 line-search)": (
         '<option timestep="0.004" ls_iterations="12"/>',
         5,
         cube_touches_whole_arm,
