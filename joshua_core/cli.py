@@ -26,6 +26,7 @@ from joshua_core.errors import PluginNotFoundError, UsageError
 from joshua_core.interfaces import RunContext
 from joshua_core.interrupts import reported
 from joshua_core.options import LENIENT, OptionSet
+from joshua_core.outputs import check_name
 from joshua_core.plugins import DISABLE_ENV_VAR, KNOWN_PROVIDERS, Kind, PluginHost
 
 DEFAULT_OUTPUT_DIR = "joshua_output"
@@ -235,6 +236,7 @@ def writable_file(path: Path, option: str) -> Path:
     or written, is a UsageError before any work (the file itself is written atomically later)."""
     if path.is_dir():
         raise UsageError(f"{option} '{path}' is a folder; give a file name")
+    check_name(path.name, option)
     writable_folder(str(path.parent), option)
     return path
 

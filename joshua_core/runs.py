@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 from joshua_core.atomic import atomic_directory
 from joshua_core.errors import ConfigError, UsageError
+from joshua_core.outputs import check_inside, check_name
 
 if TYPE_CHECKING:
     from joshua_core.config_pb2 import TrainingConfig
@@ -91,6 +92,16 @@ class RunFolder:
         self.close()
 
 
+def check_run_name(name: str, what: str) -> str:
+    """`name` when it can name a run: one plain path component (`check_name`) that does not end in `_step_<N>`,
+    the names of checkpoints; a one-line UsageError naming `what` (e.g. "--run-name") otherwise. Callers check
+    the name they were given before any work."""
+    check_name(name, what)
+    if _STEP_SUFFIX.search(name):
+        raise UsageError(f"{what} '{name}' ends in _step_<N>, as the run's checkpoints are named; choose another name")
+    return name
+
+
 def default_run_name(stem: str, now: datetime | None = None) -> str:
     """`<stem>_<date>-<time>` (the stem is the task, for PPO): the name of a run the config does not name."""
     return f"{stem}_{now or datetime.now():%Y%m%d-%H%M%S}"
@@ -105,6 +116,7 @@ def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunF
     """
     root.mkdir(parents=True, exist_ok=True)
     if name is not None:
+        check_run_name(name, "run name")
         run = None if run_checkpoints(root, name) else _claim(root, name)
         if run is None:
             if (root / name).is_dir():
@@ -124,7 +136,7 @@ def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunF
 
 def open_run(root: Path, name: str) -> RunFolder:
     """An existing run folder, locked by this process (to resume it); RunInUseError while another holds it."""
-    folder = root / name
+    folder = check_inside(root, root / check_run_name(name, "run name"), "run folder")
     if not folder.is_dir():
         raise UsageError(f"run folder '{folder}' does not exist")
     descriptor = os.open(folder / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
@@ -209,7 +221,7 @@ def newest_run(root: Path, trainer: str | None = None) -> Path | None:
 
 def resume_run(root: Path, name: str | None, *, trainer: str, options: str) -> tuple[RunFolder, dict[str, Any]]:
     """The run to resume (the named one, else the newest of `trainer`), locked, and its config.json."""
-    folder = root / name if name else newest_run(root, trainer)
+    folder = root / check_run_name(name, "run name") if name else newest_run(root, trainer)
     if folder is None or not (folder / CONFIG_FILE).is_file():
         which = f"no run '{name}'" if name else f"no {trainer} run"
         raise ConfigError(f"{options}.resume: there is {which} in {root} to resume")

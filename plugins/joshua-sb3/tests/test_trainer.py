@@ -275,3 +275,14 @@ def test_runs_started_together_get_their_own_folders_and_a_name_in_use_is_refuse
         for process in first:
             process.kill()
             process.wait()
+
+
+def test_a_run_name_that_is_not_a_plain_name_is_refused_before_training(tmp_path: Path) -> None:
+    for name, problem in (("/../x", "holds a '/'"), ("a/b", "holds a '/'"), ("reach_step_99999", "_step_<N>")):
+        done = joshua(
+            "--preset", PRESET, "--set", "training.checkpoint_dir=runs", "--set", f"training.sb3.run_name={name}",
+            cwd=tmp_path, key=tmp_path / "key",
+        )  # fmt: skip
+        assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr[-2000:]
+        assert f"training.sb3.run_name '{name}' " in done.stderr and problem in done.stderr, done.stderr
+    assert not (tmp_path / "runs").exists() or not any((tmp_path / "runs").iterdir())  # no run folder begun

@@ -12,7 +12,7 @@ from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
-from joshua_core.runs import create_run
+from joshua_core.runs import check_run_name, create_run
 from joshua_mujoco import read_spec
 from joshua_sysid import fit, recordings, report
 from joshua_sysid.fit import KINDS
@@ -53,6 +53,8 @@ class SysidCommand(Command):
         parser.add_argument("--run-name", help=f"the run folder's name (default {RUN_STEM}_<date>-<time>)")
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        if args.run_name is not None:
+            check_run_name(args.run_name, "--run-name")  # before the fit, which may take minutes
         kinds = _parse_kinds(args.fit)
         if args.max_iters < 1:
             raise UsageError(f"--max-iters must be at least 1 (got {args.max_iters})")

@@ -113,6 +113,10 @@ HEADER = ",".join(["timestamp", *JOINTS, *(f"{j}.target" for j in JOINTS)])
         ("missing_joint", "no column for the actuated joints joint_6"),
         ("no_position_actuators", "has no actuators"),
         ("bad_kind", "--fit: unknown parameter 'dampng' (did you mean damping?)"),
+        ("run_name_path", "--run-name '/../../../../tmp/x' holds a '/'"),
+        ("run_name_dots", "--run-name '..' is not a name of its own"),
+        ("run_name_empty", "--run-name '' is empty"),
+        ("run_name_step", "--run-name 'x_step_99999' ends in _step_<N>"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str, expected: str) -> None:
@@ -132,6 +136,10 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str, expected: s
         ],
         "no_position_actuators": [good, "--model", write(tmp_path, "bare.xml", [BARE_MODEL])],
         "bad_kind": [good, "--fit", "kp,dampng"],
+        "run_name_path": [good, "--run-name", "/../../../../tmp/x"],  # refused before the fit
+        "run_name_dots": [good, "--run-name", ".."],
+        "run_name_empty": [good, "--run-name", ""],
+        "run_name_step": [good, "--run-name", "x_step_99999"],
     }[case]
     done = joshua("sysid", *arguments, cwd=tmp_path)
     assert done.returncode == 2, done.stderr
