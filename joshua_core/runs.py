@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 from joshua_core.atomic import atomic_directory
 from joshua_core.errors import ConfigError, UsageError
-from joshua_core.outputs import check_inside, check_name
+from joshua_core.outputs import MARKER, check_inside, check_name
 
 if TYPE_CHECKING:
     from joshua_core.config_pb2 import TrainingConfig
@@ -70,6 +70,7 @@ class RunFolder:
         ends without error, and not at all otherwise. Hidden folders left by a killed writer are removed."""
         with atomic_directory(self.checkpoint_path(step)) as folder:
             yield folder
+            (folder / MARKER).write_text(f"a checkpoint of run {self.name}, written whole by joshua\n")
         leftovers = re.compile(rf"^\.{re.escape(self.name)}_step_\d+\..+\.(tmp|old)$")
         for leftover in self.root.iterdir():
             if leftovers.match(leftover.name):
@@ -194,11 +195,15 @@ def checkpoint_step(folder: Path) -> int:
 
 
 def run_checkpoints(root: Path, name: str) -> list[Path]:
-    """The checkpoint folders `<root>/<name>_step_<N>/`, oldest first."""
+    """The checkpoints `<root>/<name>_step_<N>/` that were published (`RunFolder.publish` leaves `MARKER` in
+    each; of a run written before it did, those with a config.json), oldest first: a folder merely named like
+    one is not a checkpoint."""
     pattern = re.compile(rf"^{re.escape(name)}_step_\d+$")
     if not root.is_dir():
         return []
-    return sorted((path for path in root.iterdir() if pattern.match(path.name) and path.is_dir()), key=checkpoint_step)
+    folders = [path for path in root.iterdir() if pattern.match(path.name) and path.is_dir()]
+    published = [folder for folder in folders if (folder / MARKER).is_file()]
+    return sorted(published or [folder for folder in folders if (folder / CONFIG_FILE).is_file()], key=checkpoint_step)
 
 
 def list_runs(root: Path, trainer: str | None = None) -> list[Path]:
@@ -242,12 +247,12 @@ def add_checkpoint_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def resolve_checkpoint(path: Path) -> Path:
-    """A checkpoint folder itself, or the newest checkpoint of the run folder `path` (skipping stray folders
-    named like a checkpoint that have no config.json: a trainer never publishes one without it)."""
+    """A checkpoint folder itself, or the newest checkpoint of the run folder `path` (`run_checkpoints`: stray
+    folders merely named like a checkpoint are skipped)."""
     if _STEP_SUFFIX.search(path.name) and (path / CONFIG_FILE).is_file():
         return path
     read_run_config(path)  # a clear error when `path` is neither
-    checkpoints = [folder for folder in run_checkpoints(path.parent, path.name) if (folder / CONFIG_FILE).is_file()]
+    checkpoints = run_checkpoints(path.parent, path.name)
     if not checkpoints:
         raise UsageError(f"run '{path}' has no checkpoint yet (looked for {path.parent}/{path.name}_step_<N>/)")
     return checkpoints[-1]

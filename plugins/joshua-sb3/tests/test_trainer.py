@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 import torch
 
+from joshua_core.outputs import MARKER
 from joshua_core.runs import checkpoint_step, list_runs, run_checkpoints
 from joshua_sb3.run_folder import KEY_ENV_VAR, MANIFEST_FILE, MODEL_FILE
 
@@ -97,7 +98,7 @@ def test_run_folder_layout(trained: tuple[Path, Path]) -> None:
     assert steps[0] == 0 and steps[-1] == LEARNING_STEPS and steps == sorted(set(steps)) and len(steps) >= 5
     newest = checkpoint_folders(run_dir)[-1]
     assert {path.name for path in newest.iterdir()} == {
-        "config.json", "metrics.json", "manifest.json", "model.zip", "vecnormalize.pkl"
+        "config.json", "metrics.json", "manifest.json", "model.zip", "vecnormalize.pkl", MARKER
     }  # fmt: skip
     assert not list(run_dir.parent.glob(".*")), "a temporary checkpoint folder was left behind"
     names = {path.name for path in run_dir.iterdir()}
