@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from joshua_core import __version__
@@ -22,10 +22,11 @@ from joshua_core.config import (
     simulation_mode,
 )
 from joshua_core.config_pb2 import JoshuaConfig
-from joshua_core.errors import PluginNotFoundError, UsageError
+from joshua_core.errors import JoshuaError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import RunContext
 from joshua_core.interrupts import reported
 from joshua_core.options import LENIENT, OptionSet
+from joshua_core.outputs import check_name
 from joshua_core.plugins import DISABLE_ENV_VAR, KNOWN_PROVIDERS, Kind, PluginHost
 
 DEFAULT_OUTPUT_DIR = "joshua_output"
@@ -116,7 +117,24 @@ def main(argv: Sequence[str] | None = None) -> int:
             return run_plugin_command(host, args.command, command_argv)
         return run(args, host)
 
-    return reported(job)
+    return reported(lambda: os_errors_reported(job))
+
+
+def os_errors_reported(job: Callable[[], int]) -> int:
+    """Run `job`; a file-system failure (name too long, no space, read-only, no permission, a NUL byte in a path)
+    becomes a one-line UsageError naming the path, since it comes from where the user asked to read or write."""
+    try:
+        return job()
+    except JoshuaError:
+        raise
+    except OSError as error:
+        paths = " -> ".join(str(name) for name in (error.filename, error.filename2) if name is not None)
+        reason = error.strerror or str(error)
+        raise UsageError(f"{paths}: {reason}" if paths else reason) from None
+    except ValueError as error:
+        if "null byte" not in str(error) and "null character" not in str(error):
+            raise
+        raise UsageError(f"a path holds a NUL byte ({error}); remove it") from None
 
 
 def list_presets() -> int:
@@ -235,6 +253,7 @@ def writable_file(path: Path, option: str) -> Path:
     or written, is a UsageError before any work (the file itself is written atomically later)."""
     if path.is_dir():
         raise UsageError(f"{option} '{path}' is a folder; give a file name")
+    check_name(path.name, option)
     writable_folder(str(path.parent), option)
     return path
 

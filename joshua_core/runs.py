@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 from joshua_core.atomic import atomic_directory
 from joshua_core.errors import ConfigError, UsageError
+from joshua_core.outputs import MARKER, check_inside, check_name
 
 if TYPE_CHECKING:
     from joshua_core.config_pb2 import TrainingConfig
@@ -69,6 +70,7 @@ class RunFolder:
         ends without error, and not at all otherwise. Hidden folders left by a killed writer are removed."""
         with atomic_directory(self.checkpoint_path(step)) as folder:
             yield folder
+            (folder / MARKER).write_text(f"a checkpoint of run {self.name}, written whole by joshua\n")
         leftovers = re.compile(rf"^\.{re.escape(self.name)}_step_\d+\..+\.(tmp|old)$")
         for leftover in self.root.iterdir():
             if leftovers.match(leftover.name):
@@ -91,6 +93,16 @@ class RunFolder:
         self.close()
 
 
+def check_run_name(name: str, what: str) -> str:
+    """`name` when it can name a run: one plain path component (`check_name`) that does not end in `_step_<N>`,
+    the names of checkpoints; a one-line UsageError naming `what` (e.g. "--run-name") otherwise. Callers check
+    the name they were given before any work."""
+    check_name(name, what)
+    if _STEP_SUFFIX.search(name):
+        raise UsageError(f"{what} '{name}' ends in _step_<N>, as the run's checkpoints are named; choose another name")
+    return name
+
+
 def default_run_name(stem: str, now: datetime | None = None) -> str:
     """`<stem>_<date>-<time>` (the stem is the task, for PPO): the name of a run the config does not name."""
     return f"{stem}_{now or datetime.now():%Y%m%d-%H%M%S}"
@@ -105,6 +117,7 @@ def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunF
     """
     root.mkdir(parents=True, exist_ok=True)
     if name is not None:
+        check_run_name(name, "run name")
         run = None if run_checkpoints(root, name) else _claim(root, name)
         if run is None:
             if (root / name).is_dir():
@@ -124,7 +137,7 @@ def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunF
 
 def open_run(root: Path, name: str) -> RunFolder:
     """An existing run folder, locked by this process (to resume it); RunInUseError while another holds it."""
-    folder = root / name
+    folder = check_inside(root, root / check_run_name(name, "run name"), "run folder")
     if not folder.is_dir():
         raise UsageError(f"run folder '{folder}' does not exist")
     descriptor = os.open(folder / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
@@ -182,11 +195,15 @@ def checkpoint_step(folder: Path) -> int:
 
 
 def run_checkpoints(root: Path, name: str) -> list[Path]:
-    """The checkpoint folders `<root>/<name>_step_<N>/`, oldest first."""
+    """The checkpoints `<root>/<name>_step_<N>/` that were published (`RunFolder.publish` leaves `MARKER` in
+    each; of a run written before it did, those with a config.json), oldest first: a folder merely named like
+    one is not a checkpoint."""
     pattern = re.compile(rf"^{re.escape(name)}_step_\d+$")
     if not root.is_dir():
         return []
-    return sorted((path for path in root.iterdir() if pattern.match(path.name) and path.is_dir()), key=checkpoint_step)
+    folders = [path for path in root.iterdir() if pattern.match(path.name) and path.is_dir()]
+    published = [folder for folder in folders if (folder / MARKER).is_file()]
+    return sorted(published or [folder for folder in folders if (folder / CONFIG_FILE).is_file()], key=checkpoint_step)
 
 
 def list_runs(root: Path, trainer: str | None = None) -> list[Path]:
@@ -209,7 +226,7 @@ def newest_run(root: Path, trainer: str | None = None) -> Path | None:
 
 def resume_run(root: Path, name: str | None, *, trainer: str, options: str) -> tuple[RunFolder, dict[str, Any]]:
     """The run to resume (the named one, else the newest of `trainer`), locked, and its config.json."""
-    folder = root / name if name else newest_run(root, trainer)
+    folder = root / check_run_name(name, "run name") if name else newest_run(root, trainer)
     if folder is None or not (folder / CONFIG_FILE).is_file():
         which = f"no run '{name}'" if name else f"no {trainer} run"
         raise ConfigError(f"{options}.resume: there is {which} in {root} to resume")
@@ -230,12 +247,12 @@ def add_checkpoint_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def resolve_checkpoint(path: Path) -> Path:
-    """A checkpoint folder itself, or the newest checkpoint of the run folder `path` (skipping stray folders
-    named like a checkpoint that have no config.json: a trainer never publishes one without it)."""
+    """A checkpoint folder itself, or the newest checkpoint of the run folder `path` (`run_checkpoints`: stray
+    folders merely named like a checkpoint are skipped)."""
     if _STEP_SUFFIX.search(path.name) and (path / CONFIG_FILE).is_file():
         return path
     read_run_config(path)  # a clear error when `path` is neither
-    checkpoints = [folder for folder in run_checkpoints(path.parent, path.name) if (folder / CONFIG_FILE).is_file()]
+    checkpoints = run_checkpoints(path.parent, path.name)
     if not checkpoints:
         raise UsageError(f"run '{path}' has no checkpoint yet (looked for {path.parent}/{path.name}_step_<N>/)")
     return checkpoints[-1]

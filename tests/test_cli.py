@@ -229,3 +229,40 @@ def test_an_item_of_a_list_of_numbers_is_set_by_index(run_joshua) -> None:
     assert result.returncode == 0, result.stderr
     sizes = [line.split(":")[1].strip() for line in result.stdout.splitlines() if "hidden_sizes:" in line]
     assert sizes[1] == "8" and len(sizes) == 2
+
+
+def test_file_system_failures_exit_2_in_one_line_naming_the_path(run_joshua, tmp_path: Path) -> None:
+    long = "x" * 300
+    for output_dir in (long, f"out/{long}"):  # a name too long to look up, and to make
+        result = run_joshua("--set", f"simulation.output_dir={output_dir}")
+        assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+        assert output_dir in result.stderr and "File name too long" in result.stderr
+    config = tmp_path / "nul.pbtxt"
+    config.write_text('extends: "sim_offscreen"\nsimulation { output_dir: "out\\000x" }\n')
+    result = run_joshua("--config", str(config))
+    assert result.returncode == 2 and result.stderr.count("\n") == 1 and "NUL byte" in result.stderr, result.stderr
+
+
+def test_an_os_error_anywhere_becomes_a_usage_error_with_its_path() -> None:
+    import errno
+
+    import pytest
+
+    from joshua_core.cli import os_errors_reported
+    from joshua_core.errors import UsageError
+
+    def full() -> int:
+        raise OSError(errno.ENOSPC, "No space left on device", "/data/run/model.zip")
+
+    def read_only() -> int:
+        raise OSError(errno.EROFS, "Read-only file system", "/ro/.x.tmp", None, "/ro/x")
+
+    def other() -> int:
+        raise ValueError("not about paths")
+
+    with pytest.raises(UsageError, match="^/data/run/model.zip: No space left on device$"):
+        os_errors_reported(full)
+    with pytest.raises(UsageError, match="^/ro/.x.tmp -> /ro/x: Read-only file system$"):
+        os_errors_reported(read_only)
+    with pytest.raises(ValueError, match="not about paths"):  # a bug stays a traceback
+        os_errors_reported(other)

@@ -162,7 +162,10 @@ def test_listing_newest_and_resume(tmp_path: Path) -> None:
     assert newest_run(tmp_path / "missing") is None
     assert resolve_checkpoint(old) == tmp_path / "old_step_10"  # by step, not by name
     (tmp_path / "old_step_50").mkdir()  # a stray empty folder: no checkpoint, skipped
+    (tmp_path / "old_step_60").mkdir()  # a stray folder with a config.json but never published: skipped too
+    (tmp_path / "old_step_60" / CONFIG_FILE).write_text(json.dumps({"trainer": "ppo"}))
     assert resolve_checkpoint(old) == tmp_path / "old_step_10"
+    assert [path.name for path in runs.run_checkpoints(tmp_path, "old")] == ["old_step_0", "old_step_9", "old_step_10"]
     assert resolve_checkpoint(tmp_path / "old_step_9") == tmp_path / "old_step_9"
     with pytest.raises(UsageError, match="has no checkpoint yet"):
         resolve_checkpoint(new)

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command, RunContext
+from joshua_core.outputs import check_replaceable, output_folder
 from joshua_core.resources import resolve_data_path
 from joshua_core.runs import add_checkpoint_arguments, read_run_config, resolve_checkpoint
 from joshua_export.contract import CONTRACT_FILE, ONNX_FILE, make_contract
@@ -24,13 +25,19 @@ if TYPE_CHECKING:
 
 
 class ExportCommand(Command):
-    """`joshua export RUN [--out DIR]`: write policy.onnx and policy.json (into RUN's checkpoint folder)."""
+    """`joshua export RUN [--out DIR [--overwrite]]`: write policy.onnx and policy.json into RUN's checkpoint folder,
+    or as the folder DIR, written whole; an existing DIR is only replaced when joshua wrote it."""
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         add_checkpoint_arguments(parser)
-        parser.add_argument("--out", type=Path, help="folder to write into (default: the checkpoint folder)")
+        parser.add_argument(
+            "--out", type=Path, help="a folder of its own to write (default: into the checkpoint folder)"
+        )
+        parser.add_argument("--overwrite", action="store_true", help="replace the --out folder when joshua wrote it")
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        if args.out is not None:
+            check_replaceable(args.out, overwrite=args.overwrite, option="--out")
         checkpoint = resolve_checkpoint(args.run)
         trainer = plugins.trainer(read_run_config(checkpoint)["trainer"])
         exported = trainer.export_policy(
@@ -45,10 +52,13 @@ class ExportCommand(Command):
         onnx_bytes = policy_graph(exported.policy, name=f"{training.task}_{exported.trainer}").SerializeToString()
         contract = make_contract(exported, observer, onnx_bytes)
         out = args.out or checkpoint
-        if out.exists() and not out.is_dir():
-            raise UsageError(f"--out {out} is not a folder")
-        atomic_write_bytes(out / ONNX_FILE, onnx_bytes)
-        atomic_write_json(out / CONTRACT_FILE, contract)  # last: a contract always finds its graph
+        if args.out is None:
+            atomic_write_bytes(out / ONNX_FILE, onnx_bytes)
+            atomic_write_json(out / CONTRACT_FILE, contract)  # last: a contract always finds its graph
+        else:
+            with output_folder(out, overwrite=args.overwrite, option="--out") as folder:
+                atomic_write_bytes(folder / ONNX_FILE, onnx_bytes)
+                atomic_write_json(folder / CONTRACT_FILE, contract)
         print(f"exported {checkpoint} ({exported.trainer}, task {training.task}, {contract['control_hz']:g} Hz)")
         print(f"policy: {out / ONNX_FILE}\ncontract: {out / CONTRACT_FILE}")
         return 0

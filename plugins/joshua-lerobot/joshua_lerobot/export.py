@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
+from joshua_core.outputs import check_replaceable
 from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
@@ -34,6 +35,9 @@ class LeRobotExportCommand(Command):
         parser.add_argument("trajectory", help="trajectory CSV, or a LeRobot dataset folder (see --episode)")
         parser.add_argument("--model", default=DEFAULT_MODEL, help=f"model to replay on (default {DEFAULT_MODEL})")
         parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"dataset folder (default {DEFAULT_OUT})")
+        parser.add_argument(
+            "--overwrite", action="store_true", help="replace the --out folder when joshua wrote it (a dataset)"
+        )
         parser.add_argument("--fps", type=int, default=DEFAULT_FPS, help=f"frames per second (default {DEFAULT_FPS})")
         parser.add_argument(
             "--camera",
@@ -52,6 +56,7 @@ class LeRobotExportCommand(Command):
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
         if args.fps < 1 or args.width < 2 or args.height < 2 or args.episode < 0:
             raise UsageError("--fps, --width and --height must be positive and --episode at least 0")
+        check_replaceable(args.out, overwrite=args.overwrite, option="--out")
         model = resolve_data_path(args.model)
         source = resolve_data_path(args.trajectory, what="trajectory", folders=True)
         cameras = [] if args.no_video else (args.camera or [""])
@@ -65,6 +70,7 @@ class LeRobotExportCommand(Command):
             task=args.task,
             episode=args.episode,
             plugins=plugins,
+            overwrite=args.overwrite,
         )
         print(f"LeRobot dataset: {path}")
         return 0
@@ -81,9 +87,12 @@ def export_trajectory(
     task: str = DEFAULT_TASK,
     episode: int = 0,
     plugins: PluginHost | None = None,
+    overwrite: bool = False,
+    option: str = "--out",
 ) -> Path:
     """Replay `source` (episode `episode`) on `model_path` at `fps` and write it to `out` as a LeRobot dataset,
-    one video per camera of `cameras` ("" = the model's first camera; empty: no video) at `size` (w, h)."""
+    one video per camera of `cameras` ("" = the model's first camera; empty: no video) at `size` (w, h).
+    A folder at `out` is replaced only when joshua wrote it and `overwrite` is set (`option` names `out` in errors)."""
     from joshua_modes import frame_times, iter_offscreen_frames, model_joint_ranges
     from joshua_mujoco import compile_model
 
@@ -110,7 +119,7 @@ def export_trajectory(
         task=task,
         cameras=frames,
     )
-    return write_dataset(out, [recorded], fps=fps, joint_ranges=ranges)
+    return write_dataset(out, [recorded], fps=fps, joint_ranges=ranges, overwrite=overwrite, option=option)
 
 
 def _counted(frames: Iterator[NDArray[np.uint8]], total: int, camera: str) -> Iterator[NDArray[np.uint8]]:

@@ -22,8 +22,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from joshua_core.atomic import atomic_directory, atomic_write_json
+from joshua_core.atomic import atomic_write_json
 from joshua_core.errors import UsageError
+from joshua_core.outputs import output_folder
 from joshua_lerobot import stats as statistics
 from joshua_lerobot.joints import feature_names, from_model
 from joshua_lerobot.video import CODEC_NAME, PIXEL_FORMAT, Mp4Writer
@@ -57,10 +58,17 @@ class DatasetEpisode:
 
 
 def write_dataset(
-    path: Path, episodes: Sequence[DatasetEpisode], *, fps: int, joint_ranges: Mapping[str, tuple[float, float]]
+    path: Path,
+    episodes: Sequence[DatasetEpisode],
+    *,
+    fps: int,
+    joint_ranges: Mapping[str, tuple[float, float]],
+    overwrite: bool = False,
+    option: str = "--out",
 ) -> Path:
-    """Write `episodes` (same joints and cameras each) as a LeRobot dataset folder at `path`, replacing one
-    there; joint values are converted to LeRobot's names and units (joshua_lerobot.joints)."""
+    """Write `episodes` (same joints and cameras each) as a LeRobot dataset folder at `path`; joint values are
+    converted to LeRobot's names and units (joshua_lerobot.joints). A folder there is only replaced when joshua
+    wrote it and `overwrite` is set (`joshua_core.outputs.output_folder`; `option` names `path` in errors)."""
     if not episodes:
         raise UsageError("a LeRobot dataset needs at least one episode")
     first = episodes[0]
@@ -69,7 +77,7 @@ def write_dataset(
             raise UsageError("every episode of a dataset needs the same joints and cameras")
     names, robot_type = feature_names(first.joint_names)
     tasks = list(dict.fromkeys(episode.task for episode in episodes))
-    with atomic_directory(path) as folder:
+    with output_folder(path, overwrite=overwrite, option=option) as folder:
         layout = _Layout(folder, names, first.joint_names, joint_ranges, fps, tasks)
         video_shapes = layout.write_videos(episodes)
         layout.write_data(episodes)

@@ -145,3 +145,33 @@ def test_bad_datasets_and_episodes_are_one_line_errors(tmp_path: Path) -> None:
     info.write_text(info.read_text().replace('"v3.0"', '"v2.1"'))
     result = subprocess.run(replay, capture_output=True, text=True)
     assert result.returncode == 2 and "LeRobot dataset format v2.1, this reader reads v3.0" in result.stderr
+
+
+def test_out_replaces_only_a_dataset_joshua_wrote_and_only_with_overwrite(tmp_path: Path) -> None:
+    joshua = str(Path(sys.executable).parent / "joshua")
+    csv = str(models_dir() / "trajectories" / "so_arm100_example.csv")
+
+    def export(out: str, *extra: str) -> subprocess.CompletedProcess[str]:
+        command = [joshua, "lerobot-export", csv, "--out", out, "--no-video", "--fps", "5", *extra]
+        return subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300)
+
+    def refused(done: subprocess.CompletedProcess[str], message: str) -> None:
+        assert done.returncode == 2 and done.stderr.strip().count("\n") == 0 and message in done.stderr, done.stderr
+
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    (tmp_path / "file").write_text("keep")
+    for extra in ((), ("--overwrite",)):
+        refused(export("mine", *extra), "was not written by joshua")
+        refused(export("file", *extra), "is a file")
+        refused(export(".", *extra), "names no folder of its own")
+    assert (mine / "notes.txt").read_text() == "keep" and (tmp_path / "file").read_text() == "keep"
+
+    assert export("dataset").returncode == 0
+    refused(export("dataset"), "exists; pass --overwrite")
+    (tmp_path / "dataset" / "meta" / "info.json").write_text("{}")
+    done = export("dataset", "--overwrite")
+    assert done.returncode == 0, done.stderr
+    assert json.loads((tmp_path / "dataset" / "meta" / "info.json").read_text())["fps"] == 5  # written anew
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["dataset", "file", "mine"]  # no temporaries left

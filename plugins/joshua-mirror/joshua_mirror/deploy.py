@@ -23,7 +23,7 @@ from joshua_core.errors import ConfigError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import Command
 from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost
-from joshua_core.runs import create_run
+from joshua_core.runs import check_run_name, create_run
 from joshua_mirror import options_pb2
 from joshua_mirror.controller import COMMAND, PolicyController, unmapped_joints
 from joshua_mirror.deploy_loop import DeployLoop
@@ -79,6 +79,8 @@ class DeployCommand(Command):
         parser.add_argument("--run-name", help=f"the run folder's name (default {RUN_STEM}_<date>-<time>)")
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        if args.run_name is not None:
+            check_run_name(args.run_name, "--run-name")
         target = _parse_target(args.target)
         if target is None and not args.target_topic:
             raise UsageError("give the policy a target: --target X,Y,Z and/or --target-topic TOPIC")

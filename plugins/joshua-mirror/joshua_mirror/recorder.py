@@ -91,6 +91,8 @@ class Recorder:
                     size=render_size(config),
                     task=self.options.task or DEFAULT_TASK,
                     plugins=context.plugins,
+                    overwrite=True,  # the recording of an earlier run into this output_dir, as the CSV beside
+                    option="simulation.output_dir",
                 )
             )
         return written

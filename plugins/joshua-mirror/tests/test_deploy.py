@@ -250,6 +250,8 @@ def test_bad_input_is_one_line(tmp_path: Path, ros_env: dict[str, str]) -> None:
         ([str(POLICY), "--config", "five.pbtxt"], "observes joints that the mirror config does not map: joint_6"),
         ([str(POLICY), "--config", "arm.pbtxt", "--target", "1,2"], "--target takes three finite numbers"),
         ([str(POLICY), "--config", "arm.pbtxt", "--target", "0.2,0,0.1", "--rate", "0"], "--rate must be a finite"),
+        ([str(POLICY), "--run-name", "../../x"], "--run-name '../../x' holds a '/'"),
+        ([str(POLICY), "--run-name", "x_step_7"], "ends in _step_<N>"),
     ]
     for args, message in cases:
         if "--target" not in args:

@@ -20,6 +20,7 @@ from joshua_core.policy import ExportedPolicy
 from joshua_core.runs import (
     CONFIG_FILE,
     RunFolder,
+    check_run_name,
     checkpoint_step,
     create_run,
     resume_run,
@@ -83,6 +84,8 @@ class PpoTrainer(Trainer):
         cluster = join(config)  # before anything asks JAX for its devices
         cluster.check_same_config(config)
         settings = PpoSettings.from_config(config)
+        if run_name := options_of(config, options_pb2.ppo).run_name:
+            check_run_name(run_name, f"{OPTIONS}.run_name")  # before the environments are built
         env = environment(config, context, training_envs=True)
         # a bad batch layout is a config error before anything is written
         recompute = settings.returns.recompute_advantages

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -19,7 +20,7 @@ from flax.serialization import from_bytes
 from numpy.typing import NDArray
 
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.errors import ConfigError
+from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import RunContext
 from joshua_core.plugins import PluginHost
 from joshua_core.runs import list_runs, run_checkpoints
@@ -211,6 +212,9 @@ def test_bad_settings_are_config_errors(tmp_path: Path) -> None:
         )
     with pytest.raises(ConfigError, match="no_such_field"):
         train_mjx(model_path="ant/ant_mjx.xml", config={"no_such_field": 1}, checkpoint_dir=tmp_path)
+    for name, problem in (("/../x", "holds a '/'"), ("..", "not a name of its own"), ("x_step_9", "_step_<N>")):
+        with pytest.raises(UsageError, match=f"training.ppo.run_name '{re.escape(name)}' .*{re.escape(problem)}"):
+            train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"run_name": name}}, checkpoint_dir=tmp_path)
     assert not any(tmp_path.iterdir())  # no run folder left behind by a rejected config
     training = TrainingConfig(task="ant_locomotion", backend="mujoco")
     with pytest.raises(ConfigError, match="backend 'mujoco' does not provide; backends that do: mjx"):

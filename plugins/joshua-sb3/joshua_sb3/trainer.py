@@ -33,6 +33,7 @@ from joshua_core.runs import (
     CONFIG_FILE,
     METRICS_FILE,
     RunFolder,
+    check_run_name,
     checkpoint_step,
     create_run,
     resolve_checkpoint,
@@ -180,6 +181,8 @@ def _open_run(config: TrainingConfig, context: RunContext, settings: Settings) -
     resumed run killed before its first checkpoint)."""
     root = context.output_dir
     options = options_of(config, options_pb2.sb3)
+    if options.run_name:
+        check_run_name(options.run_name, f"{OPTIONS}.run_name")
     if not options.resume:
         stem = f"{config.task}_{settings.algorithm.lower()}"
         return create_run(root, options.run_name or None, stem=stem, options=OPTIONS), None

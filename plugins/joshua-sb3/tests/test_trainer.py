@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 import torch
 
+from joshua_core.outputs import MARKER
 from joshua_core.runs import checkpoint_step, list_runs, run_checkpoints
 from joshua_sb3.run_folder import KEY_ENV_VAR, MANIFEST_FILE, MODEL_FILE
 
@@ -97,7 +98,7 @@ def test_run_folder_layout(trained: tuple[Path, Path]) -> None:
     assert steps[0] == 0 and steps[-1] == LEARNING_STEPS and steps == sorted(set(steps)) and len(steps) >= 5
     newest = checkpoint_folders(run_dir)[-1]
     assert {path.name for path in newest.iterdir()} == {
-        "config.json", "metrics.json", "manifest.json", "model.zip", "vecnormalize.pkl"
+        "config.json", "metrics.json", "manifest.json", "model.zip", "vecnormalize.pkl", MARKER
     }  # fmt: skip
     assert not list(run_dir.parent.glob(".*")), "a temporary checkpoint folder was left behind"
     names = {path.name for path in run_dir.iterdir()}
@@ -275,3 +276,14 @@ def test_runs_started_together_get_their_own_folders_and_a_name_in_use_is_refuse
         for process in first:
             process.kill()
             process.wait()
+
+
+def test_a_run_name_that_is_not_a_plain_name_is_refused_before_training(tmp_path: Path) -> None:
+    for name, problem in (("/../x", "holds a '/'"), ("a/b", "holds a '/'"), ("reach_step_99999", "_step_<N>")):
+        done = joshua(
+            "--preset", PRESET, "--set", "training.checkpoint_dir=runs", "--set", f"training.sb3.run_name={name}",
+            cwd=tmp_path, key=tmp_path / "key",
+        )  # fmt: skip
+        assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr[-2000:]
+        assert f"training.sb3.run_name '{name}' " in done.stderr and problem in done.stderr, done.stderr
+    assert not (tmp_path / "runs").exists() or not any((tmp_path / "runs").iterdir())  # no run folder begun

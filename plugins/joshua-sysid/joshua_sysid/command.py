@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import shutil
 from pathlib import Path
 
 from joshua_core.cli import DEFAULT_OUTPUT_DIR, writable_folder
@@ -12,7 +13,7 @@ from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
-from joshua_core.runs import create_run
+from joshua_core.runs import LOCK_FILE, check_run_name, create_run
 from joshua_mujoco import read_spec
 from joshua_sysid import fit, recordings, report
 from joshua_sysid.fit import KINDS
@@ -53,6 +54,8 @@ class SysidCommand(Command):
         parser.add_argument("--run-name", help=f"the run folder's name (default {RUN_STEM}_<date>-<time>)")
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        if args.run_name is not None:
+            check_run_name(args.run_name, "--run-name")  # before the fit, which may take minutes
         kinds = _parse_kinds(args.fit)
         if args.max_iters < 1:
             raise UsageError(f"--max-iters must be at least 1 (got {args.max_iters})")
@@ -66,11 +69,17 @@ class SysidCommand(Command):
             raise UsageError(f"run folder {root / args.run_name} exists; choose another --run-name")
         result = fit.fit(spec, servos, loaded, kinds, args.max_iters)
         with create_run(root, args.run_name, stem=RUN_STEM, options="--run-name") as run:
-            model_file = report.write_model(spec, result, servos, run.path, report.calibrated_model_name(model_path))
-            report.write_plot(result, servos, run.path / report.PLOT_FILE)
-            outputs = {"model": model_file.name, "plot": report.PLOT_FILE}
-            document = report.report_document(result, servos, loaded, model_path, outputs)
-            report_file = report.write_report(document, run.path)
+            try:
+                model_file = report.write_model(
+                    spec, result, servos, run.path, report.calibrated_model_name(model_path)
+                )
+                report.write_plot(result, servos, run.path / report.PLOT_FILE)
+                outputs = {"model": model_file.name, "plot": report.PLOT_FILE}
+                document = report.report_document(result, servos, loaded, model_path, outputs)
+                report_file = report.write_report(document, run.path)
+            except BaseException:
+                _empty(run.path)  # then the run folder, holding only its lock, goes too: no half-made run
+                raise
         print(report.table(result, servos))
         tracking = document["tracking_rms"]
         print(
@@ -93,3 +102,14 @@ def _parse_kinds(text: str) -> list[str]:
     if not kinds:
         raise UsageError(f"--fit names no parameter; known: {', '.join(known)}")
     return [kind for kind in known if kind in kinds]
+
+
+def _empty(folder: Path) -> None:
+    """Remove what a failed fit wrote into its run folder, all but the lock."""
+    for path in folder.iterdir():
+        if path.name == LOCK_FILE:
+            continue
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            path.unlink(missing_ok=True)

@@ -11,6 +11,7 @@ import mujoco
 import numpy as np
 
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json
+from joshua_core.outputs import check_inside
 from joshua_sysid.fit import KINDS, FitResult, write_value
 from joshua_sysid.recordings import Recording, Servo
 
@@ -37,20 +38,45 @@ def write_model(spec: mujoco.MjSpec, result: FitResult, servos: list[Servo], fol
 
 
 def _bundle_assets(spec: mujoco.MjSpec, folder: Path) -> None:
-    """Copy every asset file the spec names into `folder/assets/` and point the spec's asset folders there."""
+    """Copy every asset file the spec names into `folder/assets/` and point the spec's asset folders there.
+
+    A file named by a plain relative path keeps it; one named by an absolute path or one that climbs out with
+    `..` is copied under its base name (made unique), and the spec (a copy, never the caller's model) is
+    rewritten to that name: every copy lands inside `folder`."""
     source = Path(spec.modelfiledir or ".")
+    assets = folder / ASSETS_DIR
+    copied: dict[str, Path] = {}  # name in assets/ -> the file copied there
     groups = [(spec.meshdir, [*spec.meshes, *spec.hfields, *spec.skins]), (spec.texturedir, list(spec.textures))]
     for directory, elements in groups:
         for element in elements:
             if not element.file:
                 continue  # generated or in-memory (a USD reader's meshes)
-            origin = source / directory / element.file
-            target = folder / ASSETS_DIR / element.file
-            target.parent.mkdir(parents=True, exist_ok=True)
-            with open(origin, "rb") as handle:
-                atomic_write_bytes(target, handle.read())
+            origin = (source / directory / element.file).resolve()
+            name = _asset_name(element.file, origin, copied)
+            if name not in copied:
+                target = check_inside(assets, assets / name, "asset")
+                target.parent.mkdir(parents=True, exist_ok=True)
+                with open(origin, "rb") as handle:
+                    atomic_write_bytes(target, handle.read())
+                copied[name] = origin
+            element.file = name
     spec.meshdir = f"{ASSETS_DIR}/"
     spec.texturedir = f"{ASSETS_DIR}/"
+    spec.modelfiledir = f"{folder}/"  # MjSpec.to_xml compiles: it reads the copies, where the model now names them
+
+
+def _asset_name(written: str, origin: Path, copied: dict[str, Path]) -> str:
+    """The name under assets/ for the file `origin` (written as `written` in the model): `written` when it is a
+    plain relative path, else its base name; `_2`, `_3`... before the suffix when another file has that name."""
+    path = Path(written)
+    plain = not path.is_absolute() and ".." not in path.parts and "\\" not in written
+    wanted = path.as_posix() if plain else path.name
+    stem, suffix = Path(wanted).with_suffix("").as_posix(), Path(wanted).suffix
+    name, number = wanted, 1
+    while copied.get(name, origin) != origin:
+        number += 1
+        name = f"{stem}_{number}{suffix}"
+    return name
 
 
 def report_document(

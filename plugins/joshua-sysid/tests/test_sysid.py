@@ -4,8 +4,11 @@ exit 2."""
 
 from __future__ import annotations
 
+import errno
 import json
+import math
 import os
+import struct
 import subprocess
 import sys
 from pathlib import Path
@@ -14,8 +17,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from joshua_core.cli import main
 from joshua_core.resources import models_dir
-from joshua_sysid import fit, recordings, synthetic
+from joshua_sysid import fit, recordings, report, synthetic
 
 JOSHUA = Path(sys.executable).parent / "joshua"
 ARM = models_dir() / "so_arm100" / "so_arm100.xml"
@@ -113,6 +117,10 @@ HEADER = ",".join(["timestamp", *JOINTS, *(f"{j}.target" for j in JOINTS)])
         ("missing_joint", "no column for the actuated joints joint_6"),
         ("no_position_actuators", "has no actuators"),
         ("bad_kind", "--fit: unknown parameter 'dampng' (did you mean damping?)"),
+        ("run_name_path", "--run-name '/../../../../tmp/x' holds a '/'"),
+        ("run_name_dots", "--run-name '..' is not a name of its own"),
+        ("run_name_empty", "--run-name '' is empty"),
+        ("run_name_step", "--run-name 'x_step_99999' ends in _step_<N>"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str, expected: str) -> None:
@@ -132,6 +140,10 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str, expected: s
         ],
         "no_position_actuators": [good, "--model", write(tmp_path, "bare.xml", [BARE_MODEL])],
         "bad_kind": [good, "--fit", "kp,dampng"],
+        "run_name_path": [good, "--run-name", "/../../../../tmp/x"],  # refused before the fit
+        "run_name_dots": [good, "--run-name", ".."],
+        "run_name_empty": [good, "--run-name", ""],
+        "run_name_step": [good, "--run-name", "x_step_99999"],
     }[case]
     done = joshua("sysid", *arguments, cwd=tmp_path)
     assert done.returncode == 2, done.stderr
@@ -154,3 +166,61 @@ def test_recorded_targets_drive_the_same_simulation_the_fit_assumes() -> None:
     result = fit.fit(spec, servos, [recording], kinds=("kp",), max_iters=1)
     assert np.max(result.rms_before) < 1e-6
     assert result.identified["joint_1"]["kp"] == pytest.approx(fit.read_value(spec, servos[0], "kp"), rel=1e-3)
+
+
+def write_stl(path: Path) -> None:
+    """A binary STL tetrahedron, 5 cm a side."""
+    vertices = [(0, 0, 0), (0.05, 0, 0), (0, 0.05, 0), (0, 0, 0.05)]
+    faces = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
+    triangles = b"".join(
+        struct.pack("<3f", 0, 0, 0) + b"".join(struct.pack("<3f", *vertices[i]) for i in face) + b"\0\0"
+        for face in faces
+    )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(b"\0" * 80 + struct.pack("<I", len(faces)) + triangles)
+
+
+def one_servo_model(tmp_path: Path) -> tuple[Path, Path]:
+    """A one-joint model whose meshes lie above its folder and at an absolute path (both named m.stl), and a
+    recording of that joint; (model, recording)."""
+    write_stl(tmp_path / "elsewhere" / "m.stl")
+    write_stl(tmp_path / "abs" / "m.stl")
+    model = tmp_path / "model" / "deep" / "er" / "arm.xml"
+    model.parent.mkdir(parents=True)
+    model.write_text(
+        f'<mujoco><asset><mesh name="a" file="../../../elsewhere/m.stl"/><mesh name="b" file="{tmp_path}/abs/m.stl"/>'
+        '</asset><worldbody><body><joint name="j" axis="0 0 1" damping="0.1"/><geom type="mesh" mesh="a"/>'
+        '<geom type="mesh" mesh="b" pos="0.1 0 0"/></body></worldbody>'
+        '<actuator><position name="j_position" joint="j" kp="2"/></actuator></mujoco>'
+    )
+    lines = [f"{i * 0.01:.2f},{0.3 * math.sin(i * 0.05):.4f},{0.3 * math.sin(i * 0.05 + 0.2):.4f}" for i in range(200)]
+    return model, Path(write(tmp_path, "rec.csv", ["timestamp,j,j.target", *lines]))
+
+
+def test_meshes_from_outside_the_model_folder_are_copied_inside_the_run(tmp_path: Path) -> None:
+    model, recording = one_servo_model(tmp_path)
+    outside = {path: path.read_bytes() for path in (tmp_path / "elsewhere" / "m.stl", tmp_path / "abs" / "m.stl")}
+    original = model.read_text()
+    arguments = [str(recording), "--model", str(model), "--max-iters", "1", "--fit", "kp", "--run-name", "r"]
+    done = joshua("sysid", *arguments, "--output-dir", "out", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    run = tmp_path / "out" / "r"
+    assert sorted(path.name for path in (run / "assets").iterdir()) == ["m.stl", "m_2.stl"]
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["abs", "elsewhere", "model", "out", "rec.csv"]
+    assert {path: path.read_bytes() for path in outside} == outside and model.read_text() == original
+    assert sorted(path.name for path in model.parent.iterdir()) == ["arm.xml"]
+    calibrated = mujoco.MjModel.from_xml_path(str(run / "arm_calibrated.xml"))  # compiles from the run alone
+    assert calibrated.nmesh == 2
+
+
+def test_a_fit_that_fails_while_writing_leaves_no_run_folder(tmp_path: Path, monkeypatch) -> None:
+    model, recording = one_servo_model(tmp_path)
+
+    def full(*_: object) -> Path:
+        raise OSError(errno.ENOSPC, "No space left on device", str(tmp_path / "out" / "r" / report.REPORT_FILE))
+
+    monkeypatch.setattr(report, "write_report", full)  # after the model, its meshes and the plot are written
+    monkeypatch.chdir(tmp_path)
+    arguments = [str(recording), "--model", str(model), "--max-iters", "1", "--fit", "kp", "--run-name", "r"]
+    assert main(["sysid", *arguments, "--output-dir", "out"]) == 2
+    assert list((tmp_path / "out").iterdir()) == []
