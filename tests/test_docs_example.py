@@ -44,7 +44,8 @@ PROBE = """
 import json, sys
 from pathlib import Path
 import joshua_rk4
-from joshua_core.plugins import Kind, PluginHost
+from joshua_core.plugins import PluginHost
+from joshua_core.kinds import Kind
 
 host = PluginHost.discover()
 component = host.component(Kind.BACKEND, "mujoco_rk4")

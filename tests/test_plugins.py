@@ -16,8 +16,10 @@ import pytest
 from joshua_core import hookimpl
 from joshua_core.config_pb2 import SimulationConfig, TrainingConfig
 from joshua_core.errors import ConfigError, PluginLoadError, PluginNotFoundError, UsageError
-from joshua_core.interfaces import Backend, EnvKind, EnvSpec, Mode, RunContext
-from joshua_core.plugins import Kind, PluginHost, PluginInfo
+from joshua_core.interfaces import Backend, EnvKind, EnvSpec, Mode
+from joshua_core.kinds import Kind
+from joshua_core.plugins import PluginHost, PluginInfo
+from joshua_core.run_context import RunContext
 
 
 def install_fake_distribution(site: Path, distribution: str, entry_name: str, module: str, source: str) -> None:

@@ -48,11 +48,12 @@ class MuJoCoEngine(Engine):
         assets: Mapping[str, bytes] | None = None,
         render_width: int = DEFAULT_RENDER_WIDTH,
         render_height: int = DEFAULT_RENDER_HEIGHT,
+        plugins: PluginHost | None = None,
     ) -> None:
         if (model_path is None) == (xml is None):
             raise TypeError("MuJoCoEngine needs exactly one of model_path= or xml=")
         path = resolve_data_path(model_path) if model_path is not None else None
-        self.model = compile_model(path, xml=xml, assets=assets)
+        self.model = compile_model(path, xml=xml, assets=assets, plugins=plugins)
         self.data = mujoco.MjData(self.model)
         self.render_width = render_width
         self.render_height = render_height
