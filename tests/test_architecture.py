@@ -85,3 +85,11 @@ def test_layering_and_discovery_rules_are_found(tmp_path: Path) -> None:
     assert "lib.py:2: PluginHost.discover() in library code (f)" in found
     assert f"__init__.py:1: backend {backend} imports trainer {trainer_package.name}" in found
     assert f"deep.py:1: imports {trainer_package.name}.inner; import from {trainer_package.name} (its __all__)" in found
+
+
+def test_the_layer_picture_is_drawn_from_the_current_imports() -> None:
+    spec = importlib.util.spec_from_file_location("architecture_layers", REPO_ROOT / "docs" / "architecture_layers.py")
+    layers = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(layers)
+    drawn = (REPO_ROOT / "docs" / "architecture_layers.svg").read_text(encoding="utf-8")
+    assert drawn == layers.render(), "out of date: run python docs/architecture_layers.py"
