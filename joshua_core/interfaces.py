@@ -267,7 +267,7 @@ class ModelReader(ABC):
 
 class TrajectoryReader(ABC):
     """Reads recorded motion stored in a format other than JOSHUA's CSV (e.g. a LeRobot dataset folder) into a
-    `Trajectory` in the model's units; `joshua_core.trajectory.load_trajectory` dispatches to it, so passive
+    `Trajectory` in the model's units; `joshua_core.trajectory_sources.load_trajectory` dispatches to it, so passive
     replay, validation and every other consumer take the format as `trajectory_path`. Registered under a
     format name; importing the class must stay light (it is created to ask `accepts`)."""
 
