@@ -206,10 +206,10 @@ def summarize(name: str, evaluated: list[dict], target: float, compile_seconds: 
     return summary
 
 
-def config_with(overrides: tuple[str, ...] | list[str]) -> Any:
-    loaded = load_preset(PRESET)
+def config_with(overrides: tuple[str, ...] | list[str], plugins: PluginHost) -> Any:
+    loaded = load_preset(PRESET, plugins.options())
     for assignment in overrides:
-        apply_override(loaded.message, assignment)
+        apply_override(loaded.message, assignment, plugins.options())
     return finalize(loaded).training
 
 
@@ -241,12 +241,12 @@ def main() -> None:
     for name in args.runs.split(","):
         if name == "brax":
             results[name] = run_brax(
-                config_with(smoke), plugins, args.brax_steps, args.brax_evals, args.target, args.smoke
+                config_with(smoke, plugins), plugins, args.brax_steps, args.brax_evals, args.target, args.smoke
             )
         elif name == "joshua-brax-settings":
-            results[name] = run_joshua(name, config_with(BRAX_SETTINGS + smoke), plugins, args)
+            results[name] = run_joshua(name, config_with(BRAX_SETTINGS + smoke, plugins), plugins, args)
         elif name == "joshua-tuned":
-            results[name] = run_joshua(name, config_with(smoke), plugins, args)
+            results[name] = run_joshua(name, config_with(smoke, plugins), plugins, args)
         else:
             parser.error(f"unknown run '{name}' (brax, joshua-brax-settings, joshua-tuned)")
     if "brax" in results:

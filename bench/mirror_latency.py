@@ -27,6 +27,7 @@ import numpy as np
 
 from joshua_core.config import finalize, load_preset
 from joshua_core.options import options_of
+from joshua_core.plugins import PluginHost
 from joshua_mirror import options_pb2
 from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.ros import local_only_environment
@@ -86,7 +87,7 @@ def measure(case: str, topic: str, joint_state: bool, count: int, rate: float, e
     from joshua_mujoco import MuJoCoEngine
 
     received: dict[float, int] = {}
-    config = finalize(load_preset("sim_mirror")).simulation
+    config = finalize(load_preset("sim_mirror", PluginHost.discover().options())).simulation
     options = options_of(config, options_pb2.mirror)
     options.message_type = MirrorOptions.JOINT_STATE if joint_state else MirrorOptions.FLOAT64
     options.status_period = -1

@@ -44,6 +44,7 @@ from joshua_core.config import apply_override, finalize, load_file, load_preset
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.interfaces import EnvKind, EnvSpec
 from joshua_core.interrupts import reported
+from joshua_core.options import OptionSet
 from joshua_core.plugins import PluginHost
 from joshua_core.statistics import SUCCESS_METRIC, summarize
 from joshua_mjx import MjxBackend, MjxEnv
@@ -306,11 +307,12 @@ def environment(
     return MjxBackend().create_envs(spec, EnvKind.JAX, plugins)
 
 
-def load_config(preset: str, assignments: list[str], num_envs: int | None) -> TrainingConfig:
-    """The preset's (or a .pbtxt file's) finalized training config with `--set` and `--num-envs` applied."""
-    loaded = load_file(preset) if preset.endswith(".pbtxt") else load_preset(preset)
+def load_config(preset: str, assignments: list[str], num_envs: int | None, options: OptionSet) -> TrainingConfig:
+    """The preset's (or a .pbtxt file's) finalized training config with `--set` and `--num-envs` applied;
+    `options`: the plugins' (`PluginHost.options()`)."""
+    loaded = load_file(preset, options) if preset.endswith(".pbtxt") else load_preset(preset, options)
     for assignment in assignments:
-        apply_override(loaded.message, assignment)
+        apply_override(loaded.message, assignment, options)
     config = finalize(loaded).training
     if num_envs:
         config.num_envs = num_envs
@@ -327,9 +329,9 @@ def stop_at(args: argparse.Namespace) -> float:
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """Train, measure raw physics, evaluate the snapshots; the outcome as one JSON-ready dict."""
-    config = load_config(args.preset, (SMOKE if args.smoke else []) + args.set, args.num_envs)
-    settings = PpoSettings.from_config(config)
     plugins = PluginHost.discover()
+    config = load_config(args.preset, (SMOKE if args.smoke else []) + args.set, args.num_envs, plugins.options())
+    settings = PpoSettings.from_config(config)
     devices = jax.devices()
     print(f"devices: {devices}  preset {args.preset}: {settings.rollout} {settings.optimization}", flush=True)
     env = environment(config, plugins, config.num_envs or DEFAULT_NUM_ENVS, devices, training=True)

@@ -90,9 +90,9 @@ def main() -> None:
     parser.add_argument("--json", help="write the results here")
     args = parser.parse_args()
 
-    config = load_config(args.preset, args.set, args.num_envs)
-    settings = PpoSettings.from_config(config)
     plugins = PluginHost.discover()
+    config = load_config(args.preset, args.set, args.num_envs, plugins.options())
+    settings = PpoSettings.from_config(config)
     device_sets = [jax.devices()[:1], jax.devices()] if args.scaling else [jax.devices()]
     print(f"devices: {jax.devices()}  preset {args.preset}: {settings.rollout} {settings.optimization}")
     results = []

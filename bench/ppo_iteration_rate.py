@@ -65,6 +65,8 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
     import jax
     from mjx_time_to_target import SMOKE, load_config, raw_physics_rate
 
+    from joshua_core.plugins import PluginHost
+
     if COMPILER_OPTIONS in os.environ:
         import joshua_ppo.iteration
 
@@ -73,7 +75,9 @@ def measure(args: argparse.Namespace) -> dict[str, float]:
     jax.config.update("jax_compilation_cache_dir", tempfile.mkdtemp(prefix="ppo-iteration-rate-"))
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0)
     started = time.perf_counter()
-    env, settings, state, compiled = compiled_iteration(load_config(args.preset, SMOKE if args.smoke else [], None))
+    env, settings, state, compiled = compiled_iteration(
+        load_config(args.preset, SMOKE if args.smoke else [], None, PluginHost.discover().options())
+    )
     result = {"compile_seconds": time.perf_counter() - started}
     for _ in range(args.warmup):
         state, _ = jax.block_until_ready(compiled(state))

@@ -56,10 +56,11 @@ def main() -> None:
     parser.add_argument("--preset", default="ant_train_mjx_tuned")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
     args = parser.parse_args()
-    config = load_config(args.preset, args.set, None)
+    plugins = PluginHost.discover()
+    config = load_config(args.preset, args.set, None, plugins.options())
     settings = PpoSettings.from_config(config)
     num_envs = config.num_envs or DEFAULT_NUM_ENVS
-    env = environment(config, PluginHost.discover(), num_envs, jax.devices()[:1])  # made, never reset
+    env = environment(config, plugins, num_envs, jax.devices()[:1])  # made, never reset
     steps = _Iteration(env, settings.rollout, settings.optimization, settings.returns, settings.network)
     obs, act = env.observation_size, env.action_size
     params = jax.eval_shape(lambda: steps.net.init(jax.random.PRNGKey(0), jnp.zeros((1, obs)))["params"])

@@ -32,6 +32,7 @@ from mjx_time_to_target import SMOKE, load_config
 from ppo_iteration_rate import compiled_iteration
 
 from joshua_core.atomic import atomic_write_json
+from joshua_core.plugins import PluginHost
 
 INSTRUCTION = re.compile(r"^\s*(?:ROOT )?%?([\w.\-]+) = .*?\b([a-z][a-z\-]*)\(.*?op_name=\"([^\"]*)\"", re.M)
 CONTAINERS = {"while", "conditional", "call", "async-start", "async-done"}  # their bodies' operations count
@@ -81,7 +82,8 @@ def device_times(trace_dir: Path, module: str) -> Counter[str]:
 
 def profile(args: argparse.Namespace) -> dict:
     """Compile, warm up, trace; the time per group and per instruction."""
-    config = load_config(args.preset, (SMOKE if args.smoke else []) + args.set, args.num_envs)
+    options = PluginHost.discover().options()
+    config = load_config(args.preset, (SMOKE if args.smoke else []) + args.set, args.num_envs, options)
     env, settings, state, compiled = compiled_iteration(config)
     groups = instruction_groups(compiled.as_text())
     for _ in range(args.warmup):

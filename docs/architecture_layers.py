@@ -1,125 +1,99 @@
-"""Draw docs/architecture_layers.svg: JOSHUA's distributions as floors, imports pointing down only.
+"""Draw docs/architecture_layers.svg: JOSHUA's distributions on floors computed from the code's real imports.
 
     python docs/architecture_layers.py      # rewrites docs/architecture_layers.svg
 
-Plain SVG written by hand (no plotting library), so the picture is reproducible anywhere. The floors
-and boxes below are the one description of the layering; docs/architecture.md shows the result.
+A distribution's floor is one above the highest floor of the distributions its code imports (read with `ast` by
+tools/import_graph.py; imports under TYPE_CHECKING left out), so the picture follows the code: nothing here names
+a floor or an edge. Each box says what the distribution registers (joshua_core/providers.json). Arrows point from
+the importer to what it imports; imports of the core, which every distribution makes, are left out.
+tests/test_architecture.py fails when the SVG is not what this script draws from the current code.
 """
 
 from __future__ import annotations
 
+import json
+import sys
 from html import escape
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
+
+from import_graph import CORE, distribution_graph, floors  # noqa: E402
+
 OUTPUT = Path(__file__).with_name("architecture_layers.svg")
-WIDTH = 980
-FLOOR_HEIGHT = 130
-FLOOR_GAP = 30  # room between floors for the arrows
-BOX_HEIGHT = 74
+WIDTH = 1000
+FLOOR_HEIGHT = 110
+BOX_HEIGHT = 56
 MARGIN = 20
-LABEL_WIDTH = 150
-
-# Top floor first. Each box: (distribution, two short lines of what it holds, fill colour).
-FLOORS: list[tuple[str, list[tuple[str, str, str, str]]]] = [
-    (
-        "3  modes, trainers",
-        [
-            ("joshua-modes", "INTERACTIVE, PASSIVE,", "OFFSCREEN", "#dbeafe"),
-            ("joshua-mirror", "MIRROR (ROS 2 twin),", "mirror-replay", "#dbeafe"),
-            ("joshua-sb3", "trainer sb3:", "needs NUMPY envs", "#fde68a"),
-            ("joshua-ppo", "trainer ppo:", "needs JAX envs", "#fde68a"),
-            ("third party", "joshua-rk4: a mode", "with its own options", "#e5e7eb"),
-        ],
-    ),
-    (
-        "2  backends",
-        [
-            ("joshua-mujoco", "backend mujoco: Engine,", "provides NUMPY envs", "#bbf7d0"),
-            ("joshua-mjx", "backend mjx: Engine,", "provides JAX envs", "#bbf7d0"),
-            ("joshua-usd", "backend usd (planned):", "USD stages on MuJoCo", "#e5e7eb"),
-        ],
-    ),
-    (
-        "1  rendering",
-        [
-            (
-                "joshua-render",
-                "GL selection, frame renderer, command overlays,",
-                "video writer, display/recording, live viewer",
-                "#fbcfe8",
-            ),
-        ],
-    ),
-    (
-        "0  core",
-        [
-            (
-                "joshua-core",
-                "config + options, plugin host + hooks, ABCs (Engine, Backend, Mode,",
-                "Trainer, EnvKind), task terms + episode bookkeeping, run folders, CLI",
-                "#ddd6fe",
-            ),
-        ],
-    ),
-]
+LABEL_WIDTH = 70
+GAP = 12
+COUNTED = {"task", "term"}  # many names: shown as a count
 
 
-def _box(x: float, y: float, width: float, name: str, line1: str, line2: str, fill: str) -> str:
-    centre = x + width / 2
-    return (
-        f'<rect x="{x:.0f}" y="{y:.0f}" width="{width:.0f}" height="{BOX_HEIGHT}" rx="8" '
-        f'fill="{fill}" stroke="#374151"/>'
-        f'<text x="{centre:.0f}" y="{y + 24:.0f}" font-weight="bold" text-anchor="middle">{escape(name)}</text>'
-        f'<text x="{centre:.0f}" y="{y + 44:.0f}" font-size="12" text-anchor="middle">{escape(line1)}</text>'
-        f'<text x="{centre:.0f}" y="{y + 60:.0f}" font-size="12" text-anchor="middle">{escape(line2)}</text>'
-    )
+def description(distribution: str, provided: dict[str, list[str]]) -> str:
+    """One line of what a distribution registers."""
+    if distribution == CORE:
+        return "config, plugin host, ABCs, tasks, run folders, CLI"
+    if not provided:
+        return "a library: registers nothing"
+    parts = []
+    for kind, names in sorted(provided.items()):
+        if kind in COUNTED:
+            parts.append(f"{len(names)} {kind}s")
+        else:
+            parts.append(f"{kind} {' '.join(names)}")
+    return "; ".join(parts)
 
 
-def render() -> str:
-    """The SVG document."""
-    height = MARGIN * 2 + FLOOR_HEIGHT * len(FLOORS) + 40
+def render(root: Path = ROOT) -> str:
+    """The SVG document for the code under `root`."""
+    graph = distribution_graph(root)
+    floor_of = floors(graph)
+    catalog = json.loads((root / "joshua_core" / "providers.json").read_text(encoding="utf-8"))
+    top = max(floor_of.values())
+    height = MARGIN * 2 + FLOOR_HEIGHT * (top + 1) + 20
+    boxes: dict[str, tuple[float, float, float]] = {}  # distribution -> (x, y, width)
     parts = [
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH}" height="{height}" '
-        f'font-family="DejaVu Sans, Arial, sans-serif" font-size="14">',
-        '<defs><marker id="down" markerWidth="12" markerHeight="10" refX="6" refY="2" '
-        'markerUnits="userSpaceOnUse"><path d="M0,0 L12,0 L6,10 z" fill="#374151"/></marker></defs>',
+        f'font-family="DejaVu Sans, Arial, sans-serif" font-size="13">',
+        '<defs><marker id="head" markerWidth="10" markerHeight="8" refX="5" refY="8" orient="auto-start-reverse" '
+        'markerUnits="userSpaceOnUse"><path d="M0,0 L10,0 L5,8 z" fill="#6b7280"/></marker></defs>',
         f'<rect width="{WIDTH}" height="{height}" fill="white"/>',
     ]
-    inner = WIDTH - 2 * MARGIN - LABEL_WIDTH
-    for index, (label, boxes) in enumerate(FLOORS):
-        y = MARGIN + index * FLOOR_HEIGHT
+    for floor in range(top, -1, -1):
+        y = MARGIN + (top - floor) * FLOOR_HEIGHT
+        names = sorted(name for name, level in floor_of.items() if level == floor)
         parts.append(
-            f'<rect x="{MARGIN}" y="{y}" width="{WIDTH - 2 * MARGIN}" height="{FLOOR_HEIGHT - FLOOR_GAP}" '
-            f'fill="#f9fafb" stroke="#d1d5db"/>'
+            f'<rect x="{MARGIN}" y="{y}" width="{WIDTH - 2 * MARGIN}" height="{BOX_HEIGHT + 16}" '
+            f'fill="#f9fafb" stroke="#e5e7eb"/><text x="{MARGIN + 10}" y="{y + BOX_HEIGHT / 2 + 12:.0f}" '
+            f'font-weight="bold">floor {floor}</text>'
         )
+        inner = WIDTH - 2 * MARGIN - LABEL_WIDTH
+        width = (inner - GAP * (len(names) + 1)) / len(names)
+        for position, name in enumerate(names):
+            x = MARGIN + LABEL_WIDTH + GAP + position * (width + GAP)
+            boxes[name] = (x, y + 8, width)
+    for name, imported in sorted(graph.items()):
+        x, y, width = boxes[name]
+        for other in sorted(imported - {CORE}):
+            ox, oy, owidth = boxes[other]
+            parts.append(
+                f'<line x1="{x + width / 2:.0f}" y1="{y + BOX_HEIGHT:.0f}" x2="{ox + owidth / 2:.0f}" y2="{oy:.0f}" '
+                'stroke="#6b7280" stroke-width="1.2" marker-end="url(#head)"/>'
+            )
+    for name, (x, y, width) in sorted(boxes.items()):
+        text = description(name, catalog.get(name, {}))
+        size = min(11.0, 1.9 * width / max(len(text), 1))
         parts.append(
-            f'<text x="{MARGIN + 10}" y="{y + (FLOOR_HEIGHT - FLOOR_GAP) / 2 + 5:.0f}" '
-            f'font-weight="bold">{escape(label)}</text>'
+            f'<rect x="{x:.0f}" y="{y:.0f}" width="{width:.0f}" height="{BOX_HEIGHT}" rx="7" fill="#ede9fe" '
+            f'stroke="#374151"/><text x="{x + width / 2:.0f}" y="{y + 22:.0f}" font-weight="bold" '
+            f'text-anchor="middle">{escape(name)}</text><text x="{x + width / 2:.0f}" y="{y + 42:.0f}" '
+            f'font-size="{size:.1f}" text-anchor="middle">{escape(text)}</text>'
         )
-        gap = 12
-        width = (inner - gap * (len(boxes) + 1)) / len(boxes)
-        for position, (name, line1, line2, fill) in enumerate(boxes):
-            x = MARGIN + LABEL_WIDTH + gap + position * (width + gap)
-            parts.append(_box(x, y + 13, width, name, line1, line2, fill))
-        if index < len(FLOORS) - 1:
-            for arrow_x in (WIDTH * 0.3, WIDTH * 0.55, WIDTH * 0.8):
-                parts.append(
-                    f'<line x1="{arrow_x:.0f}" y1="{y + FLOOR_HEIGHT - FLOOR_GAP + 2}" x2="{arrow_x:.0f}" '
-                    f'y2="{y + FLOOR_HEIGHT - 10}" stroke="#374151" stroke-width="2" marker-end="url(#down)"/>'
-                )
-    footer_y = MARGIN + len(FLOORS) * FLOOR_HEIGHT - FLOOR_GAP + 24
     parts.append(
-        f'<text x="{MARGIN}" y="{footer_y}" font-size="13">'
-        "Imports point down only: a floor may import the floors below it; "
-        "across plugins only the names a plugin exports (its __init__ __all__).</text>"
-    )
-    parts.append(
-        f'<text x="{MARGIN}" y="{footer_y + 18}" font-size="13">Trainers never import a backend: they ask the backend '
-        "the config names for environments of the kind they need (RunContext.create_envs).</text>"
-    )
-    parts.append(
-        f'<text x="{MARGIN}" y="{footer_y + 36}" font-size="13">Within a floor: joshua-mjx builds on joshua-mujoco '
-        "(MjxEngine is a MuJoCoEngine; model compilation) through the names joshua-mujoco exports.</text>"
+        f'<text x="{MARGIN}" y="{height - MARGIN}" font-size="12">Floors and arrows computed from the imports '
+        "(python docs/architecture_layers.py); every distribution also imports joshua-core.</text>"
     )
     parts.append("</svg>")
     return "\n".join(parts) + "\n"

@@ -2,8 +2,16 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from joshua_core.hookspecs import hookimpl
-from joshua_core.plugins import Registrar
+from joshua_core.tasks.builtin import BUILTIN_TASKS
+from joshua_core.tasks.grasping import GRASP_TERMS
+from joshua_core.tasks.randomization import EVENT_TERMS
+from joshua_core.tasks.terms import BUILTIN_TERMS
+
+if TYPE_CHECKING:
+    from joshua_core.plugins import Registrar
 
 
 @hookimpl
@@ -17,18 +25,12 @@ def joshua_register_modes(registry: Registrar) -> None:
 
 @hookimpl
 def joshua_register_tasks(registry: Registrar) -> None:
-    from joshua_core.tasks.builtin import BUILTIN_TASKS
-
     for name, spec in BUILTIN_TASKS.items():
         registry.add(name, spec, spec.summary)
 
 
 @hookimpl
 def joshua_register_terms(registry: Registrar) -> None:
-    from joshua_core.tasks.grasping import GRASP_TERMS
-    from joshua_core.tasks.randomization import EVENT_TERMS
-    from joshua_core.tasks.terms import BUILTIN_TERMS
-
     for name, function in {**BUILTIN_TERMS, **GRASP_TERMS, **EVENT_TERMS}.items():
         registry.add(name, function, (function.__doc__ or "").strip().splitlines()[0])
 

@@ -8,7 +8,7 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from joshua_core import __version__
+from joshua_core import __version__, catalog
 from joshua_core.config import (
     LoadedConfig,
     apply_override,
@@ -18,16 +18,16 @@ from joshua_core.config import (
     load_file,
     load_preset,
     preset_names,
-    required_components,
-    simulation_mode,
 )
 from joshua_core.config_pb2 import JoshuaConfig
+from joshua_core.defaults import required_components, simulation_mode
 from joshua_core.errors import JoshuaError, PluginNotFoundError, UsageError
-from joshua_core.interfaces import RunContext
 from joshua_core.interrupts import reported
+from joshua_core.kinds import Kind
 from joshua_core.options import LENIENT, OptionSet
 from joshua_core.outputs import check_name
-from joshua_core.plugins import DISABLE_ENV_VAR, KNOWN_PROVIDERS, Kind, PluginHost
+from joshua_core.plugins import DISABLE_ENV_VAR, PluginHost
+from joshua_core.run_context import RunContext
 
 DEFAULT_OUTPUT_DIR = "joshua_output"
 STRICT_OVERRIDE = "simulation.replay.strict=true"  # what --strict means
@@ -100,9 +100,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `joshua` script; returns the exit status."""
     host = PluginHost.discover()
     plugin_commands = {name: host.component(Kind.COMMAND, name).summary for name in host.names(Kind.COMMAND)}
-    for kind, name in KNOWN_PROVIDERS:  # listed, so that using one says what to install
-        if kind is Kind.COMMAND and name not in plugin_commands:
-            plugin_commands[name] = f"(not installed: {KNOWN_PROVIDERS[kind, name]})"
+    for name, distribution in catalog.provided(Kind.COMMAND).items():  # listed, so that using one says what to install
+        plugin_commands.setdefault(name, f"(not installed: {distribution})")
     parser = build_parser(plugin_commands)
     args, command_argv = parser.parse_known_args(argv)
     if command_argv and args.command not in plugin_commands:

@@ -1,10 +1,10 @@
 """Loading configs: presets and `.pbtxt` files (text-format JoshuaConfig), `extends`, `--set` overrides.
 
 Plugins' options are extensions of the config messages, named by their short names
-(`joshua_core.options`); every loader takes the `OptionSet` it may use (default: the installed
-plugins'). Errors always point at the input: `file:line:col` for parse errors, the close names for an
-unknown preset, the field and option names available for a bad `--set` path, every path searched for
-a missing model.
+(`joshua_core.options`); every loader takes the `OptionSet` it may use: the run's
+(`PluginHost.options()`), or `LENIENT` to read only what the core schema holds. Errors always point at
+the input: `file:line:col` for parse errors, the close names for an unknown preset, the field and option
+names available for a bad `--set` path, every path searched for a missing model.
 """
 
 from __future__ import annotations
@@ -19,22 +19,14 @@ from google.protobuf.descriptor import FieldDescriptor
 from google.protobuf.message import Message
 
 from joshua_core import config_text
-from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig, TrainingConfig
+from joshua_core.config_pb2 import JoshuaConfig
+from joshua_core.defaults import simulation_backend, simulation_mode, training_plugins
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.limits import check_numbers
-from joshua_core.options import OptionSet, close_names, field_or_option, installed_options, sub_message
-from joshua_core.plugins import Kind
+from joshua_core.options import OptionSet, close_names, field_or_option, sub_message
 from joshua_core.resources import presets_dir, resolve_data_path
 
 PRESET_SUFFIX = ".pbtxt"
-
-# The trainer and backend a framework uses when the config leaves them empty.
-FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
-    TrainingConfig.MJX: ("ppo", "mjx"),
-    TrainingConfig.SB3: ("sb3", "mujoco"),
-}
-DEFAULT_SIMULATION_BACKEND = "mujoco"
-DEFAULT_MODE = "INTERACTIVE"  # a config that names no mode gets the viewer (config.proto, docs/configuration.md)
 
 
 @dataclass(frozen=True)
@@ -62,20 +54,18 @@ def preset_path(name: str) -> Path:
     raise UsageError(f"unknown preset '{name}'.{hint}\nAvailable presets: {', '.join(names)}")
 
 
-def load_preset(name: str, options: OptionSet | None = None) -> LoadedConfig:
-    """Parse a shipped preset (following its `extends`); `options`: those it may use, default the installed ones."""
-    options = installed_options() if options is None else options
+def load_preset(name: str, options: OptionSet) -> LoadedConfig:
+    """Parse a shipped preset (following its `extends`); `options`: those it may use."""
     return LoadedConfig(_parse_file(preset_path(name), (name,), options), f"preset {name}", None)
 
 
-def load_file(path: str | Path, options: OptionSet | None = None) -> LoadedConfig:
+def load_file(path: str | Path, options: OptionSet) -> LoadedConfig:
     """Parse a `.pbtxt` config (following its `extends`); `options` as for `load_preset`."""
     file = Path(path)
     if file.is_dir():
         raise UsageError(f"config file '{path}' is a directory; give a .pbtxt file in it")
     if not file.is_file():
         raise UsageError(f"config file '{path}' not found")
-    options = installed_options() if options is None else options
     return LoadedConfig(_parse_file(file, (), options), str(file), file.resolve().parent)
 
 
@@ -141,7 +131,7 @@ def config_text_of(config: JoshuaConfig, options: OptionSet) -> str:
 _PATH_PART = re.compile(r"^(?P<name>\w+)(?:\[(?P<index>\d+)\])?$")
 
 
-def apply_override(config: JoshuaConfig, assignment: str, options: OptionSet | None = None) -> None:
+def apply_override(config: JoshuaConfig, assignment: str, options: OptionSet) -> None:
     """Apply one `--set path.to.field=value`; list items as `mappings[2].offset=0.1`, options by short name
     (`simulation.offscreen.fps=60`). `options` as for `load_preset`; a lenient set skips unknown names."""
     path, separator, value = assignment.partition("=")
@@ -149,7 +139,6 @@ def apply_override(config: JoshuaConfig, assignment: str, options: OptionSet | N
         raise UsageError(f"--set expects path.to.field=value, got '{assignment}'")
     if path.strip() == "extends":
         raise UsageError("--set extends=... has no effect; put `extends` in a config file or use --preset")
-    options = installed_options() if options is None else options
     message: Message = config
     parts = path.strip().split(".")
     for depth, part in enumerate(parts):
@@ -253,30 +242,6 @@ def finalize(loaded: LoadedConfig) -> JoshuaConfig:
     return config
 
 
-def required_components(config: JoshuaConfig) -> list[tuple[Kind, str]]:
-    """The plugin components a config needs to run (before or after `finalize`)."""
-    if config.operation_mode == JoshuaConfig.SIMULATION:
-        return [(Kind.MODE, simulation_mode(config.simulation)), (Kind.BACKEND, simulation_backend(config.simulation))]
-    trainer, backend = training_plugins(config.training)
-    return [(Kind.TRAINER, trainer), (Kind.BACKEND, backend)]
-
-
-def simulation_mode(simulation: SimulationConfig) -> str:
-    """The mode a simulation runs: the one it names, else INTERACTIVE (the documented default)."""
-    return simulation.mode or DEFAULT_MODE
-
-
-def simulation_backend(simulation: SimulationConfig) -> str:
-    """The backend a simulation uses: the one it names, else the default."""
-    return simulation.backend or DEFAULT_SIMULATION_BACKEND
-
-
-def training_plugins(training: TrainingConfig) -> tuple[str, str]:
-    """The (trainer, backend) a training job uses: the ones it names, else its framework's defaults."""
-    trainer, backend = FRAMEWORK_DEFAULTS[training.framework]
-    return training.trainer or trainer, training.backend or backend
-
-
 # What `joshua` runs when given neither --preset nor --config: the representative job, headless and short.
 # It validates the example trajectory against the SO-ARM100 and records its replay (PASSIVE of joshua-modes,
 # which ./setup.sh installs; without it, `joshua` says to install it). The CLI then prints what to try next.
@@ -295,7 +260,6 @@ simulation {
 """
 
 
-def load_default(options: OptionSet | None = None) -> LoadedConfig:
-    """The embedded default config."""
-    options = installed_options() if options is None else options
+def load_default(options: OptionSet) -> LoadedConfig:
+    """The embedded default config; `options` as for `load_preset`."""
     return LoadedConfig(parse_text(DEFAULT_CONFIG_TEXT, "<embedded default>", options), "embedded default", None)

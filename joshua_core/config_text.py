@@ -21,9 +21,10 @@ from dataclasses import dataclass, field
 from google.protobuf import text_format
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 
+from joshua_core import catalog
 from joshua_core.errors import ConfigError
+from joshua_core.kinds import Kind
 from joshua_core.options import OptionSet, close_names, field_or_option
-from joshua_core.plugins import KNOWN_PROVIDERS, Kind
 
 # String fields whose values configs may write bare, as enum values are (`mode: HEADLESS`; docs/configuration.md).
 BARE_STRING_FIELDS = frozenset({"joshua.SimulationConfig.mode"})
@@ -216,7 +217,7 @@ class _ToShort(_Walker):
 
 def provider_hint(name: str) -> str:
     """' It is an option of joshua-x: install it ...' when a first-party plugin provides `name`."""
-    provider = KNOWN_PROVIDERS.get((Kind.OPTIONS, name))
+    provider = catalog.provider(Kind.OPTIONS, name)
     if provider is None:
         return ""
     return f" '{name}' is an option of {provider}, which is not installed or is disabled: pip install {provider}"

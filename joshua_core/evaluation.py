@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING
 from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.cli import writable_file
 from joshua_core.errors import UsageError
-from joshua_core.interfaces import Command, RunContext
+from joshua_core.interfaces import Command
+from joshua_core.run_context import RunContext
 from joshua_core.runs import add_checkpoint_arguments, read_run_config
 from joshua_core.statistics import report_lines, summarize
 

@@ -16,8 +16,9 @@ import numpy as np
 from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import JoshuaError
-from joshua_core.interfaces import Engine, Mode, RunContext
+from joshua_core.interfaces import Engine, Mode
 from joshua_core.progress import progress_bar
+from joshua_core.run_context import RunContext
 
 DEFAULT_DURATION_S = 5.0
 SUMMARY_FILE = "headless_summary.json"

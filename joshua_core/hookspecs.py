@@ -122,6 +122,6 @@ def joshua_register_trajectory_readers(registry: Registrar) -> None:
     summary)`.
 
     Called by PluginHost when it is built. `target` is a `joshua_core.interfaces.TrajectoryReader` subclass or
-    its path; `joshua_core.trajectory.load_trajectory` asks each registered reader whether it `accepts` a
+    its path; `joshua_core.trajectory_sources.load_trajectory` asks each registered reader whether it `accepts` a
     folder it is given. The CSV reader is built in and not registered.
     """

@@ -14,7 +14,7 @@ from __future__ import annotations
 import enum
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, Self
 
@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from joshua_core.config_pb2 import SimulationConfig, TaskConfig, TrainingConfig
     from joshua_core.plugins import PluginHost
     from joshua_core.policy import ExportedPolicy
+    from joshua_core.run_context import RunContext
     from joshua_core.trajectory import Trajectory
 
 # The size of rendered images when a config leaves simulation.render_width/render_height at 0.
@@ -189,52 +190,6 @@ class Backend(ABC):
         raise ConfigError(f"backend {type(self).__name__} provides no {kind.name} environments")
 
 
-@dataclass(frozen=True)
-class RunContext:
-    """What a mode or trainer gets besides its config: the plugins of this run and where to write."""
-
-    plugins: PluginHost
-    output_dir: Path
-
-    def create_engine(self, simulation: SimulationConfig) -> Engine:
-        """Engine for a finalized simulation config, from the backend it names, reset to the config's keyframe
-        (the model's initial state when none is named); an unknown keyframe is a ConfigError listing them."""
-        backend = self.plugins.backend(simulation.backend)
-        width, height = render_size(simulation)
-        engine = backend.create_engine(Path(simulation.model_path), render_width=width, render_height=height)
-        try:
-            engine.reset(simulation.keyframe or None)
-        except KeyError as error:
-            engine.close()
-            raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
-        return engine
-
-    def create_envs(
-        self,
-        training: TrainingConfig,
-        kind: EnvKind,
-        *,
-        num_envs: int | None = None,
-        seed: int | None = None,
-        devices: Sequence[Any] | None = None,
-        training_envs: bool = False,
-    ) -> Any:
-        """Environments of `kind` for a finalized training config, from the backend it names; a backend that
-        does not provide `kind` is a ConfigError naming those that do. `num_envs`, `seed` replace the config's;
-        `devices` (JAX environments) are the devices to spread them over (None: every visible one).
-        `training_envs`: the environments a trainer learns on, whose episodes are desynchronised unless
-        `training.synchronized_episodes` (evaluation wants whole first episodes: leave it False)."""
-        from joshua_core.config import training_plugins  # the config module imports this one
-
-        trainer, backend = training_plugins(training)
-        self.plugins.check_env_kinds(trainer, backend, needs=(kind,))
-        desync = training_envs and not training.synchronized_episodes
-        spec = replace(
-            EnvSpec.from_training(training, num_envs=num_envs, seed=seed), devices=devices, desync_episodes=desync
-        )
-        return self.plugins.backend(backend).create_envs(spec, kind, self.plugins)
-
-
 class Mode(ABC):
     """A simulation mode, registered under the name `simulation.mode` selects (e.g. "OFFSCREEN")."""
 
@@ -312,7 +267,7 @@ class ModelReader(ABC):
 
 class TrajectoryReader(ABC):
     """Reads recorded motion stored in a format other than JOSHUA's CSV (e.g. a LeRobot dataset folder) into a
-    `Trajectory` in the model's units; `joshua_core.trajectory.load_trajectory` dispatches to it, so passive
+    `Trajectory` in the model's units; `joshua_core.trajectory_sources.load_trajectory` dispatches to it, so passive
     replay, validation and every other consumer take the format as `trajectory_path`. Registered under a
     format name; importing the class must stay light (it is created to ask `accepts`)."""
 

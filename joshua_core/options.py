@@ -116,10 +116,3 @@ def _bracketed(data: Any, descriptor: Descriptor | None, options: OptionSet) -> 
             value = _bracketed(value, child, options)
         result[key] = value
     return result
-
-
-def installed_options() -> OptionSet:
-    """The options the installed, enabled plugins register (for callers without a PluginHost of their own)."""
-    from joshua_core.plugins import PluginHost  # here: joshua_core.plugins imports this module
-
-    return PluginHost.discover().options()

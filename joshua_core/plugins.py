@@ -10,7 +10,6 @@ error that lists what is installed and which distribution would provide it.
 from __future__ import annotations
 
 import difflib
-import enum
 import functools
 import importlib
 import os
@@ -22,59 +21,15 @@ from typing import Any
 import pluggy
 from google.protobuf.descriptor import FieldDescriptor
 
-from joshua_core import hookspecs
+from joshua_core import __version__, builtin_plugin, catalog, hookspecs
 from joshua_core.errors import ConfigError, PluginLoadError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import Backend, Command, EnvKind, Mode, ModelReader, Trainer
+from joshua_core.kinds import Kind
 from joshua_core.options import OptionSet
 
 ENTRY_POINT_GROUP = "joshua"
 DISABLE_ENV_VAR = "JOSHUA_DISABLE_PLUGINS"
 CORE_DISTRIBUTION = "joshua-core"
-
-
-class Kind(enum.Enum):
-    """The kinds of component a plugin can register, with the hook that registers each."""
-
-    BACKEND = "backend"
-    MODE = "mode"
-    TRAINER = "trainer"
-    TASK = "task"
-    TERM = "term"
-    COMMAND = "command"
-    OPTIONS = "option"
-    READER = "reader"
-    TRAJECTORY_READER = "trajectory_reader"
-
-    @property
-    def hook_name(self) -> str:
-        return f"joshua_register_{self.value}s"
-
-
-# Which first-party distribution provides each well-known component, for "pip install ..." hints.
-KNOWN_PROVIDERS: dict[tuple[Kind, str], str] = {
-    (Kind.BACKEND, "mujoco"): "joshua-mujoco",
-    (Kind.BACKEND, "mjx"): "joshua-mjx",
-    (Kind.BACKEND, "usd"): "joshua-usd",
-    (Kind.MODE, "HEADLESS"): CORE_DISTRIBUTION,
-    (Kind.MODE, "INTERACTIVE"): "joshua-modes",
-    (Kind.MODE, "PASSIVE"): "joshua-modes",
-    (Kind.MODE, "OFFSCREEN"): "joshua-modes",
-    (Kind.MODE, "MIRROR"): "joshua-mirror",
-    (Kind.TRAINER, "ppo"): "joshua-ppo",
-    (Kind.TRAINER, "sb3"): "joshua-sb3",
-    (Kind.COMMAND, "mirror-replay"): "joshua-mirror",
-    (Kind.COMMAND, "deploy"): "joshua-mirror",
-    (Kind.COMMAND, "export"): "joshua-export",
-    (Kind.OPTIONS, "offscreen"): "joshua-modes",
-    (Kind.OPTIONS, "replay"): "joshua-modes",
-    (Kind.OPTIONS, "viewer"): "joshua-modes",
-    (Kind.OPTIONS, "mirror"): "joshua-mirror",
-    (Kind.OPTIONS, "ppo"): "joshua-ppo",
-    (Kind.OPTIONS, "sb3"): "joshua-sb3",
-    **{(Kind.READER, suffix): "joshua-usd" for suffix in (".usd", ".usda", ".usdc", ".usdz")},
-    (Kind.TRAJECTORY_READER, "lerobot"): "joshua-lerobot",
-    (Kind.COMMAND, "lerobot-export"): "joshua-lerobot",
-}
 
 
 @dataclass
@@ -199,8 +154,6 @@ class PluginHost:
         if disabled is None:
             disabled = os.environ.get(DISABLE_ENV_VAR, "").split(",")
         skip = {_normalized(name) for name in disabled if name.strip()}
-        from joshua_core import __version__, builtin_plugin
-
         entries: list[tuple[PluginInfo, object]] = [
             (PluginInfo("core", CORE_DISTRIBUTION, __version__, builtin_plugin.__name__), builtin_plugin)
         ]
@@ -281,7 +234,7 @@ class PluginHost:
     def missing_message(self, kind: Kind, name: str) -> str:
         """Why `name` is unavailable: which distribution provides it, and what is installed instead."""
         message = f"no {kind.value} named '{name}' is installed."
-        provider = KNOWN_PROVIDERS.get((kind, name))
+        provider = catalog.provider(kind, name)
         installed = {info.distribution: info for info in self.plugins}
         if provider and provider in installed and installed[provider].disabled:
             message += f" It comes from {provider}, which is disabled by {DISABLE_ENV_VAR}."

@@ -5,8 +5,8 @@ holds the command sent to that joint (e.g. the position target a real arm was gi
 position. Errors that make the file unreadable raise TrajectoryError with `file:line:`; values that are
 readable but wrong (NaN, timestamps going back, joints out of range) are left to `joshua_modes.validation`.
 
-`load_trajectory` is the one entry for every consumer: a CSV file is read here, anything else (a LeRobot
-dataset folder) by the `TrajectoryReader` a plugin registers.
+Consumers load a `trajectory_path` through `joshua_core.trajectory_sources.load_trajectory`, which reads a CSV
+here and hands anything else (a LeRobot dataset folder) to the `TrajectoryReader` a plugin registers.
 """
 
 from __future__ import annotations
@@ -15,19 +15,15 @@ import csv
 import difflib
 import io
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.atomic import atomic_write_bytes
 from joshua_core.errors import UsageError
-
-if TYPE_CHECKING:
-    from joshua_core.plugins import PluginHost
 
 TIME_COLUMN = "timestamp"
 TARGET_SUFFIX = ".target"  # `<joint>.target`: the command sent to <joint>
@@ -201,34 +197,3 @@ def write_trajectory(path: Path, trajectory: Trajectory, comment: str = "") -> N
     writer.writerow(columns)
     writer.writerows([repr(float(value)) for value in row] for row in np.hstack(blocks))
     atomic_write_bytes(Path(path), text.getvalue().encode())
-
-
-def load_trajectory(
-    path: str | Path,
-    joints: Mapping[str, tuple[float, float]],
-    *,
-    episode: int = 0,
-    plugins: PluginHost | None = None,
-) -> Trajectory:
-    """The trajectory at `path` for a model whose scalar joints are `joints` (name -> (low, high) range;
-    unlimited: -inf, inf): a CSV file read here, or a folder (e.g. a LeRobot dataset) read by the first
-    registered `TrajectoryReader` that accepts it (`plugins`, else the installed plugins). `episode` picks
-    one episode of a source that holds several; a CSV holds one."""
-    source = Path(path)
-    if not source.is_dir():
-        if episode:
-            raise TrajectoryError(f"{source}: a trajectory CSV holds one episode; episode {episode} does not exist")
-        return read_trajectory(source, list(joints))
-    from joshua_core.interfaces import TrajectoryReader
-    from joshua_core.plugins import Kind, PluginHost
-
-    host = plugins if plugins is not None else PluginHost.discover()
-    names = host.names(Kind.TRAJECTORY_READER)
-    for name in names:
-        reader = host.create(Kind.TRAJECTORY_READER, name, TrajectoryReader)
-        if reader.accepts(source):
-            return reader.read(source, joints, episode=episode)
-    raise TrajectoryError(
-        f"{source}: a folder, and no installed trajectory reader takes it (installed: {', '.join(names) or 'none'}); "
-        "a LeRobot dataset (meta/info.json) needs joshua-lerobot: pip install -e plugins/joshua-lerobot"
-    )

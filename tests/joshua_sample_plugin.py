@@ -13,9 +13,10 @@ from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from joshua_core import hookimpl
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import SimulationConfig  # loads joshua/config.proto, which this file extends
-from joshua_core.interfaces import Mode, RunContext
+from joshua_core.interfaces import Mode
 from joshua_core.options import message_to_dict, options_of
 from joshua_core.plugins import Registrar
+from joshua_core.run_context import RunContext
 
 FILE_NAME = "joshua_sample/options.proto"
 _FIELD = descriptor_pb2.FieldDescriptorProto

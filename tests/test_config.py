@@ -23,11 +23,13 @@ from joshua_core.config import (
 )
 from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig, TrainingConfig
 from joshua_core.errors import ConfigError, ModelError, UsageError
-from joshua_core.options import LENIENT, OptionSet, installed_options, message_to_dict, options_of, parse_dict
+from joshua_core.options import LENIENT, OptionSet, message_to_dict, options_of, parse_dict
 from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import models_dir
 from joshua_modes import options_pb2 as modes_options
 from joshua_ppo import options_pb2 as ppo_options
+
+OPTIONS = PluginHost.discover().options()  # the installed plugins' options, which the presets use
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
@@ -74,9 +76,9 @@ def test_the_seed_mode_names_parse_bare_or_quoted_and_empty_means_interactive(tm
     for mode in ("INTERACTIVE", "PASSIVE", "MIRROR", "OFFSCREEN", "HEADLESS"):
         for written in (mode, f'"{mode}"'):
             (tmp_path / "run.pbtxt").write_text(f"operation_mode: SIMULATION\nsimulation {{ mode: {written} }}\n")
-            assert load_file(tmp_path / "run.pbtxt").message.simulation.mode == mode
+            assert load_file(tmp_path / "run.pbtxt", OPTIONS).message.simulation.mode == mode
     assert simulation_mode(SimulationConfig()) == "INTERACTIVE"
-    assert finalize(load_preset("so_arm100_sim_interactive")).simulation.mode == "INTERACTIVE"
+    assert finalize(load_preset("so_arm100_sim_interactive", OPTIONS)).simulation.mode == "INTERACTIVE"
 
 
 PLUGIN_PRESETS = {
@@ -90,7 +92,7 @@ PLUGIN_PRESETS = {
 def test_the_shipped_presets_each_parse_with_a_description() -> None:
     assert set(preset_names()) == SEED_PRESETS | {"sim_offscreen"} | PLUGIN_PRESETS
     for name in preset_names():
-        loaded = load_preset(name)
+        loaded = load_preset(name, OPTIONS)
         assert loaded.message.description, name
         assert "\n" not in loaded.message.description
         finalize(loaded)  # every model and trajectory a preset names exists
@@ -98,13 +100,13 @@ def test_the_shipped_presets_each_parse_with_a_description() -> None:
 
 def test_preset_model_paths_resolve_against_shipped_models_from_any_cwd(tmp_path: Path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)
-    config = finalize(load_preset("sim_passive"))
+    config = finalize(load_preset("sim_passive", OPTIONS))
     assert Path(config.simulation.model_path) == (models_dir() / "so_arm100" / "scene.xml").resolve()
     assert Path(config.simulation.trajectory_path).is_file()
 
 
 def test_mirror_preset_carries_the_seed_offsets() -> None:
-    mappings = load_preset("sim_mirror").message.simulation.mirror_topic_mappings.mappings
+    mappings = load_preset("sim_mirror", OPTIONS).message.simulation.mirror_topic_mappings.mappings
     assert [(m.ros_topic, m.mujoco_actuator) for m in mappings] == [
         (f"/encoder/joint_{i}", f"joint_{i}_position") for i in range(1, 7)
     ]
@@ -115,14 +117,14 @@ def test_parse_error_reports_file_line_and_column(tmp_path: Path) -> None:
     bad = tmp_path / "bad.pbtxt"
     bad.write_text('operation_mode: SIMULATION\nsimulation {\n  mode: PASSIVE\n  modl_path: "x.xml"\n}\n')
     with pytest.raises(ConfigError, match=rf"{bad}:4:3: .*modl_path"):
-        load_file(bad)
+        load_file(bad, OPTIONS)
 
 
 def test_bad_enum_value_is_a_located_error(tmp_path: Path) -> None:
     bad = tmp_path / "bad.pbtxt"
     bad.write_text("operation_mode: SIDEWAYS\n")
     with pytest.raises(ConfigError, match=rf"{bad}:1:17: .*SIDEWAYS"):
-        load_file(bad)
+        load_file(bad, OPTIONS)
 
 
 def test_custom_file_extends_a_preset_and_replaces_its_lists(tmp_path: Path) -> None:
@@ -136,7 +138,7 @@ def test_custom_file_extends_a_preset_and_replaces_its_lists(tmp_path: Path) -> 
         "  }\n"
         "}\n"
     )
-    message = load_file(custom).message
+    message = load_file(custom, OPTIONS).message
     assert message.simulation.mode == "MIRROR"  # from the preset
     assert message.simulation.model_path == "so_arm100/scene.xml"  # from the preset
     assert message.simulation.render_width == 320  # from the file
@@ -147,7 +149,7 @@ def test_extends_of_an_unknown_preset_suggests_close_names(tmp_path: Path) -> No
     custom = tmp_path / "lab.pbtxt"
     custom.write_text('extends: "sim_pasive"\n')
     with pytest.raises(UsageError, match="Did you mean: sim_passive"):
-        load_file(custom)
+        load_file(custom, OPTIONS)
 
 
 def test_extends_cycle_is_reported(tmp_path: Path, monkeypatch) -> None:
@@ -155,16 +157,16 @@ def test_extends_cycle_is_reported(tmp_path: Path, monkeypatch) -> None:
     (tmp_path / "b.pbtxt").write_text('extends: "a"\n')
     monkeypatch.setattr(config_module, "presets_dir", lambda: tmp_path)
     with pytest.raises(ConfigError, match="cycle: a -> b -> a"):
-        load_preset("a")
+        load_preset("a", OPTIONS)
 
 
 def test_overrides_set_scalars_enums_strings_and_list_items() -> None:
-    config = load_preset("sim_mirror").message
-    apply_override(config, "simulation.render_width=1280")
-    apply_override(config, "simulation.mode=OFFSCREEN")
-    apply_override(config, "simulation.keyframe=home")
-    apply_override(config, "simulation.mirror_topic_mappings.mappings[1].offset=0.25")
-    apply_override(config, "simulation.mirror_topic_mappings.mappings[6].ros_topic=/encoder/extra")
+    config = load_preset("sim_mirror", OPTIONS).message
+    apply_override(config, "simulation.render_width=1280", OPTIONS)
+    apply_override(config, "simulation.mode=OFFSCREEN", OPTIONS)
+    apply_override(config, "simulation.keyframe=home", OPTIONS)
+    apply_override(config, "simulation.mirror_topic_mappings.mappings[1].offset=0.25", OPTIONS)
+    apply_override(config, "simulation.mirror_topic_mappings.mappings[6].ros_topic=/encoder/extra", OPTIONS)
     assert config.simulation.render_width == 1280
     assert config.simulation.mode == "OFFSCREEN"
     assert config.simulation.keyframe == "home"
@@ -187,15 +189,15 @@ def test_overrides_set_scalars_enums_strings_and_list_items() -> None:
 )
 def test_bad_overrides_say_what_is_wrong(assignment: str, message: str) -> None:
     with pytest.raises(UsageError, match=message):
-        apply_override(load_preset("sim_mirror").message, assignment)
+        apply_override(load_preset("sim_mirror", OPTIONS).message, assignment, OPTIONS)
 
 
 def test_training_defaults_follow_the_framework() -> None:
-    mjx = finalize(load_preset("ant_train_mjx")).training
+    mjx = finalize(load_preset("ant_train_mjx", OPTIONS)).training
     assert (mjx.framework, mjx.trainer, mjx.backend) == (TrainingConfig.MJX, "ppo", "mjx")
     assert (mjx.num_envs, mjx.num_steps, mjx.num_epochs, mjx.minibatch_size) == (2048, 10, 4, 256)
     assert (mjx.learning_rate, mjx.gamma, mjx.clip_epsilon) == pytest.approx((3e-4, 0.99, 0.2))
-    isaac = finalize(load_preset("isaac_trileg")).training
+    isaac = finalize(load_preset("isaac_trileg", OPTIONS)).training
     assert (isaac.trainer, isaac.backend) == ("sb3", "usd")
 
 
@@ -203,7 +205,7 @@ def test_missing_model_names_every_path_searched(tmp_path: Path) -> None:
     custom = tmp_path / "run.pbtxt"
     custom.write_text('simulation { mode: HEADLESS model_path: "robots/nowhere.xml" }\n')
     with pytest.raises(ModelError) as caught:
-        finalize(load_file(custom))
+        finalize(load_file(custom, OPTIONS))
     text = str(caught.value)
     assert str(tmp_path / "robots" / "nowhere.xml") in text
     assert str(models_dir() / "robots" / "nowhere.xml") in text
@@ -213,18 +215,18 @@ def test_relative_model_path_in_a_custom_file_resolves_beside_it(tmp_path: Path)
     (tmp_path / "robot.xml").write_text("<mujoco/>")
     custom = tmp_path / "run.pbtxt"
     custom.write_text('simulation { mode: HEADLESS model_path: "robot.xml" }\n')
-    assert finalize(load_file(custom)).simulation.model_path == str(tmp_path / "robot.xml")
+    assert finalize(load_file(custom, OPTIONS)).simulation.model_path == str(tmp_path / "robot.xml")
 
 
 def test_negative_sizes_are_rejected() -> None:
-    loaded = load_preset("sim_offscreen")
-    apply_override(loaded.message, "simulation.render_width=-5")
+    loaded = load_preset("sim_offscreen", OPTIONS)
+    apply_override(loaded.message, "simulation.render_width=-5", OPTIONS)
     with pytest.raises(ConfigError, match="simulation.render_width: must be at least 0, got -5"):
         finalize(loaded)
 
 
 def test_default_config_validates_and_records_the_example_trajectory() -> None:
-    config = finalize(config_module.load_default())
+    config = finalize(config_module.load_default(OPTIONS))
     assert config.operation_mode == JoshuaConfig.SIMULATION
     assert config.simulation.mode == "PASSIVE" and config.simulation.trajectory_path.endswith("so_arm100_example.csv")
     assert "display: RECORD" in config_module.DEFAULT_CONFIG_TEXT  # a video, never a window: also with a display
@@ -233,14 +235,14 @@ def test_default_config_validates_and_records_the_example_trajectory() -> None:
 def test_extends_is_applied_and_cannot_be_set_from_the_command_line(tmp_path: Path) -> None:
     custom = tmp_path / "lab.pbtxt"
     custom.write_text('extends: "sim_passive"\n')
-    assert load_file(custom).message.extends == ""
+    assert load_file(custom, OPTIONS).message.extends == ""
     with pytest.raises(UsageError, match="extends"):
-        apply_override(load_preset("sim_passive").message, "extends=sim_mirror")
+        apply_override(load_preset("sim_passive", OPTIONS).message, "extends=sim_mirror", OPTIONS)
 
 
 def test_negative_hyper_parameters_are_rejected() -> None:
-    loaded = load_preset("ant_train_mjx")
-    apply_override(loaded.message, "training.learning_rate=-0.1")
+    loaded = load_preset("ant_train_mjx", OPTIONS)
+    apply_override(loaded.message, "training.learning_rate=-0.1", OPTIONS)
     with pytest.raises(ConfigError, match="training.learning_rate: must be at least 0"):
         finalize(loaded)
 
@@ -249,7 +251,7 @@ def test_negative_hyper_parameters_are_rejected() -> None:
 
 
 def test_every_preset_parses_strictly_and_prints_as_it_reads(tmp_path: Path) -> None:
-    options = installed_options()
+    options = OPTIONS
     for name in preset_names():
         config = finalize(load_preset(name, options))
         printed = config_text_of(config, options)
@@ -271,7 +273,7 @@ def test_options_read_by_short_name_or_bracketed(tmp_path: Path) -> None:
         "  viewer: < camera: 'side' >\n"
         "}\n"
     )
-    simulation = load_file(custom).message.simulation
+    simulation = load_file(custom, OPTIONS).message.simulation
     offscreen = options_of(simulation, modes_options.offscreen)
     assert (offscreen.fps, offscreen.output) == (12, modes_options.OffscreenOptions.PNG)
     assert offscreen.HasField("shadows") and not offscreen.shadows
@@ -283,7 +285,7 @@ def test_options_read_by_short_name_or_bracketed(tmp_path: Path) -> None:
 def test_extends_merges_options_and_replaces_their_lists(tmp_path: Path) -> None:
     custom = tmp_path / "tuned.pbtxt"
     custom.write_text('extends: "ant_train_mjx_tuned"\ntraining { ppo { hidden_sizes: [32] entropy_coef: 0 } }\n')
-    ppo = options_of(load_file(custom).message.training, ppo_options.ppo)
+    ppo = options_of(load_file(custom, OPTIONS).message.training, ppo_options.ppo)
     assert list(ppo.hidden_sizes) == [32]  # the file's list replaces the preset's
     assert list(ppo.value_hidden_sizes) == [256] * 5 and ppo.squash_actions  # the rest from the preset
     assert ppo.entropy_coef == 0  # a zero written in the file overrides the preset's 0.01
@@ -295,10 +297,10 @@ def test_error_after_a_rewritten_name_keeps_its_original_place(tmp_path: Path) -
     bad.write_text(f"operation_mode: SIMULATION\n{line}\n")
     column = line.index("PNGG") + 1
     with pytest.raises(ConfigError, match=rf"{bad}:2:{column}: '{re.escape(line)}': .*PNGG"):
-        load_file(bad)
+        load_file(bad, OPTIONS)
     bad.write_text("simulation {\n  replay { speed: 2 }\n  viewer { fps: fast }\n}\n")
     with pytest.raises(ConfigError, match=rf"{bad}:3:17: .*fast"):
-        load_file(bad)
+        load_file(bad, OPTIONS)
 
 
 @pytest.mark.parametrize(
@@ -315,7 +317,7 @@ def test_unknown_names_in_a_file_list_close_fields_and_options(tmp_path: Path, t
     bad = tmp_path / "bad.pbtxt"
     bad.write_text(text)
     with pytest.raises(ConfigError, match=rf"{bad}:{where}: {re.escape(message)}"):
-        load_file(bad)
+        load_file(bad, OPTIONS)
 
 
 def test_an_option_of_a_missing_plugin_says_what_to_install(tmp_path: Path) -> None:
@@ -327,20 +329,20 @@ def test_an_option_of_a_missing_plugin_says_what_to_install(tmp_path: Path) -> N
 
 
 def test_overrides_set_options_by_short_name() -> None:
-    loaded = load_preset("sim_offscreen")
+    loaded = load_preset("sim_offscreen", OPTIONS)
     for assignment in (
         "simulation.offscreen.fps=60",
         "simulation.offscreen.output=MP4_AND_PNG",
         "simulation.offscreen.shadows=false",
         "simulation.replay.strict=true",
     ):
-        apply_override(loaded.message, assignment)
+        apply_override(loaded.message, assignment, OPTIONS)
     offscreen = options_of(loaded.message.simulation, modes_options.offscreen)
     assert (offscreen.fps, offscreen.output) == (60, modes_options.OffscreenOptions.MP4_AND_PNG)
     assert offscreen.HasField("shadows") and not offscreen.shadows
     assert options_of(loaded.message.simulation, modes_options.replay).strict
-    training = load_preset("ant_train_mjx_tuned").message
-    apply_override(training, "training.ppo.hidden_sizes=[16, 16]")
+    training = load_preset("ant_train_mjx_tuned", OPTIONS).message
+    apply_override(training, "training.ppo.hidden_sizes=[16, 16]", OPTIONS)
     assert list(options_of(training.training, ppo_options.ppo).hidden_sizes) == [16, 16]
 
 
@@ -355,7 +357,7 @@ def test_overrides_set_options_by_short_name() -> None:
 )
 def test_bad_option_overrides_list_close_fields_and_options(assignment: str, message: str) -> None:
     with pytest.raises(UsageError, match=re.escape(message)) as caught:
-        apply_override(load_preset("sim_offscreen").message, assignment)
+        apply_override(load_preset("sim_offscreen", OPTIONS).message, assignment, OPTIONS)
     if "offscren" in assignment:
         assert "options: mirror, offscreen, replay, viewer" in str(caught.value)
 
@@ -388,14 +390,14 @@ def test_a_third_party_plugin_adds_options_without_touching_the_core(tmp_path: P
 
 
 def test_run_config_dicts_name_options_by_short_name() -> None:
-    training = finalize(load_preset("ant_train_mjx_tuned")).training
+    training = finalize(load_preset("ant_train_mjx_tuned", OPTIONS)).training
     document = message_to_dict(training)
     assert document["ppo"]["hidden_sizes"] == [128] * 4 and not any(key.startswith("[") for key in document)
     again = TrainingConfig()
-    parse_dict(document, again, installed_options())
+    parse_dict(document, again, OPTIONS)
     assert again == training
     bracketed = TrainingConfig()
-    parse_dict({"[joshua_ppo.ppo]": {"entropy_coef": 0.5}}, bracketed, installed_options())
+    parse_dict({"[joshua_ppo.ppo]": {"entropy_coef": 0.5}}, bracketed, OPTIONS)
     assert options_of(bracketed, ppo_options.ppo).entropy_coef == 0.5
 
 
@@ -418,44 +420,44 @@ def test_run_config_dicts_name_options_by_short_name() -> None:
     ],
 )
 def test_non_finite_and_absurd_numbers_are_config_errors(preset: str, assignment: str, expected: str) -> None:
-    loaded = load_preset(preset)
-    apply_override(loaded.message, assignment)
+    loaded = load_preset(preset, OPTIONS)
+    apply_override(loaded.message, assignment, OPTIONS)
     with pytest.raises(ConfigError, match=re.escape(f"preset {preset}: {expected}")):
         finalize(loaded)
 
 
 def test_non_finite_items_of_lists_are_named_by_index() -> None:
-    loaded = load_preset("sim_mirror")
-    apply_override(loaded.message, "simulation.mirror_topic_mappings.mappings[1].offset=nan")
+    loaded = load_preset("sim_mirror", OPTIONS)
+    apply_override(loaded.message, "simulation.mirror_topic_mappings.mappings[1].offset=nan", OPTIONS)
     with pytest.raises(ConfigError, match=r"simulation.mirror_topic_mappings.mappings\[1\].offset: must be finite"):
         finalize(loaded)
 
 
 def test_bounds_at_their_limit_are_accepted() -> None:
-    loaded = load_preset("sim_offscreen")
+    loaded = load_preset("sim_offscreen", OPTIONS)
     for assignment in ("simulation.offscreen.fps=1000", "simulation.render_width=8192", "simulation.duration=0"):
-        apply_override(loaded.message, assignment)
+        apply_override(loaded.message, assignment, OPTIONS)
     assert options_of(finalize(loaded).simulation, modes_options.offscreen).fps == 1000
 
 
 def test_items_of_a_list_of_numbers_are_set_by_index() -> None:
-    loaded = load_preset("ant_train_mjx_tuned")
-    apply_override(loaded.message, "training.ppo.hidden_sizes=[64, 64]")
-    apply_override(loaded.message, "training.ppo.hidden_sizes[1]=8")
-    apply_override(loaded.message, "training.ppo.hidden_sizes[2]=4")  # one past the end appends
+    loaded = load_preset("ant_train_mjx_tuned", OPTIONS)
+    apply_override(loaded.message, "training.ppo.hidden_sizes=[64, 64]", OPTIONS)
+    apply_override(loaded.message, "training.ppo.hidden_sizes[1]=8", OPTIONS)
+    apply_override(loaded.message, "training.ppo.hidden_sizes[2]=4", OPTIONS)  # one past the end appends
     assert list(options_of(loaded.message.training, ppo_options.ppo).hidden_sizes) == [64, 8, 4]
     with pytest.raises(UsageError, match=r"hidden_sizes has 3 items; use an index up to 3"):
-        apply_override(loaded.message, "training.ppo.hidden_sizes[7]=8")
+        apply_override(loaded.message, "training.ppo.hidden_sizes[7]=8", OPTIONS)
     with pytest.raises(UsageError, match=r"Couldn't parse integer: x"):
-        apply_override(loaded.message, "training.ppo.hidden_sizes[0]=x")
+        apply_override(loaded.message, "training.ppo.hidden_sizes[0]=x", OPTIONS)
     with pytest.raises(UsageError, match=r"'duration' is not a list or message: it cannot be indexed"):
-        apply_override(loaded.message, "simulation.duration[0]=1")
+        apply_override(loaded.message, "simulation.duration[0]=1", OPTIONS)
 
 
 def test_a_binary_file_or_a_folder_as_config_is_a_usage_error(tmp_path: Path) -> None:
     binary = tmp_path / "model.pbtxt"
     binary.write_bytes(b"\x7fELF\x02\x01\x01\x00\xd0\xff\xfe")
     with pytest.raises(ConfigError, match=r"model.pbtxt: not a text config \(byte 8 is not UTF-8\)"):
-        load_file(binary)
+        load_file(binary, OPTIONS)
     with pytest.raises(UsageError, match=r"is a directory; give a .pbtxt file in it"):
-        load_file(tmp_path)
+        load_file(tmp_path, OPTIONS)

@@ -44,7 +44,8 @@ PROBE = """
 import json, sys
 from pathlib import Path
 import joshua_rk4
-from joshua_core.plugins import Kind, PluginHost
+from joshua_core.plugins import PluginHost
+from joshua_core.kinds import Kind
 
 host = PluginHost.discover()
 component = host.component(Kind.BACKEND, "mujoco_rk4")
@@ -169,3 +170,55 @@ def test_the_compare_mode_runs_with_its_own_options(example_site: Path, run_josh
     error = run_joshua("--config", str(config), env=env)
     assert error.returncode == 2 and "Traceback" not in error.stderr
     assert f'{config}:6:17: CompareOptions has no field or option named "step". Did you mean: steps?' in error.stderr
+
+
+def test_the_third_party_trainer_reuses_what_the_core_and_backend_offer(tmp_path: Path) -> None:
+    """docs/examples/random_trainer (docs/architecture.md, "Adding a backend or trainer"), registered like any
+    plugin's trainer, trains on the mujoco backend's environments: desynchronised episodes end and are counted
+    by the backend, and its run folder and checkpoint are the core's."""
+    from joshua_core import builtin_plugin, hookimpl
+    from joshua_core.config_pb2 import TrainingConfig
+    from joshua_core.plugins import PluginHost, PluginInfo
+    from joshua_core.resources import resolve_data_path
+    from joshua_core.run_context import RunContext
+    from joshua_core.runs import CONFIG_FILE, list_runs
+    from joshua_core.tasks.builtin import BUILTIN_TASKS
+
+    sys.path.insert(0, str(REPO_ROOT / "docs" / "examples" / "random_trainer"))
+    try:
+        import random_trainer
+    finally:
+        sys.path.pop(0)
+
+    class RandomPlugin:
+        @hookimpl
+        def joshua_register_trainers(self, registry) -> None:
+            registry.add("random", random_trainer.RandomTrainer, "random actions", env_kinds=("numpy",))
+
+    import joshua_mujoco.plugin
+
+    host = PluginHost(
+        [
+            (PluginInfo("core", "joshua-core", "0", "core"), builtin_plugin),
+            (PluginInfo("mujoco", "joshua-mujoco", "0", "joshua_mujoco.plugin"), joshua_mujoco.plugin),
+            (PluginInfo("random", "joshua-random", "0", "random_trainer"), RandomPlugin()),
+        ]
+    )
+    spec = BUILTIN_TASKS["so_arm100_reach"]
+    training = TrainingConfig(
+        trainer="random",
+        backend="mujoco",
+        task=spec.name,
+        model_path=str(resolve_data_path(spec.model_path)),
+        num_envs=4,
+        total_timesteps=4 * spec.episode_length,  # each environment's first (desynchronised) episode ends in it
+        seed=3,
+    )
+    checkpoint = host.trainer("random").train(training, RunContext(host, tmp_path))
+
+    (run,) = list_runs(tmp_path)
+    assert json.loads((run / CONFIG_FILE).read_text())["trainer"] == "random"
+    assert checkpoint.name == f"{run.name}_step_{training.total_timesteps}"
+    summary = json.loads((checkpoint / "returns.json").read_text())
+    assert summary["episodes"] >= training.num_envs, summary
+    assert isinstance(summary["mean_return"], float)

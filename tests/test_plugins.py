@@ -13,11 +13,13 @@ from types import ModuleType
 
 import pytest
 
-from joshua_core import hookimpl
+from joshua_core import builtin_plugin, catalog, hookimpl
 from joshua_core.config_pb2 import SimulationConfig, TrainingConfig
 from joshua_core.errors import ConfigError, PluginLoadError, PluginNotFoundError, UsageError
-from joshua_core.interfaces import Backend, EnvKind, EnvSpec, Mode, RunContext
-from joshua_core.plugins import Kind, PluginHost, PluginInfo
+from joshua_core.interfaces import Backend, EnvKind, EnvSpec, Mode
+from joshua_core.kinds import Kind
+from joshua_core.plugins import PluginHost, PluginInfo
+from joshua_core.run_context import RunContext
 
 
 def install_fake_distribution(site: Path, distribution: str, entry_name: str, module: str, source: str) -> None:
@@ -90,9 +92,40 @@ def test_disabled_plugin_is_listed_and_named_when_needed(run_joshua) -> None:
     assert "no backend named 'mujoco' is installed. It comes from joshua-mujoco, which is disabled" in run.stderr
 
 
+def test_the_provider_catalog_is_what_the_first_party_plugins_register() -> None:
+    """providers.json (the "pip install" hints) equals what each first-party plugin's hooks register, both ways."""
+    tools = str(Path(__file__).resolve().parents[1] / "tools")
+    sys.path.insert(0, tools)
+    try:
+        import provider_catalog
+    finally:
+        sys.path.remove(tools)
+    shipped = json.loads(catalog.CATALOG_FILE.read_text(encoding="utf-8"))
+    assert shipped == provider_catalog.build(), "out of date: run python tools/provider_catalog.py"
+
+
+@pytest.mark.parametrize("command", ["sysid", "usd", "lerobot-export", "mirror-replay", "deploy", "export"])
+def test_a_command_of_a_disabled_plugin_names_its_distribution(run_joshua, command: str) -> None:
+    distribution = catalog.provider(Kind.COMMAND, command)
+    run = run_joshua(command, env={"JOSHUA_DISABLE_PLUGINS": distribution})
+    assert run.returncode == 2, run.stderr
+    assert run.stderr.startswith(f"joshua: error: no command named '{command}' is installed. It comes from ")
+    assert f"{distribution}, which is disabled by JOSHUA_DISABLE_PLUGINS" in run.stderr
+    assert run.stderr.count("\n") == 1, run.stderr  # one line
+
+
+@pytest.mark.parametrize("command", ["sysid", "usd", "lerobot-export", "mirror-replay", "deploy", "export"])
+def test_a_command_of_an_absent_plugin_says_what_to_install(command: str) -> None:
+    host = PluginHost([(PluginInfo("core", "joshua-core", "0", "core"), builtin_plugin)])  # nothing else installed
+    distribution = catalog.provider(Kind.COMMAND, command)
+    with pytest.raises(PluginNotFoundError, match=f"Install the plugin that provides it: pip install {distribution} "):
+        host.command(command)
+
+
 def test_entry_point_modules_import_no_physics_or_ml_stack() -> None:
     probe = (
-        "import sys; from joshua_core.plugins import PluginHost, Kind; host = PluginHost.discover(); "
+        "import sys; from joshua_core.kinds import Kind; from joshua_core.plugins import PluginHost; "
+        "host = PluginHost.discover(); "
         "assert host.names(Kind.BACKEND), 'no backend'; "
         "print(sorted(m for m in ('mujoco', 'jax', 'torch', 'pxr', 'rclpy', 'cv2') if m in sys.modules))"
     )

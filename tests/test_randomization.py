@@ -13,6 +13,7 @@ from google.protobuf import text_format
 from joshua_core.config import load_preset
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import ConfigError
+from joshua_core.options import LENIENT
 from joshua_mujoco import make_vector_env
 
 TASK = "so_arm100_pick_place"
@@ -33,7 +34,7 @@ def env_with(text: str, num_envs: int = 4, **options):
 
 
 def test_the_randomized_preset_builds_and_draws_within_its_ranges() -> None:
-    config = load_preset("so_arm100_pick_place_mjx_dr").message.training.task_config
+    config = load_preset("so_arm100_pick_place_mjx_dr", LENIENT).message.training.task_config
     env = make_vector_env(TASK, 16, seed=0, nthread=1, task_config=config)
     simulation, defaults = env.simulation, env.task.defaults
     cube = env.simulation.model.body("cube").id

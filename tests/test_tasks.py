@@ -369,9 +369,9 @@ def test_every_training_preset_names_a_task_that_builds_on_its_model(plugins: Pl
 
     checked = []
     for name in preset_names():
-        config = load_preset(name).message
+        config = load_preset(name, plugins.options()).message
         if config.HasField("training"):
-            training = finalize(load_preset(name)).training
+            training = finalize(load_preset(name, plugins.options())).training
             model = load_model(Path(training.model_path), plugins=plugins)
             task = build_task(training.task, model, plugins, training.task_config)
             checked.append(task.name)

@@ -15,12 +15,12 @@ import typing
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from numbers import Real
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from joshua_core.errors import ConfigError, PluginLoadError, UsageError
-from joshua_core.plugins import Kind, PluginHost
+from joshua_core.kinds import Kind
 from joshua_core.tasks.actuation import action_mapping, initial_state, keyframe_id
 from joshua_core.tasks.context import STATE_FIELDS, NumpyRandom, TermContext
 from joshua_core.tasks.handles import HANDLE_TYPES, resolve_handle
@@ -33,6 +33,9 @@ from joshua_core.tasks.randomization import (
     with_observation_columns,
 )
 from joshua_core.tasks.spec import TaskSpec, TermKind, TermSpec, with_config
+
+if TYPE_CHECKING:
+    from joshua_core.plugins import PluginHost
 
 _PROBE_ENVS = 2
 

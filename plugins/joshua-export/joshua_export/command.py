@@ -12,9 +12,10 @@ from typing import TYPE_CHECKING
 
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json
 from joshua_core.errors import UsageError
-from joshua_core.interfaces import Command, RunContext
+from joshua_core.interfaces import Command
 from joshua_core.outputs import check_replaceable, output_folder
 from joshua_core.resources import resolve_data_path
+from joshua_core.run_context import RunContext
 from joshua_core.runs import add_checkpoint_arguments, read_run_config, resolve_checkpoint
 from joshua_export.contract import CONTRACT_FILE, ONNX_FILE, make_contract
 from joshua_export.graph import policy_graph

@@ -18,7 +18,8 @@ from joshua_core.outputs import check_replaceable
 from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
-from joshua_core.trajectory import Trajectory, load_trajectory
+from joshua_core.trajectory import Trajectory
+from joshua_core.trajectory_sources import load_trajectory
 from joshua_lerobot.writer import DatasetEpisode, write_dataset
 
 DEFAULT_MODEL = "so_arm100/scene.xml"
@@ -86,7 +87,7 @@ def export_trajectory(
     size: tuple[int, int] = (DEFAULT_WIDTH, DEFAULT_HEIGHT),
     task: str = DEFAULT_TASK,
     episode: int = 0,
-    plugins: PluginHost | None = None,
+    plugins: PluginHost,
     overwrite: bool = False,
     option: str = "--out",
 ) -> Path:
@@ -105,7 +106,9 @@ def export_trajectory(
     width, height = size
     frames = {
         (camera or (model.camera(0).name if model.ncam else "free")): _counted(
-            iter_offscreen_frames(model_path, source, width, height, camera=camera or None, fps=fps, episode=episode),
+            iter_offscreen_frames(
+                model_path, source, width, height, camera=camera or None, fps=fps, episode=episode, plugins=plugins
+            ),
             len(times),
             camera or "camera",
         )

@@ -17,8 +17,10 @@ from typing import Any
 import numpy as np
 import pytest
 
+from joshua_core.plugins import PluginHost
 from joshua_core.resources import models_dir
-from joshua_core.trajectory import Trajectory, load_trajectory, write_trajectory
+from joshua_core.trajectory import Trajectory, write_trajectory
+from joshua_core.trajectory_sources import load_trajectory
 from joshua_lerobot import export_trajectory
 from joshua_modes import iter_offscreen_frames, model_joint_ranges
 from joshua_mujoco import compile_model
@@ -29,6 +31,7 @@ SIDE = Path(__file__).with_name("lerobot_side.py")
 MODEL = models_dir() / "so_arm100" / "scene.xml"
 JOINTS = tuple(f"joint_{i}" for i in range(1, 7))
 FPS = 10
+PLUGINS = PluginHost.discover()  # the installed plugins: their readers read the datasets
 WIDTH, HEIGHT = 64, 48
 
 
@@ -67,7 +70,9 @@ def test_our_dataset_loads_in_lerobot(tmp_path: Path, ranges: dict[str, tuple[fl
     csv = tmp_path / "motion.csv"
     trajectory = motion(ranges)
     write_trajectory(csv, trajectory)
-    root = export_trajectory(csv, MODEL, tmp_path / "dataset", fps=FPS, size=(WIDTH, HEIGHT), task="wave")
+    root = export_trajectory(
+        csv, MODEL, tmp_path / "dataset", fps=FPS, size=(WIDTH, HEIGHT), task="wave", plugins=PLUGINS
+    )
     loaded = lerobot("load", root, tmp_path)
 
     frames = 16  # 1.5 s at 10 fps, both ends
@@ -86,7 +91,8 @@ def test_our_dataset_loads_in_lerobot(tmp_path: Path, ranges: dict[str, tuple[fl
 
     (camera,) = loaded["cameras"].values()
     assert camera["shape"] == [3, HEIGHT, WIDTH]
-    rendered = [frame.mean() / 255 for frame in iter_offscreen_frames(MODEL, csv, WIDTH, HEIGHT, fps=FPS)]
+    frames = iter_offscreen_frames(MODEL, csv, WIDTH, HEIGHT, fps=FPS, plugins=PLUGINS)
+    rendered = [frame.mean() / 255 for frame in frames]
     assert np.allclose(camera["mean"], rendered, atol=0.02)  # each decoded frame is the one rendered
 
 
@@ -95,7 +101,7 @@ def test_lerobot_dataset_replays_and_validates(tmp_path: Path, ranges: dict[str,
     written = lerobot("write", root, tmp_path)
     low, high = ranges["joint_6"]
     for episode, expected in enumerate(written["episodes"]):
-        trajectory = load_trajectory(root, ranges, episode=episode)
+        trajectory = load_trajectory(root, ranges, episode=episode, plugins=PLUGINS)
         assert trajectory.joint_names == JOINTS
         assert np.allclose(trajectory.timestamps, np.arange(len(expected["state"])) / written["fps"], atol=1e-6)
         for values, lerobot_values in (

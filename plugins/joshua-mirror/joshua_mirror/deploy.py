@@ -18,7 +18,8 @@ import numpy as np
 
 from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.cli import add_config_arguments, load, writable_folder
-from joshua_core.config import finalize, simulation_mode
+from joshua_core.config import finalize
+from joshua_core.defaults import simulation_mode
 from joshua_core.errors import ConfigError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import Command
 from joshua_core.options import options_of

@@ -19,8 +19,9 @@ import mujoco
 from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
-from joshua_core.interfaces import Engine, Mode, RunContext
+from joshua_core.interfaces import Engine, Mode
 from joshua_core.options import options_of
+from joshua_core.run_context import RunContext
 from joshua_mirror import options_pb2
 from joshua_mirror.graph import TypeChecker
 from joshua_mirror.joints import MAPPINGS_FIELD, MirroredJoint, resolve_joints

@@ -13,7 +13,8 @@ import numpy as np
 
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
-from joshua_core.interfaces import RunContext, render_size
+from joshua_core.interfaces import render_size
+from joshua_core.run_context import RunContext
 from joshua_core.trajectory import Trajectory, write_trajectory
 from joshua_mirror.joints import MirroredJoint
 from joshua_mirror.mirror import Mirror

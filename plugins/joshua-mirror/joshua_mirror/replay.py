@@ -18,8 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from joshua_core.cli import add_config_arguments, load
-from joshua_core.config import finalize, simulation_mode
+from joshua_core.config import finalize
 from joshua_core.config_pb2 import SimulationConfig
+from joshua_core.defaults import simulation_mode
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import Command
 from joshua_core.options import options_of

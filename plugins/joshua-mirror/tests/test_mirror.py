@@ -24,15 +24,17 @@ import pytest
 
 from joshua_core.config import load_preset
 from joshua_core.errors import PluginNotFoundError
+from joshua_core.options import LENIENT
 from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import models_dir
-from joshua_core.trajectory import Trajectory, load_trajectory, write_trajectory
+from joshua_core.trajectory import Trajectory, write_trajectory
+from joshua_core.trajectory_sources import load_trajectory
 
 JOSHUA = Path(sys.executable).parent / "joshua"
 PUBLISHER = Path(__file__).with_name("publisher.py")
 OFFSETS = {
     m.mujoco_actuator.removesuffix("_position"): m.offset
-    for m in load_preset("sim_mirror").message.simulation.mirror_topic_mappings.mappings
+    for m in load_preset("sim_mirror", LENIENT).message.simulation.mirror_topic_mappings.mappings
 }
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
 FAST = ["--set", "simulation.mirror.display=NONE", "--set", "simulation.mirror.status_period=0.2"]
@@ -428,14 +430,17 @@ def test_mirror_records_the_motion_and_commands_it_receives(tmp_path: Path, ros_
     assert (tmp_path / recording["lerobot"]).samefile(output / "mirror_lerobot")
 
     ranges = model_joint_ranges(compile_model(models_dir() / "so_arm100" / "scene.xml"))
-    recorded = load_trajectory(output / "mirror_recording.csv", ranges)
+    plugins = PluginHost.discover()
+    recorded = load_trajectory(output / "mirror_recording.csv", ranges, plugins=plugins)
     assert recorded.joint_names == tuple(JOINTS) and recorded.targets is not None
     assert np.isnan(recorded.targets[:, [2, 3, 4]]).all()  # no command topic: no target
     assert_on_path(recorded.timestamps, recorded.positions, published.timestamps, published.positions)
     commanded = [0, 1, 5]
     assert_on_path(recorded.timestamps, recorded.targets[:, commanded], times, published.targets[:, commanded])
 
-    dataset = load_trajectory(output / "mirror_lerobot", ranges)  # the same recording, resampled at 25 fps
+    dataset = load_trajectory(
+        output / "mirror_lerobot", ranges, plugins=plugins
+    )  # the same recording, resampled at 25 fps
     assert np.allclose(np.diff(dataset.timestamps), 0.04, atol=1e-6)
     assert_on_path(dataset.timestamps, dataset.positions, published.timestamps, published.positions)
 

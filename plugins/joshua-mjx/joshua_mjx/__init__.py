@@ -10,7 +10,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from joshua_mjx.engine import MJX_SUFFIX, MjxBackend, MjxEngine
+    from joshua_mjx.backend import MjxBackend
+    from joshua_mjx.engine import MJX_SUFFIX, MjxEngine
     from joshua_mjx.env import EnvState, MjxEnv, make_mjx_env
 
 __all__ = [
@@ -21,13 +22,13 @@ __all__ = [
     "MjxEnv",
     "make_mjx_env",
 ]
-_IN_ENV = {"EnvState", "MjxEnv", "make_mjx_env"}  # the others are in engine.py
+_HOME = {"EnvState": "env", "MjxEnv": "env", "make_mjx_env": "env", "MjxBackend": "backend"}  # else engine.py
 
 
 def __getattr__(name: str) -> Any:
     if name in __all__:
         import importlib
 
-        module = "env" if name in _IN_ENV else "engine"
+        module = _HOME.get(name, "engine")
         return getattr(importlib.import_module(f"joshua_mjx.{module}"), name)
     raise AttributeError(f"module 'joshua_mjx' has no attribute '{name}'")

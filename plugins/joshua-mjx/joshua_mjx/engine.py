@@ -1,29 +1,25 @@
-"""The `mjx` backend: models checked for MJX, and `MjxEngine`, one simulation stepped by MJX.
+"""Models checked for MJX, and `MjxEngine`, one simulation stepped by MJX (the `mjx` backend's engine).
 
 `MjxEngine` is a `MuJoCoEngine` whose physics runs through `mujoco.mjx` (jit-compiled on the
 default JAX device); the host `MjData` is refreshed after every `step()`, so reading state,
 sensors and rendering work exactly as with the `mujoco` backend. It is the way to check a model's
 MJX behaviour against the CPU one; training uses the batched `joshua_mjx.env.MjxEnv` instead, which
-`MjxBackend.create_envs` makes (EnvKind.JAX).
+`joshua_mjx.backend.MjxBackend.create_envs` makes (EnvKind.JAX).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import jax
 import mujoco
 
-from joshua_core.errors import ConfigError, ModelError
-from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, EnvKind, EnvSpec
+from joshua_core.errors import ModelError
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH
 from joshua_core.resources import resolve_data_path
 from joshua_mjx.physics import mjx
 from joshua_mujoco import MuJoCoEngine
-
-if TYPE_CHECKING:
-    from joshua_core.plugins import PluginHost
-    from joshua_mjx.env import MjxEnv
 
 MJX_SUFFIX = "_mjx"
 
@@ -77,19 +73,3 @@ class MjxEngine(MuJoCoEngine):
         inputs = {name: jax.numpy.asarray(getattr(self.data, name)) for name in HOST_INPUTS}
         self._device_data = self._step_n(self._device_data.replace(**inputs), n)
         mjx.get_data_into(self.data, self.model, self._device_data)
-
-
-class MjxBackend(Backend):
-    """The `mjx` backend: an `MjxEngine` per model, and `MjxEnv`s (EnvKind.JAX, in joshua_mjx.env) for training."""
-
-    def create_engine(
-        self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
-    ) -> MjxEngine:
-        return MjxEngine(model_path, render_width=render_width, render_height=render_height)
-
-    def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> MjxEnv:
-        if kind is not EnvKind.JAX:
-            raise ConfigError(f"backend mjx provides JAX environments, not {kind.name}")
-        from joshua_mjx.env import mjx_envs
-
-        return mjx_envs(spec, plugins)

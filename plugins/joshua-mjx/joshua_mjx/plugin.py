@@ -10,7 +10,7 @@ from joshua_core.plugins import Registrar
 def joshua_register_backends(registry: Registrar) -> None:
     registry.add(
         "mjx",
-        "joshua_mjx.engine:MjxBackend",
+        "joshua_mjx.backend:MjxBackend",
         "MuJoCo XLA (JAX): batched task environments on every GPU, or the CPU",
         env_kinds=("jax",),
     )

@@ -14,7 +14,8 @@ from pathlib import Path
 
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
-from joshua_core.interfaces import Engine, Mode, RunContext
+from joshua_core.interfaces import Engine, Mode
+from joshua_core.run_context import RunContext
 from joshua_mujoco import MuJoCoEngine
 from joshua_render import ViewerDisplay
 

@@ -20,11 +20,13 @@ from numpy.typing import NDArray
 from joshua_core.atomic import atomic_directory
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
-from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, RunContext, render_size
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, render_size
 from joshua_core.options import options_of
+from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
-from joshua_core.trajectory import load_trajectory
+from joshua_core.run_context import RunContext
+from joshua_core.trajectory_sources import load_trajectory
 from joshua_modes import options_pb2
 from joshua_modes.options_pb2 import OffscreenOptions
 from joshua_modes.replay import Replayer, model_joint_ranges
@@ -109,17 +111,19 @@ def iter_offscreen_frames(
     tracked: bool = False,
     shadows: bool = True,
     episode: int = 0,
+    plugins: PluginHost,
 ) -> Iterator[NDArray[np.uint8]]:
     """Yield (height, width, 3) uint8 frames of the trajectory replayed kinematically (or `tracked`),
     one per 1/fps of trajectory time. Rows with a bad timestamp or a non-finite value are skipped.
 
-    Relative paths resolve like config paths: the working directory, then the shipped models folder.
+    Relative paths resolve like config paths: the working directory, then the shipped models folder. `plugins`
+    (the run's host) reads models and trajectories in other formats (USD, a LeRobot dataset).
     """
-    engine = MuJoCoEngine(model_path, render_width=width, render_height=height)
+    engine = MuJoCoEngine(model_path, render_width=width, render_height=height, plugins=plugins)
     with engine:
         engine.reset(keyframe)
         path = resolve_data_path(trajectory_path, what="trajectory", folders=True)
-        trajectory = load_trajectory(path, model_joint_ranges(engine.model), episode=episode)
+        trajectory = load_trajectory(path, model_joint_ranges(engine.model), episode=episode, plugins=plugins)
         _, usable = validate(trajectory, engine.model, engine.data.qpos.copy())
         replayer = Replayer(engine, trajectory, usable, tracked=tracked)
         renderer = FrameRenderer(engine.model, width, height, camera=camera, shadows=shadows)
@@ -142,9 +146,13 @@ def run_offscreen(
 ) -> list[NDArray[np.uint8]]:
     """All frames of the trajectory's kinematic replay as (height, width, 3) uint8 arrays.
 
-    For long trajectories prefer `iter_offscreen_frames`, which holds one frame at a time.
+    For long trajectories prefer `iter_offscreen_frames`, which holds one frame at a time. A top-level entry
+    point, so it finds the installed plugins itself.
     """
-    return list(iter_offscreen_frames(model_path, trajectory_path, width, height, camera=camera, fps=fps))
+    plugins = PluginHost.discover()
+    return list(
+        iter_offscreen_frames(model_path, trajectory_path, width, height, camera=camera, fps=fps, plugins=plugins)
+    )
 
 
 @dataclass(frozen=True)

@@ -13,9 +13,10 @@ from pathlib import Path
 
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
-from joshua_core.interfaces import Mode, RunContext
+from joshua_core.interfaces import Mode
 from joshua_core.options import options_of
 from joshua_core.progress import progress_bar
+from joshua_core.run_context import RunContext
 from joshua_modes import options_pb2
 from joshua_modes.offscreen import frame_times
 from joshua_modes.options_pb2 import ViewerOptions

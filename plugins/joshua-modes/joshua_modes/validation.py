@@ -24,7 +24,8 @@ from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Engine
 from joshua_core.options import options_of
-from joshua_core.trajectory import Trajectory, load_trajectory
+from joshua_core.trajectory import Trajectory
+from joshua_core.trajectory_sources import load_trajectory
 from joshua_modes import options_pb2
 from joshua_modes.replay import Replayer, model_joint_ranges, qpos_addresses
 
@@ -350,7 +351,7 @@ def _geom_name(model: mujoco.MjModel, geom: int) -> str:
 
 
 def validated_replayer(
-    config: SimulationConfig, engine: Engine, report_path: Path, *, refusal: str, plugins: PluginHost | None = None
+    config: SimulationConfig, engine: Engine, report_path: Path, *, refusal: str, plugins: PluginHost
 ) -> tuple[Replayer, ValidationReport]:
     """Load (CSV, or a dataset through a plugin's reader; episode `replay.episode`) and validate
     `config.trajectory_path` against the engine's model, print the report and write it as JSON; return the

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from modes_testing import HEADER, SCENE, SMALL, distinct_colours, example_rows, headless_env, orange_pixels, read_video
 
+from joshua_core.plugins import PluginHost
 from joshua_modes.offscreen import FrameRenderer, iter_offscreen_frames, run_offscreen
 from joshua_mujoco import MuJoCoEngine
 
@@ -32,7 +33,7 @@ def test_run_offscreen_returns_frames_of_the_moving_arm(short_csv: Path) -> None
 
 
 def test_streaming_form_is_lazy_and_matches(short_csv: Path) -> None:
-    stream = iter_offscreen_frames(SCENE, short_csv, 160, 120, fps=5)
+    stream = iter_offscreen_frames(SCENE, short_csv, 160, 120, fps=5, plugins=PluginHost.discover())
     assert isinstance(stream, types.GeneratorType)
     first = next(stream)
     rest = list(stream)

@@ -217,7 +217,9 @@ def test_report_of_non_finite_rows_is_valid_json(engine, write_csv, tmp_path: Pa
 def test_target_columns_round_trip_exactly(tmp_path: Path) -> None:
     import numpy as np
 
-    from joshua_core.trajectory import Trajectory, load_trajectory, write_trajectory
+    from joshua_core.plugins import PluginHost
+    from joshua_core.trajectory import Trajectory, write_trajectory
+    from joshua_core.trajectory_sources import load_trajectory
 
     times = np.array([0.0, 0.1, 0.2])
     positions = np.array([[0.1, 1 / 3], [0.2, 0.4], [0.3, 0.5]])
@@ -226,11 +228,12 @@ def test_target_columns_round_trip_exactly(tmp_path: Path) -> None:
     write_trajectory(written.path, written, comment="two joints\none target")
     text = written.path.read_text()
     assert text.startswith("# two joints\n# one target\ntimestamp,joint_1,joint_2,joint_1.target\n")
-    read = load_trajectory(written.path, {"joint_1": (-1.0, 1.0), "joint_2": (-1.0, 1.0)})
+    host = PluginHost([])
+    read = load_trajectory(written.path, {"joint_1": (-1.0, 1.0), "joint_2": (-1.0, 1.0)}, plugins=host)
     assert read.joint_names == ("joint_1", "joint_2")
     assert np.array_equal(read.positions, positions) and np.array_equal(read.targets, targets, equal_nan=True)
     with pytest.raises(TrajectoryError, match="holds one episode; episode 1 does not exist"):
-        load_trajectory(written.path, {"joint_1": (-1.0, 1.0), "joint_2": (-1.0, 1.0)}, episode=1)
+        load_trajectory(written.path, {"joint_1": (-1.0, 1.0), "joint_2": (-1.0, 1.0)}, episode=1, plugins=host)
 
 
 def test_a_target_column_needs_its_joint_column(tmp_path: Path) -> None:
@@ -243,8 +246,8 @@ def test_a_target_column_needs_its_joint_column(tmp_path: Path) -> None:
 def test_a_folder_without_a_reader_says_what_to_install(tmp_path: Path) -> None:
     from joshua_core import builtin_plugin
     from joshua_core.plugins import PluginHost, PluginInfo
-    from joshua_core.trajectory import load_trajectory
+    from joshua_core.trajectory_sources import load_trajectory
 
     host = PluginHost([(PluginInfo("core", "joshua-core", "0", "core"), builtin_plugin)])
-    with pytest.raises(TrajectoryError, match="no installed trajectory reader takes it .*needs joshua-lerobot"):
+    with pytest.raises(TrajectoryError, match="no installed trajectory reader takes it .*pip install joshua-lerobot"):
         load_trajectory(tmp_path, {"joint_1": (-1.0, 1.0)}, plugins=host)

@@ -16,12 +16,12 @@ from numpy.typing import ArrayLike, NDArray  # noqa: E402
 
 from joshua_core.errors import ConfigError  # noqa: E402
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, Engine, EnvKind, EnvSpec  # noqa: E402
+from joshua_core.plugins import PluginHost  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
-from joshua_mujoco.models import compile_model  # noqa: E402
+from joshua_mujoco.models import MJCF_SUFFIXES, compile_model  # noqa: E402
 from joshua_render import camera_id, create_renderer  # noqa: E402
 
 if TYPE_CHECKING:
-    from joshua_core.plugins import PluginHost
     from joshua_mujoco.vector import BatchedVectorEnv
 
 # MuJoCo warnings that mean the state went non-finite (MuJoCo then silently resets the data).
@@ -48,11 +48,14 @@ class MuJoCoEngine(Engine):
         assets: Mapping[str, bytes] | None = None,
         render_width: int = DEFAULT_RENDER_WIDTH,
         render_height: int = DEFAULT_RENDER_HEIGHT,
+        plugins: PluginHost | None = None,
     ) -> None:
         if (model_path is None) == (xml is None):
             raise TypeError("MuJoCoEngine needs exactly one of model_path= or xml=")
         path = resolve_data_path(model_path) if model_path is not None else None
-        self.model = compile_model(path, xml=xml, assets=assets)
+        if plugins is None and path is not None and path.suffix.lower() not in MJCF_SUFFIXES:
+            plugins = PluginHost.discover()  # the documented API: a USD file given without a host reads as in a run
+        self.model = compile_model(path, xml=xml, assets=assets, plugins=plugins)
         self.data = mujoco.MjData(self.model)
         self.render_width = render_width
         self.render_height = render_height

@@ -35,14 +35,12 @@ mujoco.set_mju_user_warning(_print_warning)
 
 def read_spec(path: Path, plugins: PluginHost | None = None) -> mujoco.MjSpec:
     """The MjSpec of the model file at `path` (absolute, as `resolve_data_path` gives it). A suffix other
-    than MJCF's goes to the reader registered for it (`plugins`, else the installed plugins)."""
+    than MJCF's goes to the reader `plugins` (the run's host) registers for it; without a host only MJCF is read."""
     suffix = path.suffix.lower()
     if suffix in MJCF_SUFFIXES:
         return compiled(path, lambda: mujoco.MjSpec.from_file(str(path)))
     if plugins is None:
-        from joshua_core.plugins import PluginHost
-
-        plugins = PluginHost.discover()
+        raise ModelError(f"{path}: a '{suffix}' model is read by a plugin's model reader; pass the run's plugins")
     return plugins.model_reader(suffix).read(path)
 
 

@@ -10,10 +10,11 @@ from google.protobuf import json_format
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
-from joshua_core.interfaces import RunContext
+from joshua_core.kinds import Kind
 from joshua_core.options import parse_dict
-from joshua_core.plugins import Kind, PluginHost
+from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
+from joshua_core.run_context import RunContext
 from joshua_core.tasks import load_task_spec
 from joshua_mjx import MJX_SUFFIX
 from joshua_ppo.trainer import PpoTrainer

@@ -12,7 +12,8 @@ from collections.abc import Sequence
 from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.interfaces import EnvKind, RunContext
+from joshua_core.interfaces import EnvKind
+from joshua_core.run_context import RunContext
 
 __all__ = ["DEFAULT_NUM_ENVS", "EnvState", "JaxEnv", "environment", "env_axis"]
 

@@ -17,9 +17,9 @@ import numpy as np
 from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.curves import write_training_curves
-from joshua_core.interfaces import RunContext
 from joshua_core.options import message_to_dict, options_of
 from joshua_core.progress import progress_bar
+from joshua_core.run_context import RunContext
 from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
 from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import checkpoint_payloads, read_json, write_checkpoint

@@ -13,10 +13,11 @@ import jax
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
-from joshua_core.interfaces import EpisodeResults, RunContext, Trainer
+from joshua_core.interfaces import EpisodeResults, Trainer
 from joshua_core.interrupts import resume_command, stop_requests
 from joshua_core.options import options_of
 from joshua_core.policy import ExportedPolicy
+from joshua_core.run_context import RunContext
 from joshua_core.runs import (
     CONFIG_FILE,
     RunFolder,

@@ -23,10 +23,10 @@ import joshua_ppo.plugin
 import joshua_ppo.trainer
 from joshua_core import builtin_plugin, hookimpl
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.interfaces import RunContext
 from joshua_core.interrupts import reported
 from joshua_core.options import parse_dict
 from joshua_core.plugins import PluginHost, PluginInfo, Registrar
+from joshua_core.run_context import RunContext
 from joshua_core.tasks.spec import TaskSpec, TermSpec
 
 _TARGET = {"name": "target", "low": (-0.5, -0.5, 0.0), "high": (0.5, 0.5, 0.0)}

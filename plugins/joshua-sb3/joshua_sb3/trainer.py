@@ -24,11 +24,12 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
-from joshua_core.interfaces import EnvKind, EpisodeResults, RunContext, Trainer
+from joshua_core.interfaces import EnvKind, EpisodeResults, Trainer
 from joshua_core.interrupts import StopRequest, resume_command, stop_requests
 from joshua_core.options import message_to_dict, options_of
 from joshua_core.policy import ExportedPolicy
 from joshua_core.progress import progress_bar
+from joshua_core.run_context import RunContext
 from joshua_core.runs import (
     CONFIG_FILE,
     METRICS_FILE,

@@ -16,9 +16,10 @@ import joshua_sb3.plugin
 from joshua_core import builtin_plugin, hookimpl
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
-from joshua_core.interfaces import Backend, EnvKind, EnvSpec, RunContext
+from joshua_core.interfaces import Backend, EnvKind, EnvSpec
 from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import resolve_data_path
+from joshua_core.run_context import RunContext
 from joshua_sb3 import options_pb2
 
 

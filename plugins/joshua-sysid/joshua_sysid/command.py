@@ -63,7 +63,7 @@ class SysidCommand(Command):
         spec = read_spec(model_path, plugins)
         model = spec.copy().compile()
         servos = recordings.model_servos(model, model_path)
-        loaded = recordings.load_recordings(args.recordings, model, servos)
+        loaded = recordings.load_recordings(args.recordings, model, servos, plugins)
         root = writable_folder(args.output_dir, "--output-dir")
         if args.run_name and (root / args.run_name).exists():
             raise UsageError(f"run folder {root / args.run_name} exists; choose another --run-name")

@@ -12,6 +12,7 @@ import difflib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -19,8 +20,12 @@ from numpy.typing import NDArray
 
 from joshua_core.errors import ModelError, UsageError
 from joshua_core.resources import resolve_data_path
-from joshua_core.trajectory import TARGET_SUFFIX, load_trajectory
+from joshua_core.trajectory import TARGET_SUFFIX
+from joshua_core.trajectory_sources import load_trajectory
 from joshua_modes import model_joint_ranges
+
+if TYPE_CHECKING:
+    from joshua_core.plugins import PluginHost
 
 MIN_SAMPLES = 20  # fewer samples than this cannot tell four parameters per joint apart
 MIN_DURATION_S = 1.0  # nor can a recording shorter than a few servo time constants
@@ -73,15 +78,20 @@ def model_servos(model: mujoco.MjModel, model_path: Path) -> list[Servo]:
     return servos
 
 
-def load_recordings(paths: Sequence[Path], model: mujoco.MjModel, servos: list[Servo]) -> list[Recording]:
-    """Read and check each recording (a UsageError names the file and what is wrong)."""
+def load_recordings(
+    paths: Sequence[Path], model: mujoco.MjModel, servos: list[Servo], plugins: PluginHost
+) -> list[Recording]:
+    """Read and check each recording (a UsageError names the file and what is wrong); dataset folders are read by
+    the trajectory readers of `plugins`."""
     joints = model_joint_ranges(model)
-    return [_load(resolve_data_path(path, what="recording", folders=True), joints, servos) for path in paths]
+    return [_load(resolve_data_path(path, what="recording", folders=True), joints, servos, plugins) for path in paths]
 
 
-def _load(path: Path, model_joints: dict[str, tuple[float, float]], servos: list[Servo]) -> Recording:
+def _load(
+    path: Path, model_joints: dict[str, tuple[float, float]], servos: list[Servo], plugins: PluginHost
+) -> Recording:
     """One recording: a trajectory CSV or a dataset folder (e.g. LeRobot's, through its trajectory reader)."""
-    trajectory = load_trajectory(path, model_joints)
+    trajectory = load_trajectory(path, model_joints, plugins=plugins)
     if trajectory.targets is None:
         raise UsageError(
             f"{path}: no commanded targets; joshua sysid needs a '<joint>{TARGET_SUFFIX}' column beside each joint "

@@ -17,8 +17,9 @@ import numpy as np
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError, JoshuaError
-from joshua_core.interfaces import Mode, RunContext
+from joshua_core.interfaces import Mode
 from joshua_core.options import options_of
+from joshua_core.run_context import RunContext
 from joshua_mujoco import MuJoCoEngine
 from joshua_rk4 import options_pb2
 from joshua_rk4.backend import RK4Backend

@@ -32,14 +32,16 @@ def AntEnv(  # noqa: N802 - named like the class it stands for in Isaac Lab
     num_envs: int = 1024, device: str = "cuda", *, seed: int = 0, model_path: str | Path | None = None
 ) -> VecEnv:
     """`isaac_ant_locomotion` on `num_envs` simulations as an SB3 VecEnv (see the module docstring)."""
-    return isaac_vec_env("isaac_ant_locomotion", num_envs, device, seed=seed, model_path=model_path)
+    plugins = PluginHost.discover()  # a top-level entry, as Isaac Lab's AntEnv is
+    return isaac_vec_env("isaac_ant_locomotion", num_envs, device, seed=seed, model_path=model_path, plugins=plugins)
 
 
 def TrilegEnv(  # noqa: N802 - named like AntEnv
     num_envs: int = 1024, device: str = "cuda", *, seed: int = 0, model_path: str | Path | None = None
 ) -> VecEnv:
     """`isaac_trileg` on `num_envs` simulations as an SB3 VecEnv (see the module docstring)."""
-    return isaac_vec_env("isaac_trileg", num_envs, device, seed=seed, model_path=model_path)
+    plugins = PluginHost.discover()  # a top-level entry, like AntEnv
+    return isaac_vec_env("isaac_trileg", num_envs, device, seed=seed, model_path=model_path, plugins=plugins)
 
 
 def isaac_vec_env(
@@ -49,12 +51,11 @@ def isaac_vec_env(
     *,
     seed: int = 0,
     model_path: str | Path | None = None,
-    plugins: PluginHost | None = None,
+    plugins: PluginHost,
 ) -> VecEnv:
     """Any registered task as an SB3 VecEnv on `device` ("cuda": MJX on the GPUs, "cpu": mujoco.batch)."""
     if device not in DEVICES:
         raise ConfigError(f"device must be one of {', '.join(DEVICES)}, got {device!r}")
-    plugins = plugins or PluginHost.discover()
     spec = EnvSpec(task, num_envs, seed=seed, model_path=resolve_data_path(model_path) if model_path else None)
     if device == "cpu":
         return SameStepVecEnv(UsdBackend().create_envs(spec, EnvKind.NUMPY, plugins))

@@ -1,0 +1,40 @@
+"""What a config means where it leaves a component empty: the framework defaults and the components a config
+needs. Policy, not loading: the loader (`joshua_core.config`), the CLI and `RunContext` all read it here, so
+the defaults have one home below all of them."""
+
+from __future__ import annotations
+
+from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig, TrainingConfig
+from joshua_core.kinds import Kind
+
+# The trainer and backend a framework uses when the config leaves them empty.
+FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
+    TrainingConfig.MJX: ("ppo", "mjx"),
+    TrainingConfig.SB3: ("sb3", "mujoco"),
+}
+DEFAULT_SIMULATION_BACKEND = "mujoco"
+DEFAULT_MODE = "INTERACTIVE"  # a config that names no mode opens the viewer (docs/configuration.md)
+
+
+def simulation_mode(simulation: SimulationConfig) -> str:
+    """The mode a simulation runs: the one it names, else INTERACTIVE."""
+    return simulation.mode or DEFAULT_MODE
+
+
+def simulation_backend(simulation: SimulationConfig) -> str:
+    """The backend a simulation uses: the one it names, else the default."""
+    return simulation.backend or DEFAULT_SIMULATION_BACKEND
+
+
+def training_plugins(training: TrainingConfig) -> tuple[str, str]:
+    """The (trainer, backend) a training job uses: the ones it names, else its framework's defaults."""
+    trainer, backend = FRAMEWORK_DEFAULTS[training.framework]
+    return training.trainer or trainer, training.backend or backend
+
+
+def required_components(config: JoshuaConfig) -> list[tuple[Kind, str]]:
+    """The plugin components a config needs to run (before or after `joshua_core.config.finalize`)."""
+    if config.operation_mode == JoshuaConfig.SIMULATION:
+        return [(Kind.MODE, simulation_mode(config.simulation)), (Kind.BACKEND, simulation_backend(config.simulation))]
+    trainer, backend = training_plugins(config.training)
+    return [(Kind.TRAINER, trainer), (Kind.BACKEND, backend)]

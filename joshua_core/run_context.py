@@ -1,0 +1,64 @@
+"""What a mode or trainer gets besides its config: the plugins of this run and where to write.
+
+Above the plugin host: a `RunContext` holds the host and asks it for the backend a config names, so that modes
+and trainers get engines and environments without importing a backend or discovering plugins again.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from joshua_core.defaults import training_plugins
+from joshua_core.errors import ConfigError
+from joshua_core.interfaces import Engine, EnvKind, EnvSpec, render_size
+
+if TYPE_CHECKING:
+    from joshua_core.config_pb2 import SimulationConfig, TrainingConfig
+    from joshua_core.plugins import PluginHost
+
+
+@dataclass(frozen=True)
+class RunContext:
+    """What a mode or trainer gets besides its config: the plugins of this run and where to write."""
+
+    plugins: PluginHost
+    output_dir: Path
+
+    def create_engine(self, simulation: SimulationConfig) -> Engine:
+        """Engine for a finalized simulation config, from the backend it names, reset to the config's keyframe
+        (the model's initial state when none is named); an unknown keyframe is a ConfigError listing them."""
+        backend = self.plugins.backend(simulation.backend)
+        width, height = render_size(simulation)
+        engine = backend.create_engine(Path(simulation.model_path), render_width=width, render_height=height)
+        try:
+            engine.reset(simulation.keyframe or None)
+        except KeyError as error:
+            engine.close()
+            raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
+        return engine
+
+    def create_envs(
+        self,
+        training: TrainingConfig,
+        kind: EnvKind,
+        *,
+        num_envs: int | None = None,
+        seed: int | None = None,
+        devices: Sequence[Any] | None = None,
+        training_envs: bool = False,
+    ) -> Any:
+        """Environments of `kind` for a finalized training config, from the backend it names; a backend that
+        does not provide `kind` is a ConfigError naming those that do. `num_envs`, `seed` replace the config's;
+        `devices` (JAX environments) are the devices to spread them over (None: every visible one).
+        `training_envs`: the environments a trainer learns on, whose episodes are desynchronised unless
+        `training.synchronized_episodes` (evaluation wants whole first episodes: leave it False)."""
+        trainer, backend = training_plugins(training)
+        self.plugins.check_env_kinds(trainer, backend, needs=(kind,))
+        desync = training_envs and not training.synchronized_episodes
+        spec = replace(
+            EnvSpec.from_training(training, num_envs=num_envs, seed=seed), devices=devices, desync_episodes=desync
+        )
+        return self.plugins.backend(backend).create_envs(spec, kind, self.plugins)

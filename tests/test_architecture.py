@@ -1,0 +1,95 @@
+"""The house rules hold in the source (tools/check_architecture.py), and the check finds a broken one."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import shutil
+import sys
+from pathlib import Path
+from types import ModuleType
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+
+
+def load_tool(name: str) -> ModuleType:
+    """A script of tools/ as a module (tools/ is not a package; the scripts import each other by name)."""
+    sys.path.insert(0, str(REPO_ROOT / "tools"))
+    try:
+        spec = importlib.util.spec_from_file_location(name, REPO_ROOT / "tools" / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+    finally:
+        sys.path.remove(str(REPO_ROOT / "tools"))
+
+
+def test_the_source_keeps_the_house_rules() -> None:
+    assert load_tool("check_architecture").findings() == []
+
+
+def fake_repository(root: Path, files: dict[str, str]) -> None:
+    """A core with one leaf module and a plugin distribution `joshua-demo` (a backend), plus `files`."""
+    (root / "joshua_core").mkdir(parents=True)
+    shutil.copy(REPO_ROOT / "joshua_core" / "providers.json", root / "joshua_core" / "providers.json")
+    plugin = root / "plugins" / "joshua-demo"
+    (plugin / "joshua_demo").mkdir(parents=True)
+    (plugin / "pyproject.toml").write_text('[project]\nname = "joshua-demo"\n')
+    sources = {
+        "joshua_core/__init__.py": "",
+        "joshua_core/errors.py": "",
+        "plugins/joshua-demo/joshua_demo/__init__.py": "",
+    }
+    for name, text in {**sources, **files}.items():
+        (root / name).write_text(text)
+
+
+def test_a_circle_a_function_local_import_hides_is_found(tmp_path: Path) -> None:
+    check = load_tool("check_architecture")
+    fake_repository(
+        tmp_path,
+        {
+            "joshua_core/a.py": "from joshua_core.b import B\n",
+            "joshua_core/b.py": "def f():\n    from joshua_core.a import A\n",  # the dodge the rule forbids
+            "joshua_core/c.py": "import typing\nif typing.TYPE_CHECKING:\n    from joshua_core.a import A\n",
+        },
+    )
+    found = check.findings(tmp_path)
+    assert found == ["joshua_core: import circle: joshua_core.a -> joshua_core.b"], found
+
+
+def test_layering_and_discovery_rules_are_found(tmp_path: Path) -> None:
+    check = load_tool("check_architecture")
+    catalog = json.loads((REPO_ROOT / "joshua_core" / "providers.json").read_text())
+    trainer = next(name for name, provided in catalog.items() if "trainer" in provided)
+    fake_repository(
+        tmp_path,
+        {
+            "joshua_core/cli.py": "import joshua_demo\n",
+            "plugins/joshua-demo/joshua_demo/lib.py": "def f(host):\n    return host.discover()\n",
+        },
+    )
+    trainer_package = tmp_path / "plugins" / trainer / trainer.replace("-", "_")
+    trainer_package.mkdir(parents=True)
+    (trainer_package.parent / "pyproject.toml").write_text(f'[project]\nname = "{trainer}"\n')
+    (trainer_package / "__init__.py").write_text('__all__ = ["Public"]\n')
+    (trainer_package / "inner.py").write_text("")
+    backend = next(name for name, provided in catalog.items() if "backend" in provided)
+    backend_package = tmp_path / "plugins" / backend / backend.replace("-", "_")
+    backend_package.mkdir(parents=True)
+    (backend_package.parent / "pyproject.toml").write_text(f'[project]\nname = "{backend}"\n')
+    (backend_package / "__init__.py").write_text(f"from {trainer_package.name} import Public\n")
+    (backend_package / "deep.py").write_text(f"from {trainer_package.name}.inner import x\n")
+    found = "\n".join(check.findings(tmp_path))
+    assert "joshua_core/cli.py:1: the core imports plugin module joshua_demo" in found
+    assert "lib.py:2: PluginHost.discover() in library code (f)" in found
+    assert f"__init__.py:1: backend {backend} imports trainer {trainer_package.name}" in found
+    assert f"deep.py:1: imports {trainer_package.name}.inner; import from {trainer_package.name} (its __all__)" in found
+
+
+def test_the_layer_picture_is_drawn_from_the_current_imports() -> None:
+    spec = importlib.util.spec_from_file_location("architecture_layers", REPO_ROOT / "docs" / "architecture_layers.py")
+    layers = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(layers)
+    drawn = (REPO_ROOT / "docs" / "architecture_layers.svg").read_text(encoding="utf-8")
+    assert drawn == layers.render(), "out of date: run python docs/architecture_layers.py"

@@ -1,0 +1,152 @@
+"""Check JOSHUA's house rules from the real imports of its source (run from anywhere; exit 1 on a finding).
+
+    python tools/check_architecture.py
+
+- no import circle among the modules of the core or of one plugin package, nor between distributions
+  (imports inside functions count: a function-local import does not open a circle; `if TYPE_CHECKING:` ones
+  do not, they never run);
+- the core imports no plugin;
+- a plugin imports from another only the names that one lists in its `__init__.py` `__all__`;
+- a backend distribution never imports a trainer distribution (which is which: what each registers, from
+  `joshua_core/providers.json`);
+- `PluginHost.discover()` only in the entry points listed in ENTRY_POINTS: library code takes the run's host;
+- no source file over 600 lines and no function over 120, unless the file says "long because" (a reason).
+  Split by meaning, never to meet these numbers.
+
+`.ci/run` runs it before the tests, and `tests/test_architecture.py` runs it so that a new circle fails the tests.
+"""
+
+from __future__ import annotations
+
+import ast
+import json
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from import_graph import ROOT, Import, Package, all_imports, circles, distribution_graph, packages  # noqa: E402
+
+# Where a discover() may stand, each with why: these build the host a run then passes down.
+ENTRY_POINTS = {
+    ("joshua_core.cli", "main"): "the `joshua` command",
+    ("joshua_ppo.api", "train_mjx"): "the documented Python entry to training (docs/training-mjx.md)",
+    ("joshua_modes.offscreen", "run_offscreen"): "the documented Python API for frames of a replay",
+    ("joshua_mujoco.engine", "__init__"): "MuJoCoEngine(model_path=...), the documented API, given a USD file",
+    ("joshua_mujoco.envs", "__init__"): "TaskEnv: the Gymnasium entry point of gymnasium.make('joshua/...')",
+    ("joshua_mujoco.vector", "make_vector_env"): "documented convenience (joshua-mujoco README), gymnasium.make_vec",
+    ("joshua_mjx.env", "make_mjx_env"): "documented convenience (joshua-mjx README)",
+    ("joshua_usd.tasks.envs", "AntEnv"): "Isaac Lab's entry, as docs/usd.md shows it",
+    ("joshua_usd.tasks.envs", "TrilegEnv"): "Isaac Lab's entry, like AntEnv",
+}
+MAX_LINES = 600
+MAX_FUNCTION_LINES = 120
+EXCUSE = "long because"
+
+
+def module_circles(package: Package, imports: dict[str, list[Import]]) -> list[list[str]]:
+    """Import circles among one package's modules (function-local imports count, type-only ones do not)."""
+    modules = set(imports)
+    graph: dict[str, set[str]] = {module: set() for module in modules}
+    for module, items in imports.items():
+        for item in items:
+            if item.type_only:
+                continue
+            for target in (item.target, *(f"{item.target}.{name}" for name in item.names)):
+                # a module's own ancestors are imported before it anyway: not an edge
+                if target in modules and target != module and not module.startswith(f"{target}."):
+                    graph[module].add(target)
+    return circles(graph)
+
+
+def roles(root: Path) -> tuple[set[str], set[str]]:
+    """(backend distributions, trainer distributions), from what each registers (providers.json)."""
+    catalog = json.loads((root / "joshua_core" / "providers.json").read_text(encoding="utf-8"))
+    backends = {name for name, provided in catalog.items() if "backend" in provided}
+    trainers = {name for name, provided in catalog.items() if "trainer" in provided}
+    return backends, trainers
+
+
+def discover_calls(path: Path) -> list[tuple[int, str | None]]:
+    """(line, enclosing function) of each `....discover(...)` call in a file."""
+    found: list[tuple[int, str | None]] = []
+
+    def visit(node: ast.AST, function: str | None) -> None:
+        for child in ast.iter_child_nodes(node):
+            inner = child.name if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef) else function
+            if isinstance(child, ast.Call) and isinstance(child.func, ast.Attribute) and child.func.attr == "discover":
+                found.append((child.lineno, function))
+            visit(child, inner)
+
+    visit(ast.parse(path.read_text(encoding="utf-8")), None)
+    return found
+
+
+def sizes(path: Path, root: Path) -> list[str]:
+    text = path.read_text(encoding="utf-8")
+    if EXCUSE in text:
+        return []
+    where = path.relative_to(root)
+    lines = len(text.splitlines())
+    found = [f"{where}: {lines} lines (over {MAX_LINES}, no '{EXCUSE}' reason)"] if lines > MAX_LINES else []
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            length = node.end_lineno - node.lineno + 1
+            if length > MAX_FUNCTION_LINES:
+                found.append(
+                    f"{where}:{node.lineno}: function {node.name} is {length} lines (over {MAX_FUNCTION_LINES})"
+                )
+    return found
+
+
+def findings(root: Path = ROOT) -> list[str]:
+    """One line per broken rule."""
+    known = packages(root)
+    modules = all_imports(root)
+    backends, trainers = roles(root)
+    found: list[str] = []
+    by_package: dict[str, dict[str, list[Import]]] = {}
+    for module, (package, path, imports) in modules.items():
+        by_package.setdefault(package.name, {})[module] = imports
+        where = path.relative_to(root)
+        for item in imports:
+            other = known.get(item.target.split(".")[0])
+            if other is None or other.name == package.name or other.name == "joshua_core":
+                continue
+            if package.name == "joshua_core":
+                found.append(f"{where}:{item.line}: the core imports plugin module {item.target}")
+                continue
+            if package.distribution in backends and other.distribution in trainers:
+                found.append(f"{where}:{item.line}: backend {package.distribution} imports trainer {item.target}")
+            exported = other.exported()
+            if item.target != other.name:
+                found.append(f"{where}:{item.line}: imports {item.target}; import from {other.name} (its __all__)")
+            else:
+                for name in item.names or ("(the whole module)",):
+                    if name not in exported:
+                        found.append(f"{where}:{item.line}: {other.name}.{name} is not in {other.name}.__all__")
+        for line, function in discover_calls(path):
+            if (module, function) not in ENTRY_POINTS:
+                found.append(
+                    f"{where}:{line}: PluginHost.discover() in library code ({function or 'module level'}); "
+                    "take the run's host as an argument (entry points: tools/check_architecture.py ENTRY_POINTS)"
+                )
+        found += sizes(path, root)
+    for name, imports in sorted(by_package.items()):
+        for circle in module_circles(known[name], imports):
+            found.append(f"{known[name].folder.relative_to(root)}: import circle: {' -> '.join(circle)}")
+    for circle in circles(distribution_graph(root)):
+        found.append(f"import circle between distributions: {' -> '.join(circle)}")
+    return found
+
+
+def main() -> int:
+    found = findings()
+    for line in found:
+        print(line)
+    print(f"check_architecture: {len(found)} finding(s)")
+    return 1 if found else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
