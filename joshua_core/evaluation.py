@@ -24,7 +24,7 @@ from joshua_core.statistics import report_lines, summarize
 if TYPE_CHECKING:
     from joshua_core.plugins import PluginHost
 
-# Episodes one evaluation rolls out (each holds its environment's results until the report): more is a typo.
+# Episodes one evaluation rolls out: far more than an average needs, so a larger count is a typo, not a request.
 MAX_EVAL_EPISODES = 100_000
 
 

@@ -78,3 +78,13 @@ def test_a_chain_of_extends_deeper_than_the_limit_is_one_line(monkeypatch: pytes
     with pytest.raises(ConfigError, match=f"extends a chain of more than {MAX_EXTENDS_DEPTH} presets"):
         load_preset("p0", LENIENT)
     assert load_preset(f"p{depth - MAX_EXTENDS_DEPTH + 1}", LENIENT).message.description == "the bottom"
+
+
+def test_mirror_replay_refuses_a_column_naming_no_joint_of_the_model(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    csv = tmp_path / "motion.csv"
+    csv.write_text(
+        "timestamp,joint_1,joint_2,joint_3,joint_4,joint_5,joint_6,elbow\n0,0,0,0,0,0,0,0\n1,0,0,0,0,0,0,0\n"
+    )
+    one_line_usage_error(capsys, ["mirror-replay", str(csv)], f"{csv}:1: column 'elbow' is not a joint of the model")

@@ -124,8 +124,8 @@ def _joints_of(config: SimulationConfig) -> tuple[list[MirroredJoint], list[str]
     with MuJoCoEngine(config.model_path) as engine:
         options = options_of(config, options_pb2.mirror)
         model = engine.model
-        scalar = (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
-        names = [model.joint(j).name for j in range(model.njnt) if model.jnt_type[j] in scalar]
+        scalar = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
+        names = [model.joint(j).name for j in range(model.njnt) if int(model.jnt_type[j]) in scalar]
         return resolve_joints(model, config.mirror_topic_mappings.mappings, options), names
 
 
