@@ -109,7 +109,8 @@ def _check_value(field: FieldDescriptor, value: object, where: str) -> None:
     if bound is None or not isinstance(value, (int, float)) or (bound.zero_is_default and value == 0):
         return
     if bound.minimum is not None and value < bound.minimum:
-        raise ConfigError(f"{where}: must be at least {bound.minimum:g}, got {value:g}")
+        default = "0 (the default) or " if bound.zero_is_default else ""
+        raise ConfigError(f"{where}: must be {default}at least {bound.minimum:g}, got {value:g}")
     if bound.maximum is not None and value > bound.maximum:
         raise ConfigError(f"{where}: must be at most {bound.maximum:g}, got {value:g}")
 

@@ -48,8 +48,12 @@ def test_an_implausible_command_line_number_is_one_line(
 @pytest.mark.parametrize(
     ("preset", "assignment", "message"),
     [
-        ("sim_offscreen", "simulation.render_height=1", "render_height: must be at least 16, got 1"),
-        ("sim_offscreen", "simulation.offscreen.fps=1e-9", "offscreen.fps: must be at least 1, got 1e-09"),
+        ("sim_offscreen", "simulation.render_height=1", "render_height: must be 0 (the default) or at least 16, got 1"),
+        (
+            "sim_offscreen",
+            "simulation.offscreen.fps=1e-9",
+            "offscreen.fps: must be 0 (the default) or at least 1, got 1e-09",
+        ),
         ("sim_offscreen", "simulation.offscreen.output=7", "offscreen.output: 7 is not one of MP4, PNG, MP4_AND_PNG"),
         ("so_arm100_reach_sb3", "training.gamma=2", "training.gamma: must be at most 1, got 2"),
         ("ant_train_mjx", "training.ppo.hidden_sizes=[2000000000]", "hidden_sizes[0]: must be at most 65536"),
