@@ -69,6 +69,11 @@ def load_file(path: str | Path, options: OptionSet) -> LoadedConfig:
     return LoadedConfig(_parse_file(file, (), options), str(file), file.resolve().parent)
 
 
+# Presets a config may stack through `extends`: far more than any real layering needs, and well below
+# Python's recursion limit, which a longer chain would hit as a traceback.
+MAX_EXTENDS_DEPTH = 64
+
+
 def _parse_file(path: Path, seen: tuple[str, ...], options: OptionSet) -> JoshuaConfig:
     """Parse `path`; if it `extends` a preset, parse that first and lay this file over it."""
     try:
@@ -83,6 +88,8 @@ def _parse_file(path: Path, seen: tuple[str, ...], options: OptionSet) -> Joshua
     if own.extends in seen:
         chain = " -> ".join((*seen, own.extends))
         raise ConfigError(f"{path}: presets extend each other in a cycle: {chain}")
+    if len(seen) >= MAX_EXTENDS_DEPTH:
+        raise ConfigError(f"{path}: extends a chain of more than {MAX_EXTENDS_DEPTH} presets; shorten it")
     merged = _parse_file(preset_path(own.extends), (*seen, own.extends), options)
     _clear_repeated_fields_set_in(own, merged)
     _read_text(text, str(path), merged, options, merge=True)

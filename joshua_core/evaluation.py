@@ -17,12 +17,16 @@ from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.cli import writable_file
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
+from joshua_core.limits import cli_number
 from joshua_core.run_context import RunContext
 from joshua_core.runs import add_checkpoint_arguments, read_run_config
 from joshua_core.statistics import report_lines, summarize
 
 if TYPE_CHECKING:
     from joshua_core.plugins import PluginHost
+
+# Episodes one evaluation rolls out: far more than an average needs, so a larger count is a typo, not a request.
+MAX_EVAL_EPISODES = 100_000
 
 
 class EvalCommand(Command):
@@ -31,7 +35,12 @@ class EvalCommand(Command):
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         add_checkpoint_arguments(parser)
-        parser.add_argument("--episodes", type=int, default=16, help="episodes to average over (default 16)")
+        parser.add_argument(
+            "--episodes",
+            type=cli_number("--episodes", 1, MAX_EVAL_EPISODES, integer=True),
+            default=16,
+            help="episodes to average over (default 16)",
+        )
         parser.add_argument("--seed", type=int, default=0, help="seed of the evaluation environments (default 0)")
         video = parser.add_mutually_exclusive_group()
         video.add_argument("--video", type=Path, help="MP4 to write (default: RUN/eval.mp4)")
@@ -42,8 +51,6 @@ class EvalCommand(Command):
         parser.add_argument("--json", type=Path, help="JSON of the results to write (default: RUN/eval.json)")
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
-        if args.episodes < 1:
-            raise UsageError(f"--episodes must be at least 1, got {args.episodes}")
         if not 1 <= args.grid <= args.episodes:
             raise UsageError(f"--grid must be between 1 and --episodes ({args.episodes}), got {args.grid}")
         run_dir: Path = args.run

@@ -221,7 +221,9 @@ def test_relative_model_path_in_a_custom_file_resolves_beside_it(tmp_path: Path)
 def test_negative_sizes_are_rejected() -> None:
     loaded = load_preset("sim_offscreen", OPTIONS)
     apply_override(loaded.message, "simulation.render_width=-5", OPTIONS)
-    with pytest.raises(ConfigError, match="simulation.render_width: must be at least 0, got -5"):
+    with pytest.raises(
+        ConfigError, match="simulation.render_width: must be 0 \\(the default\\) or at least 16, got -5"
+    ):
         finalize(loaded)
 
 

@@ -14,6 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import UsageError
+from joshua_core.limits import MAX_CONTROL_HZ, MIN_CONTROL_HZ
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_export.contract import CONTRACT_FILE, CONTRACT_FORMAT, sha256
@@ -48,6 +49,11 @@ def load_policy(folder: Path) -> tuple[OnnxPolicy, dict[str, Any]]:
         raise UsageError(f"{path}: unreadable: {error}") from None
     if not isinstance(contract, dict) or contract.get("format") != CONTRACT_FORMAT:
         raise UsageError(f"{path} is not a {CONTRACT_FORMAT} contract")
+    rate = contract.get("control_hz")
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not MIN_CONTROL_HZ <= rate <= MAX_CONTROL_HZ:
+        raise UsageError(
+            f"{path}: control_hz is {rate!r}; expected a number of Hz from {MIN_CONTROL_HZ:g} to {MAX_CONTROL_HZ:g}"
+        )
     model = folder / contract["model"]["file"]
     if not model.is_file() or sha256(model.read_bytes()) != contract["model"]["sha256"]:
         raise UsageError(f"{model} is missing or is not the file {path} describes (its sha256 differs)")

@@ -16,7 +16,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from joshua_core.trajectory import TrajectoryError
+from joshua_core.trajectory import MAX_MAGNITUDE, TrajectoryError
 
 SO100_ROBOT_TYPE = "so100_follower"
 SO100_JOINTS = {
@@ -30,6 +30,9 @@ SO100_JOINTS = {
 GRIPPER = "gripper.pos"
 GRIPPER_SCALE = 100.0  # LeRobot's gripper: 0 .. 100 over the range
 POSITION_SUFFIX = ".pos"
+# Largest magnitude an SO-100 value (arm angle in degrees, gripper in percent) may have: ±1e4 degrees is
+# 28 turns, beyond any joint's travel, so a larger value is a corrupt file, not a pose.
+MAX_SO100_VALUE = 1e4
 
 
 def feature_names(joint_names: Sequence[str]) -> tuple[list[str], str | None]:
@@ -50,6 +53,12 @@ def model_joint(name: str, joints: Mapping[str, tuple[float, float]]) -> str:
             f"of {', '.join(SO100_JOINTS)}); the model's joints: {', '.join(joints)}"
         )
     return joint
+
+
+def plausible_bound(name: str) -> float:
+    """The largest magnitude a value of feature `name` may have in LeRobot's units: SO-100's degrees or percent
+    up to `MAX_SO100_VALUE`; a joint in the model's own units up to the bound of trajectory files."""
+    return MAX_SO100_VALUE if name in SO100_JOINTS else MAX_MAGNITUDE
 
 
 def to_model(name: str, values: NDArray[np.float64], joint_range: tuple[float, float]) -> NDArray[np.float64]:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -19,9 +20,10 @@ import pytest
 
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import models_dir
-from joshua_core.trajectory import Trajectory, write_trajectory
+from joshua_core.trajectory import Trajectory, TrajectoryError, write_trajectory
 from joshua_core.trajectory_sources import load_trajectory
 from joshua_lerobot import export_trajectory
+from joshua_lerobot.writer import DatasetEpisode, write_dataset
 from joshua_modes import iter_offscreen_frames, model_joint_ranges
 from joshua_mujoco import compile_model
 
@@ -181,3 +183,185 @@ def test_out_replaces_only_a_dataset_joshua_wrote_and_only_with_overwrite(tmp_pa
     assert done.returncode == 0, done.stderr
     assert json.loads((tmp_path / "dataset" / "meta" / "info.json").read_text())["fps"] == 5  # written anew
     assert sorted(path.name for path in tmp_path.iterdir()) == ["dataset", "file", "mine"]  # no temporaries left
+
+
+DATA = "data/chunk-000/file-000.parquet"
+EPISODES = "meta/episodes/chunk-000/file-000.parquet"
+INFO = "meta/info.json"
+STATE = "observation.state"
+
+
+@pytest.fixture(scope="module")
+def valid_dataset(tmp_path_factory: pytest.TempPathFactory, ranges: dict[str, tuple[float, float]]) -> Path:
+    """A small valid dataset (no video) written by joshua's own writer; each case copies and damages it."""
+    trajectory = motion(ranges)
+    episode = DatasetEpisode(JOINTS, trajectory.timestamps, trajectory.positions, trajectory.targets, "wave")
+    root = tmp_path_factory.mktemp("valid") / "dataset"
+    write_dataset(root, [episode], fps=FPS, joint_ranges=ranges)
+    return root
+
+
+def edit_info(**changes: Any) -> Any:
+    """A damage that sets top-level fields of info.json (None deletes)."""
+
+    def damage(root: Path) -> None:
+        info = json.loads((root / INFO).read_text())
+        for key, value in changes.items():
+            if value is None:
+                info.pop(key)
+            else:
+                info[key] = value
+        (root / INFO).write_text(json.dumps(info))
+
+    return damage
+
+
+def edit_state_feature(**changes: Any) -> Any:
+    """A damage that sets fields of info.json's observation.state feature (and action's, which must agree)."""
+
+    def damage(root: Path) -> None:
+        info = json.loads((root / INFO).read_text())
+        for key in (STATE, "action"):
+            info["features"][key] |= changes
+        (root / INFO).write_text(json.dumps(info))
+
+    return damage
+
+
+def write_bytes(file: str, cut: float | bytes) -> Any:
+    """A damage that truncates `file` to the fraction `cut` of its bytes, or replaces them by `cut`."""
+
+    def damage(root: Path) -> None:
+        data = (root / file).read_bytes()
+        (root / file).write_bytes(cut if isinstance(cut, bytes) else data[: int(len(data) * cut)])
+
+    return damage
+
+
+def edit_table(file: str, change: Any) -> Any:
+    """A damage that rewrites parquet `file` as `change(columns)` (a dict of Python lists, edited in place)."""
+
+    def damage(root: Path) -> None:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        columns = pq.read_table(root / file).to_pydict()
+        change(columns)
+        pq.write_table(pa.table(columns), root / file)
+
+    return damage
+
+
+def link_data_outside(root: Path) -> None:
+    outside = root.parent / "outside.parquet"
+    (root / DATA).rename(outside)
+    (root / DATA).symlink_to(outside)
+
+
+def state_rows(change: Any) -> Any:
+    """A damage that replaces each row of observation.state by `change(row index, row)`."""
+    return edit_table(DATA, lambda c: c.__setitem__(STATE, [change(i, row) for i, row in enumerate(c[STATE])]))
+
+
+NAMES = ["shoulder_pan.pos", "shoulder_lift.pos", "elbow_flex.pos", "wrist_flex.pos", "wrist_roll.pos", "gripper.pos"]
+# (case, damage, file the message names, what else it says)
+MALFORMED = [
+    ("info not JSON", write_bytes(INFO, b"{"), INFO, "cannot read the dataset's info"),
+    ("info a list", write_bytes(INFO, b"[]"), INFO, "holds a JSON list, expected an object"),
+    ("features a list", edit_info(features=[]), INFO, "'features' is missing or not an object"),
+    ("no state feature", edit_info(features={}), INFO, f"features.{STATE} is missing or not an object"),
+    ("names a string", edit_state_feature(names="abc"), INFO, f"features.{STATE}.names is not a non-empty list"),
+    ("names numbers", edit_state_feature(names=list(range(6))), INFO, f"features.{STATE}.names is not"),
+    ("shape disagrees", edit_state_feature(shape=[7]), INFO, f"features.{STATE}.shape is [7], but it names 6"),
+    ("data_path missing", edit_info(data_path=None), INFO, "'data_path' is missing or not a string"),
+    ("data_path a number", edit_info(data_path=5), INFO, "'data_path' is missing or not a string"),
+    ("data_path absolute", edit_info(data_path="/etc/passwd"), INFO, "leads outside the dataset folder"),
+    ("data_path climbs out", edit_info(data_path="../../../etc/passwd"), INFO, "leads outside the dataset folder"),
+    ("data file a link out", link_data_outside, INFO, "leads outside the dataset folder"),
+    ("data_path other field", edit_info(data_path="data/{episode}.parquet"), INFO, "uses episode; it may use only"),
+    ("data_path bad format", edit_info(data_path="data/{chunk_index:zz}"), INFO, "is not a path template"),
+    ("data file empty", write_bytes(DATA, b""), DATA, "not a readable parquet file"),
+    ("data file garbage", write_bytes(DATA, b"PAR1 garbage PAR1"), DATA, "not a readable parquet file"),
+    ("data file truncated", write_bytes(DATA, 0.5), DATA, "not a readable parquet file"),
+    ("episodes garbage", write_bytes(EPISODES, b"not parquet"), EPISODES, "not a readable parquet file"),
+    ("episodes empty", edit_table(EPISODES, lambda c: [v.clear() for v in c.values()]), "meta/episodes", "no episode"),
+    ("episodes no length", edit_table(EPISODES, lambda c: c.pop("length")), EPISODES, "no column 'length'"),
+    (
+        "episodes negative",
+        edit_table(EPISODES, lambda c: c.__setitem__("data/file_index", [-1])),
+        EPISODES,
+        "column 'data/file_index' holds -1, expected an integer >= 0",
+    ),
+    ("no state column", edit_table(DATA, lambda c: c.pop(STATE)), DATA, f"no column '{STATE}'"),
+    ("no timestamp column", edit_table(DATA, lambda c: c.pop("timestamp")), DATA, "no column 'timestamp'"),
+    (
+        "timestamps text",
+        edit_table(DATA, lambda c: c.__setitem__("timestamp", [str(t) for t in c["timestamp"]])),
+        DATA,
+        "column 'timestamp' is string",
+    ),
+    (
+        "zero rows",
+        edit_table(DATA, lambda c: c.__setitem__("episode_index", [7] * len(c["episode_index"]))),
+        DATA,
+        "episode 0 has no frames",
+    ),
+    ("ragged state", state_rows(lambda i, row: row[: 5 if i % 2 else 6]), DATA, "rows of different widths (5, 6)"),
+    ("state too narrow", state_rows(lambda i, row: row[:5]), DATA, f"'{STATE}' is 5 wide, but {INFO}"),
+    ("state too wide", state_rows(lambda i, row: [*row, 0.0, 0.0]), DATA, f"'{STATE}' is 8 wide, but {INFO}"),
+    (
+        "5 names for 6 columns",
+        edit_state_feature(names=NAMES[:5], shape=[5]),
+        DATA,
+        f"'{STATE}' is 6 wide, but {INFO} features.{STATE}.names has 5 joints",
+    ),
+    ("state text", state_rows(lambda i, row: [str(v) for v in row]), DATA, "expected a list of numbers per row"),
+    ("state null row", state_rows(lambda i, row: None if i == 2 else row), DATA, "has an empty (null) row"),
+    (
+        "state NaN",
+        state_rows(lambda i, row: [float("nan")] + row[1:] if i == 3 else row),
+        DATA,
+        "joint 'shoulder_pan.pos' has nan at frame 3: not a finite value within ±10000",
+    ),
+    (
+        "state 1e30 degrees",
+        state_rows(lambda i, row: row[:2] + [1e30] + row[3:] if i == 4 else row),
+        DATA,
+        "joint 'elbow_flex.pos' has 1e+30 at frame 4: not a finite value within ±10000",
+    ),
+]
+
+
+def damaged(valid_dataset: Path, tmp_path: Path, damage: Any) -> Path:
+    root = tmp_path / "dataset"
+    shutil.copytree(valid_dataset, root)
+    damage(root)
+    return root
+
+
+def test_the_valid_dataset_reads(valid_dataset: Path, ranges: dict[str, tuple[float, float]]) -> None:
+    trajectory = load_trajectory(valid_dataset, ranges, plugins=PLUGINS)
+    assert trajectory.joint_names == JOINTS and trajectory.rows == len(motion(ranges).timestamps)
+    assert trajectory.targets is not None
+
+
+@pytest.mark.parametrize(("damage", "file", "message"), [case[1:] for case in MALFORMED], ids=[c[0] for c in MALFORMED])
+def test_a_malformed_dataset_is_one_line_naming_its_file_and_field(
+    valid_dataset: Path, tmp_path: Path, ranges: dict[str, tuple[float, float]], damage: Any, file: str, message: str
+) -> None:
+    root = damaged(valid_dataset, tmp_path, damage)
+    with pytest.raises(TrajectoryError) as raised:
+        load_trajectory(root, ranges, plugins=PLUGINS)
+    text = str(raised.value)
+    assert "\n" not in text and text.startswith(str(root / file)) and message in text, text
+
+
+@pytest.mark.parametrize("case", ["data_path absolute", "data file truncated", "5 names for 6 columns"])
+def test_the_cli_reports_a_malformed_dataset_in_one_line(valid_dataset: Path, tmp_path: Path, case: str) -> None:
+    damage, file, message = next(entry[1:] for entry in MALFORMED if entry[0] == case)
+    root = damaged(valid_dataset, tmp_path, damage)
+    joshua = str(Path(sys.executable).parent / "joshua")
+    command = [joshua, "--preset", "sim_passive", "--set", f"simulation.trajectory_path={root}"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2 and done.stderr.strip().count("\n") == 0, done.stderr
+    assert str(root / file) in done.stderr and message in done.stderr, done.stderr

@@ -22,6 +22,7 @@ from joshua_core.config import finalize
 from joshua_core.defaults import simulation_mode
 from joshua_core.errors import ConfigError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import Command
+from joshua_core.limits import MAX_CONTROL_HZ, MIN_CONTROL_HZ, cli_number
 from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost
 from joshua_core.runs import check_run_name, create_run
@@ -44,6 +45,7 @@ DEFAULT_OUTPUT_DIR = "joshua_output"
 NODE_NAME = "joshua_deploy"
 RUN_STEM = "deploy"
 REPORT_FILE = "deploy_report.json"
+MAX_TARGET_M = 1000.0  # metres from the model's origin: farther is no target a robot in the scene can reach
 
 
 class DeployCommand(Command):
@@ -54,7 +56,12 @@ class DeployCommand(Command):
         add_config_arguments(parser, verb=f"read the robot's topics (default: preset {DEFAULT_PRESET}) from")
         parser.add_argument("--target", metavar="X,Y,Z", help="the task's target command, in model coordinates (m)")
         parser.add_argument("--target-topic", metavar="TOPIC", help="geometry_msgs/Point topic setting the target")
-        parser.add_argument("--rate", type=float, metavar="HZ", help="control rate (default: the contract's)")
+        parser.add_argument(
+            "--rate",
+            type=cli_number("--rate", MIN_CONTROL_HZ, MAX_CONTROL_HZ),
+            metavar="HZ",
+            help="control rate (default: the contract's)",
+        )
         parser.add_argument(
             "--stale-after",
             type=float,
@@ -97,7 +104,6 @@ class DeployCommand(Command):
             raise ConfigError(f"joshua deploy reads the robot's topics from a MIRROR config; this one is {mode}")
         policy, contract, observer = _load(args.policy, plugins)
         rate = contract["control_hz"] if args.rate is None else args.rate
-        _check_positive("--rate", rate)
         options = options_of(config, options_pb2.mirror)
         joints, commanded = _robot_joints(observer, contract, config, options)
         controller = PolicyController(policy, contract, observer, joints, args.max_speed / rate)
@@ -200,8 +206,8 @@ def _parse_target(text: str | None) -> np.ndarray | None:
         values = np.array([float(part) for part in text.split(",")])
     except ValueError:
         values = np.array([])
-    if values.shape != (3,) or not np.isfinite(values).all():
-        raise UsageError(f"--target takes three finite numbers X,Y,Z in metres (got '{text}')")
+    if values.shape != (3,) or not (np.abs(values) <= MAX_TARGET_M).all():  # NaN fails too
+        raise UsageError(f"--target takes three numbers X,Y,Z in metres within ±{MAX_TARGET_M:g} (got '{text}')")
     return values
 
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import difflib
-import math
 import sys
 import time
 from pathlib import Path
@@ -23,6 +22,7 @@ from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.defaults import simulation_mode
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import Command
+from joshua_core.limits import MAX_CONTROL_HZ, MAX_REPLAY_SPEED, MAX_WAIT_S, cli_number
 from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
@@ -36,6 +36,7 @@ from joshua_mirror.ros import RosSession, message_types
 
 DEFAULT_PRESET = "sim_mirror"
 DEFAULT_RATE_HZ = 100.0
+MAX_LOOPS = 1_000_000  # plays of one trajectory: more is a typo, not a session
 SUBSCRIBER_WAIT_POLL_S = 0.02
 # After our side sees the subscriber, its side still needs a moment to match us; samples sent before are lost.
 MATCH_SETTLE_S = 0.5
@@ -49,12 +50,22 @@ class MirrorReplayCommand(Command):
         add_config_arguments(parser, verb=f"read the topics and offsets (default: preset {DEFAULT_PRESET}) from")
         parser.add_argument(
             "--rate",
-            type=float,
+            type=cli_number("--rate", 0, MAX_CONTROL_HZ, above=True),
             default=DEFAULT_RATE_HZ,
             help=f"messages per second per topic, interpolated from the CSV (default {DEFAULT_RATE_HZ:g})",
         )
-        parser.add_argument("--speed", type=float, default=1.0, help="playback speed factor (default 1: real time)")
-        parser.add_argument("--loops", type=int, default=1, help="play the trajectory this many times (default 1)")
+        parser.add_argument(
+            "--speed",
+            type=cli_number("--speed", 0, MAX_REPLAY_SPEED, above=True),
+            default=1.0,
+            help="playback speed factor (default 1: real time)",
+        )
+        parser.add_argument(
+            "--loops",
+            type=cli_number("--loops", 1, MAX_LOOPS, integer=True),
+            default=1,
+            help="play the trajectory this many times (default 1)",
+        )
         parser.add_argument(
             "--joint-state",
             action="store_true",
@@ -62,18 +73,13 @@ class MirrorReplayCommand(Command):
         )
         parser.add_argument(
             "--wait",
-            type=float,
+            type=cli_number("--wait", 0, MAX_WAIT_S),
             default=10.0,
             metavar="S",
             help="seconds to wait for the mirror to subscribe before playing (default 10)",
         )
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
-        if not (0 < args.rate < math.inf and 0 < args.speed < math.inf) or args.loops < 1:  # also refuses NaN
-            raise UsageError(
-                f"--rate and --speed must be finite and positive (got {args.rate:g}, {args.speed:g}) "
-                "and --loops at least 1"
-            )
         if not args.preset and not args.config:
             args.preset = DEFAULT_PRESET
         config = finalize(load(args, plugins.options())).simulation
@@ -81,8 +87,8 @@ class MirrorReplayCommand(Command):
             raise ConfigError(f"mirror-replay needs a MIRROR config; this one is {simulation_mode(config)}")
         if args.joint_state:
             options_of(config, options_pb2.mirror).message_type = MirrorOptions.JOINT_STATE
-        joints = _joints_of(config)
-        trajectory = read_trajectory(resolve_data_path(args.csv, what="trajectory"))
+        joints, model_joints = _joints_of(config)
+        trajectory = read_trajectory(resolve_data_path(args.csv, what="trajectory"), model_joints)
         trajectory.require_playable()
         columns = _columns(trajectory, joints, args.csv)
         times = np.arange(trajectory.timestamps[0], trajectory.timestamps[-1] + 1e-9, 1.0 / args.rate)
@@ -109,13 +115,19 @@ class MirrorReplayCommand(Command):
         return 0
 
 
-def _joints_of(config: SimulationConfig) -> list[MirroredJoint]:
-    """The config's mapped joints (checked against its model, like the mirror does)."""
+def _joints_of(config: SimulationConfig) -> tuple[list[MirroredJoint], list[str]]:
+    """The config's mapped joints (checked against its model, like the mirror does), and the model's hinge and
+    slide joints: the columns a trajectory of this model may have (the rule of every trajectory reader)."""
+    import mujoco
+
     from joshua_mujoco import MuJoCoEngine
 
     with MuJoCoEngine(config.model_path) as engine:
         options = options_of(config, options_pb2.mirror)
-        return resolve_joints(engine.model, config.mirror_topic_mappings.mappings, options)
+        model = engine.model
+        scalar = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
+        names = [model.joint(j).name for j in range(model.njnt) if int(model.jnt_type[j]) in scalar]
+        return resolve_joints(model, config.mirror_topic_mappings.mappings, options), names
 
 
 def _columns(trajectory: Trajectory, joints: list[MirroredJoint], csv: Path) -> list[int]:

@@ -236,10 +236,13 @@ def test_bad_input_is_one_line(tmp_path: Path, ros_env: dict[str, str]) -> None:
         f"  mirror_topic_mappings {{\n{five}  }}\n  mirror {{\n{commands}"
         "  }\n}\n"
     )
-    corrupt, foreign = tmp_path / "corrupt", tmp_path / "foreign"
-    for folder in (corrupt, foreign):
+    corrupt, foreign, texted = tmp_path / "corrupt", tmp_path / "foreign", tmp_path / "texted"
+    for folder in (corrupt, foreign, texted):
         shutil.copytree(POLICY, folder)
     (corrupt / "policy.onnx").write_bytes(b"not a graph")
+    (texted / "policy.json").write_text(
+        json.dumps(json.loads((texted / "policy.json").read_text()) | {"control_hz": "50"})
+    )
     contract = json.loads((foreign / "policy.json").read_text())
     contract["robot"]["sha256"] = "0" * 64
     (foreign / "policy.json").write_text(json.dumps(contract))
@@ -247,10 +250,14 @@ def test_bad_input_is_one_line(tmp_path: Path, ros_env: dict[str, str]) -> None:
         ([str(tmp_path / "nowhere")], "holds no exported policy: no policy.json"),
         ([str(corrupt)], "policy.onnx is missing or is not the file"),
         ([str(foreign)], "is not the one the policy was trained on"),
+        ([str(texted)], "policy.json: control_hz is '50'; expected a number of Hz from 1 to 10000"),
         ([str(POLICY), "--preset", "sim_mirror"], "command topic (simulation.mirror.command_topics): joint_1_position"),
         ([str(POLICY), "--config", "five.pbtxt"], "observes joints that the mirror config does not map: joint_6"),
-        ([str(POLICY), "--config", "arm.pbtxt", "--target", "1,2"], "--target takes three finite numbers"),
-        ([str(POLICY), "--config", "arm.pbtxt", "--target", "0.2,0,0.1", "--rate", "0"], "--rate must be a finite"),
+        ([str(POLICY), "--config", "arm.pbtxt", "--target", "1,2"], "--target takes three numbers X,Y,Z in metres"),
+        (
+            [str(POLICY), "--config", "arm.pbtxt", "--target", "0.2,0,0.1", "--rate", "0"],
+            "--rate takes a number at least 1",
+        ),
         ([str(POLICY), "--run-name", "../../x"], "--run-name '../../x' holds a '/'"),
         ([str(POLICY), "--run-name", "x_step_7"], "ends in _step_<N>"),
     ]

@@ -1,0 +1,94 @@
+"""Implausible numbers on the command line and in configs are one line, exit 2, before any work: a NaN wait, a
+1e9 Hz rate, a discount above 1, a 2e9-unit layer, an enum value the schema does not know, a preset chain
+deeper than any real layering."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from joshua_core import config as config_module
+from joshua_core.cli import main
+from joshua_core.config import MAX_EXTENDS_DEPTH, load_preset
+from joshua_core.errors import ConfigError
+from joshua_core.options import LENIENT
+from joshua_core.resources import models_dir
+
+EXAMPLE = str(models_dir() / "trajectories" / "so_arm100_example.csv")
+
+
+def one_line_usage_error(capsys: pytest.CaptureFixture[str], argv: list[str], message: str) -> None:
+    """`joshua ARGV` exits 2 with one line on stderr holding `message`, and prints nothing else."""
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.err.count("\n") == 1 and message in captured.err, captured.err
+    assert "Traceback" not in captured.err and captured.out == ""
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["mirror-replay", EXAMPLE, "--wait", "nan"], "--wait takes a number at least 0 and at most 3600, got 'nan'"),
+        (["mirror-replay", EXAMPLE, "--rate", "1e9"], "--rate takes a number above 0 and at most 10000, got '1e9'"),
+        (["mirror-replay", EXAMPLE, "--speed", "inf"], "--speed takes a number above 0"),
+        (["mirror-replay", EXAMPLE, "--loops", "1.5"], "--loops takes an integer at least 1"),
+        (["deploy", "policy", "--rate", "1e-9"], "--rate takes a number at least 1 and at most 10000, got '1e-9'"),
+        (["deploy", "policy", "--rate", "1e9"], "--rate takes a number at least 1 and at most 10000, got '1e9'"),
+        (["deploy", "policy", "--target", "1e300,0,0"], "--target takes three numbers X,Y,Z in metres within ±1000"),
+        (["eval", "run", "--episodes", "1e20"], "--episodes takes an integer at least 1 and at most 100000"),
+    ],
+)
+def test_an_implausible_command_line_number_is_one_line(
+    capsys: pytest.CaptureFixture[str], argv: list[str], message: str
+) -> None:
+    one_line_usage_error(capsys, argv, message)
+
+
+@pytest.mark.parametrize(
+    ("preset", "assignment", "message"),
+    [
+        ("sim_offscreen", "simulation.render_height=1", "render_height: must be 0 (the default) or at least 16, got 1"),
+        (
+            "sim_offscreen",
+            "simulation.offscreen.fps=1e-9",
+            "offscreen.fps: must be 0 (the default) or at least 1, got 1e-09",
+        ),
+        ("sim_offscreen", "simulation.offscreen.output=7", "offscreen.output: 7 is not one of MP4, PNG, MP4_AND_PNG"),
+        ("so_arm100_reach_sb3", "training.gamma=2", "training.gamma: must be at most 1, got 2"),
+        ("ant_train_mjx", "training.ppo.hidden_sizes=[2000000000]", "hidden_sizes[0]: must be at most 65536"),
+        ("so_arm100_reach_sb3", "training.sb3.hidden_sizes=[0]", "hidden_sizes[0]: must be at least 1, got 0"),
+        ("ant_train_mjx", "training.ppo.distributed.num_processes=-1", "num_processes: must be at least 0, got -1"),
+        ("sim_mirror", "simulation.mirror.stale_timeout=-1", "stale_timeout: must be at least 0, got -1"),
+    ],
+)
+def test_an_implausible_config_number_is_one_line(
+    capsys: pytest.CaptureFixture[str], preset: str, assignment: str, message: str
+) -> None:
+    one_line_usage_error(capsys, ["--preset", preset, "--set", assignment, "--print-config"], message)
+
+
+def test_zero_still_means_the_default_where_a_bound_has_a_minimum(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["--preset", "sim_offscreen", "--set", "simulation.render_height=0", "--set", "simulation.offscreen.fps=0"]
+    assert main([*argv, "--print-config"]) == 0, capsys.readouterr().err
+
+
+def test_a_chain_of_extends_deeper_than_the_limit_is_one_line(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    depth = 1500  # beyond Python's recursion limit, which it used to hit
+    for index in range(depth):
+        (tmp_path / f"p{index}.pbtxt").write_text(f'extends: "p{index + 1}"\n')
+    (tmp_path / f"p{depth}.pbtxt").write_text('description: "the bottom"\n')
+    monkeypatch.setattr(config_module, "presets_dir", lambda: tmp_path)
+    with pytest.raises(ConfigError, match=f"extends a chain of more than {MAX_EXTENDS_DEPTH} presets"):
+        load_preset("p0", LENIENT)
+    assert load_preset(f"p{depth - MAX_EXTENDS_DEPTH + 1}", LENIENT).message.description == "the bottom"
+
+
+def test_mirror_replay_refuses_a_column_naming_no_joint_of_the_model(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    csv = tmp_path / "motion.csv"
+    csv.write_text(
+        "timestamp,joint_1,joint_2,joint_3,joint_4,joint_5,joint_6,elbow\n0,0,0,0,0,0,0,0\n1,0,0,0,0,0,0,0\n"
+    )
+    one_line_usage_error(capsys, ["mirror-replay", str(csv)], f"{csv}:1: column 'elbow' is not a joint of the model")
