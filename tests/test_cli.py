@@ -199,7 +199,10 @@ def test_non_finite_and_huge_numbers_exit_2_before_running(run_joshua, tmp_path:
             ("--preset", "sim_offscreen", "--set", "simulation.render_width=100000"),
             "simulation.render_width: must be at most 8192, got 100000",
         ),
-        (("mirror-replay", "--rate", "nan", "motion.csv"), "--rate takes a number above 0 and at most 10000, got 'nan'"),
+        (
+            ("mirror-replay", "--rate", "nan", "motion.csv"),
+            "--rate takes a number above 0 and at most 10000, got 'nan'",
+        ),
     ]
     for args, expected in cases:
         _one_line_error(run_joshua(*args), expected)
