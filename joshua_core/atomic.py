@@ -161,3 +161,48 @@ def _fsync_directory(folder: Path) -> None:
         os.fsync(descriptor)
     finally:
         os.close(descriptor)
+
+
+STAGING_NAME = "staged"  # temporaries of `staged_outputs` are named after it
+
+
+class Staging:
+    """A hidden temporary folder inside `folder` that a run writes all its outputs into; `publish` moves them into
+    `folder` together, each replacing the entry of its name. See `staged_outputs`."""
+
+    def __init__(self, folder: Path, temporary: Path) -> None:
+        self.folder = folder
+        self.temporary = temporary
+
+    def publish(self) -> None:
+        """Flush the staged files to disk, then rename each staged entry into `folder` (a folder replaces the
+        earlier one whole). Only these renames lie between the earlier outputs and the new ones."""
+        for file in self.temporary.rglob("*"):
+            if file.is_file():
+                with open(file, "rb") as handle:
+                    os.fsync(handle.fileno())
+        retired = Path(tempfile.mkdtemp(dir=self.temporary, prefix=".retired."))
+        for entry in sorted(self.temporary.iterdir()):
+            if entry == retired:
+                continue
+            target = self.folder / entry.name
+            if entry.is_dir() and target.is_dir() and not target.is_symlink():
+                os.replace(target, retired / entry.name)  # a folder cannot replace a non-empty folder in one rename
+            os.replace(entry, target)
+        _fsync_directory(self.folder)
+
+
+@contextmanager
+def staged_outputs(folder: Path) -> Iterator[Staging]:
+    """Yield a `Staging` inside `folder` (created if missing): a run writes its outputs into `staging.temporary`
+    and calls `staging.publish()` once they are complete. Whatever is not published is removed when the block
+    ends; a process killed before `publish` leaves `folder` as it was, plus a hidden `.staged.<pid>.*.tmp`
+    folder that the next call removes."""
+    folder.mkdir(parents=True, exist_ok=True)
+    name = folder / STAGING_NAME
+    remove_stale_temporaries(name, ".tmp")
+    temporary = Path(tempfile.mkdtemp(dir=folder, prefix=temporary_prefix(name), suffix=".tmp"))
+    try:
+        yield Staging(folder, temporary)
+    finally:
+        shutil.rmtree(temporary, ignore_errors=True)
