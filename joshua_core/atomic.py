@@ -92,7 +92,8 @@ def json_safe(value: Any) -> Any:
 
 @contextmanager
 def atomic_directory(path: Path) -> Iterator[Path]:
-    """Yield an empty temporary folder beside `path`; when the block ends without error, it becomes `path`.
+    """Yield an empty temporary folder beside `path`; when the block ends without error, it becomes `path`,
+    with the permissions a plain `mkdir` would give it (0777 less the umask).
 
     The files are flushed to disk before the rename, so a crash leaves either no `path` or a complete
     one (plus, at worst, a hidden `.NAME.*.tmp` folder). An existing `path` is replaced. On error the
@@ -103,6 +104,7 @@ def atomic_directory(path: Path) -> Iterator[Path]:
         remove_stale_temporaries(path, suffix)
     temporary = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path), suffix=".tmp"))
     try:
+        os.chmod(temporary, 0o777 & ~_umask())  # what a plain mkdir gives, not mkdtemp's owner-only mode
         yield temporary
         for file in temporary.rglob("*"):
             if file.is_file():

@@ -4,7 +4,9 @@ way leaves the earlier render's report, video and frames together."""
 
 from __future__ import annotations
 
+import os
 import signal
+import stat
 import subprocess
 import time
 from pathlib import Path
@@ -40,6 +42,9 @@ def test_a_shorter_smaller_render_replaces_the_frames(run_joshua, tmp_path: Path
     frames = frames_of(out)
     assert [name for name, _ in frames] == [f"frame_{index:06d}.png" for index in range(13)]
     assert {shape for _, shape in frames} == {(60, 80, 3)} and temporaries(out) == []
+    umask = os.umask(0o022)
+    os.umask(umask)
+    assert stat.S_IMODE((out / "offscreen_frames").stat().st_mode) == 0o777 & ~umask  # a plain mkdir's, not 0700
 
 
 def start_long_render(tmp_path: Path) -> tuple[subprocess.Popen[str], Path]:
