@@ -92,7 +92,8 @@ def json_safe(value: Any) -> Any:
 
 @contextmanager
 def atomic_directory(path: Path) -> Iterator[Path]:
-    """Yield an empty temporary folder beside `path`; when the block ends without error, it becomes `path`.
+    """Yield an empty temporary folder beside `path`; when the block ends without error, it becomes `path`,
+    with the permissions a plain `mkdir` would give it (0777 less the umask).
 
     The files are flushed to disk before the rename, so a crash leaves either no `path` or a complete
     one (plus, at worst, a hidden `.NAME.*.tmp` folder). An existing `path` is replaced. On error the
@@ -103,6 +104,7 @@ def atomic_directory(path: Path) -> Iterator[Path]:
         remove_stale_temporaries(path, suffix)
     temporary = Path(tempfile.mkdtemp(dir=path.parent, prefix=temporary_prefix(path), suffix=".tmp"))
     try:
+        os.chmod(temporary, 0o777 & ~_umask())  # what a plain mkdir gives, not mkdtemp's owner-only mode
         yield temporary
         for file in temporary.rglob("*"):
             if file.is_file():
@@ -161,3 +163,48 @@ def _fsync_directory(folder: Path) -> None:
         os.fsync(descriptor)
     finally:
         os.close(descriptor)
+
+
+STAGING_NAME = "staged"  # temporaries of `staged_outputs` are named after it
+
+
+class Staging:
+    """A hidden temporary folder inside `folder` that a run writes all its outputs into; `publish` moves them into
+    `folder` together, each replacing the entry of its name. See `staged_outputs`."""
+
+    def __init__(self, folder: Path, temporary: Path) -> None:
+        self.folder = folder
+        self.temporary = temporary
+
+    def publish(self) -> None:
+        """Flush the staged files to disk, then rename each staged entry into `folder` (a folder replaces the
+        earlier one whole). Only these renames lie between the earlier outputs and the new ones."""
+        for file in self.temporary.rglob("*"):
+            if file.is_file():
+                with open(file, "rb") as handle:
+                    os.fsync(handle.fileno())
+        retired = Path(tempfile.mkdtemp(dir=self.temporary, prefix=".retired."))
+        for entry in sorted(self.temporary.iterdir()):
+            if entry == retired:
+                continue
+            target = self.folder / entry.name
+            if entry.is_dir() and target.is_dir() and not target.is_symlink():
+                os.replace(target, retired / entry.name)  # a folder cannot replace a non-empty folder in one rename
+            os.replace(entry, target)
+        _fsync_directory(self.folder)
+
+
+@contextmanager
+def staged_outputs(folder: Path) -> Iterator[Staging]:
+    """Yield a `Staging` inside `folder` (created if missing): a run writes its outputs into `staging.temporary`
+    and calls `staging.publish()` once they are complete. Whatever is not published is removed when the block
+    ends; a process killed before `publish` leaves `folder` as it was, plus a hidden `.staged.<pid>.*.tmp`
+    folder that the next call removes."""
+    folder.mkdir(parents=True, exist_ok=True)
+    name = folder / STAGING_NAME
+    remove_stale_temporaries(name, ".tmp")
+    temporary = Path(tempfile.mkdtemp(dir=folder, prefix=temporary_prefix(name), suffix=".tmp"))
+    try:
+        yield Staging(folder, temporary)
+    finally:
+        shutil.rmtree(temporary, ignore_errors=True)

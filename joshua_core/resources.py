@@ -37,7 +37,7 @@ def resolve_data_path(
     Absolute paths are taken as they are. A relative path is tried against each of `base_dirs`
     (e.g. the folder of the config file that named it), then the working directory, then the
     shipped models folder (with or without a leading `models/`). A miss raises ModelError naming
-    every path tried.
+    every path tried, or the folder found where a file was wanted.
     """
     candidate = Path(path).expanduser()
     if candidate.is_absolute():
@@ -50,5 +50,8 @@ def resolve_data_path(
     for option in tried:
         if option.is_file() or (folders and option.is_dir()):
             return option.resolve()
+    found_folders = [option for option in tried if option.is_dir()]
+    if found_folders:
+        raise ModelError(f"{what} '{path}' is a folder ({found_folders[0]}); give the path of a file")
     searched = "\n  ".join(str(option) for option in dict.fromkeys(tried))
     raise ModelError(f"{what} file '{path}' not found; searched:\n  {searched}")

@@ -261,6 +261,8 @@ def resolve_checkpoint(path: Path) -> Path:
 def read_run_config(run_dir: Path) -> dict[str, Any]:
     """The `config.json` of a run or checkpoint folder; a folder without one is a UsageError."""
     path = run_dir / CONFIG_FILE
+    if run_dir.exists() and not run_dir.is_dir():
+        raise UsageError(f"'{run_dir}' is a file, not a run folder: give the folder a training run wrote")
     if not run_dir.is_dir():
         raise UsageError(f"run folder '{run_dir}' does not exist")
     if not path.is_file():

@@ -25,6 +25,16 @@ def test_folder_appears_only_when_the_block_succeeds(tmp_path: Path) -> None:
     assert (target / "model.zip").read_bytes() == b"whole"
 
 
+def test_the_folder_gets_the_mode_of_a_plain_mkdir(tmp_path: Path) -> None:
+    previous = os.umask(0o022)
+    try:
+        with atomic_directory(tmp_path / "dataset"):
+            pass
+    finally:
+        os.umask(previous)
+    assert stat.S_IMODE((tmp_path / "dataset").stat().st_mode) == 0o755  # not mkdtemp's 0700
+
+
 def test_existing_folder_is_replaced(tmp_path: Path) -> None:
     target = tmp_path / "step_1"
     target.mkdir()

@@ -181,3 +181,10 @@ def test_listing_newest_and_resume(tmp_path: Path) -> None:
         resume_run(tmp_path, "gone", trainer="ppo", options="training.x")
     with pytest.raises(ConfigError, match="there is no td3 run"):
         resume_run(tmp_path, None, trainer="td3", options="training.x")
+
+
+def test_a_file_given_as_run_folder_is_named_a_file(tmp_path: Path) -> None:
+    path = tmp_path / "model.zip"
+    path.write_bytes(b"not a folder")
+    with pytest.raises(UsageError, match=f"^'{path}' is a file, not a run folder"):
+        runs.read_run_config(path)

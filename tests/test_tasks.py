@@ -286,6 +286,8 @@ def test_handles_know_free_joints_limits_and_the_joints_actuators_drive() -> Non
     assert motors.dof_index[:2] == (model.joint("hip_4").dofadr[0], model.joint("ankle_4").dofadr[0])
     with pytest.raises(ValueError, match="no actuator named 'hip_9'. Did you mean: hip_4"):
         resolve_handle(model, Actuators, ["hip_9"])
+    with pytest.raises(ValueError, match="no body named 'head'. Its bodies: world, torso"):
+        resolve_handle(model, Body, "head")
 
 
 def test_unknown_term_and_unknown_override_are_errors(plugins: PluginHost) -> None:

@@ -140,7 +140,8 @@ def _lookup(model: Any, kind: str, name: str) -> int:
     close = difflib.get_close_matches(name, names, n=3)
     hint = f" Did you mean: {', '.join(close)}?" if close else ""
     listed = ", ".join(n for n in names if n) or "none"
-    raise ValueError(f"the model has no {kind} named '{name}'.{hint} Its {kind}s: {listed}")
+    plural = "bodies" if kind == "body" else f"{kind}s"
+    raise ValueError(f"the model has no {kind} named '{name}'.{hint} Its {plural}: {listed}")
 
 
 def _joint(model: Any, index: int) -> Joint:

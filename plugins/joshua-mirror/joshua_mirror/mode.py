@@ -7,11 +7,10 @@ status line and feeds the display from a copy of the state, so rendering never d
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 from collections.abc import Callable
-from contextlib import ExitStack
+from contextlib import ExitStack, nullcontext
 from typing import Any
 
 import mujoco
@@ -66,8 +65,9 @@ class MirrorMode(Mode):
             _subscribe_commands(ros, recorder)
             types = TypeChecker(ros.node, _expected_types(ros, mirror, options))
             display = _open_display(stack, config, context, mirror)
-            loop = _MainLoop(engine, mirror, watcher, display, options, types, recorder)
-            stopped_by = loop.run(config.duration)
+            loop = _MainLoop(engine, mirror, watcher, display, options, types)
+            with recorder.sampling(mirror) if recorder else nullcontext():
+                stopped_by = loop.run(config.duration)
             _warn_types(types.poll())  # a last look: a publisher that came during the final status period
             ros.close()  # no callback may change the state while it is reported
             report = {**_report(config, mirror, loop, stopped_by), "type_mismatches": types.seen}
@@ -273,10 +273,8 @@ class _MainLoop:
         display: _DisplayFeed | None,
         options: MirrorOptions,
         types: TypeChecker,
-        recorder: Recorder | None = None,
     ) -> None:
         self.engine = engine
-        self.recorder = recorder
         self.types = types
         self.mirror = mirror
         self.watcher = watcher
@@ -307,17 +305,10 @@ class _MainLoop:
         next_status = start + self.status_period
         _warn_types(self.types.poll())
         next_frame = start
-        next_sample = start if self.recorder else math.inf  # no recording: never wakes for it
-        sample_period = self.recorder.period if self.recorder else math.inf
         while True:
             now = time.monotonic()
             if now >= deadline:
                 return "duration"
-            if self.recorder is not None and now >= next_sample:
-                next_sample += sample_period
-                if next_sample <= now:  # woken late: carry on from now, no burst of samples
-                    next_sample = now + sample_period
-                self.recorder.sample(self.mirror, now)
             if self.mirror.actuated:
                 self._step_physics(now - start, timestep)
             if now >= next_stale_check:
@@ -334,7 +325,7 @@ class _MainLoop:
                 next_frame = now + self.display.period
                 if not self.display.show(self.mirror, now - start):
                     return "viewer closed"
-            wake = min(deadline, next_stale_check, next_status, next_frame if self.display else deadline, next_sample)
+            wake = min(deadline, next_stale_check, next_status, next_frame if self.display else deadline)
             if self.mirror.actuated:
                 wake = min(wake, start + (self.steps + self.skipped_steps + 1) * timestep)
             time.sleep(max(0.0, wake - time.monotonic()))

@@ -1,11 +1,16 @@
 """What the mirror records: each mirrored joint's value (encoder + offset) and its command, sampled at a
-fixed rate by the main loop, written at the end as a trajectory CSV (and, through joshua-lerobot, as a
-LeRobot dataset). Command values arrive on the ROS executor thread; a float store is atomic in Python."""
+fixed rate on a thread of its own, written at the end as a trajectory CSV (and, through joshua-lerobot, as a
+LeRobot dataset). The sampling thread is its own so that the recording keeps its rate whatever the main loop
+does (rendering a frame of the display takes longer than a sample period). Values and commands arrive on the
+ROS executor thread; a float store is atomic in Python."""
 
 from __future__ import annotations
 
 import importlib.util
-from collections.abc import Callable
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +48,28 @@ class Recorder:
         self.commands = np.full(len(joints), np.nan)
         self.rows: list[list[float]] = []
         self.started_at: float | None = None
+
+    @contextmanager
+    def sampling(self, mirror: Mirror) -> Iterator[None]:
+        """Sample `mirror` every `period` seconds on a thread of its own while the block runs; the rows are
+        complete when it ends."""
+        stop = threading.Event()
+        thread = threading.Thread(target=self._sample_until, args=(mirror, stop), name="joshua-mirror-record")
+        thread.start()
+        try:
+            yield
+        finally:
+            stop.set()
+            thread.join()
+
+    def _sample_until(self, mirror: Mirror, stop: threading.Event) -> None:
+        next_sample = time.monotonic()
+        while not stop.wait(max(0.0, next_sample - time.monotonic())):
+            now = time.monotonic()
+            self.sample(mirror, now)
+            next_sample += self.period
+            if next_sample <= now:  # woken late: carry on from now, no burst of samples
+                next_sample = now + self.period
 
     def command_callback(self, index: int) -> Callable[[Any], None]:
         """The subscription callback storing joint `index`'s command (+ the joint's offset)."""

@@ -27,7 +27,7 @@ from joshua_core.errors import PluginNotFoundError
 from joshua_core.options import LENIENT
 from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import models_dir
-from joshua_core.trajectory import Trajectory, write_trajectory
+from joshua_core.trajectory import Trajectory, read_trajectory, write_trajectory
 from joshua_core.trajectory_sources import load_trajectory
 
 JOSHUA = Path(sys.executable).parent / "joshua"
@@ -458,3 +458,28 @@ def assert_on_path(
     assert nearest[0] <= 3 and nearest[-1] >= len(path) - 3
     delays = times[moving] - path_times[nearest[moving]]
     assert np.ptp(delays) < 0.1, delays
+
+
+def test_recording_keeps_its_rate_while_the_display_records_video(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    """The CSV recording is sampled at its configured fps whatever the display costs: with display RECORD at
+    640x480 a frame takes longer than a sample period, yet the rows come 1/30 s apart (median within 10 %) and
+    their number matches 30 per second of recording (within 15 %). No timing is assumed: the test waits for the
+    status lines after the values arrived, then stops the mirror."""
+    settings = (
+        "simulation.mirror.display=RECORD",
+        "simulation.render_width=640",
+        "simulation.render_height=480",
+        "simulation.mirror.record.csv=true",
+        "simulation.mirror.record.fps=30",
+    )
+    mirror = start_mirror(tmp_path, {k: v for k, v in ros_env.items() if k != "DISPLAY"}, *settings)
+    wait_for_line(mirror, lambda line: "display: recording to" in line)
+    publish(ros_env, float64_plan(range(0, 30, 6)))
+    wait_for_line(mirror, lambda line: line.startswith("[mirror") and "never" not in line)
+    for _ in range(5):  # about a second of recording (status lines every 0.2 s, later when the machine is busy)
+        wait_for_line(mirror, lambda line: line.startswith("[mirror"))
+    report, _ = stop(mirror, tmp_path)
+    timestamps = read_trajectory(tmp_path / "joshua_output" / "mirror_recording.csv").timestamps
+    assert report["recording"]["rows"] == len(timestamps) > 10
+    assert abs(np.median(np.diff(timestamps)) - 1 / 30) < 0.1 / 30, np.diff(timestamps)
+    assert abs((len(timestamps) - 1) / timestamps[-1] - 30) < 0.15 * 30, (len(timestamps), timestamps[-1])

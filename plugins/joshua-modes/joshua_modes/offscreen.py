@@ -17,9 +17,9 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from joshua_core.atomic import atomic_directory
+from joshua_core.atomic import staged_outputs
 from joshua_core.config_pb2 import SimulationConfig
-from joshua_core.errors import ConfigError
+from joshua_core.errors import ConfigError, UsageError
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, render_size
 from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost
@@ -179,14 +179,18 @@ class OffscreenOutputs:
 
 
 class OffscreenMode(Mode):
-    """Renders the trajectory replay (or, without a trajectory, `duration` seconds of physics) to files."""
+    """Renders the trajectory replay (or, without a trajectory, `duration` seconds of physics) to files.
+
+    The report, the video and the image folders of one render are written into a hidden folder inside the
+    output folder and moved into place together once complete (`staged_outputs`): a render stopped part way
+    (even killed) leaves the earlier render's outputs as they were, never a mix of two renders."""
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         options = options_of(config, options_pb2.offscreen)
         fps = options.fps or DEFAULT_FPS
         width, height = render_size(config)
         outputs = OffscreenOutputs(context.output_dir)
-        with context.create_engine(config) as engine:
+        with staged_outputs(context.output_dir) as staging, context.create_engine(config) as engine:
             renderer = FrameRenderer(
                 engine.model,
                 width,
@@ -195,17 +199,23 @@ class OffscreenMode(Mode):
                 shadows=options.shadows if options.HasField("shadows") else True,
             )
             try:
-                advance, times = self._timeline(config, engine, context, fps)
-                written = self._render(options, renderer, engine, advance, times, fps, outputs)
+                try:
+                    advance, times = self._timeline(config, engine, context, fps, staging.temporary)
+                except UsageError:
+                    staging.publish()  # the report of a refused replay says why nothing was rendered
+                    raise
+                written = self._render(options, renderer, engine, advance, times, fps, outputs, staging.temporary)
+                staging.publish()
             finally:
                 renderer.close()
         print(f"rendered {len(times)} frames of {width}x{height} at {fps:g} fps; wrote {', '.join(written)}")
 
     @staticmethod
     def _timeline(
-        config: SimulationConfig, engine: Engine, context: RunContext, fps: float
+        config: SimulationConfig, engine: Engine, context: RunContext, fps: float, staging: Path
     ) -> tuple[Replayer | None, NDArray[np.float64]]:
-        """The replayer (None: plain physics) and the times of the frames."""
+        """The replayer (None: plain physics) and the times of the frames; the validation report goes into
+        `staging`."""
         if not config.trajectory_path:
             return None, frame_times(0.0, config.duration or DEFAULT_DURATION_S, fps)
         replayer, _ = validated_replayer(
@@ -214,6 +224,7 @@ class OffscreenMode(Mode):
             context.output_dir / REPORT_NAME,
             refusal="nothing rendered because simulation.replay.strict is set",
             plugins=context.plugins,
+            staged_at=staging / REPORT_NAME,
         )
         return replayer, frame_times(replayer.start_time, replayer.end_time, fps)
 
@@ -226,17 +237,19 @@ class OffscreenMode(Mode):
         times: NDArray[np.float64],
         fps: float,
         outputs: OffscreenOutputs,
+        staging: Path,
     ) -> list[str]:
-        """Render every frame time to the requested files; returns what was written.
-
-        Each PNG folder is written beside its place and swapped in whole at the end (`atomic_directory`): a
-        render that is shorter, of another size or stopped part way never leaves old frames among new ones."""
+        """Render every frame time to the requested files, written into `staging`; returns where they will be
+        (`outputs`) once published. Each PNG folder replaces the earlier one whole: a render that is shorter or of
+        another size never leaves old frames among new ones."""
+        final, outputs = outputs, OffscreenOutputs(staging)
         want_video = options.output in (OffscreenOptions.MP4, OffscreenOptions.MP4_AND_PNG)
         want_png = options.output in (OffscreenOptions.PNG, OffscreenOptions.MP4_AND_PNG)
         with contextlib.ExitStack() as stack:
             video = stack.enter_context(VideoWriter(outputs.video, fps)) if want_video else None
             wanted = [folder for folder, on in _folders(outputs, want_png, options) if on]
-            folders = {folder: stack.enter_context(atomic_directory(folder)) for folder in wanted}
+            for folder in wanted:
+                folder.mkdir()
             bar = stack.enter_context(progress_bar(len(times), description="offscreen", unit="frames"))
             for index, t in enumerate(times):
                 if replayer is not None:
@@ -248,14 +261,14 @@ class OffscreenMode(Mode):
                 if video is not None:
                     video.write(rgb)
                 if want_png:
-                    write_png(folders[outputs.frames] / name, rgb)
+                    write_png(outputs.frames / name, rgb)
                 if options.depth:
-                    write_png(folders[outputs.depth] / name, renderer.depth_mm(engine.data))
+                    write_png(outputs.depth / name, renderer.depth_mm(engine.data))
                 if options.segmentation:
-                    write_png(folders[outputs.segmentation] / name, renderer.segmentation(engine.data))
+                    write_png(outputs.segmentation / name, renderer.segmentation(engine.data))
                 bar.update(1)
-        written = [str(outputs.video)] if want_video else []
-        written += [f"{folder}/" for folder, on in _folders(outputs, want_png, options) if on]
+        written = [str(final.video)] if want_video else []
+        written += [f"{folder}/" for folder, on in _folders(final, want_png, options) if on]
         return written
 
 

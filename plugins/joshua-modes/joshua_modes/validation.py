@@ -351,10 +351,17 @@ def _geom_name(model: mujoco.MjModel, geom: int) -> str:
 
 
 def validated_replayer(
-    config: SimulationConfig, engine: Engine, report_path: Path, *, refusal: str, plugins: PluginHost
+    config: SimulationConfig,
+    engine: Engine,
+    report_path: Path,
+    *,
+    refusal: str,
+    plugins: PluginHost,
+    staged_at: Path | None = None,
 ) -> tuple[Replayer, ValidationReport]:
     """Load (CSV, or a dataset through a plugin's reader; episode `replay.episode`) and validate
-    `config.trajectory_path` against the engine's model, print the report and write it as JSON; return the
+    `config.trajectory_path` against the engine's model, print the report and write it as JSON (to `staged_at`
+    when given: a caller that publishes all its outputs together moves it to `report_path`); return the
     replayer of its usable rows. With `replay.strict` and any problem, raise UsageError ending in `refusal`
     (what was not done) instead."""
     replay = options_of(config, options_pb2.replay)
@@ -369,7 +376,7 @@ def validated_replayer(
         velocity_limit=replay.velocity_limit or DEFAULT_VELOCITY_LIMIT,
         penetration_threshold=replay.penetration_threshold or DEFAULT_PENETRATION_THRESHOLD,
     )
-    report.write(report_path)
+    report.write(staged_at or report_path)
     print(report.summary())
     print(f"validation report: {report_path}")
     if replay.strict and not report.ok:

@@ -1,9 +1,12 @@
-"""OFFSCREEN outputs are never mixed or left half-written: a re-render replaces the PNG folders whole, and a
-render stopped by SIGINT or SIGTERM (or killed, then run again) leaves no temporary files behind."""
+"""OFFSCREEN outputs are never mixed or left half-written: a re-render replaces the PNG folders whole, a render
+stopped by SIGINT or SIGTERM (or killed, then run again) leaves no temporary files behind, and one killed part
+way leaves the earlier render's report, video and frames together."""
 
 from __future__ import annotations
 
+import os
 import signal
+import stat
 import subprocess
 import time
 from pathlib import Path
@@ -39,6 +42,9 @@ def test_a_shorter_smaller_render_replaces_the_frames(run_joshua, tmp_path: Path
     frames = frames_of(out)
     assert [name for name, _ in frames] == [f"frame_{index:06d}.png" for index in range(13)]
     assert {shape for _, shape in frames} == {(60, 80, 3)} and temporaries(out) == []
+    umask = os.umask(0o022)
+    os.umask(umask)
+    assert stat.S_IMODE((out / "offscreen_frames").stat().st_mode) == 0o777 & ~umask  # a plain mkdir's, not 0700
 
 
 def start_long_render(tmp_path: Path) -> tuple[subprocess.Popen[str], Path]:
@@ -51,10 +57,9 @@ def start_long_render(tmp_path: Path) -> tuple[subprocess.Popen[str], Path]:
     out = tmp_path / "joshua_output"
     deadline = time.monotonic() + 120
     while process.poll() is None and time.monotonic() < deadline:
-        names = temporaries(out) if out.is_dir() else []
-        video = [name for name in names if name.endswith(".tmp.mp4")]
-        folders = [out / name for name in names if name.startswith(".offscreen_frames.")]
-        if video and folders and any(folders[0].glob("*.png")):
+        staged = [out / name for name in temporaries(out)] if out.is_dir() else []  # where this render writes
+        video = [path for folder in staged for path in folder.glob(".offscreen.mp4.*.tmp.mp4")]
+        if video and any(path for folder in staged for path in folder.glob("offscreen_frames/*.png")):
             return process, out
         time.sleep(0.05)
     process.kill()
@@ -83,3 +88,20 @@ def test_the_next_render_removes_what_a_killed_one_left(run_joshua, tmp_path: Pa
     after = run_joshua(*PNG, *SMALL, "--set", "simulation.offscreen.fps=2", *both)
     assert after.returncode == 0, after.stderr
     assert temporaries(out) == [] and len(frames_of(out)) == 13
+
+
+def test_a_render_killed_part_way_leaves_the_earlier_outputs_together(run_joshua, tmp_path: Path) -> None:
+    """Render A (report, video, frames), then kill render B once it has written frames: A's report, video and
+    frames are all still there, unchanged byte for byte, and nothing of B is among them."""
+    first = run_joshua(*PNG, *SMALL, "--set", "simulation.offscreen.fps=2", "--set",
+                       "simulation.offscreen.output=MP4_AND_PNG")  # fmt: skip
+    assert first.returncode == 0, first.stderr
+    out = tmp_path / "joshua_output"
+    earlier = {path.relative_to(out): path.read_bytes() for path in out.rglob("*") if path.is_file()}
+    assert {Path("offscreen_report.json"), Path("offscreen.mp4")} <= set(earlier) and len(frames_of(out)) == 13
+    process, _ = start_long_render(tmp_path)
+    process.send_signal(signal.SIGKILL)
+    process.communicate(timeout=60)
+    now = {path.relative_to(out): path.read_bytes() for path in out.rglob("*") if path.is_file()}
+    staged = {path for path in now if path.parts[0].startswith(".")}
+    assert staged and {path: now[path] for path in set(now) - staged} == earlier

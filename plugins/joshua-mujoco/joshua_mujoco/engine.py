@@ -89,11 +89,15 @@ class MuJoCoEngine(Engine):
         mujoco.mj_forward(self.model, self.data)
 
     def step(self, n: int = 1) -> None:
-        """mj_step `n` times."""
+        """mj_step `n` times; a negative `n` is a ValueError (mj_step would silently do nothing)."""
+        if n < 0:
+            raise ValueError(f"step expects a number of steps >= 0, got {n}")
         mujoco.mj_step(self.model, self.data, n)
 
     def set_ctrl(self, values: ArrayLike) -> None:
         """Set `data.ctrl`; applied at the next step. Checked first, so a bad call changes nothing."""
+        if np.iscomplexobj(values):  # float64 conversion would drop the imaginary part with only a warning
+            raise ValueError("set_ctrl expects real numbers, got complex values")
         ctrl = np.asarray(values, dtype=np.float64)
         if ctrl.shape != (self.model.nu,):
             raise ValueError(f"set_ctrl expects {self.model.nu} values (one per actuator), got shape {ctrl.shape}")

@@ -103,6 +103,16 @@ def test_step_n_equals_n_single_steps() -> None:
     np.testing.assert_array_equal(batched.get_qpos(), single.get_qpos())
 
 
+def test_a_negative_step_count_and_complex_ctrl_are_refused() -> None:
+    engine = MuJoCoEngine(model_path=SCENE)
+    engine.reset("home")
+    with pytest.raises(ValueError, match="step expects a number of steps >= 0, got -1"):
+        engine.step(-1)
+    with pytest.raises(ValueError, match="set_ctrl expects real numbers"):
+        engine.set_ctrl(np.full(engine.model.nu, 0.1 + 1j))
+    np.testing.assert_array_equal(engine.data.ctrl, engine.model.key("home").ctrl)  # the refused call changed nothing
+
+
 def test_render_returns_a_non_blank_rgb_image(engine: MuJoCoEngine) -> None:
     engine.reset("home")
     image = engine.render()

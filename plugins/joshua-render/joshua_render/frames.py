@@ -20,6 +20,7 @@ from joshua_core.errors import UsageError  # noqa: E402
 
 MARKER_RGBA = np.array([0.1, 0.9, 0.2, 0.7], dtype=np.float32)  # the green spheres drawn at commands
 MARKER_RADIUS = 0.02  # m
+FRAMEBUFFER_INCOMPLETE = "Offscreen framebuffer is not complete"  # mjr_makeContext's error for a size beyond GL's
 
 
 def camera_id(model: mujoco.MjModel, camera: str | None) -> int:
@@ -36,14 +37,24 @@ def camera_id(model: mujoco.MjModel, camera: str | None) -> int:
 def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     """A headless `mujoco.Renderer` of `width` x `height`, enlarging the model's offscreen buffer if needed.
 
-    A GL platform that cannot create a context raises `RenderingUnavailableError` naming what to install.
+    A size below one pixel, or one the GL platform has no framebuffer for, is a one-line UsageError naming the
+    size; a GL platform that cannot create a context raises `RenderingUnavailableError` naming what to install.
     """
+    if width < 1 or height < 1:
+        raise UsageError(f"cannot render {width}x{height} images: width and height must be at least 1 pixel")
     visual = model.vis.global_
+    earlier = visual.offwidth, visual.offheight
     visual.offwidth = max(visual.offwidth, width)
     visual.offheight = max(visual.offheight, height)
     try:
         return mujoco.Renderer(model, height=height, width=width)
     except Exception as error:  # GL platform failures surface as several exception types
+        visual.offwidth, visual.offheight = earlier  # the model stays usable at sizes the platform has
+        if FRAMEBUFFER_INCOMPLETE in str(error):  # a context was made, but no framebuffer of this size
+            raise UsageError(
+                f"cannot render {width}x{height} images: the GL platform has no offscreen framebuffer that large "
+                f"({error}); choose a smaller render_width/render_height"
+            ) from None
         raise rendering_unavailable(error) from error
 
 

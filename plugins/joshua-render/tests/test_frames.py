@@ -50,6 +50,19 @@ def test_create_renderer_enlarges_the_offscreen_buffer() -> None:
         renderer.close()
 
 
+@pytest.mark.parametrize("size", [(0, 0), (160, 0), (20000, 20000)])
+def test_a_size_without_pixels_or_beyond_the_framebuffer_is_one_line_naming_it(size: tuple[int, int]) -> None:
+    """Not an empty image, nor "install EGL" for a platform that works: the size is at fault, and the model
+    still renders at a size the platform has."""
+    model = mujoco.MjModel.from_xml_path(str(SCENE))
+    with pytest.raises(UsageError, match=f"^cannot render {size[0]}x{size[1]} images: ") as caught:
+        create_renderer(model, *size)
+    assert "\n" not in str(caught.value) and "install" not in str(caught.value)
+    renderer = create_renderer(model, 32, 24)
+    assert renderer.render().shape == (24, 32, 3)
+    renderer.close()
+
+
 def test_commands_are_drawn_as_green_spheres_and_move_the_site_named_like_them() -> None:
     model = mujoco.MjModel.from_xml_string(FLOOR)
     data = mujoco.MjData(model)

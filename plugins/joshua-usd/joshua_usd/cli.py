@@ -29,7 +29,7 @@ class UsdCommand(Command):
         if args.action == "inspect":
             from joshua_usd.inspect import describe
 
-            print(describe(resolve_data_path(args.file, what="USD file")))
+            print(describe(resolve_data_path(args.file, what="USD")))
             return 0
         from joshua_usd.exporter import export_model
 

@@ -7,7 +7,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from pxr import Gf, Usd, UsdPhysics
+from pxr import Gf, Usd, UsdGeom, UsdPhysics
 
 sys.path.insert(0, str(Path(__file__).parent))
 
@@ -55,6 +55,11 @@ def inverted_limits(stage: Usd.Stage) -> None:
     UsdPhysics.RevoluteJoint(hinge).CreateUpperLimitAttr(-30.0)
 
 
+def infinite_translate(stage: Usd.Stage) -> None:
+    two_bodies_and_a_hinge(stage)
+    UsdGeom.Xform.Define(stage, "/World/hinge/frame").AddTranslateOp().Set(Gf.Vec3d(float("inf"), 0, 0))
+
+
 CASES: list[tuple[Callable[[Usd.Stage], None], str, str, str]] = [
     (missing_target, "/World/hinge", "physics:body1", "does not exist"),
     (not_a_rigid_body, "/World/hinge", "physics:body0", "is not a rigid body"),
@@ -62,6 +67,7 @@ CASES: list[tuple[Callable[[Usd.Stage], None], str, str, str]] = [
     (negative_mass, "/World/hinge", "physics:mass", "must not be negative"),
     (loop, "/World/hinge", "physics:body1", "kinematic loop"),
     (inverted_limits, "/World/hinge", "physics:lowerLimit", "above upperLimit"),
+    (infinite_translate, "/World/hinge/frame", "xformOp", "the transform is not finite"),
 ]
 
 
@@ -86,3 +92,20 @@ def test_an_unreadable_file_is_a_model_error(tmp_path: Path) -> None:
     with pytest.raises(ModelError, match=f"^{path}: /: layer: cannot open the stage") as caught:
         import_usd(path)
     assert "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize("arc", ["sublayer", "reference"])
+def test_a_layer_that_cannot_be_read_is_a_model_error_naming_it(tmp_path: Path, arc: str) -> None:
+    """A missing sublayer or referenced layer would import as an empty robot: it is an error naming the layer."""
+    path = tmp_path / "robot.usda"
+    stage = new_stage(path)
+    if arc == "sublayer":
+        stage.GetRootLayer().subLayerPaths.append("./missing_layer.usda")
+    else:
+        stage.DefinePrim("/World/robot").GetReferences().AddReference("./missing_layer.usda")
+    stage.Save()
+    with pytest.raises(ModelError) as caught:
+        import_usd(path)
+    message = str(caught.value)
+    assert "\n" not in message and message.startswith(f"{path}: /: layer: cannot compose the stage: ")
+    assert f"{tmp_path / 'missing_layer.usda'}" in message

@@ -97,3 +97,9 @@ def test_the_shipped_so100_describes_its_joint_physics_and_solver_without_warnin
     assert "armature 0.028 kg m^2, damping 0.6 N m s/rad, frictionloss 0.052 N m" in text
     assert "joint_1_position: position, kp 17.8 N m/rad, kv 0 N m s/rad, ctrl range (-1.92, 1.92)" in text
     assert text.endswith("warnings (0):")
+
+
+def test_cli_inspect_of_a_missing_file_names_it_once(tmp_path: Path) -> None:
+    result = run_inspect(tmp_path / "nowhere.usda")
+    assert result.returncode == 2
+    assert result.stderr.startswith(f"joshua: error: USD file '{tmp_path / 'nowhere.usda'}' not found")

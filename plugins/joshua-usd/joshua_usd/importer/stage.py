@@ -18,7 +18,9 @@ from joshua_usd.importer.report import ImportReport
 
 
 def open_stage(path: Path, report: ImportReport) -> Usd.Stage:
-    """The composed stage (sublayers, references, payloads and variants resolved)."""
+    """The composed stage (sublayers, references, payloads and variants resolved). A stage that does not compose
+    as written (a sublayer or referenced layer that cannot be read, ...) or whose prims have a non-finite
+    transform is a ModelError naming the layer or prim: importing what is left would give a wrong robot."""
     try:
         stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
     except Tf.ErrorException as error:
@@ -26,7 +28,21 @@ def open_stage(path: Path, report: ImportReport) -> Usd.Stage:
         raise report.error("/", "layer", f"cannot open the stage: {detail}") from None
     if stage is None:
         raise report.error("/", "layer", "cannot open the stage")
+    errors = stage.GetCompositionErrors()
+    if errors:
+        more = f" (and {len(errors) - 1} more composition error(s))" if len(errors) > 1 else ""
+        raise report.error("/", "layer", f"cannot compose the stage: {' '.join(str(errors[0]).split())}{more}")
+    _check_transforms(stage, report)
     return stage
+
+
+def _check_transforms(stage: Usd.Stage, report: ImportReport) -> None:
+    """A ModelError naming the first prim whose local transform holds a NaN or an infinity."""
+    for prim in prims(stage):
+        if prim.IsA(UsdGeom.Xformable):
+            matrix = np.array(UsdGeom.Xformable(prim).GetLocalTransformation(Usd.TimeCode.Default()))
+            if not np.isfinite(matrix).all():
+                raise report.error(prim.GetPath(), "xformOp", "the transform is not finite (NaN or infinity)")
 
 
 def prims(stage: Usd.Stage) -> Iterator[Usd.Prim]:
