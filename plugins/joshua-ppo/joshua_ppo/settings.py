@@ -1,7 +1,7 @@
 """PPO's settings in four groups (rollout, optimisation, returns, network) and the check of their batch arithmetic.
 
-Plain frozen dataclasses with the product description's defaults; `joshua_ppo.config_settings` fills
-them from a TrainingConfig.
+Plain frozen dataclasses whose defaults are PPO's (their only home); `joshua_ppo.config_settings` fills
+them from a TrainingConfig, leaving to them every field the config leaves zero.
 """
 
 from __future__ import annotations
