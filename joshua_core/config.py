@@ -33,6 +33,9 @@ FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
     TrainingConfig.MJX: ("ppo", "mjx"),
     TrainingConfig.SB3: ("sb3", "mujoco"),
 }
+# Environments in a NUMPY (CPU) batch when a training config leaves num_envs 0: the default of the trainers and
+# helpers that step them (trainers on JAX environments, which batch thousands, keep their own).
+DEFAULT_NUMPY_NUM_ENVS = 16
 DEFAULT_SIMULATION_BACKEND = "mujoco"
 DEFAULT_MODE = "INTERACTIVE"  # the seed's enum default: a config that names no mode
 

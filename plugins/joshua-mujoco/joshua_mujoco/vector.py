@@ -24,6 +24,7 @@ from gymnasium.vector.utils import batch_space  # noqa: E402
 from mujoco.batch import Batch, SimulationError  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
+from joshua_core.config import DEFAULT_NUMPY_NUM_ENVS  # noqa: E402
 from joshua_core.config_pb2 import TaskConfig, TrainingConfig  # noqa: E402
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, EnvSpec  # noqa: E402
 from joshua_core.plugins import PluginHost  # noqa: E402
@@ -48,7 +49,6 @@ from joshua_mujoco.models import compiled, read_spec  # noqa: E402
 from joshua_mujoco.task_options import task_config_from_options  # noqa: E402
 from joshua_render import camera_id, create_renderer, render_with_commands  # noqa: E402
 
-DEFAULT_NUM_ENVS = 16
 # Bound per-environment fields of mujoco.batch, by the TermContext field that reads them.
 _DERIVED_FIELDS = ("xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext")
 # Fields that must describe the state after the step (kinematics and sensors recomputed at its end).
@@ -381,8 +381,8 @@ def make_vector_env(
 
 def vector_env_from_config(training: TrainingConfig, plugins: PluginHost) -> BatchedVectorEnv:
     """The vector env a training config describes: task, model_path (resolved here if relative), num_envs
-    (default DEFAULT_NUM_ENVS), seed, nthread, task_config."""
-    spec = EnvSpec.from_training(training, num_envs=training.num_envs or DEFAULT_NUM_ENVS)
+    (default joshua_core.config.DEFAULT_NUMPY_NUM_ENVS), seed, nthread, task_config."""
+    spec = EnvSpec.from_training(training, num_envs=training.num_envs or DEFAULT_NUMPY_NUM_ENVS)
     if spec.model_path is not None:
         spec = dataclasses.replace(spec, model_path=resolve_data_path(spec.model_path))
     return vector_envs(spec, plugins)

@@ -13,7 +13,6 @@ from joshua_sb3 import options_pb2
 
 ALGORITHMS = ("PPO", "SAC", "TD3")
 ON_POLICY_ONLY = ("gae_lambda", "clip_epsilon")  # PPO fields SAC and TD3 have no use for
-DEFAULT_NUM_ENVS = 16  # when training.num_envs is 0; the environments hold the number (env.num_envs)
 DEFAULT_TOTAL_TIMESTEPS = 1_000_000
 DEFAULT_HIDDEN_SIZES = (256, 256)
 DEFAULT_REPLAY_BUFFER_SIZE = 1_000_000  # SB3's default, transitions of all environments together
