@@ -7,7 +7,8 @@ import argparse
 import difflib
 from pathlib import Path
 
-from joshua_core.cli import DEFAULT_OUTPUT_DIR, writable_folder
+from joshua_core.cli import writable_folder
+from joshua_core.config import DEFAULT_OUTPUT_DIR
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
 from joshua_core.plugins import PluginHost
