@@ -8,13 +8,13 @@ from typing import Any
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.options import options_of
+from joshua_core.runs import checkpoint_interval
 from joshua_ppo import options_pb2
 from joshua_ppo.networks import ACTIVATIONS
 from joshua_ppo.options_pb2 import PpoOptions
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
 
 DEFAULT_TOTAL_TIMESTEPS = 50_000_000
-CHECKPOINTS_PER_RUN = 10
 
 
 @dataclass(frozen=True)
@@ -88,7 +88,7 @@ class PpoSettings:
             ),
             network=network,
             total_timesteps=total,
-            checkpoint_interval=options.checkpoint_interval or max(1, total // CHECKPOINTS_PER_RUN),
+            checkpoint_interval=checkpoint_interval(options.checkpoint_interval, total),
             seed=int(config.seed),
         )
 
