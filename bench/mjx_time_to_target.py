@@ -28,7 +28,6 @@ bench/mjx_train_ant.py is this bench for Ant, with its own figures (and throughp
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -42,16 +41,17 @@ from time_to_target_report import METRICS, normaliser_line, plot_curve, summary_
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json, json_safe
 from joshua_core.config import apply_override, finalize, load_file, load_preset
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.interfaces import EnvKind, EnvSpec
+from joshua_core.defaults import training_output_dir
 from joshua_core.interrupts import reported
 from joshua_core.options import OptionSet
 from joshua_core.plugins import PluginHost
+from joshua_core.run_context import RunContext
 from joshua_core.statistics import SUCCESS_METRIC, summarize
-from joshua_mjx import MjxBackend, MjxEnv
+from joshua_mjx import MjxEnv
 from joshua_mjx.physics import mjx
 from joshua_ppo.checkpoints import checkpoint_payloads, load_state, read_json, write_payloads
 from joshua_ppo.config_settings import PpoSettings
-from joshua_ppo.envs import DEFAULT_NUM_ENVS
+from joshua_ppo.envs import environment as ppo_environment
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.rollout import collect, episode_results, make_rollout
 from joshua_ppo.state import Progress, TrainingState, abstract_state
@@ -296,15 +296,17 @@ def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snaps
 
 
 def environment(
-    config: TrainingConfig, plugins: PluginHost, num_envs: int, devices: list[jax.Device], training: bool = False
+    config: TrainingConfig,
+    plugins: PluginHost,
+    num_envs: int | None,
+    devices: list[jax.Device],
+    training: bool = False,
 ) -> MjxEnv:
-    """The mjx backend's environments of the config's task, spread over `devices`; `training`: the ones PPO
-    learns on, with desynchronised episodes as the trainer has them (unless the config synchronizes them)."""
-    desync = training and not config.synchronized_episodes
-    spec = dataclasses.replace(
-        EnvSpec.from_training(config, num_envs=num_envs), devices=devices, desync_episodes=desync
-    )
-    return MjxBackend().create_envs(spec, EnvKind.JAX, plugins)
+    """The config's JAX environments as the PPO trainer gets them (`joshua_ppo.envs.environment`, through
+    `RunContext.create_envs`): `num_envs` (None: the config's, else PPO's default) spread over `devices`;
+    `training`: the ones PPO learns on, with desynchronised episodes unless the config synchronizes them."""
+    context = RunContext(plugins, Path(training_output_dir(config)))
+    return ppo_environment(config, context, num_envs, devices, training_envs=training)
 
 
 def load_config(preset: str, assignments: list[str], num_envs: int | None, options: OptionSet) -> TrainingConfig:
@@ -334,7 +336,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     settings = PpoSettings.from_config(config)
     devices = jax.devices()
     print(f"devices: {devices}  preset {args.preset}: {settings.rollout} {settings.optimization}", flush=True)
-    env = environment(config, plugins, config.num_envs or DEFAULT_NUM_ENVS, devices, training=True)
+    env = environment(config, plugins, None, devices, training=True)
     if args.metric == "success" and SUCCESS_METRIC not in [term.name for term in env.task.metric_terms]:
         raise SystemExit(f"task {config.task} has no {SUCCESS_METRIC} metric: use --metric return")
     value_key = METRICS[args.metric][1]

@@ -49,12 +49,11 @@ def compiled_iteration(config: Any) -> tuple[Any, Any, Any, Any]:
 
     from joshua_core.plugins import PluginHost
     from joshua_ppo.config_settings import PpoSettings
-    from joshua_ppo.envs import DEFAULT_NUM_ENVS
     from joshua_ppo.iteration import make_iteration
     from joshua_ppo.state import init_state
 
     settings = PpoSettings.from_config(config)
-    env = environment(config, PluginHost.discover(), config.num_envs or DEFAULT_NUM_ENVS, jax.devices()[:1], True)
+    env = environment(config, PluginHost.discover(), None, jax.devices()[:1], True)
     state = init_state(env, seed=0, network=settings.network, optimization=settings.optimization)
     iteration = make_iteration(env, **settings.groups)
     return env, settings, state, iteration.lower(state).compile()

@@ -25,7 +25,6 @@ from mjx_time_to_target import environment, load_config
 from joshua_core.plugins import PluginHost
 from joshua_ppo.batches import Sample, Unroll
 from joshua_ppo.config_settings import PpoSettings
-from joshua_ppo.envs import DEFAULT_NUM_ENVS
 from joshua_ppo.iteration import _Iteration
 from joshua_ppo.normalizer import fresh_statistics
 
@@ -59,8 +58,8 @@ def main() -> None:
     plugins = PluginHost.discover()
     config = load_config(args.preset, args.set, None, plugins.options())
     settings = PpoSettings.from_config(config)
-    num_envs = config.num_envs or DEFAULT_NUM_ENVS
-    env = environment(config, plugins, num_envs, jax.devices()[:1])  # made, never reset
+    env = environment(config, plugins, None, jax.devices()[:1])  # made, never reset
+    num_envs = env.num_envs
     steps = _Iteration(env, settings.rollout, settings.optimization, settings.returns, settings.network)
     obs, act = env.observation_size, env.action_size
     params = jax.eval_shape(lambda: steps.net.init(jax.random.PRNGKey(0), jnp.zeros((1, obs)))["params"])

@@ -20,7 +20,7 @@ from joshua_core.config import (
     preset_names,
 )
 from joshua_core.config_pb2 import JoshuaConfig
-from joshua_core.defaults import required_components, simulation_mode
+from joshua_core.defaults import required_components, simulation_mode, simulation_output_dir, training_output_dir
 from joshua_core.errors import JoshuaError, PluginNotFoundError, UsageError
 from joshua_core.interrupts import reported
 from joshua_core.kinds import Kind
@@ -29,7 +29,6 @@ from joshua_core.outputs import check_name
 from joshua_core.plugins import DISABLE_ENV_VAR, PluginHost
 from joshua_core.run_context import RunContext
 
-DEFAULT_OUTPUT_DIR = "joshua_output"
 STRICT_OVERRIDE = "simulation.replay.strict=true"  # what --strict means
 
 EPILOG = f"""\
@@ -220,14 +219,14 @@ def run(args: argparse.Namespace, host: PluginHost) -> int:
         return 0
     if config.operation_mode == JoshuaConfig.SIMULATION:
         simulation = config.simulation
-        folder = writable_folder(simulation.output_dir or DEFAULT_OUTPUT_DIR, "simulation.output_dir")
+        folder = writable_folder(simulation_output_dir(simulation), "simulation.output_dir")
         context = RunContext(host, folder)
         host.mode(simulation_mode(simulation)).run(simulation, context)
         if not (args.preset or args.config):
             print(NEXT_STEPS)
     else:
         training = config.training
-        folder = writable_folder(training.checkpoint_dir or DEFAULT_OUTPUT_DIR, "training.checkpoint_dir")
+        folder = writable_folder(training_output_dir(training), "training.checkpoint_dir")
         context = RunContext(host, folder)
         host.trainer(training.trainer).train(training, context)
     return 0

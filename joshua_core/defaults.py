@@ -12,7 +12,13 @@ FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
     TrainingConfig.MJX: ("ppo", "mjx"),
     TrainingConfig.SB3: ("sb3", "mujoco"),
 }
+# Environments in a NUMPY (CPU) batch when a training config leaves num_envs 0: the default of the trainers and
+# helpers that step them (trainers on JAX environments, which batch thousands, keep their own).
+DEFAULT_NUMPY_NUM_ENVS = 16
 DEFAULT_SIMULATION_BACKEND = "mujoco"
+# Where a run writes when its config names no folder (simulation.output_dir, training.checkpoint_dir; see
+# docs/configuration.md), relative to the working directory; commands with an output folder default to it too.
+DEFAULT_OUTPUT_DIR = "joshua_output"
 DEFAULT_MODE = "INTERACTIVE"  # a config that names no mode opens the viewer (docs/configuration.md)
 
 
@@ -24,6 +30,16 @@ def simulation_mode(simulation: SimulationConfig) -> str:
 def simulation_backend(simulation: SimulationConfig) -> str:
     """The backend a simulation uses: the one it names, else the default."""
     return simulation.backend or DEFAULT_SIMULATION_BACKEND
+
+
+def simulation_output_dir(simulation: SimulationConfig) -> str:
+    """The folder a simulation writes to: the one it names, else DEFAULT_OUTPUT_DIR."""
+    return simulation.output_dir or DEFAULT_OUTPUT_DIR
+
+
+def training_output_dir(training: TrainingConfig) -> str:
+    """The folder a training job writes its runs and checkpoints to: `checkpoint_dir`, else DEFAULT_OUTPUT_DIR."""
+    return training.checkpoint_dir or DEFAULT_OUTPUT_DIR
 
 
 def training_plugins(training: TrainingConfig) -> tuple[str, str]:

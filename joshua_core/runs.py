@@ -39,6 +39,12 @@ METRICS_FILE = "metrics.json"
 LOCK_FILE = ".lock"
 MAX_SUFFIX = 999  # default names taken in one second before giving up
 _STEP_SUFFIX = re.compile(r"_step_(\d+)$")
+CHECKPOINTS_PER_RUN = 10  # a run that names no checkpoint interval publishes this many checkpoints
+
+
+def checkpoint_interval(requested: int, total_timesteps: int) -> int:
+    """Steps between checkpoints: `requested`, else (0) total_timesteps / CHECKPOINTS_PER_RUN, at least 1."""
+    return requested or max(1, total_timesteps // CHECKPOINTS_PER_RUN)
 
 
 class RunInUseError(UsageError):

@@ -36,8 +36,7 @@ ENTRY_POINTS = {
     ("joshua_mujoco.envs", "__init__"): "TaskEnv: the Gymnasium entry point of gymnasium.make('joshua/...')",
     ("joshua_mujoco.vector", "make_vector_env"): "documented convenience (joshua-mujoco README), gymnasium.make_vec",
     ("joshua_mjx.env", "make_mjx_env"): "documented convenience (joshua-mjx README)",
-    ("joshua_usd.tasks.envs", "AntEnv"): "Isaac Lab's entry, as docs/usd.md shows it",
-    ("joshua_usd.tasks.envs", "TrilegEnv"): "Isaac Lab's entry, like AntEnv",
+    ("joshua_sb3.task_envs", "task_vec_env"): "documented convenience behind AntEnv/TrilegEnv (docs/usd.md)",
 }
 MAX_LINES = 600
 MAX_FUNCTION_LINES = 120

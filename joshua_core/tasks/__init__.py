@@ -5,7 +5,16 @@ namespace `ctx.xp`), so the same task runs on numpy (joshua-mujoco) and inside `
 (joshua-mjx). See docs/tasks.md.
 """
 
-from joshua_core.tasks.context import STATE_FIELDS, JaxRandom, NumpyRandom, RandomSource, TermContext, set_columns
+from joshua_core.tasks.context import (
+    DERIVED_FIELDS,
+    KINEMATIC_FIELDS,
+    STATE_FIELDS,
+    JaxRandom,
+    NumpyRandom,
+    RandomSource,
+    TermContext,
+    set_columns,
+)
 from joshua_core.tasks.episodes import Episode, EpisodeSums, StepOutcome, account_step, nonfinite
 from joshua_core.tasks.handles import Actuators, Bodies, Body, Geoms, Joint, Joints, Sensor, Site, Touch
 from joshua_core.tasks.randomization import (
@@ -21,7 +30,9 @@ from joshua_core.tasks.spec import ActionSpec, EventSpec, TaskSpec, TermKind, Te
 from joshua_core.tasks.task import BoundTerm, Task, build_task, load_task_spec
 
 __all__ = [
+    "DERIVED_FIELDS",
     "INERTIAL_FIELDS",
+    "KINEMATIC_FIELDS",
     "MODEL_FIELDS",
     "STATE_FIELDS",
     "ActionSpec",

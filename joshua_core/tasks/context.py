@@ -30,6 +30,11 @@ STATE_FIELDS: dict[str, str] = {
     "prev_action": "(nu,) the action of the previous step (zero after a reset)",
     "episode_step": "() steps taken in the current episode",
 }
+# The state fields MuJoCo computes from qpos and qvel (kinematics, sensors, contact wrenches) rather than
+# integrates: a backend fills only those the task's terms read (`Task.fields`), and only then pays for them.
+DERIVED_FIELDS = ("xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext")
+# Of them, the body and site poses: every backend recomputes them after the step, so they describe its end.
+KINEMATIC_FIELDS = frozenset({"xpos", "xquat", "site_xpos"})
 
 
 class RandomSource(Protocol):

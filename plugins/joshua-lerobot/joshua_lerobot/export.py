@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from joshua_core.defaults import DEFAULT_OUTPUT_DIR
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
 from joshua_core.outputs import check_replaceable
@@ -26,7 +27,7 @@ DEFAULT_MODEL = "so_arm100/scene.xml"
 DEFAULT_FPS = 30
 DEFAULT_WIDTH, DEFAULT_HEIGHT = 320, 240
 DEFAULT_TASK = "replay"
-DEFAULT_OUT = Path("joshua_output/lerobot_dataset")
+DEFAULT_OUT = Path(DEFAULT_OUTPUT_DIR) / "lerobot_dataset"
 
 
 class LeRobotExportCommand(Command):

@@ -19,7 +19,7 @@ import numpy as np
 from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.cli import add_config_arguments, load, writable_folder
 from joshua_core.config import finalize
-from joshua_core.defaults import simulation_mode
+from joshua_core.defaults import DEFAULT_OUTPUT_DIR, simulation_mode
 from joshua_core.errors import ConfigError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import Command
 from joshua_core.limits import MAX_CONTROL_HZ, MIN_CONTROL_HZ, cli_number
@@ -41,7 +41,6 @@ DEFAULT_STALE_AFTER_S = 0.2
 # a target that moves faster than the servo can follow only builds up error
 DEFAULT_MAX_SPEED = 4.0
 DEFAULT_ESTOP_TOPIC = "/joshua_deploy/estop"
-DEFAULT_OUTPUT_DIR = "joshua_output"
 NODE_NAME = "joshua_deploy"
 RUN_STEM = "deploy"
 REPORT_FILE = "deploy_report.json"

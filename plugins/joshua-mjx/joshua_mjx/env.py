@@ -36,6 +36,8 @@ from joshua_core.interfaces import EnvSpec
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import (
+    DERIVED_FIELDS,
+    KINEMATIC_FIELDS,
     Episode,
     EpisodeSums,
     Task,
@@ -55,10 +57,10 @@ from joshua_mjx.randomized import ModelRandomization
 from joshua_mujoco import compile_model
 
 ENV_AXIS = "envs"  # name of the device-mesh axis the environments are spread over
-# Context fields that must describe the state after the step: kinematics are recomputed at its end.
-_KINEMATIC_FIELDS = frozenset({"xpos", "xquat", "site_xpos"})
-# Data fields the task's terms may read besides the state (cfrc_ext, in MJX's `_impl`, apart)
-_DERIVED_FIELDS = ("xpos", "xquat", "site_xpos", "sensordata")
+# The derived fields that are attributes of mjx.Data; cfrc_ext is MJX's backend-specific `_impl` field, handled
+# apart. After a step only the kinematics are recomputed (mjx.kinematics): sensordata is the last physics step's,
+# computed before its integration, where the `mujoco` backend recomputes sensors at the step's end.
+_DATA_FIELDS = tuple(name for name in DERIVED_FIELDS if name != "cfrc_ext")
 
 
 class EnvState(NamedTuple):
@@ -121,8 +123,8 @@ class MjxEnv:
         self.observation_size = task.observation_size
         self.action_size = task.action_size
         self._contact_forces = "cfrc_ext" in task.fields
-        self._derived = tuple(name for name in _DERIVED_FIELDS if name in task.fields)
-        self._kinematics_after_step = bool(_KINEMATIC_FIELDS & task.fields)
+        self._derived = tuple(name for name in _DATA_FIELDS if name in task.fields)
+        self._kinematics_after_step = bool(KINEMATIC_FIELDS & task.fields)
         initial = mujoco.MjData(model)
         if task.keyframe_id >= 0:
             mujoco.mj_resetDataKeyframe(model, initial, task.keyframe_id)

@@ -25,11 +25,14 @@ from mujoco.batch import Batch, SimulationError  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
 from joshua_core.config_pb2 import TaskConfig, TrainingConfig  # noqa: E402
+from joshua_core.defaults import DEFAULT_NUMPY_NUM_ENVS  # noqa: E402
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, EnvSpec  # noqa: E402
 from joshua_core.plugins import PluginHost  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
 from joshua_core.tasks import (  # noqa: E402
+    DERIVED_FIELDS,
     INERTIAL_FIELDS,
+    KINEMATIC_FIELDS,
     MODEL_FIELDS,
     EpisodeSums,
     NumpyRandom,
@@ -48,12 +51,10 @@ from joshua_mujoco.models import compiled, read_spec  # noqa: E402
 from joshua_mujoco.task_options import task_config_from_options  # noqa: E402
 from joshua_render import camera_id, create_renderer, render_with_commands  # noqa: E402
 
-DEFAULT_NUM_ENVS = 16
-# Bound per-environment fields of mujoco.batch, by the TermContext field that reads them.
-_DERIVED_FIELDS = ("xpos", "xquat", "site_xpos", "sensordata", "cfrc_ext")
-# Fields that must describe the state after the step (kinematics and sensors recomputed at its end).
-# cfrc_ext is not among them: like Gymnasium, it is the contact wrench of the step's last substep.
-_CURRENT_FIELDS = frozenset({"xpos", "xquat", "site_xpos", "sensordata"})
+# Fields that describe the state after the step: mjSTAGE_VEL recomputes kinematics and sensors at its end (as
+# mj_step1 would, so the next step reuses them). cfrc_ext is not among them: like Gymnasium, it is the contact
+# wrench of the step's last substep.
+_CURRENT_FIELDS = KINEMATIC_FIELDS | {"sensordata"}
 # A sensor that makes MuJoCo compute cfrc_ext (mj_rnePostConstraint) inside every step.
 _CONTACT_FORCE_SENSOR = "joshua_contact_forces"
 
@@ -102,7 +103,7 @@ class BatchedSimulation:
         self.qpos = self.batch.bind("qpos")
         self.qvel = self.batch.bind("qvel")
         self.ctrl = self.batch.bind("ctrl")
-        self.derived = {name: self.batch.bind(name) for name in _DERIVED_FIELDS if name in task.fields}
+        self.derived = {name: self.batch.bind(name) for name in DERIVED_FIELDS if name in task.fields}
         # Recompute positions and velocities after each step only when terms read derived fields.
         self.stage = mujoco.mjtStage.mjSTAGE_VEL if _CURRENT_FIELDS & task.fields else mujoco.mjtStage.mjSTAGE_NONE
         self.prev_qpos = np.zeros_like(self.qpos)
@@ -381,8 +382,8 @@ def make_vector_env(
 
 def vector_env_from_config(training: TrainingConfig, plugins: PluginHost) -> BatchedVectorEnv:
     """The vector env a training config describes: task, model_path (resolved here if relative), num_envs
-    (default DEFAULT_NUM_ENVS), seed, nthread, task_config."""
-    spec = EnvSpec.from_training(training, num_envs=training.num_envs or DEFAULT_NUM_ENVS)
+    (default joshua_core.config.DEFAULT_NUMPY_NUM_ENVS), seed, nthread, task_config."""
+    spec = EnvSpec.from_training(training, num_envs=training.num_envs or DEFAULT_NUMPY_NUM_ENVS)
     if spec.model_path is not None:
         spec = dataclasses.replace(spec, model_path=resolve_data_path(spec.model_path))
     return vector_envs(spec, plugins)

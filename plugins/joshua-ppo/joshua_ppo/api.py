@@ -9,6 +9,7 @@ from typing import Any
 from google.protobuf import json_format
 
 from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.defaults import training_output_dir
 from joshua_core.errors import ConfigError
 from joshua_core.kinds import Kind
 from joshua_core.options import parse_dict
@@ -18,8 +19,6 @@ from joshua_core.run_context import RunContext
 from joshua_core.tasks import load_task_spec
 from joshua_mjx import MJX_SUFFIX
 from joshua_ppo.trainer import PpoTrainer
-
-DEFAULT_CHECKPOINT_DIR = "checkpoints"
 
 
 def train_mjx(
@@ -36,6 +35,8 @@ def train_mjx(
     learning_rate, gamma, gae_lambda, clip_epsilon, total_timesteps, seed, task, checkpoint_dir, and
     `ppo`: {...} for PpoOptions); unknown names are a ConfigError. The task defaults to the registered
     task whose model is `model_path` (its `_mjx` variant counts too), e.g. ant/ant.xml -> ant_locomotion.
+    Runs go to `checkpoint_dir`, else the config's, else the folder the `joshua` command uses
+    (`joshua_core.config.training_output_dir`).
     """
     host = plugins or PluginHost.discover()
     training = TrainingConfig()
@@ -45,9 +46,8 @@ def train_mjx(
         raise ConfigError(f"train_mjx config: {error}") from None
     training.model_path = str(resolve_data_path(model_path))
     training.task = task or training.task or _task_for_model(Path(training.model_path), host)
-    root = Path(checkpoint_dir or training.checkpoint_dir or DEFAULT_CHECKPOINT_DIR)
-    training.checkpoint_dir = str(root)
-    return PpoTrainer().train(training, RunContext(host, root))
+    training.checkpoint_dir = str(checkpoint_dir or training_output_dir(training))
+    return PpoTrainer().train(training, RunContext(host, Path(training.checkpoint_dir)))
 
 
 def _task_for_model(model_path: Path, plugins: PluginHost) -> str:

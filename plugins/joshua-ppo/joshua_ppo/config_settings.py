@@ -2,24 +2,25 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.options import options_of
+from joshua_core.runs import checkpoint_interval
 from joshua_ppo import options_pb2
 from joshua_ppo.networks import ACTIVATIONS
 from joshua_ppo.options_pb2 import PpoOptions
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
 
 DEFAULT_TOTAL_TIMESTEPS = 50_000_000
-CHECKPOINTS_PER_RUN = 10
 
 
 @dataclass(frozen=True)
 class PpoSettings:
-    """A TrainingConfig's PPO hyper-parameters with the defaults filled in (docs/training-mjx.md#ppo-options)."""
+    """A TrainingConfig's PPO hyper-parameters; a field the config leaves zero or empty takes the settings
+    dataclass's default (`joshua_ppo.settings`, their only home; docs/training-mjx.md#ppo-options)."""
 
     rollout: RolloutSettings
     optimization: OptimizationSettings
@@ -45,48 +46,54 @@ class PpoSettings:
         for name in ("hidden_sizes", "value_hidden_sizes"):
             if any(size <= 0 for size in getattr(options, name)):
                 raise ConfigError(f"training.ppo.{name} must be positive, got {list(getattr(options, name))}")
-        activation = options.activation or "relu"
-        if activation not in ACTIVATIONS:
-            raise ConfigError(f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}")
         if options.desired_kl < 0:
             raise ConfigError(f"training.ppo.desired_kl must not be negative, got {options.desired_kl}")
         for name in ("num_steps", "num_epochs", "minibatch_size", "total_timesteps"):  # num_envs: by EnvSpec
             if getattr(config, name) < 0:
                 raise ConfigError(f"training.{name} must not be negative")
         total = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
-        max_grad_norm = options.max_grad_norm or 1.0
+        optimization = OptimizationSettings(
+            **_given(
+                num_epochs=config.num_epochs,
+                minibatch_size=config.minibatch_size,
+                learning_rate=config.learning_rate,
+                clip_epsilon=config.clip_epsilon,
+                value_coef=options.value_coef,
+                max_grad_norm=options.max_grad_norm,
+            ),
+            entropy_coef=options.entropy_coef,
+            desired_kl=options.desired_kl,
+            anneal_steps=total if options.anneal_learning_rate else 0,
+        )
+        if optimization.max_grad_norm is not None and optimization.max_grad_norm < 0:  # negative: no clipping
+            optimization = replace(optimization, max_grad_norm=None)
+        network = NetworkSettings(
+            **_given(hidden_sizes=tuple(options.hidden_sizes), activation=options.activation),
+            value_hidden_sizes=tuple(options.value_hidden_sizes),
+            normalize_observations=not options.disable_observation_normalization,
+            squash_actions=options.squash_actions,
+            state_dependent_std=options.state_dependent_std,
+        )
+        if network.activation not in ACTIVATIONS:
+            raise ConfigError(f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}")
         return cls(
             rollout=RolloutSettings(
-                num_steps=config.num_steps or 10,
-                unrolls_per_iteration=options.unrolls_per_iteration or 1,
+                **_given(num_steps=config.num_steps, unrolls_per_iteration=options.unrolls_per_iteration)
             ),
-            optimization=OptimizationSettings(
-                num_epochs=config.num_epochs or 4,
-                minibatch_size=config.minibatch_size or 256,
-                learning_rate=config.learning_rate or 3e-4,
-                clip_epsilon=config.clip_epsilon or 0.2,
-                entropy_coef=options.entropy_coef,
-                value_coef=options.value_coef or 0.5,
-                max_grad_norm=None if max_grad_norm < 0 else max_grad_norm,
-                desired_kl=options.desired_kl,
-                anneal_steps=total if options.anneal_learning_rate else 0,
-            ),
+            optimization=optimization,
             returns=ReturnSettings(
-                gamma=config.gamma or 0.99,
-                gae_lambda=config.gae_lambda or 0.95,
-                reward_scaling=options.reward_scaling or 1.0,
+                **_given(gamma=config.gamma, gae_lambda=config.gae_lambda, reward_scaling=options.reward_scaling),
                 recompute_advantages=options.recompute_advantages,
                 advantage=PpoOptions.Advantage.Name(options.advantage).lower(),
             ),
-            network=NetworkSettings(
-                hidden_sizes=tuple(options.hidden_sizes) or (256, 256),
-                value_hidden_sizes=tuple(options.value_hidden_sizes),
-                normalize_observations=not options.disable_observation_normalization,
-                squash_actions=options.squash_actions,
-                activation=activation,
-                state_dependent_std=options.state_dependent_std,
-            ),
+            network=network,
             total_timesteps=total,
-            checkpoint_interval=options.checkpoint_interval or max(1, total // CHECKPOINTS_PER_RUN),
+            checkpoint_interval=checkpoint_interval(options.checkpoint_interval, total),
             seed=int(config.seed),
         )
+
+
+def _given(**values: Any) -> dict[str, Any]:
+    """The values a config sets. An unset proto3 number or list reads as zero or empty, which means "the
+    default" (docs/configuration.md): those are left out, so the settings dataclasses supply them."""
+    return {name: value for name, value in values.items() if value}

@@ -1,7 +1,8 @@
 """PPO's settings in four groups (rollout, optimisation, returns, network) and the check of their batch arithmetic.
 
-Plain frozen dataclasses with the trainer's defaults (docs/training-mjx.md#ppo-options);
-`joshua_ppo.config_settings` fills them from a TrainingConfig.
+Plain frozen dataclasses whose defaults are PPO's (their only home, documented in
+docs/training-mjx.md#ppo-options); `joshua_ppo.config_settings` fills them from a TrainingConfig, leaving to
+them every field the config leaves zero.
 """
 
 from __future__ import annotations

@@ -9,15 +9,14 @@ from typing import Any
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.options import options_of
+from joshua_core.runs import checkpoint_interval
 from joshua_sb3 import options_pb2
 
 ALGORITHMS = ("PPO", "SAC", "TD3")
 ON_POLICY_ONLY = ("gae_lambda", "clip_epsilon")  # PPO fields SAC and TD3 have no use for
-DEFAULT_NUM_ENVS = 16  # when training.num_envs is 0; the environments hold the number (env.num_envs)
 DEFAULT_TOTAL_TIMESTEPS = 1_000_000
 DEFAULT_HIDDEN_SIZES = (256, 256)
 DEFAULT_REPLAY_BUFFER_SIZE = 1_000_000  # SB3's default, transitions of all environments together
-CHECKPOINTS_PER_RUN = 10  # default checkpoint_interval: a tenth of total_timesteps
 
 
 @dataclass(frozen=True)
@@ -61,7 +60,7 @@ class Settings:
         return cls(
             algorithm=algorithm,
             total_timesteps=total_timesteps,
-            checkpoint_interval=options.checkpoint_interval or max(1, total_timesteps // CHECKPOINTS_PER_RUN),
+            checkpoint_interval=checkpoint_interval(options.checkpoint_interval, total_timesteps),
             num_steps=config.num_steps or (64 if on_policy else 1),
             num_epochs=config.num_epochs or (10 if on_policy else 1),
             minibatch_size=config.minibatch_size or 256,

@@ -23,6 +23,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.defaults import DEFAULT_NUMPY_NUM_ENVS
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.interfaces import EnvKind, EpisodeResults, Trainer
 from joshua_core.interrupts import StopRequest, resume_command, stop_requests
@@ -52,7 +53,7 @@ from joshua_sb3.run_folder import (
     verify_checkpoint,
     write_checkpoint,
 )
-from joshua_sb3.settings import DEFAULT_NUM_ENVS, Settings
+from joshua_sb3.settings import Settings
 from joshua_sb3.vec_env import METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv
 
 TRAINER_NAME = "sb3"
@@ -237,7 +238,7 @@ class Sb3Trainer(Trainer):
         run_dir = folder.path
         training = TrainingConfig()
         training.CopyFrom(config)
-        training.num_envs = config.num_envs or DEFAULT_NUM_ENVS
+        training.num_envs = config.num_envs or DEFAULT_NUMPY_NUM_ENVS  # the environments hold the number
         environments, vec_env = make_vec_env(training, context, training_envs=True)
         if resume_from is not None:
             model, normalizer = _load_model(

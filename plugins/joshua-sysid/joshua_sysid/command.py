@@ -8,7 +8,8 @@ import difflib
 import shutil
 from pathlib import Path
 
-from joshua_core.cli import DEFAULT_OUTPUT_DIR, writable_folder
+from joshua_core.cli import writable_folder
+from joshua_core.defaults import DEFAULT_OUTPUT_DIR
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
 from joshua_core.plugins import PluginHost

@@ -1,6 +1,6 @@
 """The `usd` backend: both Isaac tasks step on NUMPY (mujoco.batch) and JAX (MJX on the CPU) environments with
-the same observations and rewards for the same actions; the SB3 views of both (AntEnv on the CPU, JaxVecEnv)
-report episodes the way SB3 expects and train with PPO; clear errors without a GPU or without joshua-mjx."""
+the same observations and rewards for the same actions; a clear error without joshua-mjx. (Their SB3 views are
+joshua-sb3's: plugins/joshua-sb3/tests/test_task_envs.py.)"""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from stable_baselines3 import PPO
 
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import EnvKind, EnvSpec
@@ -19,8 +18,6 @@ from joshua_core.resources import resolve_data_path
 from joshua_mujoco import MuJoCoEngine
 from joshua_mujoco.vector import task_config_from_options
 from joshua_usd.backend import UsdBackend
-from joshua_usd.tasks import AntEnv, TrilegEnv, envs
-from joshua_usd.tasks.jax_vec_env import JaxVecEnv
 
 # The tasks on the shipped USD robots (MJX compiles the imported model as it does an MJCF one).
 MODELS = {"isaac_ant_locomotion": "isaac/ant.usd", "isaac_trileg": "isaac/trileg.usd"}
@@ -68,57 +65,6 @@ def test_numpy_and_jax_environments_agree(task: str, plugins: PluginHost, ant_ja
             np.testing.assert_allclose(np.asarray(state.reward_terms[name]), value, atol=REWARD_TOLERANCE)
     assert np.abs(cpu_reward).min() > 0.1  # alive, upright and heading rewards: something was compared
     cpu.close()
-
-
-def test_jax_vec_env_reports_episodes_as_sb3_expects(ant_jax) -> None:  # type: ignore[no-untyped-def]
-    env = JaxVecEnv(ant_jax, seed=3)
-    first = env.reset()
-    assert first.shape == (NUM_ENVS, ant_jax.observation_size) and first.dtype == np.float32
-    actions = np.full((NUM_ENVS, 8), 0.3, np.float32)
-    returns = np.zeros(NUM_ENVS)
-    for step in range(1, EPISODE_LENGTH + 1):
-        observation, reward, dones, infos = env.step(actions)
-        returns += reward
-        assert dones.all() == (step == EPISODE_LENGTH) and dones.any() == (step == EPISODE_LENGTH)
-    for index, info in enumerate(infos):
-        assert info["TimeLimit.truncated"] and info["episode"]["l"] == EPISODE_LENGTH
-        assert info["episode"]["r"] == pytest.approx(returns[index], rel=1e-5)
-        assert not np.allclose(info["terminal_observation"], observation[index])
-    np.testing.assert_allclose(observation, first, atol=1e-5)  # no reset noise: the next episode starts alike
-
-
-def test_ppo_trains_on_the_jax_vec_env(ant_jax) -> None:  # type: ignore[no-untyped-def]
-    model = PPO("MlpPolicy", JaxVecEnv(ant_jax), n_steps=8, batch_size=12, n_epochs=1, device="cpu", seed=0)
-    model.learn(total_timesteps=2 * 8 * NUM_ENVS)
-    assert model.num_timesteps == 2 * 8 * NUM_ENVS and len(model.ep_info_buffer) >= NUM_ENVS
-
-
-def test_ant_env_on_the_cpu_trains_with_sb3_ppo() -> None:
-    env = AntEnv(num_envs=4, device="cpu", model_path=MODELS["isaac_ant_locomotion"])
-    assert (env.num_envs, env.observation_space.shape, env.action_space.shape) == (4, (60,), (8,))
-    model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=2, device="cpu", seed=0)
-    before = [parameter.detach().clone() for parameter in model.policy.parameters()]
-    model.learn(total_timesteps=512)
-    assert model.num_timesteps == 512
-    assert any(
-        not np.allclose(a.numpy(), b.detach().numpy()) for a, b in zip(before, model.policy.parameters(), strict=True)
-    )
-    env.close()
-
-
-def test_cuda_without_a_gpu_is_a_clear_error() -> None:
-    assert not [device for device in jax.devices() if device.platform == "gpu"]  # this test needs a CPU-only JAX
-    with pytest.raises(ConfigError, match=r'device="cuda": JAX sees no GPU .*use device="cpu"'):
-        TrilegEnv(num_envs=2, device="cuda", model_path=MODELS["isaac_trileg"])
-    with pytest.raises(ConfigError, match="device must be one of cuda, cpu"):
-        TrilegEnv(num_envs=2, device="tpu")
-
-
-def test_cuda_puts_the_environments_on_mjx_over_the_gpus(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(envs, "gpu_devices", jax.devices)  # the CPU stands in for the GPUs
-    env = AntEnv(num_envs=2, device="cuda", model_path=MODELS["isaac_ant_locomotion"])
-    assert isinstance(env, JaxVecEnv) and env.env.mesh.devices.tolist() == jax.devices()
-    assert (env.num_envs, env.observation_space.shape, env.action_space.shape) == (2, (60,), (8,))
 
 
 def test_jax_environments_without_joshua_mjx_say_to_install_it(

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
 
-from joshua_sb3 import BatchVecEnv, episode_info
+from joshua_sb3.vec_env import BatchVecEnv, episode_info
 
 
 class JaxVecEnv(BatchVecEnv):
