@@ -1,5 +1,6 @@
 """`joshua eval` of a PPO run whose folders were tampered with: a stray empty checkpoint folder is skipped, a
-corrupt config.json or a config whose hidden_sizes do not fit the saved network is one line, exit 2."""
+corrupt config.json, a config whose hidden_sizes do not fit the saved network or a damaged params.msgpack is one
+line, exit 2."""
 
 from __future__ import annotations
 
@@ -71,3 +72,14 @@ def test_a_damaged_checkpoint_config_is_one_line_exit_2(tiny_run: Path, tmp_path
     assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr[-2000:]
     lines = done.stderr.strip().splitlines()
     assert lines[-1].startswith("joshua: error: ") and message in lines[-1], lines[-3:]
+
+
+def test_a_damaged_params_file_is_one_line_exit_2(tiny_run: Path, tmp_path: Path) -> None:
+    checkpoint = tmp_path / "tiny_step_20"
+    shutil.copytree(tiny_run / "tiny_step_20", checkpoint)
+    params = checkpoint / "params.msgpack"
+    params.write_bytes(params.read_bytes()[: params.stat().st_size // 2])  # truncated
+    done = evaluate(checkpoint)
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr[-2000:]
+    lines = done.stderr.strip().splitlines()
+    assert lines[-1].startswith("joshua: error: cannot load ") and "params.msgpack" in lines[-1], lines[-3:]
