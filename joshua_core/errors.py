@@ -27,6 +27,10 @@ class ModelError(UsageError, ValueError):
     """A model file is missing or does not compile."""
 
 
+class CorruptCheckpointError(UsageError):
+    """A checkpoint file is missing, damaged or does not fit what it is loaded into: the input is bad (exit 2)."""
+
+
 class PluginNotFoundError(UsageError):
     """No installed plugin provides the requested component; the message says what to install."""
 

@@ -137,3 +137,17 @@ def cli_number(
         return value
 
     return parse
+
+
+def check_one_iteration(total_timesteps: int, num_envs: int, num_steps: int, unrolls: int = 1) -> None:
+    """A trainer runs whole iterations of num_envs x num_steps (x unrolls) environment steps, so a
+    `total_timesteps` below one iteration would silently run the whole iteration: a ConfigError naming both."""
+    iteration = num_envs * num_steps * unrolls
+    if total_timesteps >= iteration:
+        return
+    unrolled = f" x training.ppo.unrolls_per_iteration {unrolls}" if unrolls != 1 else ""
+    raise ConfigError(
+        f"training.total_timesteps {total_timesteps} is less than one iteration's environment steps, "
+        f"training.num_envs {num_envs} x training.num_steps {num_steps}{unrolled} = {iteration}: "
+        f"set training.total_timesteps to at least {iteration}, or lower training.num_steps or training.num_envs"
+    )

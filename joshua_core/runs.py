@@ -119,7 +119,8 @@ def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunF
     when that is taken.
 
     A name the config chose that exists is a ConfigError (or a RunInUseError while a process trains it);
-    `options` is where the config's run options live (e.g. "training.ppo"), for the hint.
+    `options` is where the config's run options live (e.g. "training.ppo"), or the command-line option that
+    names the run (e.g. "--run-name": such runs are never continued), for the hint.
     """
     root.mkdir(parents=True, exist_ok=True)
     if name is not None:
@@ -128,17 +129,20 @@ def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunF
         if run is None:
             if (root / name).is_dir():
                 open_run(root, name).close()  # raises RunInUseError while another process trains it
-            raise ConfigError(
-                f"run folder {root / name} exists; continue it with --set {options}.resume=true, "
-                f"or choose another {options}.run_name"
-            )
+            resume = "" if options.startswith("--") else f"continue it with --set {options}.resume=true, or "
+            raise ConfigError(f"run folder {root / name} exists; {resume}choose another {_name_option(options)}")
         return run
     base = default_run_name(stem)
     for candidate in (base, *(f"{base}_{number}" for number in range(2, MAX_SUFFIX + 1))):
         run = None if run_checkpoints(root, candidate) else _claim(root, candidate)
         if run is not None:
             return run
-    raise UsageError(f"{root} holds runs {base} to {base}_{MAX_SUFFIX}; name the run with {options}.run_name")
+    raise UsageError(f"{root} holds runs {base} to {base}_{MAX_SUFFIX}; name the run with {_name_option(options)}")
+
+
+def _name_option(options: str) -> str:
+    """The option that names a run: the command-line option itself, or the config's `<options>.run_name`."""
+    return options if options.startswith("--") else f"{options}.run_name"
 
 
 def open_run(root: Path, name: str) -> RunFolder:

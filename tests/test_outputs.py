@@ -104,3 +104,13 @@ def test_a_folder_put_there_while_writing_is_not_replaced(tmp_path: Path) -> Non
             (target / "theirs.txt").write_text("keep")
     assert [p.name for p in target.iterdir()] == ["theirs.txt"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_an_out_folder_where_nothing_can_be_made_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    from joshua_core.cli import main
+    from joshua_core.resources import models_dir
+
+    example = str(models_dir() / "trajectories" / "so_arm100_example.csv")
+    assert main(["lerobot-export", example, "--out", "/proc/nope"]) == 2  # /proc takes no new folder, even as root
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and error.startswith("joshua: error: /proc/") and "Traceback" not in error, error

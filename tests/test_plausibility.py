@@ -92,3 +92,17 @@ def test_mirror_replay_refuses_a_column_naming_no_joint_of_the_model(
         "timestamp,joint_1,joint_2,joint_3,joint_4,joint_5,joint_6,elbow\n0,0,0,0,0,0,0,0\n1,0,0,0,0,0,0,0\n"
     )
     one_line_usage_error(capsys, ["mirror-replay", str(csv)], f"{csv}:1: column 'elbow' is not a joint of the model")
+
+
+def test_total_timesteps_below_one_sb3_iteration_is_one_line(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    monkeypatch.chdir(tmp_path)  # the preset's checkpoint_dir is relative
+    argv = ["--preset", "so_arm100_reach_sb3", "--set", "training.total_timesteps=64"]
+    message = (
+        "training.total_timesteps 64 is less than one iteration's environment steps, training.num_envs 32 x "
+        "training.num_steps 50 = 1600: set training.total_timesteps to at least 1600"
+    )
+    one_line_usage_error(capsys, argv, message)
+    one_line_usage_error(capsys, [*argv, "--set", "training.num_steps=0"], "x training.num_steps 64 = 2048")
+    assert not list(tmp_path.rglob("*_ppo*")), "a run folder was made"

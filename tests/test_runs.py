@@ -188,3 +188,10 @@ def test_a_file_given_as_run_folder_is_named_a_file(tmp_path: Path) -> None:
     path.write_bytes(b"not a folder")
     with pytest.raises(UsageError, match=f"^'{path}' is a file, not a run folder"):
         runs.read_run_config(path)
+
+
+def test_a_command_line_run_name_in_use_says_choose_another(tmp_path: Path) -> None:
+    create_run(tmp_path, "fit", stem="sysid", options="--run-name").close()
+    with pytest.raises(ConfigError) as raised:
+        create_run(tmp_path, "fit", stem="sysid", options="--run-name")
+    assert str(raised.value) == f"run folder {tmp_path / 'fit'} exists; choose another --run-name"

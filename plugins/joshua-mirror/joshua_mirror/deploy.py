@@ -32,6 +32,7 @@ from joshua_mirror.deploy_loop import DeployLoop
 from joshua_mirror.graph import TypeChecker
 from joshua_mirror.joints import MirroredJoint, resolve_joints
 from joshua_mirror.link import RobotLink
+from joshua_mirror.names import topic_argument
 from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.ros import RosSession
 
@@ -54,7 +55,12 @@ class DeployCommand(Command):
         parser.add_argument("policy", type=Path, help="folder with policy.onnx and policy.json (joshua export)")
         add_config_arguments(parser, verb=f"read the robot's topics (default: preset {DEFAULT_PRESET}) from")
         parser.add_argument("--target", metavar="X,Y,Z", help="the task's target command, in model coordinates (m)")
-        parser.add_argument("--target-topic", metavar="TOPIC", help="geometry_msgs/Point topic setting the target")
+        parser.add_argument(
+            "--target-topic",
+            type=topic_argument("--target-topic"),
+            metavar="TOPIC",
+            help="geometry_msgs/Point topic setting the target",
+        )
         parser.add_argument(
             "--rate",
             type=cli_number("--rate", MIN_CONTROL_HZ, MAX_CONTROL_HZ),
@@ -77,6 +83,7 @@ class DeployCommand(Command):
         )
         parser.add_argument(
             "--estop-topic",
+            type=topic_argument("--estop-topic"),
             default=DEFAULT_ESTOP_TOPIC,
             help=f"std_msgs/Bool; true stops the arm in place until restart (default {DEFAULT_ESTOP_TOPIC})",
         )

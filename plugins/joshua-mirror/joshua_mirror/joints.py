@@ -12,6 +12,7 @@ import mujoco
 
 from joshua_core.config_pb2 import TopicMapping
 from joshua_core.errors import ConfigError
+from joshua_mirror.names import check_config_names
 from joshua_mirror.options_pb2 import MirrorOptions
 
 MAPPINGS_FIELD = "simulation.mirror_topic_mappings.mappings"
@@ -39,7 +40,8 @@ class MirroredJoint:
 def resolve_joints(
     model: mujoco.MjModel, mappings: Sequence[TopicMapping], options: MirrorOptions
 ) -> list[MirroredJoint]:
-    """Check every mapping against the model and the options; report all problems at once as ConfigError."""
+    """Check every mapping against the model and the options, reporting all problems at once as ConfigError; then
+    the config's ROS names (`check_config_names`)."""
     if not mappings:
         raise ConfigError(f"{MAPPINGS_FIELD} is empty: the MIRROR mode needs at least one topic -> actuator mapping")
     problems: list[str] = []
@@ -72,6 +74,9 @@ def resolve_joints(
             )
     if problems:
         raise ConfigError("the mirror mapping does not fit the model:\n- " + "\n- ".join(problems))
+    topics = {f"{MAPPINGS_FIELD}[{index}].ros_topic": joint.source for index, joint in enumerate(joints) if by_float64}
+    topics |= {f"simulation.mirror.command_topics['{j.actuator}']": j.command_topic for j in joints if j.command_topic}
+    check_config_names(options, topics)
     return joints
 
 

@@ -9,14 +9,12 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from joshua_core.errors import ConfigError
-from joshua_mirror.joints import MAPPINGS_FIELD, MirroredJoint
+from joshua_mirror.joints import MirroredJoint
 from joshua_mirror.mode import DEFAULT_JOINT_STATE_TOPIC, FLOAT64_TYPE, JOINT_STATE_TYPE, QUEUE_DEPTH
 from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.ros import RosSession, message_types, sensor_qos
@@ -57,26 +55,13 @@ class RobotLink:
         self._subscribe_encoders(options)
         self._subscribe_controls(estop_topic, target_topic)
         self.float64, _ = message_types()
-        self.publishers = [
-            self._checked(
-                f"simulation.mirror.command_topics['{joint.actuator}']",
-                lambda joint=joint: self.node.create_publisher(self.float64, joint.command_topic, COMMAND_DEPTH),
-            )
-            for joint in commanded
+        self.publishers = [  # every topic name was checked with the config (resolve_joints) or the command line
+            self.node.create_publisher(self.float64, joint.command_topic, COMMAND_DEPTH) for joint in commanded
         ]
 
-    def _checked(self, field: str, create: Callable[[], Any]) -> Any:
-        """Create a subscription or publisher; an invalid topic name is a ConfigError naming the field."""
-        from rclpy.exceptions import InvalidTopicNameException
-
-        try:
-            return create()
-        except InvalidTopicNameException as error:
-            raise ConfigError(f"{field}: {error}") from None
-
-    def _subscribe(self, field: str, kind: Any, type_name: str, topic: str, callback: Any, qos: Any) -> None:
-        """Subscribe `callback` to `topic` (named by option `field`), whose messages must be `type_name`."""
-        self._checked(field, lambda: self.node.create_subscription(kind, topic, callback, qos))
+    def _subscribe(self, kind: Any, type_name: str, topic: str, callback: Any, qos: Any) -> None:
+        """Subscribe `callback` to `topic`, whose messages must be `type_name`."""
+        self.node.create_subscription(kind, topic, callback, qos)
         self.expected_types[self.node.resolve_topic_name(topic)] = type_name
 
     def _subscribe_encoders(self, options: MirrorOptions) -> None:
@@ -91,20 +76,18 @@ class RobotLink:
                 pairs = zip(message.name, message.position, strict=False)
                 self._store([(by_name[name], value) for name, value in pairs if name in by_name], arrived)
 
-            field = "simulation.mirror.joint_state_topic"
-            self._subscribe(field, joint_state, JOINT_STATE_TYPE, topic, on_joint_state, qos)
+            self._subscribe(joint_state, JOINT_STATE_TYPE, topic, on_joint_state, qos)
             return
         for index, joint in enumerate(self.joints):
-            field = f"{MAPPINGS_FIELD}[{index}].ros_topic"
-            self._subscribe(field, float64, FLOAT64_TYPE, joint.source, self._float64_callback(index), qos)
+            self._subscribe(float64, FLOAT64_TYPE, joint.source, self._float64_callback(index), qos)
 
     def _subscribe_controls(self, estop_topic: str, target_topic: str | None) -> None:
         from geometry_msgs.msg import Point
         from std_msgs.msg import Bool
 
-        self._subscribe("--estop-topic", Bool, BOOL_TYPE, estop_topic, self._on_estop, COMMAND_DEPTH)
+        self._subscribe(Bool, BOOL_TYPE, estop_topic, self._on_estop, COMMAND_DEPTH)
         if target_topic:
-            self._subscribe("--target-topic", Point, POINT_TYPE, target_topic, self._on_target, COMMAND_DEPTH)
+            self._subscribe(Point, POINT_TYPE, target_topic, self._on_target, COMMAND_DEPTH)
 
     def _float64_callback(self, index: int) -> Any:
         def on_float64(message: Any) -> None:

@@ -23,7 +23,7 @@ from joshua_core.options import options_of
 from joshua_core.run_context import RunContext
 from joshua_mirror import options_pb2
 from joshua_mirror.graph import TypeChecker
-from joshua_mirror.joints import MAPPINGS_FIELD, MirroredJoint, resolve_joints
+from joshua_mirror.joints import MirroredJoint, resolve_joints
 from joshua_mirror.mirror import Mirror
 from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.recorder import Recorder
@@ -49,10 +49,10 @@ class MirrorMode(Mode):
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         options = options_of(config, options_pb2.mirror)
         with ExitStack() as stack:
-            ros = stack.enter_context(RosSession(options.node_name or DEFAULT_NODE_NAME))
             engine = stack.enter_context(context.create_engine(config))
             _check_mujoco(engine)
             joints = resolve_joints(engine.model, config.mirror_topic_mappings.mappings, options)
+            ros = stack.enter_context(RosSession(options.node_name or DEFAULT_NODE_NAME))
             mirror = Mirror(
                 engine.model,
                 engine.data,
@@ -124,9 +124,7 @@ class _UnknownTopicWatcher:
 
 
 def _subscribe(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> _UnknownTopicWatcher | None:
-    """Create the subscriptions whose callbacks feed `mirror`; invalid topic names are config errors."""
-    from rclpy.exceptions import InvalidTopicNameException
-
+    """Create the subscriptions whose callbacks feed `mirror` (their topic names checked by `resolve_joints`)."""
     float64, joint_state = message_types()
     qos = sensor_qos(QUEUE_DEPTH)
     node = ros.node
@@ -149,37 +147,26 @@ def _subscribe(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> _Unkn
                     updates.append((index, position))
             mirror.receive(updates, entered)
 
-        try:
-            node.create_subscription(joint_state, topic, on_joint_state, qos)
-        except InvalidTopicNameException as error:
-            raise ConfigError(f"simulation.mirror.joint_state_topic: {error}") from None
+        node.create_subscription(joint_state, topic, on_joint_state, qos)
         return None
 
     mapped = set()
     for index, joint in enumerate(mirror.joints):
-        try:
-            node.create_subscription(float64, joint.source, _float64_callback(mirror, index), qos)
-            mapped.add(node.resolve_topic_name(joint.source))
-        except InvalidTopicNameException as error:
-            raise ConfigError(f"{MAPPINGS_FIELD}[{index}].ros_topic: {error}") from None
+        node.create_subscription(float64, joint.source, _float64_callback(mirror, index), qos)
+        mapped.add(node.resolve_topic_name(joint.source))
     return _UnknownTopicWatcher(ros, mirror, mapped, float64)
 
 
 def _subscribe_commands(ros: RosSession, recorder: Recorder | None) -> None:
     """Subscribe to the command topics whose values the recorder keeps (only when recording)."""
-    from rclpy.exceptions import InvalidTopicNameException
-
     if recorder is None:
         return
     float64, _ = message_types()
     for index, joint in enumerate(recorder.joints):
         if joint.command_topic:
-            try:
-                ros.node.create_subscription(
-                    float64, joint.command_topic, recorder.command_callback(index), sensor_qos(QUEUE_DEPTH)
-                )
-            except InvalidTopicNameException as error:
-                raise ConfigError(f"simulation.mirror.command_topics['{joint.actuator}']: {error}") from None
+            ros.node.create_subscription(
+                float64, joint.command_topic, recorder.command_callback(index), sensor_qos(QUEUE_DEPTH)
+            )
 
 
 def _expected_types(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> dict[str, str]:

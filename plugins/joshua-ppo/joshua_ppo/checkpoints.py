@@ -22,7 +22,7 @@ import jax
 from flax import serialization
 
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json, json_safe
-from joshua_core.errors import JoshuaError, UsageError
+from joshua_core.errors import CorruptCheckpointError
 from joshua_core.runs import RunFolder
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv
@@ -35,11 +35,7 @@ TRAIN_STATE_FILE = "train_state.msgpack"
 RESUME_FILES = (PARAMS_FILE, TRAIN_STATE_FILE)  # what resuming reads from a checkpoint
 
 
-class CorruptCheckpointError(JoshuaError):
-    """A checkpoint file is missing, truncated or does not fit the network it is loaded into."""
-
-
-class NetworkMismatchError(CorruptCheckpointError, UsageError):
+class NetworkMismatchError(CorruptCheckpointError):
     """The parameters saved in a checkpoint have other shapes than the network its config describes (exit 2)."""
 
 

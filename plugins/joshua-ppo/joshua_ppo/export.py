@@ -13,16 +13,12 @@ from typing import Any
 
 import numpy as np
 
-from joshua_core.errors import UsageError
+from joshua_core.errors import CorruptCheckpointError
 from joshua_core.policy import DenseLayer, MlpPolicy
-from joshua_ppo.checkpoints import PARAMS_FILE, CorruptCheckpointError, NetworkMismatchError, _restore, payload_bytes
+from joshua_ppo.checkpoints import PARAMS_FILE, NetworkMismatchError, _restore, payload_bytes
 from joshua_ppo.settings import OBSERVATION_CLIP, NetworkSettings
 
 _NORMALIZER_EPSILON = 1e-8  # as joshua_ppo.normalizer.normalize
-
-
-class DamagedCheckpointError(CorruptCheckpointError, UsageError):
-    """A checkpoint to export cannot be read (exit 2: the input is bad, nothing failed while running)."""
 
 
 def mlp_policy(checkpoint: Path, network: NetworkSettings) -> MlpPolicy:
@@ -33,10 +29,8 @@ def mlp_policy(checkpoint: Path, network: NetworkSettings) -> MlpPolicy:
         params, normalizer = saved["params"], saved["normalizer"]
         mean = np.asarray(normalizer["mean"], np.float32)
         variance = np.asarray(normalizer["variance"], np.float32)
-    except CorruptCheckpointError as error:
-        raise DamagedCheckpointError(str(error)) from None
     except (KeyError, TypeError) as error:
-        raise DamagedCheckpointError(f"{path} has no {error} entry: not a PPO checkpoint") from None
+        raise CorruptCheckpointError(f"{path} has no {error} entry: not a PPO checkpoint") from None
     layers = _policy_layers(path, params, network)
     if network.normalize_observations:  # the std as the trainer computes it, in float32
         std, clip = np.sqrt(variance + np.float32(_NORMALIZER_EPSILON)), OBSERVATION_CLIP

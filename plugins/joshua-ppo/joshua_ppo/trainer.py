@@ -15,6 +15,7 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import EpisodeResults, Trainer
 from joshua_core.interrupts import resume_command, stop_requests
+from joshua_core.limits import check_one_iteration
 from joshua_core.options import options_of
 from joshua_core.policy import ExportedPolicy
 from joshua_core.run_context import RunContext
@@ -91,6 +92,8 @@ class PpoTrainer(Trainer):
         # a bad batch layout is a config error before anything is written
         recompute = settings.returns.recompute_advantages
         check_settings(settings.rollout, settings.optimization, env.num_envs, env.mesh.size, whole_unrolls=recompute)
+        rollout = settings.rollout
+        check_one_iteration(settings.total_timesteps, env.num_envs, rollout.num_steps, rollout.unrolls_per_iteration)
         opened = cluster.on_leader(lambda: _open_run(config, context.output_dir, cluster.num_processes))
         if opened is None:  # another process than 0: it trains alongside and writes nothing
             return self._train(settings, env, cluster, None, _shared_resume(cluster, None))

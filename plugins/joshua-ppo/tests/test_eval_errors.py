@@ -1,9 +1,11 @@
 """`joshua eval` of a PPO run whose folders were tampered with: a stray empty checkpoint folder is skipped, a
-corrupt config.json or a config whose hidden_sizes do not fit the saved network is one line, exit 2."""
+corrupt config.json, a config whose hidden_sizes do not fit the saved network or a damaged params.msgpack is one
+line, exit 2."""
 
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -11,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from joshua_core.errors import ConfigError
 from joshua_ppo import train_mjx
 
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
@@ -71,3 +74,25 @@ def test_a_damaged_checkpoint_config_is_one_line_exit_2(tiny_run: Path, tmp_path
     assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr[-2000:]
     lines = done.stderr.strip().splitlines()
     assert lines[-1].startswith("joshua: error: ") and message in lines[-1], lines[-3:]
+
+
+def test_a_damaged_params_file_is_one_line_exit_2(tiny_run: Path, tmp_path: Path) -> None:
+    checkpoint = tmp_path / "tiny_step_20"
+    shutil.copytree(tiny_run / "tiny_step_20", checkpoint)
+    params = checkpoint / "params.msgpack"
+    params.write_bytes(params.read_bytes()[: params.stat().st_size // 2])  # truncated
+    done = evaluate(checkpoint)
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr[-2000:]
+    lines = done.stderr.strip().splitlines()
+    assert lines[-1].startswith("joshua: error: cannot load ") and "params.msgpack" in lines[-1], lines[-3:]
+
+
+def test_total_timesteps_below_one_iteration_is_refused(tmp_path: Path) -> None:
+    config = {**TINY, "total_timesteps": 19, "ppo": {**TINY["ppo"], "unrolls_per_iteration": 1}}
+    message = (
+        "training.total_timesteps 19 is less than one iteration's environment steps, training.num_envs 4 x "
+        "training.num_steps 5 = 20: set training.total_timesteps to at least 20"
+    )
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        train_mjx(model_path="ant/ant_mjx.xml", config=config, checkpoint_dir=tmp_path)
+    assert not list(tmp_path.iterdir()), "a run folder was made"

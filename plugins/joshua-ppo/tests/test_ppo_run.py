@@ -20,12 +20,11 @@ from flax.serialization import from_bytes
 from numpy.typing import NDArray
 
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.errors import ConfigError, UsageError
+from joshua_core.errors import ConfigError, CorruptCheckpointError, UsageError
 from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
 from joshua_core.runs import list_runs, run_checkpoints
 from joshua_ppo import train_mjx
-from joshua_ppo.checkpoints import CorruptCheckpointError
 from joshua_ppo.train import TrainingDiverged
 from joshua_ppo.trainer import PpoTrainer
 

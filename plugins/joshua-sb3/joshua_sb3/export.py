@@ -16,16 +16,12 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.torch_layers import FlattenExtractor
 from torch import nn
 
-from joshua_core.errors import JoshuaError, UsageError
+from joshua_core.errors import CorruptCheckpointError, JoshuaError, UsageError
 from joshua_core.policy import DenseLayer, MlpPolicy
 from joshua_sb3.run_folder import MODEL_FILE, NORMALIZATION_FILE, verify_checkpoint
 
 EXPORT_TRUST_HINT = "joshua export RUN --trust-checkpoint"
 _ACTIVATIONS: dict[type[nn.Module], str] = {nn.ReLU: "relu", nn.Tanh: "tanh", nn.ELU: "elu", nn.SiLU: "swish"}
-
-
-class CorruptCheckpointError(UsageError):
-    """A checkpoint file that its manifest vouches for (or that was trusted) cannot be loaded (exit 2)."""
 
 
 def saved_policy(checkpoint: Path, algorithm: type[BaseAlgorithm], *, trust: bool, device: str) -> MlpPolicy:

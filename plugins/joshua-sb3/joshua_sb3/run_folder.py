@@ -13,8 +13,9 @@ SB3 checkpoints unpickle on load, so loading one from an untrusted source runs i
 checkpoint is loaded only when its manifest carries a valid HMAC-SHA256 made with the key in
 `~/.config/joshua/checkpoint.key` (created on first use, readable by its owner only; the
 environment variable JOSHUA_CHECKPOINT_KEY_FILE points elsewhere) and every file it loads has the
-hash the manifest lists. Anything else (a folder copied from another machine, a changed file, a
-folder not written by joshua-sb3) is refused unless the user explicitly trusts it.
+hash the manifest lists, and so has its config.json (what the model is run with). Anything else (a
+folder copied from another machine, a changed file, a folder not written by joshua-sb3) is refused unless
+the user explicitly trusts it.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from typing import Any
 from joshua_core.atomic import atomic_create_bytes, atomic_write_json, json_safe
 from joshua_core.curves import write_training_curves
 from joshua_core.errors import UsageError
-from joshua_core.runs import METRICS_FILE, RunFolder
+from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
 
 CURVES_FILE = "training_curves.png"
 MANIFEST_FILE = "manifest.json"
@@ -58,6 +59,8 @@ def key_path() -> Path:
 def signing_key(*, create: bool) -> bytes | None:
     """This user's secret key; created (mode 0600) when `create` and missing, else None when missing."""
     path = key_path()
+    if path.is_dir():
+        raise UsageError(f"checkpoint key {path} is a folder; set {KEY_ENV_VAR} to a file's path (made if missing)")
     if not path.exists() and create:
         # whole or not at all: created and then written, a key read by a run starting beside this one could be
         # empty, which stopped that run ("shorter than 32 bytes"); a run that loses the race uses the winner's
@@ -139,8 +142,9 @@ def _untrusted_reason(checkpoint: Path, names: list[str]) -> str | None:
         return f"this machine has no checkpoint key ({key_path()}), so it was written elsewhere"
     if not hmac.compare_digest(str(manifest.get("signature", "")), _signature(key, manifest)):
         return f"its signature does not match this user's checkpoint key ({key_path()}): it was written elsewhere"
-    for name in names:
-        if manifest.get("files", {}).get(name) != _sha256(checkpoint / name):
+    for name in [*names, CONFIG_FILE]:  # config.json: what the loaded model is run with (task, environments)
+        path = checkpoint / name
+        if not path.is_file() or manifest.get("files", {}).get(name) != _sha256(path):
             return f"{name} changed after it was written"
     return None
 

@@ -7,7 +7,9 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.defaults import DEFAULT_NUMPY_NUM_ENVS
 from joshua_core.errors import ConfigError
+from joshua_core.limits import check_one_iteration
 from joshua_core.options import options_of
 from joshua_core.runs import checkpoint_interval
 from joshua_sb3 import options_pb2
@@ -57,11 +59,14 @@ class Settings:
         if options.checkpoint_interval < 0:
             raise ConfigError("training.sb3.checkpoint_interval must not be negative")
         total_timesteps = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
+        num_steps = config.num_steps or (64 if on_policy else 1)
+        # SB3 collects num_steps per environment (PPO's n_steps, SAC's and TD3's train_freq) before it checks the total
+        check_one_iteration(total_timesteps, config.num_envs or DEFAULT_NUMPY_NUM_ENVS, num_steps)
         return cls(
             algorithm=algorithm,
             total_timesteps=total_timesteps,
             checkpoint_interval=checkpoint_interval(options.checkpoint_interval, total_timesteps),
-            num_steps=config.num_steps or (64 if on_policy else 1),
+            num_steps=num_steps,
             num_epochs=config.num_epochs or (10 if on_policy else 1),
             minibatch_size=config.minibatch_size or 256,
             learning_rate=config.learning_rate or 3e-4,

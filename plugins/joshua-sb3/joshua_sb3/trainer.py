@@ -24,7 +24,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.defaults import DEFAULT_NUMPY_NUM_ENVS
-from joshua_core.errors import ConfigError, JoshuaError, UsageError
+from joshua_core.errors import ConfigError, CorruptCheckpointError, UsageError
 from joshua_core.interfaces import EnvKind, EpisodeResults, Trainer
 from joshua_core.interrupts import StopRequest, resume_command, stop_requests
 from joshua_core.options import message_to_dict, options_of
@@ -214,7 +214,8 @@ def _load_model(
         if has_buffer and isinstance(model, OffPolicyAlgorithm):
             model.load_replay_buffer(checkpoint / REPLAY_BUFFER_FILE)
     except Exception as error:  # a corrupt or foreign file can fail in any way inside SB3 or pickle
-        raise JoshuaError(f"cannot load checkpoint '{checkpoint}': {type(error).__name__}: {error}") from error
+        message = f"cannot load checkpoint '{checkpoint}': {type(error).__name__}: {error}"
+        raise CorruptCheckpointError(message) from None
     return model, normalizer
 
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from joshua_core.errors import UsageError
 from joshua_sb3 import run_folder
 from joshua_sb3.run_folder import KEY_BYTES, KEY_ENV_VAR, signing_key
 
@@ -30,3 +31,10 @@ def test_a_run_that_starts_while_another_makes_the_key_gets_that_whole_key(
     key = signing_key(create=True)
     assert key is not None and len(key) == KEY_BYTES and key == other[1]
     assert signing_key(create=False) == key  # the one on disk
+
+
+def test_a_key_file_that_is_a_folder_is_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(KEY_ENV_VAR, str(tmp_path))
+    for create in (True, False):
+        with pytest.raises(UsageError, match=f"checkpoint key {tmp_path} is a folder; set {KEY_ENV_VAR}"):
+            signing_key(create=create)

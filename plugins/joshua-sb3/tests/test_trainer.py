@@ -155,7 +155,19 @@ def test_checkpoints_this_user_did_not_write_are_refused(trained: tuple[Path, Pa
 
     (checkpoint / MODEL_FILE).write_bytes(b"not a zip file")
     corrupt = joshua("eval", str(checkpoint), *trust, cwd=tmp_path, key=key)
-    assert corrupt.returncode == 1 and "cannot load checkpoint" in corrupt.stderr and "Traceback" not in corrupt.stderr
+    assert corrupt.returncode == 2 and "cannot load checkpoint" in corrupt.stderr and "Traceback" not in corrupt.stderr
+
+
+def test_an_edited_config_of_a_signed_checkpoint_is_refused(trained: tuple[Path, Path], tmp_path: Path) -> None:
+    run_dir, key = trained
+    checkpoint = tmp_path / "edited_step_0"  # the untrained checkpoint: its model.zip is as signed
+    shutil.copytree(checkpoint_folders(run_dir)[0], checkpoint)
+    config = json.loads((checkpoint / "config.json").read_text())
+    config["training"]["seed"] = 1234
+    (checkpoint / "config.json").write_text(json.dumps(config))
+    edited = joshua("eval", str(checkpoint), "--no-video", "--episodes", "2", cwd=tmp_path, key=key)
+    assert edited.returncode == 2 and "Traceback" not in edited.stderr, edited.stderr[-2000:]
+    assert "config.json changed after it was written" in edited.stderr.strip().splitlines()[-1]
 
 
 def adam_steps(checkpoint: Path) -> int:

@@ -3,7 +3,8 @@
 
 They are read by `joshua_core.trajectory.read_trajectory`, the reader every replay uses; this module adds
 only what a fit needs besides: commanded targets, finite values, enough samples, a column for every
-actuated joint, and a model whose actuators are all position servos.
+actuated joint, values plausible for the model's joint ranges, some motion, and a model whose actuators are all
+position servos.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ if TYPE_CHECKING:
 
 MIN_SAMPLES = 20  # fewer samples than this cannot tell four parameters per joint apart
 MIN_DURATION_S = 1.0  # nor can a recording shorter than a few servo time constants
+MIN_MOTION = 1e-4  # rad or m: below a tenth of one step of a 12-bit servo encoder (2 pi / 4096), no motion at all
 SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 
@@ -121,9 +123,30 @@ def _load(
         hint = f" (did you mean {close[0]}?)" if close else ""
         raise UsageError(f"{path}: joint '{unactuated[0]}'{hint} has no position actuator in the model to fit")
     columns = [trajectory.joint_names.index(servo.joint) for servo in servos]
-    return Recording(
-        path,
-        trajectory.timestamps - trajectory.timestamps[0],
-        trajectory.positions[:, columns],
-        trajectory.targets[:, columns],
-    )
+    positions, targets = trajectory.positions[:, columns], trajectory.targets[:, columns]
+    for index, servo in enumerate(servos):
+        for what, values in (("position", positions[:, index]), ("target", targets[:, index])):
+            _check_plausible(path, servo.joint, what, values, model_joints[servo.joint])
+    if (np.ptp(positions, axis=0) < MIN_MOTION).all():
+        raise UsageError(
+            f"{path}: no joint moves (each spans less than {MIN_MOTION:g} rad or m), so it tells the fit nothing; "
+            "record the servos following varied targets"
+        )
+    return Recording(path, trajectory.timestamps - trajectory.timestamps[0], positions, targets)
+
+
+def _check_plausible(
+    path: Path, joint: str, what: str, values: NDArray[np.float64], joint_range: tuple[float, float]
+) -> None:
+    """A limited joint's recorded values lie within its range widened by the range's width on each side: further
+    out, the recording is of another robot or in other units (degrees, encoder steps), and fitting it is wrong."""
+    low, high = joint_range
+    if not (np.isfinite(low) and np.isfinite(high)) or np.isnan(values).all():
+        return
+    width = high - low
+    worst = float(values[np.nanargmax(np.abs(values - (low + high) / 2))])
+    if not low - width <= worst <= high + width:
+        raise UsageError(
+            f"{path}: joint '{joint}' has a {what} of {worst:g}, far outside its range [{low:g}, {high:g}]: not a "
+            "plausible value for this model; is the recording of this robot, in radians or metres?"
+        )

@@ -97,9 +97,10 @@ def write(folder: Path, name: str, lines: list[str]) -> str:
     return str(path)
 
 
-def rows(count: int, *, columns: int = 6, targets: bool = True, value: str = "0.1") -> list[str]:
+def rows(count: int, *, columns: int = 6, targets: bool = True, value: str | None = None) -> list[str]:
+    """`count` rows 10 ms apart; every joint and target moves from 0.1 rad by 1 mrad a row unless `value` is given."""
     width = columns * (2 if targets else 1)
-    return [",".join([f"{i * 0.01:.2f}", *([value] * width)]) for i in range(count)]
+    return [",".join([f"{i * 0.01:.2f}", *([value or f"{0.1 + i * 1e-3:.4f}"] * width)]) for i in range(count)]
 
 
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
@@ -121,6 +122,8 @@ HEADER = ",".join(["timestamp", *JOINTS, *(f"{j}.target" for j in JOINTS)])
         ("run_name_dots", "--run-name '..' is not a name of its own"),
         ("run_name_empty", "--run-name '' is empty"),
         ("run_name_step", "--run-name 'x_step_99999' ends in _step_<N>"),
+        ("no_motion", "no joint moves (each spans less than 0.0001 rad or m), so it tells the fit nothing"),
+        ("implausible", "joint 'joint_1' has a position of 5e+08, far outside its range"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str, expected: str) -> None:
@@ -144,6 +147,8 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path: Path, case: str, expected: s
         "run_name_dots": [good, "--run-name", ".."],
         "run_name_empty": [good, "--run-name", ""],
         "run_name_step": [good, "--run-name", "x_step_99999"],
+        "no_motion": [write(tmp_path, "still.csv", [HEADER, *rows(150, value="0.1")])],
+        "implausible": [write(tmp_path, "far.csv", [HEADER, *rows(150), "1.50," + ",".join(["5e8"] * 12)])],
     }[case]
     done = joshua("sysid", *arguments, cwd=tmp_path)
     assert done.returncode == 2, done.stderr
