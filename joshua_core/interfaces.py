@@ -181,9 +181,15 @@ class Backend(ABC):
 
     @abstractmethod
     def create_engine(
-        self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
+        self,
+        model_path: Path,
+        plugins: PluginHost,
+        *,
+        render_width: int = DEFAULT_RENDER_WIDTH,
+        render_height: int = DEFAULT_RENDER_HEIGHT,
     ) -> Engine:
-        """Load the model at `model_path`; a missing or invalid model raises ModelError."""
+        """Load the model at `model_path` (formats other than MJCF through the model readers of `plugins`, the run's
+        host); a missing or invalid model raises ModelError."""
 
     def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> Any:
         """Batched environments of `kind` (see EnvKind) for `spec`, with tasks and terms from `plugins`."""

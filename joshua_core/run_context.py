@@ -32,7 +32,9 @@ class RunContext:
         (the model's initial state when none is named); an unknown keyframe is a ConfigError listing them."""
         backend = self.plugins.backend(simulation.backend)
         width, height = render_size(simulation)
-        engine = backend.create_engine(Path(simulation.model_path), render_width=width, render_height=height)
+        engine = backend.create_engine(
+            Path(simulation.model_path), self.plugins, render_width=width, render_height=height
+        )
         try:
             engine.reset(simulation.keyframe or None)
         except KeyError as error:

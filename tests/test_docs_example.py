@@ -51,7 +51,7 @@ host = PluginHost.discover()
 component = host.component(Kind.BACKEND, "mujoco_rk4")
 host.options()  # imports every registered options module, joshua_rk4.options_pb2 too
 light = "mujoco" not in sys.modules
-engine = host.backend("mujoco_rk4").create_engine(Path(sys.argv[1]))
+engine = host.backend("mujoco_rk4").create_engine(Path(sys.argv[1]), host)
 
 import mujoco
 

@@ -411,7 +411,7 @@ def plugin_with_env_kinds(kind: str, *components: tuple[str, object, tuple[str, 
 
 
 class EnginesOnly(Backend):
-    def create_engine(self, model_path, *, render_width=640, render_height=480):
+    def create_engine(self, model_path, plugins, *, render_width=640, render_height=480):
         raise NotImplementedError
 
 

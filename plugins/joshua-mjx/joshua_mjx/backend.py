@@ -21,9 +21,14 @@ class MjxBackend(Backend):
     """The `mjx` backend: an `MjxEngine` per model, and `MjxEnv`s (EnvKind.JAX, in joshua_mjx.env) for training."""
 
     def create_engine(
-        self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
+        self,
+        model_path: Path,
+        plugins: PluginHost,
+        *,
+        render_width: int = DEFAULT_RENDER_WIDTH,
+        render_height: int = DEFAULT_RENDER_HEIGHT,
     ) -> MjxEngine:
-        return MjxEngine(model_path, render_width=render_width, render_height=render_height)
+        return MjxEngine(model_path, render_width=render_width, render_height=render_height, plugins=plugins)
 
     def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> MjxEnv:
         if kind is not EnvKind.JAX:

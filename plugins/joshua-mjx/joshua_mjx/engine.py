@@ -10,7 +10,7 @@ MJX behaviour against the CPU one; training uses the batched `joshua_mjx.env.Mjx
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import jax
 import mujoco
@@ -20,6 +20,9 @@ from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH
 from joshua_core.resources import resolve_data_path
 from joshua_mjx.physics import mjx
 from joshua_mujoco import MuJoCoEngine
+
+if TYPE_CHECKING:
+    from joshua_core.plugins import PluginHost
 
 MJX_SUFFIX = "_mjx"
 
@@ -59,8 +62,9 @@ class MjxEngine(MuJoCoEngine):
         *,
         render_width: int = DEFAULT_RENDER_WIDTH,
         render_height: int = DEFAULT_RENDER_HEIGHT,
+        plugins: PluginHost | None = None,
     ) -> None:
-        super().__init__(model_path, render_width=render_width, render_height=render_height)
+        super().__init__(model_path, render_width=render_width, render_height=render_height, plugins=plugins)
         self.mjx_model = put_model(self.model, model_path)
         self._device_data = mjx.make_data(self.mjx_model)
         self._step_n = jax.jit(self._physics_steps)

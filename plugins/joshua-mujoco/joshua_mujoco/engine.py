@@ -150,9 +150,14 @@ class MuJoCoBackend(Backend):
     """The `mujoco` backend: a MuJoCoEngine per model, and `BatchedVectorEnv`s (EnvKind.NUMPY) for training."""
 
     def create_engine(
-        self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
+        self,
+        model_path: Path,
+        plugins: PluginHost,
+        *,
+        render_width: int = DEFAULT_RENDER_WIDTH,
+        render_height: int = DEFAULT_RENDER_HEIGHT,
     ) -> MuJoCoEngine:
-        return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height)
+        return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height, plugins=plugins)
 
     def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> BatchedVectorEnv:
         if kind is not EnvKind.NUMPY:

@@ -30,7 +30,9 @@ MADE: list[EnvSpec] = []  # every EnvSpec the test backend was asked for
 class JaxTestBackend(Backend):
     """A third party's JAX environments: joshua-mjx's exported MjxEnv, built by the plugin itself."""
 
-    def create_engine(self, model_path: Path, *, render_width: int = 640, render_height: int = 480) -> Any:
+    def create_engine(
+        self, model_path: Path, plugins: PluginHost, *, render_width: int = 640, render_height: int = 480
+    ) -> Any:
         raise NotImplementedError
 
     def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> Any:

@@ -37,7 +37,9 @@ class ThirdPartyEnvs(gymnasium.vector.VectorWrapper):
 
 
 class NumpyTestBackend(Backend):
-    def create_engine(self, model_path: Path, *, render_width: int = 640, render_height: int = 480) -> Any:
+    def create_engine(
+        self, model_path: Path, plugins: PluginHost, *, render_width: int = 640, render_height: int = 480
+    ) -> Any:
         raise NotImplementedError
 
     def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> ThirdPartyEnvs:

@@ -27,9 +27,14 @@ class UsdBackend(Backend):
     """The `usd` backend: a MuJoCoEngine per model; NUMPY (mujoco.batch) and JAX (MJX) environments."""
 
     def create_engine(
-        self, model_path: Path, *, render_width: int = DEFAULT_RENDER_WIDTH, render_height: int = DEFAULT_RENDER_HEIGHT
+        self,
+        model_path: Path,
+        plugins: PluginHost,
+        *,
+        render_width: int = DEFAULT_RENDER_WIDTH,
+        render_height: int = DEFAULT_RENDER_HEIGHT,
     ) -> MuJoCoEngine:
-        return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height)
+        return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height, plugins=plugins)
 
     def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> Any:
         if kind is EnvKind.NUMPY:

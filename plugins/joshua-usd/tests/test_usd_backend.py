@@ -75,8 +75,8 @@ def test_jax_environments_without_joshua_mjx_say_to_install_it(
         UsdBackend().create_envs(spec("isaac_trileg"), EnvKind.JAX, plugins)
 
 
-def test_engines_are_mujoco_engines_of_any_model_format() -> None:
-    with UsdBackend().create_engine(resolve_data_path(MODELS["isaac_trileg"])) as engine:
+def test_engines_are_mujoco_engines_of_any_model_format(plugins: PluginHost) -> None:
+    with UsdBackend().create_engine(resolve_data_path(MODELS["isaac_trileg"]), plugins) as engine:
         assert isinstance(engine, MuJoCoEngine) and engine.model.nu == 6
         engine.step(5)
         assert engine.time == pytest.approx(5 * 0.004)

@@ -37,7 +37,10 @@ class CompareMode(Mode):
             raise ConfigError("simulation.rk4_compare.steps and .tolerance must not be negative")
         steps = options.steps or DEFAULT_STEPS
         model_path = Path(config.model_path)
-        with MuJoCoEngine(model_path) as own, RK4Backend().create_engine(model_path) as rk4:
+        with (
+            MuJoCoEngine(model_path, plugins=context.plugins) as own,
+            RK4Backend().create_engine(model_path, context.plugins) as rk4,
+        ):
             for engine in (own, rk4):
                 try:
                     engine.reset(config.keyframe or None)
