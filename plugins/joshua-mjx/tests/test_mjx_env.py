@@ -47,6 +47,7 @@ def test_mjx_env_matches_the_mujoco_backend_step_for_step(ant_env) -> None:  # t
     cpu.close()
 
 
+@pytest.mark.slow
 def test_mjx_contacts_hold_the_ant_up_like_mujoco() -> None:
     """Standing on its legs through 30 steps of contact; random actions on the floor would diverge chaotically."""
     config = task_config_from_options({"terms": NO_RESET_NOISE, "episode_length": 50})
@@ -71,6 +72,7 @@ def test_mjx_contacts_hold_the_ant_up_like_mujoco() -> None:
     cpu.close()
 
 
+@pytest.mark.slow
 def test_autoreset_ends_episodes_at_the_length_and_reports_them(ant_env) -> None:  # type: ignore[no-untyped-def]
     state = ant_env.reset(jax.random.PRNGKey(1))
     action = jnp.full((4, 8), 0.5)
@@ -126,6 +128,7 @@ def test_reset_terms_draw_per_environment_and_repeat_with_the_key(noisy_ant_env)
         make_mjx_env("ant_locomotion", 0, model_path="ant/ant.xml")
 
 
+@pytest.mark.slow
 def test_episodes_restart_from_the_start_state_until_it_is_redrawn(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
     env, action = noisy_ant_env, jnp.full((4, 8), 0.2)
     first = state = env.reset(jax.random.PRNGKey(2))
@@ -149,6 +152,7 @@ def test_episodes_restart_from_the_start_state_until_it_is_redrawn(noisy_ant_env
     np.testing.assert_allclose(np.asarray(state.data.qpos), new_starts, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_autoreset_takes_only_what_the_next_step_and_the_terms_read(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
     """Episodes restarted from part of their start's Data run as from all of it (to rounding: SAME_PHYSICS)."""
     whole = make_noisy_ant()
@@ -165,6 +169,7 @@ def test_autoreset_takes_only_what_the_next_step_and_the_terms_read(noisy_ant_en
     assert not np.array_equal(np.asarray(partial_state.data.geom_xpos), np.asarray(whole_state.data.geom_xpos))
 
 
+@pytest.mark.slow
 def test_physics_steps_pass_on_only_the_integration_state(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
     """An env step's physics steps hand only MuJoCo's integration state on; the Data it ends with is, field for
     field, what frame_skip whole `mjx.step` calls give, to rounding (restarts on steps 3 and 6 included)."""
@@ -181,6 +186,7 @@ def test_physics_steps_pass_on_only_the_integration_state(noisy_ant_env) -> None
         assert_same_physics(state.observation, whole_state.observation, "observation")
 
 
+@pytest.mark.slow
 def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> None:
     script = textwrap.dedent(
         """
