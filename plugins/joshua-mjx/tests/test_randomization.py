@@ -115,7 +115,8 @@ def test_the_value_observation_is_the_observation_without_its_noise() -> None:
     assert states[0].value_observation is None and states[0].final_value_observation is None  # nothing to hide
     for action in _actions():
         states = [
-            env.step(state, jnp.asarray(action, jnp.float32)) for env, state in zip((plain, noisy), states, strict=True)
+            _split(env, env.step(state, jnp.asarray(action, jnp.float32)))
+            for env, state in zip((plain, noisy), states, strict=True)
         ]
         clean, noise = np.asarray(states[1].value_observation), np.asarray(states[1].params["obs_noise"])
         # the noise changes what the policy sees, not the physics: the clean view is the noise-free task's
