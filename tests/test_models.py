@@ -170,6 +170,7 @@ def test_trileg_comes_to_rest_standing() -> None:
 
 
 @pytest.mark.parametrize(("path", "atol"), MJX_CASES, ids=[path.name for path, _ in MJX_CASES])
+@pytest.mark.slow
 def test_mjx_steps_without_nan(path: Path, atol: float) -> None:
     """The MJX variants load with mjx.put_model; 100 jitted steps stay finite and close to MuJoCo's."""
     mjx = pytest.importorskip("mujoco.mjx")

@@ -123,6 +123,7 @@ def test_sb3_policy_exports_to_onnx_with_the_same_actions(sb3_run: tuple[Path, P
     assert np.abs(policy(observations[0]) - expected[0]).max() < TOLERANCE
 
 
+@pytest.mark.slow
 def test_ppo_policy_exports_into_its_checkpoint_with_the_same_actions(ppo_run: Path) -> None:
     from flax.serialization import from_bytes
 
@@ -145,6 +146,7 @@ def test_ppo_policy_exports_into_its_checkpoint_with_the_same_actions(ppo_run: P
     assert np.abs(run_onnx(checkpoint, observations) - expected).max() < TOLERANCE
 
 
+@pytest.mark.slow
 def test_bad_runs_are_one_line_exit_2(sb3_run: tuple[Path, Path], ppo_run: Path, tmp_path: Path) -> None:
     run, key = sb3_run
     one_line_exit_2(joshua("export", str(tmp_path / "nothing"), cwd=tmp_path, key=key), "does not exist")

@@ -94,6 +94,7 @@ def test_pressing_on_the_cube_touches_both_pads_but_is_no_grasp() -> None:
 
 
 @pytest.mark.parametrize("preset", ["so_arm100_pick_place_mjx", "so_arm100_pick_place_mjx_dr"])
+@pytest.mark.slow
 def test_the_script_solves_the_mjx_scene(preset: str) -> None:
     """The MJX scene, and the randomized preset's: friction, cube mass, servo gains, action delay, observation
     noise and pushes on the cube leave the task solvable."""

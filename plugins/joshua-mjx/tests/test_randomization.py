@@ -7,6 +7,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 from google.protobuf import text_format
 
 from joshua_core.config_pb2 import TaskConfig
@@ -76,6 +77,7 @@ def _mjx_run(env: MjxEnv, params: dict[str, np.ndarray]) -> np.ndarray:
     return np.array(qpos)
 
 
+@pytest.mark.slow
 def test_same_parameters_give_the_same_trajectories_on_both_backends() -> None:
     params, cpu, _ = _cpu_run()
     env = make_mjx_env(TASK, ENVS, model_path=MODEL, task_config=_config())
@@ -105,6 +107,7 @@ events { name: "noise" term: "observation_noise" mode: INTERVAL interval_steps: 
 """
 
 
+@pytest.mark.slow
 def test_the_value_observation_is_the_observation_without_its_noise() -> None:
     plain = make_mjx_env(TASK, ENVS, model_path=MODEL)
     noisy = make_mjx_env(TASK, ENVS, model_path=MODEL, task_config=text_format.Parse(NOISE, TaskConfig()))
@@ -112,7 +115,8 @@ def test_the_value_observation_is_the_observation_without_its_noise() -> None:
     assert states[0].value_observation is None and states[0].final_value_observation is None  # nothing to hide
     for action in _actions():
         states = [
-            env.step(state, jnp.asarray(action, jnp.float32)) for env, state in zip((plain, noisy), states, strict=True)
+            _split(env, env.step(state, jnp.asarray(action, jnp.float32)))
+            for env, state in zip((plain, noisy), states, strict=True)
         ]
         clean, noise = np.asarray(states[1].value_observation), np.asarray(states[1].params["obs_noise"])
         # the noise changes what the policy sees, not the physics: the clean view is the noise-free task's

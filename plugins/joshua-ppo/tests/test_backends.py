@@ -93,6 +93,7 @@ def training(backend: str) -> TrainingConfig:
     return config
 
 
+@pytest.mark.slow
 def test_ppo_trains_films_and_evaluates_on_a_third_party_jax_backend(tmp_path: Path) -> None:
     plugins = host()
     context = RunContext(plugins, tmp_path)

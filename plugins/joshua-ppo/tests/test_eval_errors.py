@@ -16,6 +16,8 @@ import pytest
 from joshua_core.errors import ConfigError
 from joshua_ppo import train_mjx
 
+pytestmark = pytest.mark.slow  # every test here trains
+
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
 TINY = {  # 4 environments x 5 steps, one iteration
     "task": "ant_locomotion", "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1,

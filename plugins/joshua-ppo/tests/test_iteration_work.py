@@ -77,6 +77,7 @@ def test_advantages_once_per_iteration_evaluate_only_what_they_use(env: MjxEnv) 
 
 
 @pytest.mark.parametrize("truncated", [[], [5], [0, 3, 7]])
+@pytest.mark.slow
 def test_final_values_are_the_value_network_s_where_episodes_were_truncated(env: MjxEnv, truncated: list[int]) -> None:
     """Gathered (one truncated environment: final_rows is 1 of 12) or over every environment (more), the final
     values of truncated episodes are the value network's on their final observations."""

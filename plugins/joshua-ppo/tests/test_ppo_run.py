@@ -28,6 +28,8 @@ from joshua_ppo import train_mjx
 from joshua_ppo.train import TrainingDiverged
 from joshua_ppo.trainer import PpoTrainer
 
+pytestmark = pytest.mark.slow  # every test here trains
+
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
 REACH = {  # 16 envs x 25 steps per iteration, 20 iterations: about 80 s on 2 cores after a 35 s compile
     "num_envs": 16,

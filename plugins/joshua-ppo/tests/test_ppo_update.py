@@ -56,6 +56,7 @@ def test_recomputed_advantages_match_while_the_value_network_is_unchanged(env: M
     np.testing.assert_allclose(recomputed, once, rtol=1e-4, atol=1e-7)
 
 
+@pytest.mark.slow
 def test_recomputed_advantages_follow_the_learning_value_network(env: MjxEnv) -> None:
     once, recomputed = update_losses(env, False, 3), update_losses(env, True, 3)
     assert np.abs(recomputed - once).max() > 1e-3 * np.abs(once).max(), (once, recomputed)
@@ -84,6 +85,7 @@ def learning_rates(env: MjxEnv, desired_kl: float) -> tuple[float, float]:
     return float(state.opt_state.hyperparams["learning_rate"]), float(metrics["learning_rate"])
 
 
+@pytest.mark.slow
 def test_adaptive_learning_rate_follows_the_kl_divergence(env: MjxEnv) -> None:
     assert learning_rates(env, 0.0) == pytest.approx((1e-3, 1e-3))  # off: constant
     final, mean = learning_rates(env, 1e-9)  # every move is too far: smaller steps
@@ -92,6 +94,7 @@ def test_adaptive_learning_rate_follows_the_kl_divergence(env: MjxEnv) -> None:
     assert final > 1e-3 * 1.5**2 and mean > 1e-3
 
 
+@pytest.mark.slow
 def test_the_kl_guard_measures_the_policy_change_alone(env: MjxEnv) -> None:
     """One epoch of one minibatch: its KL is taken before the first gradient step, where the policy is the one
     that collected, so it is 0 with a KL guard, whose update sees the statistics the rollout used. Without

@@ -12,7 +12,11 @@ import sys
 import threading
 from pathlib import Path
 
+import pytest
+
 from joshua_core.runs import checkpoint_step, run_checkpoints
+
+pytestmark = pytest.mark.slow  # every test here trains
 
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
 SETTINGS = {  # 4 environments x 5 steps per iteration: compiles in seconds on the CPU

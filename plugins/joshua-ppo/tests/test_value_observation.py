@@ -15,6 +15,8 @@ from joshua_ppo.normalizer import fresh_statistics
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
 from joshua_ppo.state import init_state
 
+pytestmark = pytest.mark.slow  # every test here trains
+
 NOISE = """
 events { name: "noise" term: "observation_noise" mode: INTERVAL interval_steps: 1 params { key: "std" value: "3" } }
 """

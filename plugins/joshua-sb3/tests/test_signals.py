@@ -16,6 +16,8 @@ import pytest
 from joshua_core.runs import checkpoint_step, run_checkpoints
 from joshua_sb3.run_folder import KEY_ENV_VAR
 
+pytestmark = pytest.mark.slow  # every test here trains
+
 JOSHUA = Path(sys.executable).parent / "joshua"
 SETTINGS = [
     "--preset", "so_arm100_reach_sb3",

@@ -24,6 +24,8 @@ from joshua_core.outputs import MARKER
 from joshua_core.runs import checkpoint_step, list_runs, run_checkpoints
 from joshua_sb3.run_folder import KEY_ENV_VAR, MANIFEST_FILE, MODEL_FILE
 
+pytestmark = pytest.mark.slow  # every test here trains
+
 JOSHUA = Path(sys.executable).parent / "joshua"
 PRESET = "so_arm100_reach_sb3"
 RESULT_LINE = re.compile(r"^(?P<name>[a-z_]+): (?P<value>[-+.\deE]+|nan|inf)$")

@@ -12,6 +12,8 @@ import pytest
 from joshua_core.runs import run_checkpoints
 from joshua_sb3.run_folder import KEY_ENV_VAR, MODEL_FILE
 
+pytestmark = pytest.mark.slow  # every test here trains
+
 JOSHUA = Path(sys.executable).parent / "joshua"
 PRESETS = ("isaac_ant_locomotion", "isaac_trileg")  # on models/isaac/ant.usd and trileg.usd, backend usd
 TIMESTEPS = 2 * 16 * 2  # two PPO rollouts of 16 steps on 2 environments

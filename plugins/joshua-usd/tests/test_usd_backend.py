@@ -49,6 +49,7 @@ def test_the_plugin_registers_the_backend_with_both_kinds(plugins: PluginHost) -
 
 
 @pytest.mark.parametrize("task", sorted(MODELS))
+@pytest.mark.slow
 def test_numpy_and_jax_environments_agree(task: str, plugins: PluginHost, ant_jax) -> None:  # type: ignore[no-untyped-def]
     backend = plugins.backend("usd")
     cpu = backend.create_envs(spec(task), EnvKind.NUMPY, plugins)

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 import cv2
+import pytest
 
 from joshua_core.runs import run_checkpoints
 
@@ -42,6 +43,7 @@ def test_passive_validates_and_replays_the_example_on_the_usd_arm(tmp_path: Path
     assert (tmp_path / "out" / "passive_replay.mp4").stat().st_size > 0
 
 
+@pytest.mark.slow
 def test_ppo_trains_on_mjx_through_the_usd_backend(tmp_path: Path) -> None:
     settings = {
         "framework": "MJX", "backend": "usd", "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1,
