@@ -277,7 +277,7 @@ class MjxEnv:
         """`data` after frame_skip physics steps. Only MuJoCo's integration state goes from one to the next: what
         else the steps before the last compute, the last recomputes, so XLA drops it (positions of cameras and
         geoms, inertias, constraint rows, ... stay on chip or go unwritten; the gain is in bench/RESULTS.md). The
-        Data is bitwise what frame_skip whole steps give."""
+        Data is what frame_skip whole steps give, to float32 rounding (XLA may fuse the two programs differently)."""
 
         def inputs_step(_: int, inputs: dict[str, jax.Array]) -> dict[str, jax.Array]:
             stepped = self._physics(mjx.step, fields, data.replace(**inputs))
