@@ -9,6 +9,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from joshua_core import __version__, catalog
+from joshua_core.compile_cache import NO_CACHE_ENV_VAR, add_no_cache_argument, apply_no_cache
 from joshua_core.config import (
     LoadedConfig,
     apply_override,
@@ -25,7 +26,7 @@ from joshua_core.errors import JoshuaError, PluginNotFoundError, UsageError
 from joshua_core.interrupts import reported
 from joshua_core.kinds import Kind
 from joshua_core.options import LENIENT, OptionSet
-from joshua_core.outputs import check_name
+from joshua_core.outputs import check_name, user_cache_dir
 from joshua_core.plugins import DISABLE_ENV_VAR, PluginHost
 from joshua_core.run_context import RunContext
 
@@ -44,6 +45,8 @@ examples:
 
 Relative model and trajectory paths resolve against the config file's folder, the working
 directory, then the models shipped with JOSHUA. {DISABLE_ENV_VAR}=a,b skips plugins by name.
+Compiled programs (JAX, Warp) are kept in {user_cache_dir()} so that a rerun starts warm;
+--no-cache or {NO_CACHE_ENV_VAR}=1 turns that off.
 exit status: 0 ok, 1 runtime failure, 2 usage or config error."""
 
 # Printed after the embedded default run (`joshua` alone): what a newcomer can try next.
@@ -72,6 +75,7 @@ def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.Argu
         help=f"do not replay a trajectory that fails validation (same as --set {STRICT_OVERRIDE})",
     )
     parser.add_argument("--print-config", action="store_true", help="print the final config and exit")
+    add_no_cache_argument(parser)
     commands = parser.add_subparsers(dest="command", title="commands", metavar="COMMAND")
     commands.add_parser("presets", help="list the shipped presets with their descriptions")
     commands.add_parser("plugins", help="list installed plugins: distribution, version, what they register")
@@ -105,6 +109,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args, command_argv = parser.parse_known_args(argv)
     if command_argv and args.command not in plugin_commands:
         parser.error(f"unrecognized arguments: {' '.join(command_argv)}")
+    apply_no_cache(args)
 
     def job() -> int:
         if args.command == "presets":

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.cli import writable_file
+from joshua_core.compile_cache import add_no_cache_argument, apply_no_cache
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
 from joshua_core.limits import cli_number
@@ -49,8 +50,10 @@ class EvalCommand(Command):
             "--grid", type=int, default=1, help="episodes tiled in the video, at most --episodes (default 1; 4: 2x2)"
         )
         parser.add_argument("--json", type=Path, help="JSON of the results to write (default: RUN/eval.json)")
+        add_no_cache_argument(parser)
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        apply_no_cache(args)
         if not 1 <= args.grid <= args.episodes:
             raise UsageError(f"--grid must be between 1 and --episodes ({args.episodes}), got {args.grid}")
         run_dir: Path = args.run

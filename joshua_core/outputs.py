@@ -1,5 +1,7 @@
 """Where JOSHUA writes: names that become paths, writes kept inside their folder, folders it may replace.
 
+Compiled programs and other per-user state that a run may rebuild live in `user_cache_dir()`.
+
 A name the user chooses for something JOSHUA creates (a run, an output folder, an output file) is one plain
 path component, so that it cannot lead outside the folder it is made in. A folder JOSHUA writes whole (a
 dataset, an export) carries `MARKER`; a folder is only ever replaced when it carries the marker and the user
@@ -16,9 +18,18 @@ from pathlib import Path
 from joshua_core.atomic import atomic_directory
 from joshua_core.errors import UsageError
 
+CACHE_HOME_ENV_VAR = "XDG_CACHE_HOME"
 MARKER = ".joshua-output"  # in every folder JOSHUA writes whole: what tells it apart from the user's folders
 MAX_NAME_BYTES = 255  # the longest file name Linux and macOS file systems take
 _SHOWN = 60  # characters of a refused name that the message shows
+
+
+def user_cache_dir() -> Path:
+    """This user's cache folder for JOSHUA: `$XDG_CACHE_HOME/joshua`, else `~/.cache/joshua` (the XDG Base
+    Directory rule, so that users and cleaners find it where they find other programs' caches)."""
+    home = Path(os.environ.get(CACHE_HOME_ENV_VAR, "")).expanduser()
+    base = home if home.is_absolute() else Path.home() / ".cache"  # the rule: a relative path is ignored
+    return base / "joshua"
 
 
 def check_name(name: str, what: str) -> str:

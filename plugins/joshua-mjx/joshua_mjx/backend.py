@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from joshua_core.compile_cache import use_compile_cache
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, EnvKind, EnvSpec
 from joshua_mjx.engine import MjxEngine
@@ -28,9 +29,11 @@ class MjxBackend(Backend):
         render_width: int = DEFAULT_RENDER_WIDTH,
         render_height: int = DEFAULT_RENDER_HEIGHT,
     ) -> MjxEngine:
+        use_compile_cache()  # before the engine's step compiles
         return MjxEngine(model_path, render_width=render_width, render_height=render_height, plugins=plugins)
 
     def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> MjxEnv:
         if kind is not EnvKind.JAX:
             raise ConfigError(f"backend mjx provides JAX environments, not {kind.name}")
+        use_compile_cache()  # before the environments' reset and step compile
         return mjx_envs(spec, plugins)

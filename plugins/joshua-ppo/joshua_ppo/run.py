@@ -15,6 +15,7 @@ import jax
 import numpy as np
 
 from joshua_core.atomic import atomic_write_json, json_safe
+from joshua_core.compile_cache import CompileCache, cache_reads
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.curves import write_training_curves
 from joshua_core.options import message_to_dict, options_of
@@ -74,9 +75,17 @@ class Run:
     """One run being trained: its folder, history and monitors; the callbacks `train_ppo` calls."""
 
     def __init__(
-        self, config: TrainingConfig, settings: PpoSettings, env: JaxEnv, context: RunContext, run: RunFolder
+        self,
+        config: TrainingConfig,
+        settings: PpoSettings,
+        env: JaxEnv,
+        context: RunContext,
+        run: RunFolder,
+        cache: CompileCache,
     ) -> None:
         self.config = config
+        self.cache = cache
+        self._reads_before: tuple[int, int] | None = None  # cache reads when compiling began, until reported
         self.settings = settings
         self.env = env
         self.context = context
@@ -142,7 +151,11 @@ class Run:
         processes = jax.process_count()
         devices = ", ".join(str(device) for device in jax.devices())
         where = f"{len(jax.devices())} devices of {processes} processes" if processes > 1 else devices
-        self.bar.write(f"ppo: {self.env.num_envs} environments on {where}; compiling the training iteration")
+        self._reads_before = cache_reads()
+        self.bar.write(
+            f"ppo: {self.env.num_envs} environments on {where}; compiling the training iteration "
+            f"({self.cache.describe()})"
+        )
         sys.stdout.flush()  # the line that says training started, for whoever waits on it
 
     def close_monitors(self) -> None:
@@ -159,6 +172,9 @@ class Run:
         if metrics["episodes"] > 0:
             self.last_return = metrics["mean_return"]
         self.compile_seconds, self.wall_seconds = report.compile_seconds, report.wall_seconds
+        if self._reads_before is not None:
+            self.report_compiled(self._reads_before)
+            self._reads_before = None
         record = {"step": report.env_steps, "steps_per_second": round(report.steps_per_second, 1)}
         record |= {name: value for name, value in metrics.items() if np.isfinite(value)}
         self.history.append(record)
@@ -175,6 +191,12 @@ class Run:
             if not self.viewer.show(qpos, status):
                 self.viewer.close()
                 self.viewer = None
+
+    def report_compiled(self, reads_before: tuple[int, int]) -> None:
+        """The line after the first iteration: how long compiling took and how much of it came from the cache."""
+        hits, requests = (now - before for now, before in zip(cache_reads(), reads_before, strict=True))
+        cached = f"{hits} of {requests} programs from the compilation cache" if self.cache.folder else "no cache"
+        self.bar.write(f"ppo: compiled in {self.compile_seconds:.1f} s ({cached})")
 
     def on_checkpoint(self, state: TrainingState, progress: Progress, report: IterationReport | None) -> None:
         metrics = self.metrics_document(progress)

@@ -84,9 +84,12 @@ def train_ppo(
     iteration = make_iteration(env, rollout=rollout, optimization=optimization, returns=returns, network=network)
     abstract = abstract_state(env, network=network, optimization=optimization)
     # the iteration compiles while the environments reset (which compiles mjx.forward): both take seconds
-    # of XLA compilation, which runs without holding the GIL
+    # of XLA compilation, which runs without holding the GIL. It is traced here, before the reset traces: traced
+    # at once on two threads, the two programs came out different from run to run (JAX's tracing caches are
+    # shared), so the persistent compilation cache never found them again.
+    lowered = iteration.lower(abstract)
     with ThreadPoolExecutor(max_workers=1) as pool:
-        compiling = pool.submit(lambda: iteration.lower(abstract).compile())
+        compiling = pool.submit(lowered.compile)
         state, progress = resume or (
             init_state(env, seed=seed, network=network, optimization=optimization),
             Progress(0, 0),

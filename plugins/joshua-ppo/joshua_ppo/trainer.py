@@ -11,6 +11,7 @@ from pathlib import Path
 import jax
 
 from joshua_core.atomic import atomic_write_json
+from joshua_core.compile_cache import use_compile_cache
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import EpisodeResults, Trainer
@@ -83,6 +84,7 @@ class PpoTrainer(Trainer):
     """PPO on the JAX environments of the configured backend; see the plugin README."""
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
+        cache = use_compile_cache()  # before anything compiles
         cluster = join(config)  # before anything asks JAX for its devices
         cluster.check_same_config(config)
         settings = PpoSettings.from_config(config)
@@ -99,7 +101,7 @@ class PpoTrainer(Trainer):
             return self._train(settings, env, cluster, None, _shared_resume(cluster, None))
         folder, resume = opened
         with folder:  # locked while training
-            run = Run(config, settings, env, context, folder)
+            run = Run(config, settings, env, context, folder, cache)
             return self._train(settings, env, cluster, run, _shared_resume(cluster, resume))
 
     def _train(
@@ -180,6 +182,7 @@ class PpoTrainer(Trainer):
     ) -> EpisodeResults:
         checkpoint, _, config = saved_training(run_dir, RUN_FORMAT, context.plugins.options())
         settings = PpoSettings.from_config(config)
+        use_compile_cache()  # before anything compiles
         devices = len(jax.devices())
         env = environment(config, context, -(-episodes // devices) * devices)
         params, normalizer = load_params(checkpoint, env, settings.network)

@@ -118,7 +118,7 @@ def test_a_corrupt_checkpoint_is_a_clear_error(reach_run: Path, tmp_path: Path) 
             broken, episodes=2, seed=0, video_path=None, context=RunContext(PluginHost.discover(), tmp_path)
         )
     done = subprocess.run([*JOSHUA, "eval", str(broken), "--no-video"], capture_output=True, text=True, timeout=300)
-    assert done.returncode == 1 and "cannot load" in done.stderr and "Traceback" not in done.stderr
+    assert done.returncode == 2 and "cannot load" in done.stderr and "Traceback" not in done.stderr
 
 
 ANT = {

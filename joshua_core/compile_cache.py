@@ -1,0 +1,123 @@
+"""Compiled programs kept between runs, so that a rerun of the same config starts warm.
+
+JAX's persistent compilation cache and Warp's kernel cache both go to this user's cache folder
+(`joshua_core.outputs.user_cache_dir()`: `jax/` and `warp/` in it). What JAX and Warp do with an entry
+they cannot read is their documented behaviour, relied on here: JAX warns and compiles anew
+(`jax_raise_persistent_cache_errors` is off by default), Warp rebuilds a kernel whose cached module is missing.
+`--no-cache` on the command line, or `JOSHUA_NO_CACHE=1`, turns both off; a cache folder the user already gave
+JAX (`JAX_COMPILATION_CACHE_DIR`, `jax_compilation_cache_dir`) or Warp (`WARP_CACHE_PATH`) is kept.
+
+Backends and trainers that compile call `use_compile_cache()` before their first compilation; it imports JAX
+(and Warp, where it is installed) only then, so the core itself stays free of them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import importlib.util
+import os
+import sys
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+
+from joshua_core.outputs import user_cache_dir
+
+NO_CACHE_ENV_VAR = "JOSHUA_NO_CACHE"
+WARP_CACHE_ENV_VAR = "WARP_CACHE_PATH"  # Warp's own setting, read by warp.init()
+ENTRY_SUFFIX = "-cache"  # how JAX names a cached program's file
+# Every program is kept: JAX keeps only programs that took 1 s to compile by default, but a run compiles dozens
+# that take less (resets, the normaliser, evaluation rollouts), and together they make up the warm start.
+MIN_COMPILE_SECONDS = 0.0
+MIN_ENTRY_BYTES = -1  # JAX: no size threshold, and none chosen for the file system either
+_EVENTS: Counter[str] = Counter()  # JAX's compilation-cache events in this process (hits, requests)
+_HIT = "/jax/compilation_cache/cache_hits"
+_REQUEST = "/jax/compilation_cache/compile_requests_use_cache"
+
+
+@dataclass(frozen=True)
+class CompileCache:
+    """Where this process keeps JAX's compiled programs (None: caching off) and how many were there at the start."""
+
+    folder: Path | None
+    programs: int
+
+    def describe(self) -> str:
+        """'compilation cache warm: FOLDER', 'cold' when it held no program, or 'off'."""
+        if self.folder is None:
+            return f"compilation cache off ({NO_CACHE_ENV_VAR})"
+        return f"compilation cache {'warm' if self.programs else 'cold'}: {self.folder}"
+
+
+def cache_enabled() -> bool:
+    """False when JOSHUA_NO_CACHE is set to anything but '', '0', 'false' or 'no' (what --no-cache sets)."""
+    return os.environ.get(NO_CACHE_ENV_VAR, "").strip().lower() in ("", "0", "false", "no")
+
+
+def add_no_cache_argument(parser: argparse.ArgumentParser) -> None:
+    """Declare `--no-cache`, the way every command that compiles takes it; `apply_no_cache` acts on it."""
+    parser.add_argument(
+        "--no-cache",
+        action="store_true",
+        help=f"neither read nor keep compiled programs in {user_cache_dir()} (same as {NO_CACHE_ENV_VAR}=1)",
+    )
+
+
+def apply_no_cache(args: argparse.Namespace) -> None:
+    """With `--no-cache`, turn caching off for this process and the processes it starts (through the variable)."""
+    if args.no_cache:
+        os.environ[NO_CACHE_ENV_VAR] = "1"
+
+
+def use_compile_cache() -> CompileCache:
+    """Point JAX (and Warp, when installed) at this user's cache folder, or turn their caches off; call it before
+    the first compilation. Calling it again changes nothing."""
+    import jax
+
+    _count_cache_events()
+    enabled = cache_enabled()
+    jax.config.update("jax_enable_compilation_cache", enabled)
+    _use_warp_cache(enabled)
+    if not enabled:
+        return CompileCache(None, 0)
+    folder = jax.config.jax_compilation_cache_dir  # one the user gave (JAX_COMPILATION_CACHE_DIR) is kept
+    if not folder:
+        folder = str(user_cache_dir() / "jax")
+        jax.config.update("jax_compilation_cache_dir", folder)
+    thresholds = {
+        "jax_persistent_cache_min_compile_time_secs": MIN_COMPILE_SECONDS,
+        "jax_persistent_cache_min_entry_size_bytes": MIN_ENTRY_BYTES,
+    }
+    for option, value in thresholds.items():
+        if option.upper() not in os.environ:  # a threshold the user gave JAX (its variable) wins
+            jax.config.update(option, value)
+    path = Path(folder)
+    programs = sum(1 for _ in path.glob(f"*{ENTRY_SUFFIX}")) if path.is_dir() else 0
+    return CompileCache(path, programs)
+
+
+def cache_reads() -> tuple[int, int]:
+    """(programs read from the cache, programs asked of it) in this process so far; compare two readings."""
+    return _EVENTS[_HIT], _EVENTS[_REQUEST]
+
+
+@functools.cache  # once per process: a listener cannot be removed, a second would count every event twice
+def _count_cache_events() -> None:
+    """Count JAX's compilation-cache events in _EVENTS."""
+    import jax
+
+    jax.monitoring.register_event_listener(lambda event, **_: _EVENTS.update((event,)))
+
+
+def _use_warp_cache(enabled: bool) -> None:
+    """Warp's kernels in `warp/` of the cache folder, or its cache off; nothing when Warp is not installed.
+    Warp reads its settings when it initialises (`wp.init()`, at its first kernel): before that they take."""
+    if "warp" not in sys.modules and importlib.util.find_spec("warp") is None:
+        return
+    import warp
+
+    if not enabled:
+        warp.config.cache_kernels = False
+    elif warp.config.kernel_cache_dir is None and WARP_CACHE_ENV_VAR not in os.environ:
+        warp.config.kernel_cache_dir = str(user_cache_dir() / "warp")
