@@ -36,8 +36,8 @@ import json
 
 import jax
 from mjx_time_to_target import (
-    Snapshot,
     IMPLS,
+    Snapshot,
     environment,
     evaluate_snapshots,
     impl_assignment,

@@ -85,7 +85,8 @@ def test_warp_steps_a_task_like_jax_and_mujoco(task: str) -> None:
 
 
 def test_warp_steps_a_randomized_model_like_jax() -> None:
-    """Per-environment friction and masses of pick-and-place (with their derived inverse weights) reach Warp's model as JAX's."""
+    """Per-environment friction and masses of pick-and-place (with their derived inverse weights) reach Warp's
+    model as JAX's."""
     config = text_format.Parse(RANDOMIZED, TaskConfig())
     jax_env = make_mjx_env("so_arm100_pick_place", ENVS, task_config=config)
     warp_env = make_mjx_env("so_arm100_pick_place", ENVS, task_config=config, physics=Physics("warp"))
