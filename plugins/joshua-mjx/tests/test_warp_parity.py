@@ -79,10 +79,15 @@ def _mujoco(env: MjxEnv, qpos0: np.ndarray, qvel0: np.ndarray, ctrl: np.ndarray)
     return np.stack(qpos)
 
 
+# Ant on ant.xml, not the training variant ant_mjx.xml: that one's Newton solver stops after 1 iteration, where
+# the two implementations' unconverged contact forces part by 0.28 within 3 steps of landing (measured)
+MODELS = {"ant_locomotion": "ant/ant.xml"}
+
+
 @pytest.mark.parametrize("task", ["ant_locomotion", "trileg_locomotion", "so_arm100_reach", "so_arm100_pick_place"])
 def test_warp_steps_a_task_like_jax_and_mujoco(task: str) -> None:
-    jax_env = make_mjx_env(task, ENVS)
-    warp_env = make_mjx_env(task, ENVS, physics=Physics("warp"))
+    jax_env = make_mjx_env(task, ENVS, model_path=MODELS.get(task))
+    warp_env = make_mjx_env(task, ENVS, model_path=MODELS.get(task), physics=Physics("warp"))
     jax_qpos, ctrl, qpos0, qvel0 = _rollout(jax_env)
     warp_qpos, warp_ctrl, warp_qpos0, _ = _rollout(warp_env)
     unit = _unit_quaternions
