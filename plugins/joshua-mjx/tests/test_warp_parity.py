@@ -6,7 +6,7 @@ Kept small for CI: 2 environments, STEPS environment steps each. Each environmen
 steps of the task's MJX model from the same start (reset noise on: the JAX and Warp environments draw the same
 starts from the same key; MuJoCo starts from the JAX environment's first start and applies the controls that
 environment applied). Tolerances: MJX-JAX against MJX-Warp, both float32, within JAX_WARP_TOL; against
-float64 MuJoCo within CPU_TOL, joint positions in radians and metres.
+float64 MuJoCo within CPU_TOL (Ant, which lands meanwhile: CPU_TOL_OF), joint positions in radians and metres.
 """
 
 from __future__ import annotations
@@ -27,6 +27,8 @@ ENVS = 2
 STEPS = 8
 JAX_WARP_TOL = 2e-3
 CPU_TOL = 2e-3
+# Ant lands on its legs within the steps: float32 against float64 contact solutions part by 1.2e-2 by then (measured)
+CPU_TOL_OF = {"ant_locomotion": 2e-2}
 RANDOMIZED = """
 events { name: "friction" term: "randomize_geom_friction" mode: RESET
          params { key: "geoms" value: "[\\"cube\\", \\"fixed_pad\\", \\"moving_pad\\"]" }
@@ -95,8 +97,9 @@ def test_warp_steps_a_task_like_jax_and_mujoco(task: str) -> None:
     np.testing.assert_allclose(warp_ctrl, ctrl, atol=1e-5)
     np.testing.assert_allclose(warp_qpos, jax_qpos, atol=JAX_WARP_TOL)
     cpu_qpos = _mujoco(jax_env, qpos0, qvel0, ctrl[:, 0])
-    np.testing.assert_allclose(jax_qpos[:, 0], cpu_qpos, atol=CPU_TOL)
-    np.testing.assert_allclose(warp_qpos[:, 0], cpu_qpos, atol=CPU_TOL)
+    cpu_tol = CPU_TOL_OF.get(task, CPU_TOL)
+    np.testing.assert_allclose(jax_qpos[:, 0], cpu_qpos, atol=cpu_tol)
+    np.testing.assert_allclose(warp_qpos[:, 0], cpu_qpos, atol=cpu_tol)
     assert np.abs(jax_qpos[-1] - jax_qpos[0]).max() > 10 * JAX_WARP_TOL  # the task moved: the check can fail
 
 
