@@ -4,7 +4,8 @@
 #                       joshua-modes (viewer, replay, offscreen)
 #   ./setup.sh --all    every plugin: also joshua-mirror (rclpy + Fast DDS wheels, no ROS install),
 #                       joshua-sb3 (stable-baselines3 with torch's CPU wheel), joshua-mjx and joshua-ppo
-#                       (MJX, JAX, Flax, Optax; JAX for the CPU: on a GPU machine add pip install "jax[cuda13]")
+#                       (MJX with MuJoCo Warp, JAX, Flax, Optax; JAX for the CPU: on a GPU machine add
+#                       pip install "jax[cuda13]")
 #                       joshua-usd (usd-core: USD robots on MuJoCo, export to Isaac), joshua-sysid
 #                       (joshua sysid: fit servo and joint parameters to recordings with mujoco.sysid),
 #                       joshua-export (onnx, onnxruntime: `joshua export` writes policies as ONNX with their contract) and
@@ -51,7 +52,7 @@ export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
 
 requirements=(-e . -e plugins/joshua-render -e plugins/joshua-mujoco -e plugins/joshua-modes)
 if [[ -n $option ]]; then
-  requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e plugins/joshua-mjx -e plugins/joshua-ppo -e plugins/joshua-usd -e plugins/joshua-sysid -e plugins/joshua-export -e plugins/joshua-lerobot)
+  requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e 'plugins/joshua-mjx[warp]' -e plugins/joshua-ppo -e plugins/joshua-usd -e plugins/joshua-sysid -e plugins/joshua-export -e plugins/joshua-lerobot)
   # torch first, pinned to its CPU wheel: then stable-baselines3 finds it installed and pulls no CUDA packages
   echo "setup: installing torch (CPU) into .venv"
   .venv/bin/pip install -q -c constraints.txt torch

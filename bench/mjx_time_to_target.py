@@ -321,6 +321,14 @@ def load_config(preset: str, assignments: list[str], num_envs: int | None, optio
     return config
 
 
+IMPLS = ("jax", "warp")
+
+
+def impl_assignment(impl: str) -> list[str]:
+    """The --set that makes the environments step with `impl` (training.mjx.impl; jax is the default)."""
+    return [f"training.mjx.impl={impl.upper()}"]
+
+
 def stop_at(args: argparse.Namespace) -> float:
     """The training value that stops training early: --stop-at, else the target for returns and never for
     success rates (see the module's docstring)."""
@@ -332,7 +340,12 @@ def stop_at(args: argparse.Namespace) -> float:
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """Train, measure raw physics, evaluate the snapshots; the outcome as one JSON-ready dict."""
     plugins = PluginHost.discover()
-    config = load_config(args.preset, (SMOKE if args.smoke else []) + args.set, args.num_envs, plugins.options())
+    config = load_config(
+        args.preset,
+        (SMOKE if args.smoke else []) + args.set + impl_assignment(args.impl),
+        args.num_envs,
+        plugins.options(),
+    )
     settings = PpoSettings.from_config(config)
     devices = jax.devices()
     print(f"devices: {devices}  preset {args.preset}: {settings.rollout} {settings.optimization}", flush=True)
@@ -398,6 +411,12 @@ def main() -> int:
     parser.add_argument("--eval-envs", type=int, default=1024, help="episodes of each deterministic evaluation")
     parser.add_argument("--snapshot-interval", type=int, default=20, help="snapshot every this many iterations")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
+    parser.add_argument(
+        "--impl",
+        choices=IMPLS,
+        default="jax",
+        help="MJX's physics: jax (default) or warp (MuJoCo Warp; training.mjx.impl, docs/training-mjx.md)",
+    )
     parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU): 8 envs, 2 iterations, 4 episodes")
     parser.add_argument("--out", type=Path, required=True, help="folder for time_to_target.json and .png")
     parser.add_argument("--resume", type=Path, help="continue the run an earlier --out holds (its state/ and JSON)")

@@ -36,9 +36,11 @@ import json
 
 import jax
 from mjx_time_to_target import (
+    IMPLS,
     Snapshot,
     environment,
     evaluate_snapshots,
+    impl_assignment,
     lean_physics_rate,
     load_config,
     raw_physics_rate,
@@ -87,11 +89,17 @@ def main() -> None:
         help="with --scaling: on N devices N times the environments and minibatch (the same work per device)",
     )
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
+    parser.add_argument(
+        "--impl",
+        choices=IMPLS,
+        default="jax",
+        help="MJX's physics: jax (default) or warp (MuJoCo Warp; training.mjx.impl, docs/training-mjx.md)",
+    )
     parser.add_argument("--json", help="write the results here")
     args = parser.parse_args()
 
     plugins = PluginHost.discover()
-    config = load_config(args.preset, args.set, args.num_envs, plugins.options())
+    config = load_config(args.preset, args.set + impl_assignment(args.impl), args.num_envs, plugins.options())
     settings = PpoSettings.from_config(config)
     device_sets = [jax.devices()[:1], jax.devices()] if args.scaling else [jax.devices()]
     print(f"devices: {jax.devices()}  preset {args.preset}: {settings.rollout} {settings.optimization}")

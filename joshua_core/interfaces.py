@@ -138,8 +138,9 @@ class EnvSpec:
     simulations on CPU backends (None: one per core). devices: the JAX devices to spread over
     (None: every visible one). desync_episodes: each environment's first episode after a reset starts at
     a uniformly random step in [0, episode_length), so that episodes end in every stretch of steps rather
-    than all together (training sets it unless `training.synchronized_episodes`). `num_envs` is checked
-    here, once, for every backend.
+    than all together (training sets it unless `training.synchronized_episodes`). training: the finalized
+    training config the environments are for (None outside one), where a backend reads its own options
+    (its extension of TrainingConfig). `num_envs` is checked here, once, for every backend.
     """
 
     task: str
@@ -150,6 +151,7 @@ class EnvSpec:
     nthread: int | None = None
     devices: Sequence[Any] | None = None
     desync_episodes: bool = False
+    training: TrainingConfig | None = None
 
     def __post_init__(self) -> None:
         if self.num_envs < 1:
@@ -169,6 +171,7 @@ class EnvSpec:
             model_path=Path(training.model_path) if training.model_path else None,
             task_config=training.task_config if training.HasField("task_config") else None,
             nthread=training.nthread or None,
+            training=training,
         )
 
 

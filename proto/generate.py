@@ -46,6 +46,7 @@ SCHEMAS = (
     Schema(PROTO_ROOT, "joshua/config.proto", REPO_ROOT / "joshua_core"),
     _plugin_options("plugins/joshua-modes", "joshua_modes"),
     _plugin_options("plugins/joshua-mirror", "joshua_mirror"),
+    _plugin_options("plugins/joshua-mjx", "joshua_mjx"),
     _plugin_options("plugins/joshua-ppo", "joshua_ppo"),
     _plugin_options("plugins/joshua-sb3", "joshua_sb3"),
     _plugin_options("docs/examples/joshua-rk4", "joshua_rk4"),

@@ -463,7 +463,8 @@ def test_environments_come_from_the_backend_the_training_config_names(tmp_path: 
     context = RunContext(host, tmp_path)
     training = TrainingConfig(trainer="mine", backend="provider", task="t", num_envs=3, seed=5, model_path="/m.xml")
     assert context.create_envs(training, EnvKind.NUMPY, num_envs=8) == "environments"
-    assert made == [(EnvSpec("t", 8, seed=5, model_path=Path("/m.xml")), EnvKind.NUMPY)]
+    # the backend gets the config too, where it reads its own options (an extension of TrainingConfig)
+    assert made == [(EnvSpec("t", 8, seed=5, model_path=Path("/m.xml"), training=training), EnvKind.NUMPY)]
     with pytest.raises(ConfigError, match="trainer 'mine' needs JAX environments, which backend 'provider' does not"):
         context.create_envs(training, EnvKind.JAX)
     training.backend = "plain"

@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     from joshua_mjx.backend import MjxBackend
     from joshua_mjx.engine import MJX_SUFFIX, MjxEngine
     from joshua_mjx.env import EnvState, MjxEnv, make_mjx_env
+    from joshua_mjx.impl import Physics
 
 __all__ = [
     "MJX_SUFFIX",
@@ -21,8 +22,15 @@ __all__ = [
     "EnvState",
     "MjxEnv",
     "make_mjx_env",
+    "Physics",
 ]
-_HOME = {"EnvState": "env", "MjxEnv": "env", "make_mjx_env": "env", "MjxBackend": "backend"}  # else engine.py
+_HOME = {
+    "EnvState": "env",
+    "MjxEnv": "env",
+    "make_mjx_env": "env",
+    "MjxBackend": "backend",
+    "Physics": "impl",
+}  # else engine.py
 
 
 def __getattr__(name: str) -> Any:

@@ -36,11 +36,11 @@ def mjx_variant(model_path: str | Path) -> Path:
 
 
 def put_model(model: mujoco.MjModel, source: str | Path, device: jax.Device | None = None) -> mjx.Model:
-    """`mjx.put_model` on `device` (default: this process's first device; MJX's own default, `jax.devices()[0]`,
-    belongs to process 0 in a multi-process run), turning an MJX-unsupported feature into a ModelError that
-    names the file and the fix."""
+    """MJX-JAX's `mjx.put_model` on `device` (default: this process's first device; MJX's own default,
+    `jax.devices()[0]`, belongs to process 0 in a multi-process run), turning an MJX-unsupported feature into a
+    ModelError that names the file and the fix."""
     try:
-        return mjx.put_model(model, device=device or jax.local_devices()[0])
+        return mjx.put_model(model, device=device or jax.local_devices()[0], impl="jax")
     except NotImplementedError as error:
         raise ModelError(
             f"{source}: the model uses something MJX does not support ({error}); use its MJX variant "

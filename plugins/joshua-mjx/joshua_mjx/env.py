@@ -51,7 +51,8 @@ from joshua_core.tasks import (
     step_params,
 )
 from joshua_mjx.batch import STEP_INPUTS, PerEnvRandom, split_each, where_env
-from joshua_mjx.engine import mjx_variant, put_model
+from joshua_mjx.engine import mjx_variant
+from joshua_mjx.impl import WARP, OverflowCheck, Physics, batch_data
 from joshua_mjx.physics import mjx
 from joshua_mjx.randomized import ModelRandomization
 from joshua_mujoco import compile_model
@@ -103,8 +104,11 @@ class MjxEnv:
         source: str | Path = "<model>",
         devices: list[jax.Device] | None = None,
         desync_episodes: bool = False,
+        physics: Physics | None = None,
     ) -> None:
         devices = list(devices or jax.devices())
+        self.physics = physics = physics or Physics()
+        physics.check_devices(devices)
         if num_envs % len(devices):
             raise ConfigError(
                 f"num_envs {num_envs} must be a multiple of the {len(devices)} devices it is spread over "
@@ -116,20 +120,23 @@ class MjxEnv:
         self.num_envs = num_envs
         # the model and the initial state are constants of the compiled functions: on a device of this process
         local = next((device for device in devices if device.process_index == jax.process_index()), None)
-        self.mjx_model = put_model(model, source, local)
+        local = local or jax.local_devices()[0]
+        self._contact_forces = "cfrc_ext" in task.fields
+        # Warp computes cfrc_ext within its step when asked to; MJX-JAX by rne_postconstraint (_external_forces)
+        self.mjx_model = physics.put_model(model, source, local, run_rne_postconstraint=self._contact_forces)
         self.mesh = Mesh(np.array(devices), (ENV_AXIS,))
         self.sharding = NamedSharding(self.mesh, PartitionSpec(ENV_AXIS))
         self.replicated = NamedSharding(self.mesh, PartitionSpec())
         self.observation_size = task.observation_size
         self.action_size = task.action_size
-        self._contact_forces = "cfrc_ext" in task.fields
         self._derived = tuple(name for name in _DATA_FIELDS if name in task.fields)
         self._kinematics_after_step = bool(KINEMATIC_FIELDS & task.fields)
         initial = mujoco.MjData(model)
         if task.keyframe_id >= 0:
             mujoco.mj_resetDataKeyframe(model, initial, task.keyframe_id)
-        self._initial_data = mjx.put_data(model, initial, device=local or jax.local_devices()[0])
-        self.randomization = ModelRandomization(task, model, self.mjx_model, self._initial_data)
+        self._initial_data = physics.put_data(model, initial, local, num_envs)
+        self.randomization = ModelRandomization(task, model, self.mjx_model, local)
+        self._overflow = OverflowCheck(physics, model)
         self.desync_episodes = desync_episodes
         self._draw_starts = jax.jit(self._fresh_episodes, in_shardings=self.sharding, out_shardings=self.sharding)
         self._split_keys = jax.jit(split_each, in_shardings=self.sharding, out_shardings=self.sharding)
@@ -153,7 +160,9 @@ class MjxEnv:
 
         Call it between rollouts (the PPO trainer does before every iteration): it runs `mjx.forward`
         once over the batch, which `step` would otherwise run on every step that ends an episode
-        anywhere in the batch, and it stays out of the compiled rollout."""
+        anywhere in the batch, and it stays out of the compiled rollout. With MuJoCo Warp it is also where a
+        capacity overflow is reported (once, `joshua_mjx.impl.OverflowCheck`)."""
+        self._overflow.watch(state.data)
         keys, draw = self._split_keys(state.key)
         start, start_commands, start_params = self._draw_starts(draw)
         return state._replace(start=start, start_commands=start_commands, start_params=start_params, key=keys)
@@ -289,7 +298,10 @@ class MjxEnv:
 
     def _external_forces(self, fields: dict[str, jax.Array], data: mjx.Data) -> mjx.Data:
         """`data` with rne_postconstraint's cfrc_ext (contact and applied forces on each body), which the terms
-        read. Its other outputs (cacc, cfrc_int: two passes over the body tree) are not kept, so XLA drops them."""
+        read. Its other outputs (cacc, cfrc_int: two passes over the body tree) are not kept, so XLA drops them.
+        MuJoCo Warp computes cfrc_ext within its step and forward (run_rne_postconstraint, set in __init__)."""
+        if self.physics.impl == WARP:
+            return data
         cfrc_ext = self._physics(mjx.rne_postconstraint, fields, data)._impl.cfrc_ext
         return data.replace(_impl=data._impl.replace(cfrc_ext=cfrc_ext))
 
@@ -310,7 +322,7 @@ class MjxEnv:
         task, n = self.task, keys.shape[0]
         ctx = task.reset(task.reset_context(jnp, n, PerEnvRandom(keys)))
         params = self.randomization.with_derived(episode_params(task, ctx))
-        data = jax.tree.map(lambda leaf: jnp.broadcast_to(leaf, (n, *jnp.shape(leaf))), self._initial_data)
+        data = batch_data(self._initial_data, n)
         dtype = data.qpos.dtype
         data = data.replace(
             qpos=ctx.qpos.astype(dtype),
@@ -371,22 +383,33 @@ def make_mjx_env(
     plugins: PluginHost | None = None,
     task_config: Any = None,
     devices: list[jax.Device] | None = None,
+    physics: Physics | None = None,
 ) -> MjxEnv:
     """An MjxEnv of `num_envs` copies of the registered `task`.
 
     `model_path` replaces the task's model; without it the task's model is used, or rather its MJX
     variant (`scene_mjx.xml` beside `scene.xml`) when there is one. `task_config` is a `joshua.TaskConfig`;
-    the environments are spread over `devices` (default: every visible device).
+    the environments are spread over `devices` (default: every visible device). `physics`: the implementation
+    that steps them (default: MJX-JAX; `Physics("warp")` for MuJoCo Warp).
     """
     path = resolve_data_path(model_path) if model_path else None
     spec = EnvSpec(task, num_envs, model_path=path, task_config=task_config, devices=devices)
-    return mjx_envs(spec, plugins or PluginHost.discover())
+    return mjx_envs(spec, plugins or PluginHost.discover(), physics)
 
 
-def mjx_envs(spec: EnvSpec, plugins: PluginHost) -> MjxEnv:
-    """The MjxEnv an EnvSpec describes (the `mjx` backend's EnvKind.JAX environments)."""
+def mjx_envs(spec: EnvSpec, plugins: PluginHost, physics: Physics | None = None) -> MjxEnv:
+    """The MjxEnv an EnvSpec describes (the `mjx` backend's EnvKind.JAX environments); `physics` replaces the
+    one its training config names (`training.mjx`)."""
     task_spec = load_task_spec(spec.task, plugins)
     path = spec.model_path or mjx_variant(task_spec.model_path)
     model = compile_model(path, plugins=plugins)
     built = build_task(task_spec, model, plugins, spec.task_config)
-    return MjxEnv(built, model, spec.num_envs, source=path, devices=spec.devices, desync_episodes=spec.desync_episodes)
+    return MjxEnv(
+        built,
+        model,
+        spec.num_envs,
+        source=path,
+        devices=spec.devices,
+        desync_episodes=spec.desync_episodes,
+        physics=physics or Physics.from_training(spec.training),
+    )

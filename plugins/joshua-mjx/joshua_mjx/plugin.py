@@ -14,3 +14,10 @@ def joshua_register_backends(registry: Registrar) -> None:
         "MuJoCo XLA (JAX): batched task environments on every GPU, or the CPU",
         env_kinds=("jax",),
     )
+
+
+@hookimpl
+def joshua_register_options(registry: Registrar) -> None:
+    registry.add(
+        "mjx", "joshua_mjx.options_pb2:mjx", "mjx backend's environments: physics impl (JAX or WARP), capacities"
+    )

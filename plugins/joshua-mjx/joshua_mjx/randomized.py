@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 
 from joshua_core.tasks import INERTIAL_FIELDS, MODEL_FIELDS, Task
+from joshua_mjx.engine import put_model
 from joshua_mjx.physics import mjx
 
 DERIVED_FIELDS = ("body_invweight0", "dof_invweight0")
@@ -25,13 +26,16 @@ DERIVED_FIELDS = ("body_invweight0", "dof_invweight0")
 class ModelRandomization:
     """Which model fields a task randomizes, and how to make each environment's `mjx.Model` from them."""
 
-    def __init__(self, task: Task, model: mujoco.MjModel, mjx_model: mjx.Model, initial_data: mjx.Data) -> None:
+    def __init__(self, task: Task, model: mujoco.MjModel, mjx_model: mjx.Model, device: jax.Device) -> None:
         self.mjx_model = mjx_model
         self.fields = tuple(name for name in task.param_fields if name in MODEL_FIELDS)
         self.derives = bool(INERTIAL_FIELDS & set(self.fields))
         self.derives_on_steps = bool(INERTIAL_FIELDS & task.interval_fields)
-        self._data0 = initial_data.replace(qpos=jnp.asarray(model.qpos0, initial_data.qpos.dtype))
-        self._dof_average = jnp.asarray(_dof_averaging(model))
+        if self.derives:  # derived with MJX-JAX's functions (crb, full_m, jac), whichever implementation steps
+            self._jax_model = mjx_model if mjx_model.impl == mjx.Impl.JAX else put_model(model, "<model>", device)
+            data0 = mjx.make_data(self._jax_model)
+            self._data0 = data0.replace(qpos=jnp.asarray(model.qpos0, data0.qpos.dtype))
+            self._dof_average = jnp.asarray(_dof_averaging(model))
 
     def with_derived(self, params: dict[str, jax.Array]) -> dict[str, jax.Array]:
         """`params` (N environments' randomized quantities) with the derived quantities of their models added."""
@@ -50,7 +54,7 @@ class ModelRandomization:
 
     def inverse_weights(self, fields: dict[str, jax.Array]) -> dict[str, jax.Array]:
         """body_invweight0 (nbody, 2) and dof_invweight0 (nv,) of one environment's model, as mj_setConst."""
-        m = self.model(fields)
+        m = self._jax_model.replace(**fields)
         d = mjx.crb(m, mjx.com_pos(m, mjx.kinematics(m, self._data0)))
         inverse = jnp.linalg.inv(mjx.full_m(m, d))
         bodies = jnp.arange(m.nbody)

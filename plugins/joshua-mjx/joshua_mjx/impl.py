@@ -1,0 +1,167 @@
+"""Which implementation of MuJoCo's physics MJX runs for the environments: JAX (MJX's own) or MuJoCo Warp.
+
+Both sit behind the same `mjx.step`/`mjx.forward` calls, so `joshua_mjx.env.MjxEnv` keeps one step, one set of
+task terms, one randomization and one autoreset; what differs is made here: the device model, the initial
+Data (Warp allocates contacts and constraint rows up front, `nconmax`/`njmax`), how a batch of Data is laid out
+(Warp shares its contact arrays among the environments) and the overflow report. The option is
+`training.mjx` (options.proto); docs/training-mjx.md#physics-implementation says how to choose.
+
+Capacities, the rule: per environment, as many contacts and constraint rows as MJX-JAX allocates for the model
+(its contacts are one per collision pair and contact point, its rows every one those contacts and the model's
+joint limits, equalities and frictions can take), so a model that MJX-JAX steps never overflows on Warp;
+`nconmax`/`njmax` replace them (smaller is faster where few contacts are active at once).
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import jax
+import jax.numpy as jnp
+import mujoco
+
+from joshua_core.errors import ConfigError, ModelError
+from joshua_mjx.engine import put_model as put_jax_model
+from joshua_mjx.physics import mjx
+
+if TYPE_CHECKING:
+    from joshua_core.config_pb2 import TrainingConfig
+
+JAX, WARP = "jax", "warp"
+# Of MuJoCo Warp's overflow bits (mujoco_warp OverflowType), those that mean a capacity was too small, with the
+# option that raises it; the others (the solver's iteration limits) are how a model with few iterations runs.
+_CAPACITY_BITS = {1 << 0: "njmax", 1 << 2: "nconmax", 1 << 3: "nconmax", 1 << 4: "nconmax"}
+_CAPACITY_MASK = sum(_CAPACITY_BITS)
+
+
+@dataclass(frozen=True)
+class Physics:
+    """The implementation MJX steps the environments with, and Warp's per-environment capacities (0: from the
+    model, see the module docstring)."""
+
+    impl: str = JAX
+    nconmax: int = 0
+    njmax: int = 0
+
+    def __post_init__(self) -> None:
+        if self.nconmax < 0 or self.njmax < 0:
+            raise ConfigError(f"training.mjx: nconmax and njmax must be 0 or more, got {self.nconmax}, {self.njmax}")
+
+    @classmethod
+    def from_training(cls, training: TrainingConfig | None) -> Physics:
+        """The physics `training.mjx` names (MJX-JAX where the config names none)."""
+        from joshua_mjx.options_pb2 import MjxOptions
+        from joshua_mjx.options_pb2 import mjx as mjx_options
+
+        if training is None or not training.HasExtension(mjx_options):
+            return cls()
+        options = training.Extensions[mjx_options]
+        return cls(MjxOptions.Impl.Name(options.impl).lower(), options.nconmax, options.njmax)
+
+    def check_devices(self, devices: list[jax.Device]) -> None:
+        """Warp steps one device's environments per call: refuse several devices, or one Warp cannot run on."""
+        if self.impl != WARP:
+            return
+        if len(devices) > 1:
+            raise ConfigError(
+                f"training.mjx.impl WARP runs on one device, not {len(devices)}: set CUDA_VISIBLE_DEVICES to one "
+                "GPU, or use impl JAX to spread the environments over several"
+            )
+        if devices[0].platform not in ("cpu", "gpu", "cuda"):
+            raise ConfigError(f"training.mjx.impl WARP runs on a CUDA GPU or the CPU, not {devices[0]}")
+
+    def put_model(self, model: mujoco.MjModel, source: str | Path, device: jax.Device, **warp_options: Any) -> Any:
+        """`mjx.put_model` of this implementation on `device`; a feature it does not support is one ModelError
+        naming it. `warp_options`: MuJoCo Warp options to set (e.g. run_rne_postconstraint)."""
+        if self.impl == JAX:
+            return put_jax_model(model, source, device)
+        _require_warp()
+        try:
+            mjx_model = mjx.put_model(model, device=device, impl=WARP)
+        except (NotImplementedError, ValueError) as error:
+            raise ModelError(
+                f"{source}: MuJoCo Warp does not support {_feature(error)}; use training.mjx.impl JAX"
+            ) from None
+        # warn_overflow 0: no message from every kernel of every step; `OverflowCheck` reports capacities once
+        settings = {"warn_overflow": 0, **warp_options}
+        return mjx_model.replace(opt=mjx_model.opt.replace(_impl=mjx_model.opt._impl.replace(**settings)))
+
+    def put_data(self, model: mujoco.MjModel, data: mujoco.MjData, device: jax.Device, num_envs: int) -> Any:
+        """`data` on `device` for this implementation, one environment's of `num_envs` (Warp: with the contact
+        capacity of all of them, which share one contact array, and the constraint rows of each)."""
+        if self.impl == JAX:
+            return mjx.put_data(model, data, device=device, impl=JAX)
+        nconmax, njmax = self.capacities(model)
+        return mjx.put_data(model, data, device=device, impl=WARP, naconmax=nconmax * num_envs, njmax=njmax)
+
+    def capacities(self, model: mujoco.MjModel) -> tuple[int, int]:
+        """Warp's contacts and constraint rows per environment: the options', else MJX-JAX's for `model`."""
+        if self.nconmax and self.njmax:
+            return self.nconmax, self.njmax
+        sizes = mjx.make_data(model, impl=JAX, device=jax.devices("cpu")[0])._impl
+        return self.nconmax or max(sizes.contact.dist.shape[0], 1), self.njmax or max(sizes.efc_J.shape[0], 1)
+
+
+def batch_data(data: Any, n: int) -> Any:
+    """`n` copies of one environment's Data along a leading axis. A vmap, not a broadcast of every leaf: Warp's
+    Data shares its contact arrays among the environments, and its vmapping rule keeps them unbatched."""
+    return jax.vmap(lambda _: data)(jnp.arange(n))
+
+
+def _require_warp() -> None:
+    """NVIDIA Warp, imported and logging only warnings (at its default level it prints a line for every kernel it
+    loads), or a ConfigError saying what to install."""
+    from mujoco.mjx import warp as mjx_warp
+
+    if not mjx_warp.WARP_INSTALLED:
+        raise ConfigError(
+            "training.mjx.impl WARP needs NVIDIA Warp: pip install 'joshua-mjx[warp]' (warp-lang, mujoco-warp)"
+        )
+    mjx_warp.warp.config.log_level = mjx_warp.warp.LOG_WARNING
+
+
+def _feature(error: Exception) -> str:
+    """The unsupported feature MuJoCo Warp's error names, as one line."""
+    text = str(error).strip().rstrip(".").splitlines()
+    return text[0] if text else type(error).__name__
+
+
+class OverflowCheck:
+    """Says once when a Warp environment overflowed a capacity (contacts or constraint rows dropped), naming the
+    setting to raise. MuJoCo Warp keeps a per-environment overflow bitmask in the Data; `check` reads the one
+    `watch` queued the time before, which the device has computed by then, so the check never waits on it."""
+
+    def __init__(self, physics: Physics, model: mujoco.MjModel) -> None:
+        self.enabled = physics.impl == WARP
+        self.capacities = physics.capacities(model) if self.enabled else (0, 0)
+        self._pending: jax.Array | None = None
+        self._reported = False
+        self._reduce = jax.jit(lambda bits: jnp.bitwise_or.reduce(bits & _CAPACITY_MASK, axis=None))
+
+    def watch(self, data: Any) -> None:
+        """Report what the previous call queued, then queue `data`'s overflow bits (a batch of Warp Data)."""
+        if not self.enabled or self._reported:
+            return
+        if self._pending is not None:
+            self.report(int(self._pending))
+        self._pending = self._reduce(data._impl.overflow)
+
+    def report(self, bits: int) -> None:
+        """Print, once, which capacity `bits` (OverflowType) says was exceeded and how to raise it."""
+        names = sorted({name for bit, name in _CAPACITY_BITS.items() if bits & bit})
+        if not names or self._reported:
+            return
+        self._reported = True
+        current = dict(zip(("nconmax", "njmax"), self.capacities, strict=True))
+        settings = ", ".join(f"training.mjx.{name} (now {current[name]})" for name in names)
+        print(
+            f"joshua: warning: MuJoCo Warp dropped {' and '.join(_WHAT[name] for name in names)} that did not fit; "
+            f"raise {settings}",
+            file=sys.stderr,
+        )
+
+
+_WHAT = {"nconmax": "contacts", "njmax": "constraint rows"}
