@@ -326,7 +326,7 @@ def test_replay_reports_bad_csv_rows_and_missing_columns(tmp_path: Path, ros_env
     for csv, message in (
         (bad_row, f"{bad_row}:4: column 'joint_3' has 'x', which is not a number"),
         (reversed_time, f"{reversed_time}:3: timestamp 0 does not increase (previous 0.1)"),
-        (missing, "no column for the mapped joints joint_6 (did you mean joint6?)"),
+        (missing, f"{missing}:1: column 'joint6' (did you mean: joint_6, joint_5?) is not a joint of the model"),
     ):
         result = subprocess.run(
             [str(JOSHUA), "mirror-replay", str(csv)], cwd=tmp_path, env=ros_env, capture_output=True, text=True
