@@ -36,15 +36,24 @@ def _share_compiled_programs(config: pytest.Config) -> None:
     Many tests compile the same program (an MJX scene's step, a training iteration of the same small config,
     each `joshua train` or `joshua eval` process anew); sharing it shortens the suite (bench/RESULTS.md).
     The cache lives in a folder of this run's own, removed at its end, so every run starts cold, as CI does;
-    a JAX_COMPILATION_CACHE_DIR already set is kept.
+    a JAX_COMPILATION_CACHE_DIR already set is kept. Every program is kept, however fast it compiled: JAX's
+    default keeps only those of a second or more, and a `joshua` process compiles dozens of smaller ones anew.
     """
-    if "JAX_COMPILATION_CACHE_DIR" in os.environ:
+    if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
+        folder = tempfile.mkdtemp(prefix="joshua-tests-jax-cache-")
+        config.add_cleanup(lambda: shutil.rmtree(folder, ignore_errors=True))
+        _set_jax_option("jax_compilation_cache_dir", folder)
+    _set_jax_option("jax_persistent_cache_min_compile_time_secs", 0.0)
+
+
+def _set_jax_option(name: str, value: str | float) -> None:
+    """Set a JAX option for this process and the ones it starts (jax reads it from the environment at import),
+    unless the environment sets it already."""
+    if name.upper() in os.environ:
         return
-    folder = tempfile.mkdtemp(prefix="joshua-tests-jax-cache-")
-    os.environ["JAX_COMPILATION_CACHE_DIR"] = folder  # read by jax when imported, here and in child processes
+    os.environ[name.upper()] = str(value)
     if "jax" in sys.modules:  # imported already (by a plugin of pytest's): tell it too
-        sys.modules["jax"].config.update("jax_compilation_cache_dir", folder)
-    config.add_cleanup(lambda: shutil.rmtree(folder, ignore_errors=True))
+        sys.modules["jax"].config.update(name, value)
 
 
 @pytest.fixture(scope="module")
