@@ -30,21 +30,53 @@ def pytest_configure(config: pytest.Config) -> None:
     _share_compiled_programs(config)
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's worker reads the groups
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Order the tests for two processes (README's `pytest -n 2`) so that neither waits long for the other.
+
+    The tests that share a fixture of their module's scope (a training run, a compiled MJX environment) form one
+    pytest-xdist group, which pyproject's `--dist loadgroup` sends to one process, so that the fixture is built once
+    per run, not once per process; the largest groups go first. Then every other test goes on its own to whichever
+    process is free, the slow ones first, so that the run ends on short tests.
+    """
+    grouped = set()
+    for item in items:
+        module = item.nodeid.split("::")[0]
+        definitions = item._fixtureinfo.name2fixturedefs  # pytest's record of the fixtures it uses
+        if any(
+            found and found[-1].scope == "module" and found[-1].baseid == module
+            for found in (definitions.get(name) for name in item.fixturenames)
+        ):
+            item.add_marker(pytest.mark.xdist_group(module))
+            grouped.add(item.nodeid)
+    # a stable sort: each module's grouped tests keep their order, and the other tests use none of their fixtures
+    items.sort(key=lambda item: item.nodeid not in grouped and item.get_closest_marker("slow") is None)
+
+
 def _share_compiled_programs(config: pytest.Config) -> None:
     """Let this run's tests and the processes they start reuse what JAX compiled for one another.
 
     Many tests compile the same program (an MJX scene's step, a training iteration of the same small config,
     each `joshua train` or `joshua eval` process anew); sharing it shortens the suite (bench/RESULTS.md).
     The cache lives in a folder of this run's own, removed at its end, so every run starts cold, as CI does;
-    a JAX_COMPILATION_CACHE_DIR already set is kept.
+    a JAX_COMPILATION_CACHE_DIR already set is kept. Every program is kept, however fast it compiled: JAX's
+    default keeps only those of a second or more, and a `joshua` process compiles dozens of smaller ones anew.
     """
-    if "JAX_COMPILATION_CACHE_DIR" in os.environ:
+    if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
+        folder = tempfile.mkdtemp(prefix="joshua-tests-jax-cache-")
+        config.add_cleanup(lambda: shutil.rmtree(folder, ignore_errors=True))
+        _set_jax_option("jax_compilation_cache_dir", folder)
+    _set_jax_option("jax_persistent_cache_min_compile_time_secs", 0.0)
+
+
+def _set_jax_option(name: str, value: str | float) -> None:
+    """Set a JAX option for this process and the ones it starts (jax reads it from the environment at import),
+    unless the environment sets it already."""
+    if name.upper() in os.environ:
         return
-    folder = tempfile.mkdtemp(prefix="joshua-tests-jax-cache-")
-    os.environ["JAX_COMPILATION_CACHE_DIR"] = folder  # read by jax when imported, here and in child processes
+    os.environ[name.upper()] = str(value)
     if "jax" in sys.modules:  # imported already (by a plugin of pytest's): tell it too
-        sys.modules["jax"].config.update("jax_compilation_cache_dir", folder)
-    config.add_cleanup(lambda: shutil.rmtree(folder, ignore_errors=True))
+        sys.modules["jax"].config.update(name, value)
 
 
 @pytest.fixture(scope="module")

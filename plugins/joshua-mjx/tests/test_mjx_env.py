@@ -25,15 +25,19 @@ from joshua_mujoco.vector import make_vector_env, task_config_from_options
 NO_RESET_NOISE = {"reset_qpos_uniform": {"weight": 0}, "reset_qvel_normal": {"weight": 0}}
 
 
+ANT_EPISODE = 50  # long enough to stand through 30 steps of contact, short enough to step to its end
+
+
 @pytest.fixture(scope="module")
 def ant_env():  # type: ignore[no-untyped-def]
-    config = task_config_from_options({"terms": NO_RESET_NOISE, "episode_length": 6})
+    """4 Ants without reset noise, shared by the tests of one compiled step (an MJX step compiles for a minute)."""
+    config = task_config_from_options({"terms": NO_RESET_NOISE, "episode_length": ANT_EPISODE})
     return make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", task_config=config)
 
 
 def test_mjx_env_matches_the_mujoco_backend_step_for_step(ant_env) -> None:  # type: ignore[no-untyped-def]
     cpu = make_vector_env(
-        "ant_locomotion", 4, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=6, nthread=1
+        "ant_locomotion", 4, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=ANT_EPISODE, nthread=1
     )
     cpu_observation, _ = cpu.reset(seed=0)
     state = ant_env.reset(jax.random.PRNGKey(0))
@@ -48,16 +52,15 @@ def test_mjx_env_matches_the_mujoco_backend_step_for_step(ant_env) -> None:  # t
 
 
 @pytest.mark.slow
-def test_mjx_contacts_hold_the_ant_up_like_mujoco() -> None:
+def test_mjx_contacts_hold_the_ant_up_like_mujoco(ant_env) -> None:  # type: ignore[no-untyped-def]
     """Standing on its legs through 30 steps of contact; random actions on the floor would diverge chaotically."""
-    config = task_config_from_options({"terms": NO_RESET_NOISE, "episode_length": 50})
-    env = make_mjx_env("ant_locomotion", 2, model_path="ant/ant.xml", task_config=config)
+    env = ant_env
     cpu = make_vector_env(
-        "ant_locomotion", 2, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=50, nthread=1
+        "ant_locomotion", 4, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=ANT_EPISODE, nthread=1
     )
     cpu.reset(seed=0)
     state = env.reset(jax.random.PRNGKey(0))
-    posture = np.tile([0.0, 0.5, 0.0, -0.5, 0.0, -0.5, 0.0, 0.5], (2, 1))
+    posture = np.tile([0.0, 0.5, 0.0, -0.5, 0.0, -0.5, 0.0, 0.5], (4, 1))
     for _ in range(30):
         cpu_observation, cpu_reward, _, _, _ = cpu.step(posture)
         state = env.step(state, jnp.asarray(posture))
@@ -75,16 +78,16 @@ def test_mjx_contacts_hold_the_ant_up_like_mujoco() -> None:
 @pytest.mark.slow
 def test_autoreset_ends_episodes_at_the_length_and_reports_them(ant_env) -> None:  # type: ignore[no-untyped-def]
     state = ant_env.reset(jax.random.PRNGKey(1))
-    action = jnp.full((4, 8), 0.5)
+    action = jnp.full((4, 8), 0.5, jnp.float32)  # not weakly typed: the actions the step was compiled for
     returns = np.zeros(4)
-    for step in range(1, 7):
+    for step in range(1, ANT_EPISODE + 1):
         state = ant_env.step(state, action)
         returns += np.asarray(state.reward)
-        if step < 6:
+        if step < ANT_EPISODE:
             assert not np.asarray(state.episode.done).any() and (np.asarray(state.episode_step) == step).all()
     assert np.asarray(state.truncated).all() and np.asarray(state.episode.done).all()
     np.testing.assert_allclose(np.asarray(state.episode.return_), returns, rtol=1e-5)
-    assert (np.asarray(state.episode.length) == 6).all() and (np.asarray(state.episode_step) == 0).all()
+    assert (np.asarray(state.episode.length) == ANT_EPISODE).all() and (np.asarray(state.episode_step) == 0).all()
     assert not np.allclose(np.asarray(state.final_observation), np.asarray(state.observation))
     np.testing.assert_allclose(np.asarray(state.data.qpos), np.tile(ant_env.task.initial_qpos, (4, 1)), atol=1e-6)
 
@@ -130,7 +133,7 @@ def test_reset_terms_draw_per_environment_and_repeat_with_the_key(noisy_ant_env)
 
 @pytest.mark.slow
 def test_episodes_restart_from_the_start_state_until_it_is_redrawn(noisy_ant_env) -> None:  # type: ignore[no-untyped-def]
-    env, action = noisy_ant_env, jnp.full((4, 8), 0.2)
+    env, action = noisy_ant_env, jnp.full((4, 8), 0.2, jnp.float32)  # as the other tests: one compiled step
     first = state = env.reset(jax.random.PRNGKey(2))
     np.testing.assert_array_equal(np.asarray(first.start.qpos), np.asarray(first.data.qpos))
     for _ in range(3):
@@ -198,9 +201,9 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> N
         from joshua_ppo.state import init_state
         from joshua_ppo.train import train_ppo
         assert len(jax.devices()) == 2
-        results = []
+        results = []  # ant_mjx.xml: the Ant the trainer uses; with its 4 foot contacts it compiles in half the time
         for devices in (jax.devices()[:1], jax.devices()):
-            env = make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", devices=devices)
+            env = make_mjx_env("ant_locomotion", 4, model_path="ant/ant_mjx.xml", devices=devices)
             state = env.reset(jax.random.PRNGKey(3))
             for _ in range(3):
                 state = env.step(state, jnp.full((4, 8), 0.3))
@@ -224,7 +227,7 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> N
         print("per-device inputs", len(re.findall(r"%arg\\d+: ", region)),
               "empty", len(re.findall(r"%arg\\d+: tensor<(?:\\d+x)*0x", region)))
         try:
-            make_mjx_env("ant_locomotion", 3, model_path="ant/ant.xml")
+            make_mjx_env("ant_locomotion", 3, model_path="ant/ant_mjx.xml")
         except ConfigError as error:
             print("error:", error)
         """
