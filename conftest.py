@@ -30,29 +30,6 @@ def pytest_configure(config: pytest.Config) -> None:
     _share_compiled_programs(config)
 
 
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's worker reads the groups
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Order the tests for two processes (README's `pytest -n 2`) so that neither waits long for the other.
-
-    The tests that share a fixture of their module's scope (a training run, a compiled MJX environment) form one
-    pytest-xdist group, which pyproject's `--dist loadgroup` sends to one process, so that the fixture is built once
-    per run, not once per process; the largest groups go first. Then every other test goes on its own to whichever
-    process is free, the slow ones first, so that the run ends on short tests.
-    """
-    grouped = set()
-    for item in items:
-        module = item.nodeid.split("::")[0]
-        definitions = item._fixtureinfo.name2fixturedefs  # pytest's record of the fixtures it uses
-        if any(
-            found and found[-1].scope == "module" and found[-1].baseid == module
-            for found in (definitions.get(name) for name in item.fixturenames)
-        ):
-            item.add_marker(pytest.mark.xdist_group(module))
-            grouped.add(item.nodeid)
-    # a stable sort: each module's grouped tests keep their order, and the other tests use none of their fixtures
-    items.sort(key=lambda item: item.nodeid not in grouped and item.get_closest_marker("slow") is None)
-
-
 def _share_compiled_programs(config: pytest.Config) -> None:
     """Let this run's tests and the processes they start reuse what JAX compiled for one another.
 
