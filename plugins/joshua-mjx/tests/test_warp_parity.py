@@ -86,7 +86,15 @@ def _mujoco(env: MjxEnv, qpos0: np.ndarray, qvel0: np.ndarray, ctrl: np.ndarray)
 MODELS = {"ant_locomotion": "ant/ant.xml"}
 
 
-@pytest.mark.parametrize("task", ["ant_locomotion", "trileg_locomotion", "so_arm100_reach", "so_arm100_pick_place"])
+@pytest.mark.parametrize(  # Ant in the fast tier (the cheapest compile); the arms and trileg in the full suite
+    "task",
+    [
+        "ant_locomotion",
+        pytest.param("trileg_locomotion", marks=pytest.mark.slow),
+        pytest.param("so_arm100_reach", marks=pytest.mark.slow),
+        pytest.param("so_arm100_pick_place", marks=pytest.mark.slow),
+    ],
+)
 def test_warp_steps_a_task_like_jax_and_mujoco(task: str) -> None:
     jax_env = make_mjx_env(task, ENVS, model_path=MODELS.get(task))
     warp_env = make_mjx_env(task, ENVS, model_path=MODELS.get(task), physics=Physics("warp"))
@@ -103,6 +111,7 @@ def test_warp_steps_a_task_like_jax_and_mujoco(task: str) -> None:
     assert np.abs(jax_qpos[-1] - jax_qpos[0]).max() > 10 * JAX_WARP_TOL  # the task moved: the check can fail
 
 
+@pytest.mark.slow
 def test_warp_steps_a_randomized_model_like_jax() -> None:
     """Per-environment friction and masses of pick-and-place (with their derived inverse weights) reach Warp's
     model as JAX's."""
