@@ -288,6 +288,11 @@ class MjxEnv:
         geoms, inertias, constraint rows, ... stay on chip or go unwritten; the gain is in bench/RESULTS.md). The
         Data is what frame_skip whole steps give, to float32 rounding (XLA may fuse the two programs differently)."""
 
+        if self.physics.impl == WARP:
+            # Warp's FFI step rewrites every field of the Data it is given, so whatever the loop does not carry
+            # XLA copies into each call: carrying the whole Data is the lean path there (bench/mjx_env_cost.py)
+            return jax.lax.fori_loop(0, self.task.frame_skip, lambda _, d: self._physics(mjx.step, fields, d), data)
+
         def inputs_step(_: int, inputs: dict[str, jax.Array]) -> dict[str, jax.Array]:
             stepped = self._physics(mjx.step, fields, data.replace(**inputs))
             return {name: getattr(stepped, name) for name in STEP_INPUTS}
