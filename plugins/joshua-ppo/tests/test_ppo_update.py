@@ -50,6 +50,7 @@ def update_losses(env: MjxEnv, recompute: bool, num_epochs: int) -> np.ndarray:
     return losses
 
 
+@pytest.mark.slow  # compiles a whole PPO update: about 95 s on 2 cores
 def test_recomputed_advantages_match_while_the_value_network_is_unchanged(env: MjxEnv) -> None:
     # one epoch of one minibatch: its losses are computed before the first gradient step
     once, recomputed = update_losses(env, False, 1), update_losses(env, True, 1)

@@ -31,6 +31,7 @@ def ant_jax():  # type: ignore[no-untyped-def]
     return plugins.backend("mjx").create_envs(spec, EnvKind.JAX, plugins)
 
 
+@pytest.mark.slow  # compiles the JAX Ant environments for SB3: about 80 s on 2 cores
 def test_jax_vec_env_reports_episodes_as_sb3_expects(ant_jax) -> None:  # type: ignore[no-untyped-def]
     env = JaxVecEnv(ant_jax, seed=3)
     first = env.reset()
