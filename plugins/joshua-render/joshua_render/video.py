@@ -11,7 +11,7 @@ import tempfile
 from fractions import Fraction
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import Any, ClassVar
 
 import av
 import cv2
@@ -22,8 +22,6 @@ from joshua_core.atomic import atomic_write_bytes, remove_stale_temporaries, tem
 from joshua_core.errors import JoshuaError
 
 ENCODER = "libx264"
-CODEC_NAME = "h264"  # the codec's name as decoders (and LeRobot's info.json) report it
-PIXEL_FORMAT = "yuv420p"  # 4:2:0 chroma, so the width and height must be even: odd frames get an edge column/row
 ENCODER_OPTIONS = {"preset": "veryfast", "crf": "20"}  # visually near-lossless at a few hundred kB per minute
 FPS_DENOMINATOR_LIMIT = 1001  # a float rate becomes a fraction, e.g. 29.97 -> 30000/1001
 TEMPORARY_SUFFIX = ".tmp.mp4"  # `.offscreen.mp4.<pid>.<random>.tmp.mp4` while being written
@@ -37,6 +35,9 @@ class VideoWriter:
     (None: the encoder's default). A context manager; leaving the block calls `close()` (after an exception, a
     video with at least one frame is still finished, so nothing recorded is lost).
     """
+
+    CODEC_NAME: ClassVar[str] = "h264"  # the codec's name as decoders (and LeRobot's info.json) report it
+    PIXEL_FORMAT: ClassVar[str] = "yuv420p"  # 4:2:0 chroma: the width and height must be even
 
     def __init__(self, path: Path, fps: float, keyframe_interval: int | None = None) -> None:
         if not fps > 0:
@@ -87,7 +88,7 @@ class VideoWriter:
             self._temporary.unlink(missing_ok=True)
             raise JoshuaError(f"cannot write video {self.path}: {error}") from error
         stream.width, stream.height = size[0] + size[0] % 2, size[1] + size[1] % 2
-        stream.pix_fmt = PIXEL_FORMAT
+        stream.pix_fmt = self.PIXEL_FORMAT
         stream.time_base = 1 / rate
         self._container, self._stream, self._size = container, stream, size
 
