@@ -34,6 +34,7 @@ ENTRY_POINTS = {
     ("joshua_modes.offscreen", "run_offscreen"): "the documented Python API for frames of a replay",
     ("joshua_mujoco.engine", "__init__"): "MuJoCoEngine(model_path=...), the documented API, given a USD file",
     ("joshua_mujoco.envs", "__init__"): "TaskEnv: the Gymnasium entry point of gymnasium.make('joshua/...')",
+    ("joshua_mujoco.envs", "register_envs"): "run on import of joshua_mujoco.envs: Gymnasium ids of all tasks",
     ("joshua_mujoco.vector", "make_vector_env"): "documented convenience (joshua-mujoco README), gymnasium.make_vec",
     ("joshua_mjx.env", "make_mjx_env"): "documented convenience (joshua-mjx README)",
     ("joshua_sb3.task_envs", "task_vec_env"): "documented convenience behind AntEnv/TrilegEnv (docs/usd.md)",

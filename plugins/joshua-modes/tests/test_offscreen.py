@@ -8,6 +8,7 @@ import json
 import types
 from pathlib import Path
 
+import av
 import cv2
 import numpy as np
 import pytest
@@ -86,6 +87,10 @@ def test_sim_offscreen_preset_writes_video_png_depth_segmentation(run_joshua, tm
     assert len(pngs) == 25 and pngs[0].name == "frame_000000.png"
     png = cv2.imread(str(pngs[12]))[..., ::-1]
     assert png.shape == (120, 160, 3) and distinct_colours(png) > 300
+    with av.open(str(out / "offscreen.mp4")) as container:  # H.264 in yuv420p: the MP4 that browsers play
+        codec = container.streams.video[0].codec_context
+        assert (codec.name, codec.format.name) == ("h264", "yuv420p")
+    assert np.abs(frames[12][..., ::-1].astype(int) - png).mean() < 8  # the video's frame is the PNG, lossily
     depth = cv2.imread(str(out / "offscreen_depth" / "frame_000012.png"), cv2.IMREAD_UNCHANGED)
     assert depth.dtype == np.uint16 and 100 < depth.min() < 2000 and depth.max() > depth.min() + 200
     segmentation = cv2.imread(str(out / "offscreen_segmentation" / "frame_000012.png"), cv2.IMREAD_UNCHANGED)

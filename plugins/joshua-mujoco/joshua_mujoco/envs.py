@@ -1,10 +1,11 @@
 """Single Gymnasium environments for the registered tasks, and their registration with Gymnasium.
 
-Importing this module registers `joshua/AntLocomotion-v0`, `joshua/TrilegLocomotion-v0`,
-`joshua/SoArm100Reach-v0` and `joshua/SoArm100PickPlace-v0`, each with a vector entry point
-(`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")` gives a BatchedVectorEnv).
-Without importing it first, `gymnasium.make("joshua_mujoco.envs:joshua/AntLocomotion-v0")` does
-the same.
+Importing this module registers one id per task that the installed plugins register (`env_id`:
+`joshua/AntLocomotion-v0`, ..., the Isaac tasks of joshua-usd included), each with a vector entry
+point (`gymnasium.make_vec(..., vectorization_mode="vector_entry_point")` gives a BatchedVectorEnv).
+Gymnasium 1.x loads no plugins by itself (its entry-point plugin system ended with 0.29), so without
+importing this module first, `gymnasium.make("joshua_mujoco.envs:joshua/AntLocomotion-v0")`
+imports and registers in one go.
 """
 
 from __future__ import annotations
@@ -16,9 +17,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH
+from joshua_core.kinds import Kind
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import EpisodeSums, account_step
+from joshua_core.tasks.task import load_task_spec
 from joshua_mujoco.task_options import task_config_from_options
 from joshua_mujoco.vector import (
     BatchedSimulation,
@@ -27,13 +30,13 @@ from joshua_mujoco.vector import (
     make_vector_env,
 )
 
-# Gymnasium ids of the built-in tasks.
-ENV_IDS = {
-    "joshua/AntLocomotion-v0": "ant_locomotion",
-    "joshua/TrilegLocomotion-v0": "trileg_locomotion",
-    "joshua/SoArm100Reach-v0": "so_arm100_reach",
-    "joshua/SoArm100PickPlace-v0": "so_arm100_pick_place",
-}
+ENV_NAMESPACE = "joshua"
+
+
+def env_id(task: str) -> str:
+    """The Gymnasium id of a task: its name in CamelCase in the `joshua` namespace, version 0
+    (`so_arm100_reach` -> `joshua/SoArm100Reach-v0`)."""
+    return f"{ENV_NAMESPACE}/{''.join(part[:1].upper() + part[1:] for part in task.split('_'))}-v0"
 
 
 class TaskEnv(gymnasium.Env):
@@ -106,20 +109,23 @@ def make_vector(task: str, num_envs: int = 1, **kwargs: Any) -> BatchedVectorEnv
     return make_vector_env(task, num_envs, **kwargs)
 
 
-def register_envs() -> None:
-    """Register the built-in tasks with Gymnasium (idempotent); `max_episode_steps` is the task's episode
-    length, so `env.spec` says where episodes are truncated (the env truncates there itself too)."""
-    from joshua_core.tasks.builtin import BUILTIN_TASKS
-
-    for env_id, task in ENV_IDS.items():
-        if env_id not in gymnasium.registry:
+def register_envs(plugins: PluginHost | None = None) -> dict[str, str]:
+    """Register every task of the installed plugins with Gymnasium (idempotent) and return {id: task};
+    `max_episode_steps` is the task's episode length, so `env.spec` says where episodes are truncated
+    (the env truncates there itself too)."""
+    host = plugins or PluginHost.discover()
+    registered = {}
+    for task in host.names(Kind.TASK):
+        registered[env_id(task)] = task
+        if env_id(task) not in gymnasium.registry:
             gymnasium.register(
-                env_id,
+                env_id(task),
                 entry_point="joshua_mujoco.envs:TaskEnv",
                 vector_entry_point="joshua_mujoco.envs:make_vector",
                 kwargs={"task": task},
-                max_episode_steps=BUILTIN_TASKS[task].episode_length,
+                max_episode_steps=load_task_spec(task, host).episode_length,
             )
+    return registered
 
 
 register_envs()

@@ -4,13 +4,13 @@ A library the MuJoCo backend, the modes, the mirror and the trainers share (no `
 
 - headless GL: `choose_headless_gl`, `has_display`, `RenderingUnavailableError`;
 - frames: `create_renderer`, `camera_id`, `render_with_commands` (3-d commands drawn as markers);
-- files: `VideoWriter` (atomic MP4), `write_png`; `GridVideoWriter` (episodes tiled and labelled in one MP4),
+- files: `VideoWriter` (atomic H.264 MP4), `write_png`; `GridVideoWriter` (episodes tiled and labelled in one MP4),
   `episode_label`, `grid_shape`;
 - display: `open_display` (the MuJoCo viewer when a display is usable, else an MP4 recording),
   `Display`, `ViewerDisplay`, `RecordingDisplay`, `display_usable`, `no_display_error`;
 - training: `LiveViewer`, `open_viewer` (a few environments' poses in the viewer).
 
-Importing the package is light: mujoco and OpenCV are imported the first time a name is used.
+Importing the package is light: mujoco, OpenCV and PyAV are imported the first time a name is used.
 """
 
 from __future__ import annotations

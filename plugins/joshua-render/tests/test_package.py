@@ -23,4 +23,4 @@ def test_importing_the_package_imports_neither_mujoco_nor_opencv() -> None:
     assert result.stdout.strip() == "[]"
     script = "import sys; from joshua_render import VideoWriter; print('mujoco' in sys.modules, 'cv2' in sys.modules)"
     result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60, check=True)
-    assert result.stdout.split() == ["False", "True"]  # the video writer needs OpenCV only
+    assert result.stdout.split() == ["False", "True"]  # the video module needs OpenCV (PNG), not mujoco

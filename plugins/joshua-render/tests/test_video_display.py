@@ -1,12 +1,15 @@
-"""VideoWriter and open_display (the contract the modes and the mirror use): real MP4 files read back with OpenCV.
+"""VideoWriter and open_display (the contract the modes and the mirror use): real MP4 files decoded with PyAV
+(the stream browsers get: H.264, yuv420p, index first) and read back with OpenCV.
 
 The engine is the tests' own minimal `Engine` (render_testing.SceneEngine): any engine with MuJoCo's model and
 data can be shown or recorded, not only the MuJoCo backend's."""
 
 from __future__ import annotations
 
+from fractions import Fraction
 from pathlib import Path
 
+import av
 import numpy as np
 import pytest
 from render_testing import SceneEngine, distinct_colours, orange_pixels, read_video
@@ -24,18 +27,46 @@ def gradient(index: int, height: int = 48, width: int = 64) -> np.ndarray:
     return frame
 
 
+def decode(path: Path) -> tuple[av.video.stream.VideoStream, list[np.ndarray]]:
+    """The video stream of an MP4 and its frames as RGB arrays, decoded with PyAV."""
+    with av.open(str(path)) as container:
+        stream = container.streams.video[0]
+        return stream, [frame.to_ndarray(format="rgb24") for frame in container.decode(stream)]
+
+
 def test_video_writer_round_trip(tmp_path: Path) -> None:
     path = tmp_path / "clips" / "run.mp4"
     with VideoWriter(path, fps=12.0) as video:
         for index in range(10):
             video.write(gradient(index))
         assert not path.exists()  # still in its temporary file
-    frames, fps = read_video(path)
-    assert len(frames) == 10 and fps == pytest.approx(12.0)
-    assert frames[0].shape == (48, 64, 3)
-    for index, frame in enumerate(frames):  # lossy codec: close to what was written, in RGB order
-        assert np.abs(frame[..., ::-1].astype(int) - gradient(index)).mean() < 12
+    stream, frames = decode(path)
+    assert (stream.codec_context.name, stream.codec_context.format.name) == ("h264", "yuv420p")
+    assert stream.average_rate == 12 and len(frames) == 10 and frames[0].shape == (48, 64, 3)
+    for index, frame in enumerate(frames):  # lossy codec (and 4:2:0 chroma): close to what was written
+        assert np.abs(frame.astype(int) - gradient(index)).mean() < 6
+    assert frames[3][16, 20].tolist() == pytest.approx([255, 255, 0], abs=24)  # the moving square, in RGB order
+    head = path.read_bytes()[:4096]
+    assert b"moov" in head and head.index(b"moov") < path.read_bytes().index(b"mdat")  # +faststart: index first
     assert sorted(p.name for p in path.parent.iterdir()) == ["run.mp4"]  # no temporary file left
+    bgr_frames, fps = read_video(path)  # OpenCV (the other tests' reader) decodes it too
+    assert len(bgr_frames) == 10 and fps == pytest.approx(12.0)
+
+
+def test_video_writer_pads_odd_sizes_and_keeps_fractional_rates(tmp_path: Path) -> None:
+    path = tmp_path / "odd.mp4"
+    with VideoWriter(path, fps=100 / 3, keyframe_interval=2) as video:  # 0.03 s per frame
+        for index in range(5):
+            video.write(gradient(index, height=47, width=63))
+    stream, frames = decode(path)
+    assert (stream.width, stream.height) == (64, 48) and stream.average_rate == Fraction(100, 3)
+    assert len(frames) == 5
+    for index, frame in enumerate(frames):  # the added column and row repeat the last ones
+        expected = np.pad(gradient(index, height=47, width=63), ((0, 1), (0, 1), (0, 0)), mode="edge")
+        assert np.abs(frame.astype(int) - expected).mean() < 6
+    with av.open(str(path)) as container:
+        keyframes = [packet.is_keyframe for packet in container.demux(video=0) if packet.size]
+    assert keyframes == [True, False, True, False, True]
 
 
 def test_video_writer_rejects_bad_frames_and_empty_videos(tmp_path: Path) -> None:

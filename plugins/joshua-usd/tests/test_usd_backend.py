@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import sys
 
+import gymnasium
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -15,7 +16,9 @@ from joshua_core.errors import ConfigError
 from joshua_core.interfaces import EnvKind, EnvSpec
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
+from joshua_core.tasks.task import load_task_spec
 from joshua_mujoco import MuJoCoEngine
+from joshua_mujoco.envs import register_envs
 from joshua_mujoco.vector import task_config_from_options
 from joshua_usd.backend import UsdBackend
 
@@ -81,3 +84,16 @@ def test_engines_are_mujoco_engines_of_any_model_format(plugins: PluginHost) -> 
         assert isinstance(engine, MuJoCoEngine) and engine.model.nu == 6
         engine.step(5)
         assert engine.time == pytest.approx(5 * 0.004)
+
+
+@pytest.mark.parametrize(
+    ("env_id", "task"),
+    [("joshua/IsaacAntLocomotion-v0", "isaac_ant_locomotion"), ("joshua/IsaacTrileg-v0", "isaac_trileg")],
+)
+def test_the_isaac_tasks_have_gymnasium_ids(env_id: str, task: str, plugins: PluginHost) -> None:
+    assert register_envs(plugins)[env_id] == task
+    env = gymnasium.make(env_id)
+    assert env.spec.max_episode_steps == load_task_spec(task, plugins).episode_length
+    observation, _ = env.reset(seed=0)
+    assert observation.shape == env.observation_space.shape and np.isfinite(observation).all()
+    env.close()
