@@ -83,7 +83,7 @@ def joint_prims(stage: Usd.Stage, bodies: set[Sdf.Path], report: ImportReport) -
         frame0, frame1 = (_joint_target(prim, rel, report) for rel in ("physics:body0", "physics:body1"))
         if frame0 is None and frame1 is None:
             raise report.error(path, "physics:body1", "the joint connects no rigid body (body0 and body1 empty)")
-        body0, body1 = (_enclosing_body(target, bodies) for target in (frame0, frame1))
+        body0, body1 = (enclosing_body(target, bodies) for target in (frame0, frame1))
         if body0 is not None and body1 is not None and body0.GetPath() == body1.GetPath():
             report.warn(path, f"body0 and body1 are both in the rigid body <{body0.GetPath()}>: ignored")
             continue
@@ -108,7 +108,7 @@ def _joint_target(prim: Usd.Prim, name: str, report: ImportReport) -> Usd.Prim |
     return target
 
 
-def _enclosing_body(prim: Usd.Prim | None, bodies: set[Sdf.Path]) -> Usd.Prim | None:
+def enclosing_body(prim: Usd.Prim | None, bodies: set[Sdf.Path]) -> Usd.Prim | None:
     """`prim` or its nearest ancestor that is a simulated rigid body; None (the static world) if there is none."""
     while prim and not prim.IsPseudoRoot():
         if prim.GetPath() in bodies:
