@@ -4,6 +4,7 @@
 
 writes so100.usd, ant.usd and trileg.usd (text USD, byte-identical on every run) into OUT_DIR,
 by default this folder; a test checks that the committed files are what this script writes.
+so100.usd is the arm alone (scene.xml adds table and floor) with the scene's cameras and their image size.
 """
 
 from __future__ import annotations
@@ -11,22 +12,40 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from joshua_usd.exporter import export_model
+import mujoco
+
+from joshua_usd.exporter import export_model, write_model
 
 HERE = Path(__file__).resolve().parent
 MODELS = HERE.parent
-SOURCES = {
-    "so100.usd": MODELS / "so_arm100" / "so_arm100.xml",  # the arm alone (scene.xml adds table and floor)
-    "ant.usd": MODELS / "ant" / "ant.xml",
-    "trileg.usd": MODELS / "trileg" / "trileg.xml",
-}
+ARM, ARM_SCENE = MODELS / "so_arm100" / "so_arm100.xml", MODELS / "so_arm100" / "scene.xml"
+SOURCES = {"ant.usd": MODELS / "ant" / "ant.xml", "trileg.usd": MODELS / "trileg" / "trileg.xml"}
+
+
+def arm_with_scene_cameras() -> mujoco.MjModel:
+    """SO-ARM100 alone, with the world cameras and offscreen size of its scene (as compiled there)."""
+    scene = mujoco.MjModel.from_xml_path(str(ARM_SCENE))
+    spec = mujoco.MjSpec.from_file(str(ARM))
+    spec.visual.global_.offwidth = scene.vis.global_.offwidth
+    spec.visual.global_.offheight = scene.vis.global_.offheight
+    spec.stat.extent = scene.stat.extent  # the cameras' clipping range scales with it
+    for camera in range(scene.ncam):
+        if scene.cam_bodyid[camera] == 0:
+            spec.worldbody.add_camera(
+                name=scene.camera(camera).name,
+                pos=scene.cam_pos[camera],
+                quat=scene.cam_quat[camera],
+                fovy=float(scene.cam_fovy[camera]),
+            )
+    return spec.compile()
 
 
 def main(argv: list[str]) -> int:
     out_dir = Path(argv[0]) if argv else HERE
-    for name, source in SOURCES.items():
-        written = export_model(source, out_dir / name)
-        print(f"wrote {written} ({written.stat().st_size} bytes)")
+    written = [write_model(arm_with_scene_cameras(), out_dir / "so100.usd")]
+    written += [export_model(source, out_dir / name) for name, source in SOURCES.items()]
+    for path in written:
+        print(f"wrote {path} ({path.stat().st_size} bytes)")
     return 0
 
 

@@ -68,7 +68,14 @@ def _prims(stage: Usd.Stage, schema: type) -> list[Usd.Prim]:
 
 
 def _world(prim: Usd.Prim) -> Gf.Matrix4d:
-    return UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
+    """The prim's local-to-world matrix; for Isaac's sensor types (no schema in usd-core, so USD does not
+    compute theirs) its xformOps after its parent's."""
+    if prim.IsA(UsdGeom.Xformable):
+        return UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
+    local = Gf.Matrix4d(1)
+    for name in prim.GetAttribute("xformOpOrder").Get():
+        local = UsdGeom.XformOp(prim.GetAttribute(name)).GetOpTransform(Usd.TimeCode.Default()) * local
+    return local * _world(prim.GetParent())
 
 
 def _rotation(matrix: Gf.Matrix4d) -> Gf.Rotation:
@@ -276,5 +283,10 @@ def test_site_sensors_are_documented_prims_at_their_sites(tmp_path: Path) -> Non
     assert sensors["wrist_gyro"].GetAttribute("joshua:sensor:type").Get() == "gyro"
     schemas = stage.GetPrimAtPath("/so_arm100/moving_jaw").GetMetadata("apiSchemas").GetAddedOrExplicitItems()
     assert "PhysxContactReportAPI" in schemas  # not a known schema to usd-core: only in the metadata
+    assert sensors["gripper_touch_moving"].GetTypeName() == "IsaacContactSensor"  # Isaac's contact sensor
+    imu = stage.GetPrimAtPath("/so_arm100/fixed_jaw/sensors/wrist_imu")
+    assert imu.GetTypeName() == "IsaacImuSensor" and imu.GetAttribute("enabled").Get()
+    assert list(imu.GetAttribute("joshua:sensor:imuOf").Get()) == ["wrist_accel", "wrist_gyro"]
+    np.testing.assert_allclose(_world(imu).ExtractTranslation(), data.site("wrist").xpos, atol=1e-9)
     notes = stage.GetDefaultPrim().GetAttribute("joshua:notExported").Get()
     assert len(notes) == 12 and all("only sensors at sites" in note for note in notes)

@@ -32,16 +32,27 @@ def export_model(model_path: Path, out: Path) -> Path:
     UsageError when `out` has another suffix or cannot be written."""
     from joshua_mujoco import compile_model
 
-    out = Path(out)
-    if out.suffix.lower() not in (*TEXT_SUFFIXES, ".usdc"):
-        raise UsageError(f"{out}: write .usd, .usda or .usdc")
+    _check_suffix(Path(out))
     try:
         model = compile_model(Path(model_path))
     except ModelError as error:
         raise ModelError(" ".join(str(error).split())) from None
+    return write_model(model, out)
+
+
+def write_model(model: mujoco.MjModel, out: Path) -> Path:
+    """Write a compiled model to `out` as `export_model` does (for models assembled in code)."""
+    out = Path(out)
+    _check_suffix(out)
     stage = build_stage(model)  # held: the layer lives only as long as its stage
     _write_layer(stage.GetRootLayer(), out)
     return out
+
+
+def _check_suffix(out: Path) -> None:
+    """UsageError unless `out` is a .usd, .usda or .usdc file."""
+    if out.suffix.lower() not in (*TEXT_SUFFIXES, ".usdc"):
+        raise UsageError(f"{out}: write .usd, .usda or .usdc")
 
 
 def build_stage(model: mujoco.MjModel) -> Usd.Stage:

@@ -1,17 +1,23 @@
-"""Cameras (UsdGeom.Camera) and site sensors (documented Xforms with joshua:sensor:* attributes)."""
+"""Cameras (UsdGeom.Camera) and site sensors (documented prims with joshua:sensor:* attributes), with Isaac Sim's
+own sensor prims beside them: an IsaacImuSensor where a site carries an accelerometer or gyro, and touch sensors as
+IsaacContactSensor prims in bodies with PhysxContactReportAPI (Isaac's sensor schema; usd-core lacks it, so the
+types and attributes are written by name)."""
 
 from __future__ import annotations
 
 import math
 
 import mujoco
-from pxr import Gf, Sdf, UsdGeom
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
 from joshua_usd.exporter.context import Context, set_pose, set_raw
 from joshua_usd.exporter.frames import gf_vec3f
 
 HORIZONTAL_APERTURE = 20.955  # USD's default (mm); the focal length is chosen to give MuJoCo's fovy
 CONTACT_SENSORS = {"touch"}  # their bodies get PhysxContactReportAPI, which Isaac's contact sensors need
+IMU_SENSORS = {"accelerometer", "gyro"}  # what one Isaac IMU prim at their site measures
+CONTACT_THRESHOLD = Gf.Vec2f(0, 100000)  # N: Isaac's default force range of a contact sensor
 
 
 def write_cameras(ctx: Context) -> None:
@@ -44,6 +50,7 @@ def write_sensors(ctx: Context) -> None:
     joints, actuators and other objects are notes: Isaac reads joint states itself."""
     model = ctx.model
     groups: dict[int, Sdf.Path] = {}
+    imus: dict[int, list[str]] = {}
     for sensor in range(model.nsensor):
         name = ctx.name(mujoco.mjtObj.mjOBJ_SENSOR, sensor, "sensor")
         kind = mujoco.mjtSensor(model.sensor_type[sensor]).name[len("mjSENS_") :].lower()
@@ -55,7 +62,10 @@ def write_sensors(ctx: Context) -> None:
         if body not in groups:
             groups[body] = ctx.child_path(ctx.parent_path(body), "sensors")
             UsdGeom.Xform.Define(ctx.stage, groups[body])
-        prim = UsdGeom.Xform.Define(ctx.stage, ctx.child_path(groups[body], name)).GetPrim()
+        if kind in IMU_SENSORS:
+            imus.setdefault(site, []).append(name)
+        prim_type = "IsaacContactSensor" if kind in CONTACT_SENSORS and body else "Xform"
+        prim = ctx.stage.DefinePrim(ctx.child_path(groups[body], name), prim_type)
         set_pose(prim, model.site_pos[site], model.site_quat[site])
         set_raw(prim, "joshua:sensor:type", Sdf.ValueTypeNames.Token, kind, custom=True)
         site_name = ctx.name(mujoco.mjtObj.mjOBJ_SITE, site, "site")
@@ -70,4 +80,32 @@ def write_sensors(ctx: Context) -> None:
             size = gf_vec3f(model.site_size[site])
             set_raw(prim, "joshua:sensor:zoneSize", Sdf.ValueTypeNames.Float3, size, custom=True)
             if body:
-                ctx.stage.GetPrimAtPath(ctx.body_paths[body]).AddAppliedSchema("PhysxContactReportAPI")
+                _contact_sensor(ctx, prim, body, float(np.linalg.norm(model.site_size[site])))
+    for site, names in imus.items():
+        _imu(ctx, groups[int(model.site_bodyid[site])], site, names)
+
+
+def _contact_sensor(ctx: Context, prim: Usd.Prim, body: int, radius: float) -> None:
+    """Isaac's contact sensor attributes on a touch sensor prim (its radius the bounding sphere of the site's
+    zone) and PhysxContactReportAPI, reporting every contact, on its body."""
+    set_raw(prim, "enabled", Sdf.ValueTypeNames.Bool, True)
+    set_raw(prim, "threshold", Sdf.ValueTypeNames.Float2, CONTACT_THRESHOLD)
+    set_raw(prim, "radius", Sdf.ValueTypeNames.Float, radius)
+    body_prim = ctx.stage.GetPrimAtPath(ctx.body_paths[body])
+    body_prim.AddAppliedSchema("PhysxContactReportAPI")
+    set_raw(body_prim, "physxContactReport:threshold", Sdf.ValueTypeNames.Float, 0.0)
+
+
+def _imu(ctx: Context, group: Sdf.Path, site: int, names: list[str]) -> None:
+    """One IsaacImuSensor at a site with accelerometers or gyros, naming them in joshua:sensor:imuOf (the importer
+    reads those sensors from their own prims); filter widths 1: raw readings, as MuJoCo's."""
+    model = ctx.model
+    site_name = ctx.name(mujoco.mjtObj.mjOBJ_SITE, site, "site")
+    prim_name = site_name if "imu" in site_name.lower() else f"{site_name}_imu"
+    prim = ctx.stage.DefinePrim(ctx.child_path(group, prim_name), "IsaacImuSensor")
+    set_pose(prim, model.site_pos[site], model.site_quat[site])
+    set_raw(prim, "enabled", Sdf.ValueTypeNames.Bool, True)
+    for width in ("linearAcceleration", "angularVelocity", "orientation"):
+        set_raw(prim, f"{width}FilterWidth", Sdf.ValueTypeNames.Int, 1)
+    set_raw(prim, "joshua:sensor:site", Sdf.ValueTypeNames.String, site_name, custom=True)
+    set_raw(prim, "joshua:sensor:imuOf", Sdf.ValueTypeNames.StringArray, Vt.StringArray(names), custom=True)

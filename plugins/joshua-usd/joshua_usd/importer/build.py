@@ -1,4 +1,5 @@
-"""USD stage -> MjSpec: the tree of bodies and joints, drives, geoms, scene settings and mass properties."""
+"""USD stage -> MjSpec: the tree of bodies and joints, drives, geoms, scene settings, mass properties, cameras and
+sensors."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
-from pxr import Sdf
+from pxr import Sdf, Usd
 
 from joshua_usd.importer.drives import add_drive, joint_properties
 from joshua_usd.importer.geoms import add_geom, shapes
@@ -18,8 +19,9 @@ from joshua_usd.importer.mass import probe, set_inertial
 from joshua_usd.importer.pose import IDENTITY, Pose, Vec
 from joshua_usd.importer.report import ImportReport
 from joshua_usd.importer.scene import set_articulations, set_collision_groups, set_scene
+from joshua_usd.importer.sensors import add_cameras, add_sensors
 from joshua_usd.importer.stage import StageFrame, open_stage, read
-from joshua_usd.importer.topology import Link, build_tree, joint_prims, rigid_bodies, walk
+from joshua_usd.importer.topology import Link, build_tree, enclosing_body, joint_prims, rigid_bodies, walk
 
 TARGETS_KEYFRAME = "drive_targets"  # qpos0 with every drive's target as ctrl
 
@@ -73,6 +75,14 @@ def import_usd(path: Path) -> Imported:
     for link in links:
         body = made[link.prim.GetPath()]
         set_inertial(body.spec, link.prim, body.scale, model, frame, report)
+
+    def body_of(prim: Usd.Prim | None) -> tuple[mujoco.MjsBody, Pose]:
+        owner = enclosing_body(prim, body_paths)
+        body = made[owner.GetPath()] if owner is not None else world
+        return body.spec, body.pose
+
+    add_cameras(stage, body_of, frame, report)
+    add_sensors(spec, stage, body_paths, body_of, model, frame, report)
     if any(targets):
         spec.add_key(name=TARGETS_KEYFRAME, qpos=model.qpos0, ctrl=targets)
     for kind, named in (("body", names), ("geom", geom_names)):

@@ -15,6 +15,7 @@ from joshua_usd.importer.pose import Pose
 from joshua_usd.importer.report import ImportReport
 from joshua_usd.importer.shapes import add_shape
 from joshua_usd.importer.stage import StageFrame, positive, prims, read
+from joshua_usd.importer.topology import enclosing_body
 
 VISUAL_GROUP = 2
 HIDDEN_COLLIDER_GROUP = 3  # colliders that are invisible or guides: hidden in MuJoCo's viewer by default
@@ -39,17 +40,8 @@ def shapes(stage: Usd.Stage, bodies: set[Sdf.Path], report: ImportReport) -> lis
         imageable = UsdGeom.Imageable(prim)
         rendered = imageable.ComputePurpose() in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)
         if collider or (rendered and imageable.ComputeVisibility() != UsdGeom.Tokens.invisible):
-            found.append(Shape(prim, _owner(prim, bodies), collider))
+            found.append(Shape(prim, enclosing_body(prim, bodies), collider))
     return found
-
-
-def _owner(prim: Usd.Prim, bodies: set[Sdf.Path]) -> Usd.Prim | None:
-    """The prim itself or its nearest ancestor that is a rigid body; None for static world geometry."""
-    while prim and not prim.IsPseudoRoot():
-        if prim.GetPath() in bodies:
-            return prim
-        prim = prim.GetParent()
-    return None
 
 
 def add_geom(

@@ -38,10 +38,10 @@ def place(link: Link, frame: StageFrame, report: ImportReport) -> Placement:
     if link.joint is None:
         return Placement(frame.world_pose(link.prim)[0], IDENTITY, AXES["Z"], 0.0)
     joint = link.joint
-    parent_body, child_body = (joint.body1, joint.body0) if link.reversed else (joint.body0, joint.body1)
-    parent_index, child_index = ("1", "0") if link.reversed else ("0", "1")
-    parent_pose, parent_frame = _joint_frame(joint.prim, parent_body, parent_index, frame, report)
-    child_pose, child_frame = _joint_frame(joint.prim, child_body, child_index, frame, report)
+    ends = ((joint.body0, joint.frame0, "0"), (joint.body1, joint.frame1, "1"))
+    (parent_body, *parent_end), (child_body, *child_end) = ends[::-1] if link.reversed else ends
+    parent_pose, parent_frame = _joint_frame(joint.prim, parent_body, *parent_end, frame, report)
+    child_pose, child_frame = _joint_frame(joint.prim, child_body, *child_end, frame, report)
     axis = AXES.get(str(read(joint.prim, "physics:axis", report) or "X"), AXES["X"]) * (-1 if link.reversed else 1)
     relative = (parent_pose * parent_frame).inverse() * (child_pose * child_frame)
     motion, value = _joint_motion(joint.kind, axis, relative)
@@ -60,17 +60,25 @@ def place(link: Link, frame: StageFrame, report: ImportReport) -> Placement:
 
 
 def _joint_frame(
-    prim: Usd.Prim, body: Usd.Prim | None, index: str, frame: StageFrame, report: ImportReport
+    prim: Usd.Prim,
+    body: Usd.Prim | None,
+    target: Usd.Prim | None,
+    index: str,
+    frame: StageFrame,
+    report: ImportReport,
 ) -> tuple[Pose, Pose]:
-    """The stage pose of body`index` in the world and the joint frame in that body (localPos scaled to metres)."""
+    """The stage pose of body`index` in the world and the joint frame in that body (localPos scaled to metres).
+    localPos/localRot are given in the frame of the rel's `target`, which may be a prim inside the body or, for
+    the world, a prim that is no body: they are then carried through the target's pose into the body's frame."""
     body_pose, scale = frame.world_pose(body)
     position = read(prim, f"physics:localPos{index}", report)
     rotation = read_quat(prim, f"physics:localRot{index}", report)
-    local = Pose(
-        scale * np.asarray(position if position is not None else (0, 0, 0), dtype=np.float64),
-        rotation if rotation is not None else IDENTITY.quat,
-    )
-    return body_pose, local
+    position = np.asarray(position if position is not None else (0, 0, 0), dtype=np.float64)
+    rotation = rotation if rotation is not None else IDENTITY.quat
+    if (target.GetPath() if target else None) == (body.GetPath() if body else None):
+        return body_pose, Pose(scale * position, rotation)
+    target_pose, target_scale = frame.world_pose(target)
+    return body_pose, body_pose.inverse() * target_pose * Pose(target_scale * position, rotation)
 
 
 def _joint_motion(kind: str, axis: Vec, relative: Pose) -> tuple[Pose, float]:

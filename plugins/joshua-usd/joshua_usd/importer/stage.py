@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from pxr import Tf, Usd, UsdGeom, UsdPhysics
+from pxr import Gf, Tf, Usd, UsdGeom, UsdPhysics
 
 from joshua_usd.importer.pose import Pose, Vec, decompose
 from joshua_usd.importer.report import ImportReport
@@ -74,14 +74,28 @@ class StageFrame:
 
     def world_matrix(self, prim: Usd.Prim | None) -> NDArray[np.float64]:
         """The prim's local-to-world matrix in MuJoCo's world (column vectors); None is the world itself."""
-        if prim is None:
+        if prim is None or prim.IsPseudoRoot():
             return self.to_mujoco
+        if not prim.IsA(UsdGeom.Xformable):  # a type usd-core has no schema for (Isaac's sensors): its own ops
+            return self.world_matrix(prim.GetParent()) @ _local_matrix(prim)
         stage_matrix = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
         return self.to_mujoco @ np.array(stage_matrix).T
 
     def world_pose(self, prim: Usd.Prim | None) -> tuple[Pose, Vec]:
         """The prim's rigid pose in MuJoCo's world and the scale (metres per local unit) along its axes."""
         return decompose(self.world_matrix(prim))
+
+
+def _local_matrix(prim: Usd.Prim) -> NDArray[np.float64]:
+    """The local transform (column vectors) of the xformOps named in the prim's xformOpOrder."""
+    matrix = Gf.Matrix4d(1)
+    order = prim.GetAttribute("xformOpOrder")
+    names = order.Get() if order else None
+    for name in names or []:
+        attribute = prim.GetAttribute(str(name))
+        if attribute:  # "!resetXformStack!" and missing ops add nothing
+            matrix = UsdGeom.XformOp(attribute).GetOpTransform(Usd.TimeCode.Default()) * matrix
+    return np.array(matrix).T
 
 
 def read(prim: Usd.Prim, name: str, report: ImportReport, *, allow_inf: bool = False) -> Any:

@@ -1,5 +1,8 @@
 """The kinematic tree: rigid bodies (RigidBodyAPI) linked by UsdPhysics joints through body0/body1, rooted
-at the world (a joint with an empty body rel) or, for a floating robot, at its articulation root."""
+at the world or, for a floating robot, at its articulation root. As the UsdPhysics reference parser
+(UsdPhysics.LoadUsdPhysicsFromRange) reads a body rel: its target stands for the nearest enabled rigid body at or
+above it, and a target with none (the asset's root Xform, say) or no target at all is the static world; the
+joint's localPos/localRot stay in the target's frame (the stage's frame without a target)."""
 
 from __future__ import annotations
 
@@ -22,12 +25,15 @@ JOINT_KINDS = (
 
 @dataclass(frozen=True)
 class JointPrim:
-    """A UsdPhysics joint between two rigid bodies (None is the world)."""
+    """A UsdPhysics joint between two rigid bodies (None is the world), and the prims its body rels target, in
+    whose frames localPos0/localRot0 and localPos1/localRot1 are given (None: the stage's frame)."""
 
     prim: Usd.Prim
     kind: str
     body0: Usd.Prim | None
     body1: Usd.Prim | None
+    frame0: Usd.Prim | None = None
+    frame1: Usd.Prim | None = None
 
 
 @dataclass
@@ -74,27 +80,41 @@ def joint_prims(stage: Usd.Stage, bodies: set[Sdf.Path], report: ImportReport) -
         if kind is None:
             report.warn(path, f"{prim.GetTypeName() or 'generic'} joints are not supported: bodies welded instead")
             kind = "fixed"
-        body0, body1 = (_joint_body(prim, rel, bodies, report) for rel in ("physics:body0", "physics:body1"))
-        if body0 is None and body1 is None:
+        frame0, frame1 = (_joint_target(prim, rel, report) for rel in ("physics:body0", "physics:body1"))
+        if frame0 is None and frame1 is None:
             raise report.error(path, "physics:body1", "the joint connects no rigid body (body0 and body1 empty)")
-        joints.append(JointPrim(prim, kind, body0, body1))
+        body0, body1 = (enclosing_body(target, bodies) for target in (frame0, frame1))
+        if body0 is not None and body1 is not None and body0.GetPath() == body1.GetPath():
+            report.warn(path, f"body0 and body1 are both in the rigid body <{body0.GetPath()}>: ignored")
+            continue
+        if body0 is None and body1 is None:
+            report.warn(path, "neither body0 nor body1 is in a rigid body (both are the static world): ignored")
+            continue
+        joints.append(JointPrim(prim, kind, body0, body1, frame0, frame1))
     return joints
 
 
-def _joint_body(prim: Usd.Prim, name: str, bodies: set[Sdf.Path], report: ImportReport) -> Usd.Prim | None:
-    """The rigid body a joint's body rel targets, or None for the world (no target)."""
+def _joint_target(prim: Usd.Prim, name: str, report: ImportReport) -> Usd.Prim | None:
+    """The prim a joint's body rel targets (None without a target); a missing prim or several are ModelErrors."""
     rel = prim.GetRelationship(name)
     targets = rel.GetForwardedTargets() if rel else []
     if not targets:
         return None
     if len(targets) > 1:
         raise report.error(prim.GetPath(), name, f"has {len(targets)} targets, a joint body needs one")
-    body = prim.GetStage().GetPrimAtPath(targets[0])
-    if not body:
+    target = prim.GetStage().GetPrimAtPath(targets[0])
+    if not target:
         raise report.error(prim.GetPath(), name, f"target <{targets[0]}> does not exist")
-    if targets[0] not in bodies:
-        raise report.error(prim.GetPath(), name, f"target <{targets[0]}> is not a rigid body (no RigidBodyAPI)")
-    return body
+    return target
+
+
+def enclosing_body(prim: Usd.Prim | None, bodies: set[Sdf.Path]) -> Usd.Prim | None:
+    """`prim` or its nearest ancestor that is a simulated rigid body; None (the static world) if there is none."""
+    while prim and not prim.IsPseudoRoot():
+        if prim.GetPath() in bodies:
+            return prim
+        prim = prim.GetParent()
+    return None
 
 
 def build_tree(bodies: list[Usd.Prim], joints: list[JointPrim], report: ImportReport) -> list[Link]:
