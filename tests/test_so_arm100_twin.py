@@ -69,7 +69,9 @@ def twin() -> tuple[mujoco.MjModel, list[tuple[int, int]], list[tuple[int, int]]
     return model, pairs(collision), pairs(links)
 
 
-def _distances(model: mujoco.MjModel, data: mujoco.MjData, pairs: list[tuple[int, int]]) -> dict[tuple[str, str], float]:
+def _distances(
+    model: mujoco.MjModel, data: mujoco.MjData, pairs: list[tuple[int, int]]
+) -> dict[tuple[str, str], float]:
     """The smallest signed distance (m, negative: penetration) per pair of bodies at data's pose."""
     nearest: dict[tuple[str, str], float] = {}
     for first, second in pairs:
