@@ -121,11 +121,12 @@ def forearm() -> list[trimesh.Trimesh]:
 
 
 def wrist() -> list[trimesh.Trimesh]:
-    """Wrist: U-bracket on the wrist-flex horn carrying the wrist-roll servo."""
+    """Wrist: U-bracket on the wrist-flex horn carrying the wrist-roll servo, whose case stands up (+z, the
+    gripper servo's side): folded to rest, the wrist then hangs in front of the shoulder's lift servo."""
     return [
         *side_plates((0.0, 0.0), (0.026, 0.0), 0.026, 0.017, 0.004),
-        box((0.022, -0.021, -0.036), (0.028, 0.021, 0.014)),  # servo back plate
-        box((0.028, -0.015, -0.038), (0.058, 0.015, -0.034)),  # servo floor
+        box((0.022, -0.021, -0.014), (0.028, 0.021, 0.036)),  # servo back plate
+        box((0.028, -0.015, 0.034), (0.058, 0.015, 0.038)),  # servo roof
     ]
 
 

@@ -1,5 +1,5 @@
-"""`joshua lerobot-export`: a trajectory (CSV or dataset episode) replayed on a model, its cameras rendered
-headless, written as a one-episode LeRobot dataset: observation.state = the replayed joint positions,
+"""`joshua lerobot-export`: trajectories (CSVs or dataset episodes) replayed on a model, its cameras rendered
+headless, written as a LeRobot dataset of one episode per trajectory: observation.state = the replayed joint positions,
 action = the trajectory's targets (`<joint>.target` columns, a dataset's action) where it has them, else
 the positions themselves (a scripted trajectory is its own command)."""
 
@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,7 +35,9 @@ class LeRobotExportCommand(Command):
     """Writes a rendered replay of a trajectory as a LeRobot dataset."""
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("trajectory", help="trajectory CSV, or a LeRobot dataset folder (see --episode)")
+        parser.add_argument(
+            "trajectory", nargs="+", help="trajectory CSVs or LeRobot dataset folders (see --episode): one episode each"
+        )
         parser.add_argument("--model", default=DEFAULT_MODEL, help=f"model to replay on (default {DEFAULT_MODEL})")
         parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"dataset folder (default {DEFAULT_OUT})")
         parser.add_argument(
@@ -52,24 +55,35 @@ class LeRobotExportCommand(Command):
         parser.add_argument(
             "--height", type=int, default=DEFAULT_HEIGHT, help=f"video height (default {DEFAULT_HEIGHT})"
         )
-        parser.add_argument("--task", default=DEFAULT_TASK, help=f"the episode's task text (default '{DEFAULT_TASK}')")
+        parser.add_argument(
+            "--task",
+            action="append",
+            default=None,
+            help=f"the episodes' task text: once for all, or once per trajectory in order (default '{DEFAULT_TASK}')",
+        )
         parser.add_argument("--episode", type=int, default=0, help="the episode of a dataset to replay (default 0)")
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
         if args.fps < 1 or args.width < 2 or args.height < 2 or args.episode < 0:
             raise UsageError("--fps, --width and --height must be positive and --episode at least 0")
+        tasks = args.task or [DEFAULT_TASK]
+        if len(tasks) not in (1, len(args.trajectory)):
+            raise UsageError(
+                f"--task is given {len(tasks)} times for {len(args.trajectory)} trajectories: give it once, or once "
+                "per trajectory"
+            )
         check_replaceable(args.out, overwrite=args.overwrite, option="--out")
         model = resolve_data_path(args.model)
-        source = resolve_data_path(args.trajectory, what="trajectory", folders=True)
+        sources = [resolve_data_path(item, what="trajectory", folders=True) for item in args.trajectory]
         cameras = [] if args.no_video else (args.camera or [""])
-        path = export_trajectory(
-            source,
+        path = export_trajectories(
+            sources,
             model,
             args.out,
             fps=args.fps,
             cameras=cameras,
             size=(args.width, args.height),
-            task=args.task,
+            tasks=tasks * len(sources) if len(tasks) == 1 else tasks,
             episode=args.episode,
             plugins=plugins,
             overwrite=args.overwrite,
@@ -92,14 +106,67 @@ def export_trajectory(
     overwrite: bool = False,
     option: str = "--out",
 ) -> Path:
-    """Replay `source` (episode `episode`) on `model_path` at `fps` and write it to `out` as a LeRobot dataset,
-    one video per camera of `cameras` ("" = the model's first camera; empty: no video) at `size` (w, h).
-    A folder at `out` is replaced only when joshua wrote it and `overwrite` is set (`option` names `out` in errors)."""
-    from joshua_modes import frame_times, iter_offscreen_frames, model_joint_ranges
+    """`export_trajectories` of the one trajectory `source`."""
+    return export_trajectories(
+        [source],
+        model_path,
+        out,
+        fps=fps,
+        cameras=cameras,
+        size=size,
+        tasks=[task],
+        episode=episode,
+        plugins=plugins,
+        overwrite=overwrite,
+        option=option,
+    )
+
+
+def export_trajectories(
+    sources: Sequence[Path],
+    model_path: Path,
+    out: Path,
+    *,
+    fps: int,
+    cameras: Sequence[str] = ("",),
+    size: tuple[int, int] = (DEFAULT_WIDTH, DEFAULT_HEIGHT),
+    tasks: Sequence[str],
+    episode: int = 0,
+    plugins: PluginHost,
+    overwrite: bool = False,
+    option: str = "--out",
+) -> Path:
+    """Replay each of `sources` (episode `episode` of a dataset) on `model_path` at `fps` and write them to `out` as
+    one LeRobot dataset, an episode each with its task of `tasks`; one video per camera of `cameras` ("" = the
+    model's first camera; empty: no video) at `size` (w, h). A folder at `out` is replaced only when joshua wrote
+    it and `overwrite` is set (`option` names `out` in errors)."""
+    from joshua_modes import model_joint_ranges
     from joshua_mujoco import compile_model
 
     model = compile_model(model_path, plugins=plugins)
     ranges = model_joint_ranges(model)
+    recorded = [
+        _episode(source, model_path, model, ranges, fps, cameras, size, task, episode, plugins)
+        for source, task in zip(sources, tasks, strict=True)
+    ]
+    return write_dataset(out, recorded, fps=fps, joint_ranges=ranges, overwrite=overwrite, option=option)
+
+
+def _episode(
+    source: Path,
+    model_path: Path,
+    model: Any,
+    ranges: dict[str, tuple[float, float]],
+    fps: int,
+    cameras: Sequence[str],
+    size: tuple[int, int],
+    task: str,
+    episode: int,
+    plugins: PluginHost,
+) -> DatasetEpisode:
+    """One trajectory resampled at `fps`, its frames rendered while the dataset is written."""
+    from joshua_modes import frame_times, iter_offscreen_frames
+
     trajectory = load_trajectory(source, ranges, episode=episode, plugins=plugins)
     trajectory.require_playable()
     times = frame_times(trajectory.timestamps[0], trajectory.timestamps[-1], fps)
@@ -115,7 +182,7 @@ def export_trajectory(
         )
         for camera in cameras
     }
-    recorded = DatasetEpisode(
+    return DatasetEpisode(
         joint_names=trajectory.joint_names,
         timestamps=np.arange(len(times)) / fps,
         states=states,
@@ -123,7 +190,6 @@ def export_trajectory(
         task=task,
         cameras=frames,
     )
-    return write_dataset(out, [recorded], fps=fps, joint_ranges=ranges, overwrite=overwrite, option=option)
 
 
 def _counted(frames: Iterator[NDArray[np.uint8]], total: int, camera: str) -> Iterator[NDArray[np.uint8]]:

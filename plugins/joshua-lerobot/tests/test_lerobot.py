@@ -365,3 +365,31 @@ def test_the_cli_reports_a_malformed_dataset_in_one_line(valid_dataset: Path, tm
     done = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert done.returncode == 2 and done.stderr.strip().count("\n") == 0, done.stderr
     assert str(root / file) in done.stderr and message in done.stderr, done.stderr
+
+
+def test_several_recordings_export_as_one_dataset_with_a_task_each(
+    tmp_path: Path, ranges: dict[str, tuple[float, float]]
+) -> None:
+    first, second = tmp_path / "a.csv", tmp_path / "b.csv"
+    write_trajectory(first, motion(ranges))
+    shorter = motion(ranges)
+    keep = shorter.timestamps <= 1.0
+    write_trajectory(
+        second,
+        Trajectory(second, JOINTS, shorter.timestamps[keep], shorter.positions[keep], np.arange(keep.sum())),
+    )
+    joshua = str(Path(sys.executable).parent / "joshua")
+    out = tmp_path / "both"
+    common = [joshua, "lerobot-export", str(first), str(second), "--out", str(out), "--no-video", "--fps", str(FPS)]
+    done = subprocess.run([*common, "--task", "wave", "--task", "point"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    loaded = lerobot("load", out, tmp_path)
+    assert (loaded["frames"], loaded["episodes"]) == (16 + 11, 2)  # 1.5 s and 1.0 s at 10 fps, both ends
+    assert loaded["task"] == ["wave"] * 16 + ["point"] * 11
+    assert [load_trajectory(out, ranges, episode=e, plugins=PLUGINS).rows for e in (0, 1)] == [16, 11]
+
+    wrong = subprocess.run(
+        [*common, "--overwrite", "--task", "a", "--task", "b", "--task", "c"], capture_output=True, text=True
+    )
+    assert wrong.returncode == 2 and wrong.stderr.count("\n") == 1
+    assert "--task is given 3 times for 2 trajectories" in wrong.stderr

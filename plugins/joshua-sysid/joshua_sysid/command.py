@@ -32,7 +32,8 @@ class SysidCommand(Command):
             "recordings",
             nargs="+",
             type=Path,
-            help="trajectory CSVs with a '<joint>.target' column beside each joint column (see docs/sim-to-real.md)",
+            help="trajectory CSVs with a '<joint>.target' column beside each joint column, or LeRobot dataset folders "
+            "(see docs/sim-to-real.md)",
         )
         parser.add_argument("--model", default=DEFAULT_MODEL, help=f"the model to calibrate (default {DEFAULT_MODEL})")
         parser.add_argument(
@@ -52,19 +53,27 @@ class SysidCommand(Command):
             default=DEFAULT_OUTPUT_DIR,
             help=f"where the run folder goes (default {DEFAULT_OUTPUT_DIR})",
         )
+        parser.add_argument(
+            "--episode",
+            type=int,
+            default=0,
+            help="the episode of each dataset folder (e.g. LeRobot's) to fit (default 0); CSVs have one",
+        )
         parser.add_argument("--run-name", help=f"the run folder's name (default {RUN_STEM}_<date>-<time>)")
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
         if args.run_name is not None:
             check_run_name(args.run_name, "--run-name")  # before the fit, which may take minutes
         kinds = _parse_kinds(args.fit)
+        if args.episode < 0:
+            raise UsageError(f"--episode must be at least 0 (got {args.episode})")
         if args.max_iters < 1:
             raise UsageError(f"--max-iters must be at least 1 (got {args.max_iters})")
         model_path = resolve_data_path(args.model)
         spec = read_spec(model_path, plugins)
         model = spec.copy().compile()
         servos = recordings.model_servos(model, model_path)
-        loaded = recordings.load_recordings(args.recordings, model, servos, plugins)
+        loaded = recordings.load_recordings(args.recordings, model, servos, plugins, episode=args.episode)
         root = writable_folder(args.output_dir, "--output-dir")
         if args.run_name and (root / args.run_name).exists():
             raise UsageError(f"run folder {root / args.run_name} exists; choose another --run-name")

@@ -138,6 +138,12 @@ def fit(
     nominal, scales = build_parameters(spec, servos, kinds)
     before = _simulate(residual, nominal)
     started = time.monotonic()
+    logs: list[object] = []  # the optimizer's trace: one log per iteration, then one for the final point
+
+    def advance(trace: list[object]) -> None:
+        logs[:] = trace
+        bar.update(min(len(trace), max_iters) - bar.n)
+
     with progress_bar(max_iters, description="sysid", unit="iter") as bar:
         fitted, _ = sysid.optimize(
             nominal.copy().move_off_bounds(),  # a nominal 0 sits on its bound, where the optimizer can stall
@@ -146,9 +152,10 @@ def fit(
             verbose=False,
             max_iters=max_iters,
             output=io.StringIO(),  # its per-iteration lines; the progress bar stands for them
-            iter_callback=lambda trace: bar.update(len(trace) - bar.n),
+            iter_callback=advance,
         )
-        iterations = bar.n
+        iterations = max(len(logs) - 1, 0)  # mujoco.minimize.least_squares logs the final point after its loop
+        bar.n = iterations
         bar.total = iterations  # it stopped when converged: the last line reads 100%
         bar.refresh()
     seconds = time.monotonic() - started

@@ -31,6 +31,10 @@ if TYPE_CHECKING:
 MIN_SAMPLES = 20  # fewer samples than this cannot tell four parameters per joint apart
 MIN_DURATION_S = 1.0  # nor can a recording shorter than a few servo time constants
 MIN_MOTION = 1e-4  # rad or m: below a tenth of one step of a 12-bit servo encoder (2 pi / 4096), no motion at all
+# The fit simulates each recording from its first row with zero velocity, so the arm must be at rest there: between
+# the first two rows no joint may move faster than REST_SPEED (rad/s or m/s), four encoder steps (2 pi / 4096
+# each) per frame at 30 fps, which encoder noise does not reach and an arm in motion does.
+REST_SPEED = 0.2
 SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 
@@ -81,19 +85,22 @@ def model_servos(model: mujoco.MjModel, model_path: Path) -> list[Servo]:
 
 
 def load_recordings(
-    paths: Sequence[Path], model: mujoco.MjModel, servos: list[Servo], plugins: PluginHost
+    paths: Sequence[Path], model: mujoco.MjModel, servos: list[Servo], plugins: PluginHost, *, episode: int = 0
 ) -> list[Recording]:
     """Read and check each recording (a UsageError names the file and what is wrong); dataset folders are read by
-    the trajectory readers of `plugins`."""
+    the trajectory readers of `plugins`, episode `episode` of each."""
     joints = model_joint_ranges(model)
-    return [_load(resolve_data_path(path, what="recording", folders=True), joints, servos, plugins) for path in paths]
+    return [
+        _load(resolve_data_path(path, what="recording", folders=True), joints, servos, plugins, episode)
+        for path in paths
+    ]
 
 
 def _load(
-    path: Path, model_joints: dict[str, tuple[float, float]], servos: list[Servo], plugins: PluginHost
+    path: Path, model_joints: dict[str, tuple[float, float]], servos: list[Servo], plugins: PluginHost, episode: int
 ) -> Recording:
     """One recording: a trajectory CSV or a dataset folder (e.g. LeRobot's, through its trajectory reader)."""
-    trajectory = load_trajectory(path, model_joints, plugins=plugins)
+    trajectory = load_trajectory(path, model_joints, episode=episode, plugins=plugins)
     if trajectory.targets is None:
         raise UsageError(
             f"{path}: no commanded targets; joshua sysid needs a '<joint>{TARGET_SUFFIX}' column beside each joint "
@@ -127,6 +134,7 @@ def _load(
     for index, servo in enumerate(servos):
         for what, values in (("position", positions[:, index]), ("target", targets[:, index])):
             _check_plausible(path, servo.joint, what, values, model_joints[servo.joint])
+    _check_starts_at_rest(path, trajectory.joint_names, trajectory.timestamps, trajectory.positions)
     if (np.ptp(positions, axis=0) < MIN_MOTION).all():
         raise UsageError(
             f"{path}: no joint moves (each spans less than {MIN_MOTION:g} rad or m), so it tells the fit nothing; "
@@ -149,4 +157,18 @@ def _check_plausible(
         raise UsageError(
             f"{path}: joint '{joint}' has a {what} of {worst:g}, far outside its range [{low:g}, {high:g}]: not a "
             "plausible value for this model; is the recording of this robot, in radians or metres?"
+        )
+
+
+def _check_starts_at_rest(
+    path: Path, joints: Sequence[str], times: NDArray[np.float64], positions: NDArray[np.float64]
+) -> None:
+    """No joint moves faster than REST_SPEED between the first two rows (the fit starts the recording at rest)."""
+    speeds = np.abs(positions[1] - positions[0]) / (times[1] - times[0])
+    fastest = int(np.argmax(speeds))
+    if speeds[fastest] > REST_SPEED:
+        raise UsageError(
+            f"{path}: does not start at rest: joint '{joints[fastest]}' moves at {speeds[fastest]:.3g}/s between its "
+            f"first two rows (at most {REST_SPEED:g}); the fit starts each recording from its first row with zero "
+            "velocity, so record from a standstill"
         )

@@ -198,7 +198,10 @@ def one_servo_model(tmp_path: Path) -> tuple[Path, Path]:
         '<geom type="mesh" mesh="b" pos="0.1 0 0"/></body></worldbody>'
         '<actuator><position name="j_position" joint="j" kp="2"/></actuator></mujoco>'
     )
-    lines = [f"{i * 0.01:.2f},{0.3 * math.sin(i * 0.05):.4f},{0.3 * math.sin(i * 0.05 + 0.2):.4f}" for i in range(200)]
+    lines = [
+        f"{i * 0.01:.2f},{0.3 - 0.3 * math.cos(i * 0.05):.4f},{0.3 - 0.3 * math.cos(i * 0.05 + 0.2):.4f}"
+        for i in range(200)
+    ]
     return model, Path(write(tmp_path, "rec.csv", ["timestamp,j,j.target", *lines]))
 
 
@@ -229,3 +232,38 @@ def test_a_fit_that_fails_while_writing_leaves_no_run_folder(tmp_path: Path, mon
     arguments = [str(recording), "--model", str(model), "--max-iters", "1", "--fit", "kp", "--run-name", "r"]
     assert main(["sysid", *arguments, "--output-dir", "out"]) == 2
     assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_max_iters_runs_exactly_that_many_iterations(tmp_path: Path) -> None:
+    model, recording = one_servo_model(tmp_path)
+    arguments = [str(recording), "--model", str(model), "--max-iters", "3", "--fit", "kp,damping", "--run-name", "r"]
+    done = joshua("sysid", *arguments, "--output-dir", "out", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "after 3 iterations" in done.stdout
+
+
+def test_a_recording_that_does_not_start_at_rest_is_one_line(tmp_path: Path) -> None:
+    model, _ = one_servo_model(tmp_path)
+    lines = [f"{i * 0.01:.2f},{0.3 * math.sin(i * 0.05):.4f},{0.3 * math.sin(i * 0.05):.4f}" for i in range(200)]
+    moving = write(tmp_path, "moving.csv", ["timestamp,j,j.target", *lines])
+    done = joshua("sysid", moving, "--model", str(model), "--output-dir", "out", cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr.strip().count("\n") == 0 and "does not start at rest: joint 'j' moves at 1.5" in done.stderr
+
+
+def test_episode_picks_the_dataset_episode_and_checks_it_starts_at_rest(tmp_path: Path) -> None:
+    """A LeRobot dataset whose episode 0 starts moving and episode 1 at rest: --episode 1 fits, 0 is refused."""
+    writer = pytest.importorskip("joshua_lerobot.writer")
+    model, _ = one_servo_model(tmp_path)
+    times = np.arange(200) * 0.01
+    episodes = []
+    for moving in (True, False):  # sin from its steepest point, then 1 - cos from a standstill
+        positions = (0.3 * np.sin(times * 5) if moving else 0.3 - 0.3 * np.cos(times * 5))[:, None]
+        episodes.append(writer.DatasetEpisode(("j",), times, positions, positions, task="wave"))
+    writer.write_dataset(tmp_path / "data", episodes, fps=100, joint_ranges={"j": (-math.inf, math.inf)})
+    common = ["--model", str(model), "--max-iters", "1", "--fit", "kp", "--output-dir", "out"]
+    assert joshua("sysid", "data", *common, "--episode", "1", "--run-name", "e1", cwd=tmp_path).returncode == 0
+    refused = joshua("sysid", "data", *common, "--run-name", "e0", cwd=tmp_path)
+    assert refused.returncode == 2 and "does not start at rest" in refused.stderr, refused.stderr
+    missing = joshua("sysid", "data", *common, "--episode", "2", cwd=tmp_path)
+    assert missing.returncode == 2 and "no episode 2" in missing.stderr
