@@ -33,7 +33,7 @@ DEFAULT_PORT = 8080
 PUSH_HZ = 30.0  # body poses sent to the browsers at most this often
 VISIBLE_GROUPS = (0, 1, 2)  # the geom groups MuJoCo's viewers show by default
 PLANE_HALF_SIZE_M = 5.0  # an infinite plane (size 0) is drawn this large
-CAMERA_DIRECTION = (1.2, -1.6, 1.0)  # where the first view looks from, in model extents from the model's centre
+CAMERA_DIRECTION = (0.8, -1.1, 0.7)  # where the first view looks from, in model extents from the model's centre
 INSTALL_HINT = "the web display needs viser: pip install 'joshua-render[web]'"
 
 
