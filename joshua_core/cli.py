@@ -31,6 +31,7 @@ from joshua_core.plugins import DISABLE_ENV_VAR, PluginHost
 from joshua_core.run_context import RunContext
 
 STRICT_OVERRIDE = "simulation.replay.strict=true"  # what --strict means
+WEB_OVERRIDES = ("simulation.viewer.display=WEB", "simulation.viewer.web={address}")  # what --web ADDRESS means
 
 EPILOG = f"""\
 examples:
@@ -73,6 +74,12 @@ def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.Argu
         "--strict",
         action="store_true",
         help=f"do not replay a trajectory that fails validation (same as --set {STRICT_OVERRIDE})",
+    )
+    parser.add_argument(
+        "--web",
+        metavar="[HOST:]PORT",
+        help="show PASSIVE or INTERACTIVE in a web page at this address (HOST defaults to 127.0.0.1, this "
+        "machine only); prints the URL. Same as --set " + " --set ".join(WEB_OVERRIDES),
     )
     parser.add_argument("--print-config", action="store_true", help="print the final config and exit")
     add_no_cache_argument(parser)
@@ -218,6 +225,9 @@ def run(args: argparse.Namespace, host: PluginHost) -> int:
     loaded = load(args, options)
     if args.strict:
         apply_override(loaded.message, STRICT_OVERRIDE, options)
+    if args.web is not None:
+        for override in WEB_OVERRIDES:
+            apply_override(loaded.message, override.format(address=args.web), options)
     config = finalize(loaded)
     if args.print_config:
         print(config_text_of(config, options), end="")

@@ -15,9 +15,12 @@ from pathlib import Path
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import Engine, Mode
+from joshua_core.options import options_of
 from joshua_core.run_context import RunContext
+from joshua_modes import options_pb2
+from joshua_modes.options_pb2 import ViewerOptions
 from joshua_mujoco import MuJoCoEngine
-from joshua_render import ViewerDisplay
+from joshua_render import ViewerDisplay, WebControls, WebDisplay, open_web_display
 
 KEY_SPACE = 32  # GLFW key codes, as the viewer's key_callback reports them
 KEY_RIGHT = 262
@@ -57,28 +60,39 @@ def run_interactive(model_path: str | Path, *, keyframe: str | None = None, dura
         simulate(engine, keyframe=keyframe, duration=duration)
 
 
-def simulate(engine: Engine, *, keyframe: str | None, duration: float) -> None:
-    """Reset `engine` to the keyframe and run it in real time in the viewer until the window closes."""
+def simulate(engine: Engine, *, keyframe: str | None, duration: float, web: str | None = None) -> None:
+    """Reset `engine` to the keyframe and run it in real time in the viewer until the window closes; with `web`
+    ([HOST:]PORT) in a web page instead, until Ctrl-C (or `duration`)."""
     name = keyframe if keyframe else (engine.model.key(0).name if engine.model.nkey else None)
     try:
         engine.reset(name)
     except KeyError as error:
         raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
-    controls = _Controls()
-    viewer = ViewerDisplay(engine.model, engine.data, key_callback=controls.on_key)
     held = f"held at keyframe '{name}' by its actuators" if name else "from its initial state"
-    print(
-        f"MuJoCo viewer: {engine.model.nbody - 1} bodies, {held}. Space: pause/resume, Right: step while paused; "
-        "close the window or press Ctrl-C to quit",
-        flush=True,
-    )
+    viewer: ViewerDisplay | WebDisplay
+    if web is None:
+        controls: _Controls | WebControls = _Controls()
+        viewer = ViewerDisplay(engine.model, engine.data, key_callback=controls.on_key)
+        print(
+            f"MuJoCo viewer: {engine.model.nbody - 1} bodies, {held}. Space: pause/resume, Right: step while "
+            "paused; close the window or press Ctrl-C to quit",
+            flush=True,
+        )
+    else:
+        # instead=None: a live simulation nobody can watch is no use, so an address it cannot listen on is an error
+        page = open_web_display(engine.model, engine.data, web, title="JOSHUA interactive", instead=None)
+        assert page is not None
+        viewer, controls = page, page.controls
+        print(f"web display: {engine.model.nbody - 1} bodies, {held}; press Ctrl-C to quit", flush=True)
     try:
         _loop(engine, viewer, controls, duration)
     finally:
         viewer.close()
 
 
-def _loop(engine: Engine, viewer: ViewerDisplay, controls: _Controls, duration: float) -> None:
+def _loop(
+    engine: Engine, viewer: ViewerDisplay | WebDisplay, controls: _Controls | WebControls, duration: float
+) -> None:
     """Step the physics to keep up with the wall clock (not while paused) and sync the viewer each frame."""
     timestep = engine.timestep
     last = time.perf_counter()
@@ -108,5 +122,7 @@ class InteractiveMode(Mode):
     """The viewer on the config's model; `keyframe` empty means the model's first keyframe."""
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
+        viewer = options_of(config, options_pb2.viewer)
+        web = viewer.web if viewer.display == ViewerOptions.WEB else None
         with context.create_engine(config) as engine:
-            simulate(engine, keyframe=config.keyframe or None, duration=config.duration)
+            simulate(engine, keyframe=config.keyframe or None, duration=config.duration, web=web)

@@ -57,19 +57,23 @@ class ReplayOptions(_message.Message):
     def __init__(self, speed: _Optional[float] = ..., loop: _Optional[bool] = ..., as_fast_as_possible: _Optional[bool] = ..., strict: _Optional[bool] = ..., tracked: _Optional[bool] = ..., velocity_limit: _Optional[float] = ..., penetration_threshold: _Optional[float] = ..., episode: _Optional[int] = ...) -> None: ...
 
 class ViewerOptions(_message.Message):
-    __slots__ = ("display", "camera", "fps")
+    __slots__ = ("display", "camera", "fps", "web")
     class Display(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         AUTO: _ClassVar[ViewerOptions.Display]
         WINDOW: _ClassVar[ViewerOptions.Display]
         RECORD: _ClassVar[ViewerOptions.Display]
+        WEB: _ClassVar[ViewerOptions.Display]
     AUTO: ViewerOptions.Display
     WINDOW: ViewerOptions.Display
     RECORD: ViewerOptions.Display
+    WEB: ViewerOptions.Display
     DISPLAY_FIELD_NUMBER: _ClassVar[int]
     CAMERA_FIELD_NUMBER: _ClassVar[int]
     FPS_FIELD_NUMBER: _ClassVar[int]
+    WEB_FIELD_NUMBER: _ClassVar[int]
     display: ViewerOptions.Display
     camera: str
     fps: float
-    def __init__(self, display: _Optional[_Union[ViewerOptions.Display, str]] = ..., camera: _Optional[str] = ..., fps: _Optional[float] = ...) -> None: ...
+    web: str
+    def __init__(self, display: _Optional[_Union[ViewerOptions.Display, str]] = ..., camera: _Optional[str] = ..., fps: _Optional[float] = ..., web: _Optional[str] = ...) -> None: ...

@@ -22,7 +22,7 @@ from joshua_modes.offscreen import frame_times
 from joshua_modes.options_pb2 import ViewerOptions
 from joshua_modes.replay import Replayer
 from joshua_modes.validation import ValidationReport, validated_replayer
-from joshua_render import Display, RecordingDisplay, open_display
+from joshua_render import Display, RecordingDisplay, WebDisplay, open_display, open_web_display
 
 REPORT_NAME = "passive_report.json"
 VIDEO_NAME = "passive_replay"
@@ -33,7 +33,7 @@ VIEWER_CHOICE: dict[int, bool | None] = {
     ViewerOptions.AUTO: None,
     ViewerOptions.WINDOW: True,
     ViewerOptions.RECORD: False,
-}
+}  # WEB: the web page, or a recording when it cannot listen
 
 
 class PassiveMode(Mode):
@@ -56,20 +56,34 @@ class PassiveMode(Mode):
                 refusal="not replayed because simulation.replay.strict is set (--strict)",
                 plugins=context.plugins,
             )
-            with open_display(
-                engine,
-                output_dir=context.output_dir,
-                name=VIDEO_NAME,
-                fps=fps,
-                camera=viewer.camera or None,
-                viewer=VIEWER_CHOICE[viewer.display],
-            ) as display:
+            display = None
+            if viewer.display == ViewerOptions.WEB:
+                display = open_web_display(
+                    engine.model,
+                    engine.data,
+                    viewer.web,
+                    title="JOSHUA replay",
+                    instead="recording the replay instead",
+                    duration=replayer.duration,
+                )
+            if display is None:
+                display = open_display(
+                    engine,
+                    output_dir=context.output_dir,
+                    name=VIDEO_NAME,
+                    fps=fps,
+                    camera=viewer.camera or None,
+                    viewer=VIEWER_CHOICE.get(viewer.display, False),
+                )
+            with display:
                 print(
                     f"replaying {replayer.duration:.3f} s ({'tracked' if replay.tracked else 'kinematic'}): "
                     f"{display.description}"
                 )
                 if isinstance(display, RecordingDisplay):
                     _record(replayer, display, speed, fps)
+                elif isinstance(display, WebDisplay):
+                    _play(replayer, display, speed, loop=replay.loop)
                 else:
                     _show(replayer, display, speed, loop=replay.loop, as_fast_as_possible=replay.as_fast_as_possible)
                 video = display.close()
@@ -111,6 +125,38 @@ def _show(replayer: Replayer, display: Display, speed: float, *, loop: bool, as_
                 time.sleep(WINDOW_PERIOD_S)
         if not loop:
             return
+
+
+def _play(replayer: Replayer, display: WebDisplay, speed: float, *, loop: bool) -> None:
+    """In the browser: real time x `speed`; time stands still while paused, and jumps where a browser scrubs to.
+
+    Stepping while paused advances one frame period. A tracked replay runs physics only forward, so a
+    scrub back restarts it from the first row and runs it up to the chosen time.
+    """
+    controls = display.controls
+    position = 0.0  # trajectory seconds since the start
+    last = time.perf_counter()
+    while True:
+        now = time.perf_counter()
+        elapsed, last = now - last, now
+        seek = controls.take_seek()
+        if seek is not None:
+            if seek < position:
+                replayer.restart()
+            position = seek
+        elif not controls.paused:
+            position += elapsed * speed
+        else:
+            position += controls.take_steps() * WINDOW_PERIOD_S * speed
+        position = min(position, replayer.duration)
+        replayer.show(replayer.start_time + position)
+        display.update(position)
+        if position >= replayer.duration and not controls.paused:
+            if not loop:
+                return
+            replayer.restart()
+            position = 0.0
+        time.sleep(WINDOW_PERIOD_S)
 
 
 def _report_tracking(report: ValidationReport, replayer: Replayer, report_path: Path) -> None:

@@ -8,7 +8,8 @@ A library the MuJoCo backend, the modes, the mirror and the trainers share (no `
   `episode_label`, `grid_shape`;
 - display: `open_display` (the MuJoCo viewer when a display is usable, else an MP4 recording),
   `Display`, `ViewerDisplay`, `RecordingDisplay`, `display_usable`, `no_display_error`;
-- training: `LiveViewer`, `open_viewer` (a few environments' poses in the viewer).
+- training: `LiveViewer`, `open_viewer` (a few environments' poses in the viewer);
+- browser: `WebDisplay`, `open_web_display`, `parse_web_address` (a simulation in a web page, via viser).
 
 Importing the package is light: mujoco, OpenCV and PyAV are imported the first time a name is used.
 """
@@ -32,6 +33,7 @@ if TYPE_CHECKING:
     from joshua_render.grid import GridVideoWriter, episode_label, grid_shape
     from joshua_render.video import VideoWriter, write_png
     from joshua_render.viewer import LiveViewer, open_viewer
+    from joshua_render.web import WebControls, WebDisplay, open_web_display, parse_web_address
 
 __all__ = [
     "Display",
@@ -41,6 +43,8 @@ __all__ = [
     "RenderingUnavailableError",
     "VideoWriter",
     "ViewerDisplay",
+    "WebControls",
+    "WebDisplay",
     "camera_id",
     "choose_headless_gl",
     "create_renderer",
@@ -51,6 +55,8 @@ __all__ = [
     "no_display_error",
     "open_display",
     "open_viewer",
+    "open_web_display",
+    "parse_web_address",
     "render_with_commands",
     "write_png",
 ]
@@ -76,6 +82,10 @@ _HOME = {
     "open_display": "display",
     "LiveViewer": "viewer",
     "open_viewer": "viewer",
+    "WebControls": "web",
+    "WebDisplay": "web",
+    "open_web_display": "web",
+    "parse_web_address": "web",
 }
 
 

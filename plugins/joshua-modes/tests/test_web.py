@@ -1,0 +1,128 @@
+"""The web display in a real headless browser (Debian's chromium and chromedriver, driven by selenium).
+
+`joshua --preset sim_passive --web ADDRESS` runs with no X display; the page must draw the orange arm,
+its image must change as the replay moves, and a click on Pause must stop the replay's time.
+"""
+
+from __future__ import annotations
+
+import io
+import queue
+import re
+import shutil
+import socket
+import subprocess
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from modes_testing import JOSHUA_SCRIPT, headless_env, orange_pixels
+from numpy.typing import NDArray
+
+pytest.importorskip("viser", reason="the web display needs viser (pip install 'joshua-render[web]')")
+pytest.importorskip("selenium", reason="the browser tests need selenium")
+from PIL import Image  # noqa: E402
+from selenium import webdriver  # noqa: E402
+from selenium.webdriver.common.by import By  # noqa: E402
+from selenium.webdriver.support.wait import WebDriverWait  # noqa: E402
+
+CHROMEDRIVER = shutil.which("chromedriver")
+pytestmark = pytest.mark.skipif(CHROMEDRIVER is None, reason="needs chromium and chromedriver (apt-get install)")
+
+STARTUP_S = 120.0  # the run validates the trajectory and starts the server first (2 busy cores)
+PAGE_S = 60.0  # the page loads three.js and the model's meshes; software WebGL is slow
+MIN_ARM_PIXELS = 500  # of 800x600: the arm seen whole from the first camera covers several thousand
+MOVED_PIXELS = 200  # pixels that must differ between two images of the moving arm
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+@pytest.fixture
+def replay_url(tmp_path: Path) -> Iterator[str]:
+    """A looping, slowed-down PASSIVE replay of the example trajectory in a web page; yields its URL."""
+    port = free_port()
+    process = subprocess.Popen(
+        [str(JOSHUA_SCRIPT), "--preset", "sim_passive", "--web", f"127.0.0.1:{port}"]
+        + ["--set", "simulation.replay.loop=true", "--set", "simulation.replay.speed=0.5"],
+        cwd=tmp_path,
+        env=headless_env(MUJOCO_GL="egl"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    lines: queue.Queue[str] = queue.Queue()
+    threading.Thread(target=lambda: [lines.put(line) for line in process.stdout], daemon=True).start()
+    try:
+        seen = []
+        while True:
+            line = lines.get(timeout=STARTUP_S)
+            seen.append(line)
+            match = re.match(r"web display: (http://\S+) \(this machine only", line)
+            if match:
+                break
+            assert process.poll() is None, "".join(seen)
+        assert match[1] == f"http://127.0.0.1:{port}/"
+        yield match[1]
+        assert process.poll() is None, "the replay stopped while the browser watched"
+    finally:
+        process.terminate()
+        process.wait(timeout=30)
+
+
+@pytest.fixture
+def browser() -> Iterator[webdriver.Chrome]:
+    options = webdriver.ChromeOptions()
+    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=800,600"):
+        options.add_argument(argument)
+    options.add_argument("--enable-unsafe-swiftshader")  # WebGL on the CPU: no GPU on CI
+    driver = webdriver.Chrome(options=options, service=webdriver.ChromeService(executable_path=CHROMEDRIVER))
+    try:
+        yield driver
+    finally:
+        driver.quit()
+
+
+def screenshot(driver: webdriver.Chrome) -> NDArray[np.uint8]:
+    return np.asarray(Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB"))
+
+
+def arm_image(driver: webdriver.Chrome) -> list[NDArray[np.uint8]]:
+    """[a screenshot] if it shows the orange arm, else [] (the page is still loading)."""
+    image = screenshot(driver)
+    return [image] if orange_pixels(image) >= MIN_ARM_PIXELS else []
+
+
+def shown_time(driver: webdriver.Chrome) -> str:
+    """The replay time the page shows (the panel's 'time (s)' field)."""
+    return driver.find_element(By.XPATH, "//label[text()='time (s)']/following::input[1]").get_attribute("value")
+
+
+def click_button(driver: webdriver.Chrome, text: str) -> None:
+    driver.find_element(By.XPATH, f"//button[normalize-space()='{text}']").click()
+
+
+def test_page_draws_the_moving_arm_and_pause_stops_time(replay_url: str, browser: webdriver.Chrome) -> None:
+    browser.get(replay_url)
+    wait = WebDriverWait(browser, PAGE_S, poll_frequency=0.2)
+    (first,) = wait.until(arm_image)
+    # the replay moves the arm: a later image differs where the arm is
+    wait.until(lambda d: np.count_nonzero(np.any(screenshot(d) != first, axis=-1)) >= MOVED_PIXELS)
+    wait.until(lambda d: float(shown_time(d)) > 0.0)
+
+    click_button(browser, "Pause")
+    wait.until(lambda d: d.find_elements(By.XPATH, "//button[normalize-space()='Resume']"))
+    screenshot(browser)  # a pose sent just before the click lands within a frame: let one pass
+    paused_at = shown_time(browser)
+    still = screenshot(browser)
+    for _ in range(5):  # each screenshot takes a software-rendered frame: time passes between them
+        assert shown_time(browser) == paused_at
+        assert np.count_nonzero(np.any(screenshot(browser) != still, axis=-1)) < MOVED_PIXELS
+
+    click_button(browser, "Resume")  # and time goes on again: the checks above can fail
+    wait.until(lambda d: shown_time(d) != paused_at)

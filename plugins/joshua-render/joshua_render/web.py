@@ -1,0 +1,301 @@
+"""The browser display: a running simulation shown in a web page, for machines with no X display.
+
+The page is served by viser (docs/web-display.md says why viser and not MuJoCo Studio's web viewer):
+the browser draws the model's visible geoms with three.js; the simulation only sends each body's
+pose, at most `PUSH_HZ` times per second, and viser keeps only the newest value of each pose for a
+client that falls behind, so a slow or closed browser never holds the simulation back. Any number of
+browsers may watch; each sees the same scene and the same controls (pause, step, scrub).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import socket
+import sys
+import threading
+import time as clock
+from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from joshua_core.errors import UsageError
+from joshua_render.display import Display
+
+if TYPE_CHECKING:
+    import mujoco
+    import viser
+
+DEFAULT_HOST = "127.0.0.1"  # only this machine, unless the address names another interface
+DEFAULT_PORT = 8080
+PUSH_HZ = 30.0  # body poses sent to the browsers at most this often
+VISIBLE_GROUPS = (0, 1, 2)  # the geom groups MuJoCo's viewers show by default
+PLANE_HALF_SIZE_M = 5.0  # an infinite plane (size 0) is drawn this large
+CAMERA_DIRECTION = (0.8, -1.1, 0.7)  # where the first view looks from, in model extents from the model's centre
+INSTALL_HINT = "the web display needs viser: pip install 'joshua-render[web]'"
+
+
+def parse_web_address(text: str) -> tuple[str, int]:
+    """`[HOST:]PORT` (an IPv6 host in brackets) as (host, port); empty means 127.0.0.1:8080."""
+    text = text.strip()
+    if not text:
+        return DEFAULT_HOST, DEFAULT_PORT
+    host, separator, port_text = text.rpartition(":")
+    if not separator:
+        host, port_text = DEFAULT_HOST, text
+    host = host.strip("[]") or DEFAULT_HOST
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise UsageError(f"web address '{text}': expected [HOST:]PORT, e.g. 8080 or 0.0.0.0:8080") from None
+    if not 0 <= port <= 65535:
+        raise UsageError(f"web address '{text}': port {port} is not between 0 and 65535")
+    return host, port
+
+
+def _bind_problem(host: str, port: int) -> str | None:
+    """Why `host:port` cannot be listened on, or None if it can (checked by binding it once).
+
+    viser itself moves on to the next port when one is taken, and never returns when the address
+    cannot be bound at all; checking first keeps the address the user asked for, or says why not.
+    """
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except socket.gaierror as error:
+        return f"unknown host '{host}' ({error.strerror})"
+    family, kind, proto, _, address = infos[0]
+    with socket.socket(family, kind, proto) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server's own socket does
+        try:
+            probe.bind(address)
+        except OSError as error:
+            if error.errno == errno.EADDRINUSE:
+                return f"port {port} is in use"
+            if error.errno == errno.EADDRNOTAVAIL:
+                return f"{host} is not an address of this machine"
+            return error.strerror or str(error)
+    return None
+
+
+def start_server(address: str, *, title: str, instead: str | None) -> viser.ViserServer | None:
+    """A viser server on `address` ([HOST:]PORT), its URL printed. When the address cannot be listened on:
+    None, with one line saying why and what the run does `instead` (e.g. "recording the replay instead"), or,
+    with `instead` None (nothing else is worth doing), a UsageError saying why."""
+    host, port = parse_web_address(address)
+    problem = _bind_problem(host, port)
+    if problem is not None:
+        where = f"{host}:{port}"
+        if instead is None:
+            raise UsageError(f"the web display cannot listen on {where}: {problem}")
+        print(f"joshua: warning: no web display (cannot listen on {where}: {problem}); {instead}", file=sys.stderr)
+        return None
+    try:
+        import viser
+    except ImportError:
+        raise UsageError(INSTALL_HINT) from None
+    server = viser.ViserServer(host=host, port=port, label=title, verbose=False)
+    shown = f"[{host}]" if ":" in host else host
+    scope = "this machine only" if host in ("127.0.0.1", "localhost", "::1") else "reachable from the network"
+    print(f"web display: http://{shown}:{server.get_port()}/ ({scope}; no authentication)", flush=True)
+    return server
+
+
+def _geom_mesh(model: mujoco.MjModel, geom: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vertices and faces of one geom in its own frame; None for a type the page does not draw."""
+    import mujoco
+    import trimesh
+
+    kind, size = model.geom_type[geom], model.geom_size[geom]
+    types = mujoco.mjtGeom
+    if kind == types.mjGEOM_MESH:
+        mesh = model.geom_dataid[geom]
+        vertices = model.mesh_vert[model.mesh_vertadr[mesh] : model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
+        faces = model.mesh_face[model.mesh_faceadr[mesh] : model.mesh_faceadr[mesh] + model.mesh_facenum[mesh]]
+        return vertices.astype(np.float32), faces.astype(np.uint32)
+    if kind == types.mjGEOM_PLANE:
+        half = [s if s > 0 else PLANE_HALF_SIZE_M for s in size[:2]]
+        shape = trimesh.creation.box(extents=(2 * half[0], 2 * half[1], 0.002))
+        shape.apply_translation((0, 0, -0.001))
+    elif kind == types.mjGEOM_BOX:
+        shape = trimesh.creation.box(extents=2 * size)
+    elif kind == types.mjGEOM_SPHERE:
+        shape = trimesh.creation.icosphere(subdivisions=2, radius=size[0])
+    elif kind == types.mjGEOM_ELLIPSOID:
+        shape = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+        shape.apply_scale(size)
+    elif kind == types.mjGEOM_CAPSULE:
+        shape = trimesh.creation.capsule(height=2 * size[1], radius=size[0], count=(16, 16))
+    elif kind == types.mjGEOM_CYLINDER:
+        shape = trimesh.creation.cylinder(radius=size[0], height=2 * size[1], sections=24)
+    else:  # heightfields, SDFs: not drawn
+        return None
+    return np.asarray(shape.vertices, np.float32), np.asarray(shape.faces, np.uint32)
+
+
+def _geom_rgba(model: mujoco.MjModel, geom: int) -> np.ndarray:
+    """The colour MuJoCo draws a geom in: its material's, else its own."""
+    material = model.geom_matid[geom]
+    return model.mat_rgba[material] if material >= 0 else model.geom_rgba[geom]
+
+
+class ModelScene:
+    """One copy of a model's visible geoms in a viser scene, under `/{name}`, moved by body poses."""
+
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        model: mujoco.MjModel,
+        name: str,
+        *,
+        offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    ) -> None:
+        self._offset = np.asarray(offset, np.float64)
+        self._frames: dict[int, viser.FrameHandle] = {}
+        for geom in range(model.ngeom):
+            if model.geom_group[geom] not in VISIBLE_GROUPS or model.geom_rgba[geom][3] == 0:
+                continue
+            mesh = _geom_mesh(model, geom)
+            if mesh is None:
+                continue
+            body = int(model.geom_bodyid[geom])
+            if body not in self._frames:
+                self._frames[body] = server.scene.add_frame(f"/{name}/body{body}", show_axes=False)
+            rgba = _geom_rgba(model, geom)
+            server.scene.add_mesh_simple(
+                f"/{name}/body{body}/geom{geom}",
+                vertices=mesh[0],
+                faces=mesh[1],
+                color=tuple(int(255 * c) for c in rgba[:3]),
+                opacity=float(rgba[3]) if rgba[3] < 1 else None,
+                position=model.geom_pos[geom],
+                wxyz=model.geom_quat[geom],
+            )
+
+    def show(self, xpos: np.ndarray, xquat: np.ndarray) -> None:
+        """Move the bodies to world positions `xpos` (nbody, 3) and orientations `xquat` (nbody, 4)."""
+        for body, frame in self._frames.items():
+            frame.position = xpos[body] + self._offset
+            frame.wxyz = xquat[body]
+
+
+class WebControls:
+    """Pause, single steps and scrubbing, asked for in any browser (set on viser's threads, read by the loop)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.paused = False
+        self._steps = 0
+        self._seek: float | None = None
+
+    def toggle_pause(self) -> None:
+        with self._lock:
+            self.paused = not self.paused
+
+    def step(self) -> None:
+        with self._lock:
+            if self.paused:
+                self._steps += 1
+
+    def seek(self, time: float) -> None:
+        with self._lock:
+            self._seek = time
+
+    def take_steps(self) -> int:
+        """Single steps asked for since the last call (only while paused)."""
+        with self._lock:
+            steps, self._steps = self._steps, 0
+            return steps
+
+    def take_seek(self) -> float | None:
+        """The time a browser scrubbed to since the last call, if any."""
+        with self._lock:
+            seek, self._seek = self._seek, None
+            return seek
+
+
+class WebDisplay(Display):
+    """A simulation in the browser: `data` of `model` drawn by viser, with pause, step and (for a replay of
+    `duration` seconds) a time slider. `update` never waits for a browser; closing one changes nothing."""
+
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        model: mujoco.MjModel,
+        data: mujoco.MjData,
+        *,
+        duration: float | None = None,
+    ) -> None:
+        self._server, self._model, self._data = server, model, data
+        self.controls = WebControls()
+        self._scene = ModelScene(server, model, "robot")
+        center, extent = np.asarray(model.stat.center), float(model.stat.extent)
+        server.initial_camera.look_at = tuple(center)
+        server.initial_camera.position = tuple(center + extent * np.array(CAMERA_DIRECTION))
+        self._last_push = -np.inf
+        gui = server.gui
+        self._pause = gui.add_button("Pause")
+        self._pause.on_click(self._on_pause)
+        step = gui.add_button("Step")
+        step.on_click(lambda _: self.controls.step())
+        self._status = gui.add_text("status", initial_value="running", disabled=True)
+        self._time = gui.add_text("time (s)", initial_value="0.000", disabled=True)
+        self._slider = None
+        if duration is not None and duration > 0:
+            self._slider = gui.add_slider("scrub (s)", min=0.0, max=duration, step=duration / 1000, initial_value=0.0)
+            self._slider.on_update(self._on_scrub)
+        self.description = f"web display at port {server.get_port()}"
+        self._push(0.0)
+
+    def _on_pause(self, _: object) -> None:
+        self.controls.toggle_pause()
+        paused = self.controls.paused
+        self._pause.label = "Resume" if paused else "Pause"
+        self._status.value = "paused" if paused else "running"
+
+    def _on_scrub(self, event: viser.GuiEvent) -> None:
+        if event.client is not None:  # a browser moved it, not `update`
+            self.controls.seek(float(self._slider.value))
+
+    @contextlib.contextmanager
+    def lock(self) -> Iterator[None]:
+        """Nothing to hold: the page reads the state only inside `update`, on the caller's thread."""
+        yield
+
+    def set_status(self, text: str) -> None:
+        """One line shown in the panel (empty: running or paused)."""
+        self._status.value = text or ("paused" if self.controls.paused else "running")
+
+    def _push(self, time: float) -> None:
+        with self._server.atomic():
+            self._scene.show(self._data.xpos, self._data.xquat)
+            self._time.value = f"{time:.3f}"
+            if self._slider is not None:
+                self._slider.value = min(max(time, self._slider.min), self._slider.max)
+
+    def update(self, time: float) -> bool:
+        now = clock.perf_counter()
+        if now - self._last_push >= 1.0 / PUSH_HZ:
+            self._last_push = now
+            self._push(time)
+        return True
+
+    def close(self) -> Path | None:
+        self._server.stop()
+        return None
+
+
+def open_web_display(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    address: str,
+    *,
+    title: str,
+    instead: str | None,
+    duration: float | None = None,
+) -> WebDisplay | None:
+    """A WebDisplay on `address`; when it cannot listen there, None with one line saying why and what the run
+    does `instead`, or UsageError when `instead` is None (see `start_server`)."""
+    server = start_server(address, title=title, instead=instead)
+    return None if server is None else WebDisplay(server, model, data, duration=duration)

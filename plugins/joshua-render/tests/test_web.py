@@ -1,0 +1,60 @@
+"""The web display's address handling: [HOST:]PORT parsing, and an address it cannot listen on.
+
+Listening and drawing in a real browser is tested in joshua-modes (tests/test_web.py).
+"""
+
+from __future__ import annotations
+
+import socket
+
+import pytest
+
+from joshua_core.errors import UsageError
+from joshua_render.web import DEFAULT_HOST, DEFAULT_PORT, parse_web_address, start_server
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("", (DEFAULT_HOST, DEFAULT_PORT)),
+        ("9000", (DEFAULT_HOST, 9000)),
+        ("0.0.0.0:8081", ("0.0.0.0", 8081)),
+        ("[::1]:8082", ("::1", 8082)),
+        (":8083", (DEFAULT_HOST, 8083)),
+    ],
+)
+def test_address_parsing(text: str, expected: tuple[str, int]) -> None:
+    assert parse_web_address(text) == expected
+
+
+@pytest.mark.parametrize("text", ["web", "host:port", "70000"])
+def test_bad_address_is_a_usage_error(text: str) -> None:
+    with pytest.raises(UsageError, match="web address"):
+        parse_web_address(text)
+
+
+def test_port_in_use_is_one_line_and_no_server(capsys: pytest.CaptureFixture[str]) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        assert start_server(f"127.0.0.1:{port}", title="t", instead="recording instead") is None
+    err = capsys.readouterr().err
+    assert err == (
+        f"joshua: warning: no web display (cannot listen on 127.0.0.1:{port}: port {port} is in use); "
+        "recording instead\n"
+    )
+
+
+def test_address_not_of_this_machine(capsys: pytest.CaptureFixture[str]) -> None:
+    assert start_server("192.0.2.1:8080", title="t", instead="going on") is None  # TEST-NET-1: never local
+    assert "192.0.2.1 is not an address of this machine); going on" in capsys.readouterr().err
+
+
+def test_nothing_to_do_instead_is_an_error() -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        with pytest.raises(UsageError, match=f"cannot listen on 127.0.0.1:{port}: port {port} is in use"):
+            start_server(f"127.0.0.1:{port}", title="t", instead=None)
