@@ -2,7 +2,7 @@
 # Set up JOSHUA in ./.venv on Debian with Python 3.11.
 #   ./setup.sh          the runtime: joshua-core, joshua-render (rendering, video, viewer), the joshua-mujoco backend,
 #                       joshua-modes (viewer, replay, offscreen)
-#   ./setup.sh --all    every plugin: also joshua-mirror (rclpy + Fast DDS wheels, no ROS install),
+#   ./setup.sh --all    every plugin and the web display (viser): also joshua-mirror (rclpy + Fast DDS wheels, no ROS install),
 #                       joshua-sb3 (stable-baselines3 with torch's CPU wheel), joshua-mjx and joshua-ppo
 #                       (MJX with MuJoCo Warp, JAX, Flax, Optax; JAX for the CPU: on a GPU machine add
 #                       pip install "jax[cuda13]")
@@ -12,7 +12,7 @@
 #                       joshua-lerobot (LeRobot datasets in and out: pyarrow, PyAV)
 #   ./setup.sh --dev    --all and what the tests need: pytest, ruff, protoc (grpcio-tools), trimesh,
 #                       Gymnasium's MuJoCo environments (the reference of bench/cpu_env_throughput.py),
-#                       Xvfb, xwd and xdotool for the viewer tests, and the real lerobot 0.4.4 for
+#                       Xvfb, xwd and xdotool for the viewer tests, chromium and its driver for the web display's, and the real lerobot 0.4.4 for
 #                       joshua-lerobot's tests in .cache/lerobot-site (with FFmpeg's libraries from apt)
 # Versions come from constraints.txt. pip's cache stays inside the clone (.cache/pip).
 set -euo pipefail
@@ -31,6 +31,7 @@ if [[ -n $option && $option != --all && $option != --dev ]]; then
 fi
 if [[ $option == --dev ]]; then
   SYSTEM_PACKAGES+=(xvfb x11-apps xdotool)  # viewer tests: a virtual X server, xwd screenshots, closing the window
+  SYSTEM_PACKAGES+=(chromium chromium-driver)  # web display tests: a real headless browser
   SYSTEM_PACKAGES+=(libavcodec59 libavformat59 libavutil57 libswscale6 libswresample4 libavfilter8 libavdevice59)  # FFmpeg for torchcodec (the lerobot tests)
 fi
 missing=()
@@ -52,6 +53,7 @@ export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
 
 requirements=(-e . -e plugins/joshua-render -e plugins/joshua-mujoco -e plugins/joshua-modes)
 if [[ -n $option ]]; then
+  requirements=("${requirements[@]/plugins\/joshua-render/plugins/joshua-render[web]}")  # --web: the browser display
   requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e 'plugins/joshua-mjx[warp]' -e plugins/joshua-ppo -e plugins/joshua-usd -e plugins/joshua-sysid -e plugins/joshua-export -e plugins/joshua-lerobot)
   # torch first, pinned to its CPU wheel: then stable-baselines3 finds it installed and pulls no CUDA packages
   echo "setup: installing torch (CPU) into .venv"
