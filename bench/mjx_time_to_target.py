@@ -324,9 +324,9 @@ def load_config(preset: str, assignments: list[str], num_envs: int | None, optio
 IMPLS = ("jax", "warp")
 
 
-def impl_assignment(impl: str) -> list[str]:
-    """The --set that makes the environments step with `impl` (training.mjx.impl; jax is the default)."""
-    return [f"training.mjx.impl={impl.upper()}"]
+def impl_assignment(impl: str | None) -> list[str]:
+    """The --set that makes the environments step with `impl` (training.mjx.impl; None: the preset's)."""
+    return [f"training.mjx.impl={impl.upper()}"] if impl else []
 
 
 def stop_at(args: argparse.Namespace) -> float:
@@ -414,8 +414,7 @@ def main() -> int:
     parser.add_argument(
         "--impl",
         choices=IMPLS,
-        default="jax",
-        help="MJX's physics: jax (default) or warp (MuJoCo Warp; training.mjx.impl, docs/training-mjx.md)",
+        help="MJX's physics: jax or warp (MuJoCo Warp; training.mjx.impl, docs/training-mjx.md); default: the preset's",
     )
     parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU): 8 envs, 2 iterations, 4 episodes")
     parser.add_argument("--out", type=Path, required=True, help="folder for time_to_target.json and .png")

@@ -92,8 +92,7 @@ def main() -> None:
     parser.add_argument(
         "--impl",
         choices=IMPLS,
-        default="jax",
-        help="MJX's physics: jax (default) or warp (MuJoCo Warp; training.mjx.impl, docs/training-mjx.md)",
+        help="MJX's physics: jax or warp (MuJoCo Warp; training.mjx.impl, docs/training-mjx.md); default: the preset's",
     )
     parser.add_argument("--json", help="write the results here")
     args = parser.parse_args()
