@@ -13,6 +13,7 @@ from joshua_core.errors import ConfigError
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, EnvKind, EnvSpec
 from joshua_mjx.engine import MjxEngine
 from joshua_mjx.env import MjxEnv, mjx_envs
+from joshua_mjx.impl import Physics
 
 if TYPE_CHECKING:
     from joshua_core.plugins import PluginHost
@@ -36,4 +37,5 @@ class MjxBackend(Backend):
         if kind is not EnvKind.JAX:
             raise ConfigError(f"backend mjx provides JAX environments, not {kind.name}")
         use_compile_cache()  # before the environments' reset and step compile
+        Physics.from_training(spec.training).leave_memory_to_warp()  # before JAX starts its backends, if it has not
         return mjx_envs(spec, plugins)

@@ -14,6 +14,7 @@ joint limits, equalities and frictions can take), so a model that MJX-JAX steps 
 
 from __future__ import annotations
 
+import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +36,11 @@ JAX, WARP = "jax", "warp"
 # option that raises it; the others (the solver's iteration limits) are how a model with few iterations runs.
 _CAPACITY_BITS = {1 << 0: "njmax", 1 << 2: "nconmax", 1 << 3: "nconmax", 1 << 4: "nconmax"}
 _CAPACITY_MASK = sum(_CAPACITY_BITS)
+_JAX_MEMORY_VARIABLES = (
+    "XLA_PYTHON_CLIENT_PREALLOCATE",
+    "XLA_PYTHON_CLIENT_MEM_FRACTION",
+    "XLA_PYTHON_CLIENT_ALLOCATOR",
+)
 
 
 @dataclass(frozen=True)
@@ -72,6 +78,26 @@ class Physics:
             )
         if devices[0].platform not in ("cpu", "gpu", "cuda"):
             raise ConfigError(f"training.mjx.impl WARP runs on a CUDA GPU or the CPU, not {devices[0]}")
+
+    def leave_memory_to_warp(self) -> None:
+        """MuJoCo Warp allocates its work arrays outside JAX's memory pool, and JAX takes 75 % of a GPU up front by
+        default: on an H100 that left Warp too little, and training stopped minutes in with "Failed to allocate"
+        (bench/RESULTS.md). So JAX allocates on demand instead (XLA_PYTHON_CLIENT_PREALLOCATE=false), unless the
+        user set JAX's memory variables; that must happen before JAX starts its backends, else it says what to do."""
+        if self.impl != WARP or any(name in os.environ for name in _JAX_MEMORY_VARIABLES):
+            return
+        from jax._src import xla_bridge  # no public way to ask whether JAX has started its backends
+
+        if not xla_bridge.backends_are_initialized():
+            os.environ["XLA_PYTHON_CLIENT_PREALLOCATE"] = "false"
+            return
+        if jax.default_backend() == "gpu":
+            print(
+                "joshua: warning: MuJoCo Warp needs GPU memory outside JAX's pool, and JAX started before the "
+                "environments with its default of 75 % of the GPU; set XLA_PYTHON_CLIENT_PREALLOCATE=false if "
+                "training stops with 'Failed to allocate'",
+                file=sys.stderr,
+            )
 
     def put_model(self, model: mujoco.MjModel, source: str | Path, device: jax.Device, **warp_options: Any) -> Any:
         """`mjx.put_model` of this implementation on `device`; a feature it does not support is one ModelError

@@ -11,6 +11,10 @@ float64 MuJoCo within CPU_TOL (Ant, which lands meanwhile: CPU_TOL_OF), joint po
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import jax
 import jax.numpy as jnp
 import mujoco
@@ -124,3 +128,36 @@ def test_warp_steps_a_randomized_model_like_jax() -> None:
     plain_qpos, _, _, _ = _rollout(make_mjx_env("so_arm100_pick_place", ENVS))
     # the randomization moved the arm by more than the tolerance (5.8e-3 against 2e-3 when measured): it can fail
     assert np.abs(plain_qpos - jax_qpos).max() > 2 * JAX_WARP_TOL
+
+
+MEMORY_PROBE = """
+import os, sys
+import jax
+from joshua_mjx import Physics
+if sys.argv[1] == "started":
+    jax.devices()
+Physics(sys.argv[2]).leave_memory_to_warp()
+print(os.environ.get("XLA_PYTHON_CLIENT_PREALLOCATE", "unset"))
+"""
+
+
+@pytest.mark.parametrize(
+    ("impl", "backend", "preset", "expected"),
+    [
+        ("warp", "not started", None, "false"),  # JAX will allocate on demand, leaving Warp the rest
+        ("warp", "not started", "true", "true"),  # the user's choice stands
+        ("warp", "started", None, "unset"),  # too late to change: on a GPU it warns (the CPU has no pool)
+        ("jax", "not started", None, "unset"),  # MJX-JAX keeps JAX's default
+    ],
+)
+def test_warp_leaves_gpu_memory_unless_jax_started_or_the_user_chose(
+    impl: str, backend: str, preset: str | None, expected: str
+) -> None:
+    env = {key: value for key, value in os.environ.items() if not key.startswith("XLA_PYTHON_CLIENT_")}
+    if preset is not None:
+        env["XLA_PYTHON_CLIENT_PREALLOCATE"] = preset
+    done = subprocess.run(
+        [sys.executable, "-c", MEMORY_PROBE, backend, impl], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == expected
