@@ -24,6 +24,7 @@ from joshua_core.errors import JoshuaError
 if TYPE_CHECKING:
     from rclpy.node import Node
     from rclpy.qos import QoSProfile
+    from rclpy.subscription import Subscription
 
 ROS_PACKAGES = '"ros-jazzy-rclpy[fastrtps]==7.1.6" ros-jazzy-std-msgs==5.3.6 ros-jazzy-sensor-msgs==5.3.6'
 # rcl's own log file (~/.ros/log/*.log, one per process) is not wanted from a simulator; ROS_LOG_DIR still works
@@ -110,7 +111,7 @@ class RosSession:
         from rclpy.subscription import Subscription
 
         with_info = Subscription.CallbackType.WithMessageInfo
-        wait_set = None
+        wait_set: Any = None
         capacity = -1
         while not self._stop.is_set() and self.context.ok():
             subscriptions = list(self.node.subscriptions)  # subscriptions made while it waits join at the next turn
@@ -124,20 +125,8 @@ class RosSession:
             wait_set.wait(SPIN_TIMEOUT_NS)
             ready = wait_set.get_ready_entities("subscription")
             for subscription in subscriptions:
-                if subscription.handle.pointer not in ready:
-                    continue
-                handle, msg_type, raw, callback = (
-                    subscription.handle,
-                    subscription.msg_type,
-                    subscription.raw,
-                    subscription.callback,
-                )
-                both = subscription._callback_type is with_info  # what rclpy's executors read to call it
-                while (taken := handle.take_message(msg_type, raw)) is not None:
-                    if both:
-                        callback(*taken)
-                    else:
-                        callback(taken[0])
+                if subscription.handle.pointer in ready:
+                    _take_pending(subscription, subscription._callback_type is with_info)
 
     def close(self) -> None:
         """Stop the thread, destroy the node, shut the context down (rclpy.shutdown for our context)."""
@@ -155,6 +144,22 @@ class RosSession:
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+def _take_pending(subscription: Subscription, with_info: bool) -> None:
+    """Take the messages waiting in a subscription's queue and call its callback on each, with the message info
+    when `with_info` (what rclpy's executors read from `_callback_type`: the callback takes two parameters). At
+    most a queue's depth: a flood on one topic never keeps the thread from the others or from stopping."""
+    handle, msg_type, raw = subscription.handle, subscription.msg_type, subscription.raw
+    callback = subscription.callback
+    for _ in range(max(subscription.qos_profile.depth, 1)):
+        taken = handle.take_message(msg_type, raw)
+        if taken is None:
+            return
+        if with_info:
+            callback(*taken)
+        else:
+            callback(taken[0])
 
 
 def sensor_qos(depth: int) -> QoSProfile:
