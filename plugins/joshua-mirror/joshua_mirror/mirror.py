@@ -1,6 +1,6 @@
 """`Mirror`: writes checked encoder values into a MuJoCo simulation and keeps the per-joint statistics.
 
-`receive` runs on the ROS executor thread for every message; the main thread steps physics, renders
+`receive` runs on the ROS thread for every message; the main thread steps physics, renders
 and prints status. One lock guards `MjData`; `receive` holds it only to write qpos/ctrl and run
 mj_forward (tens of microseconds), and the main thread holds it for one physics step at a time.
 """
@@ -18,6 +18,7 @@ import mujoco
 import numpy as np
 
 from joshua_mirror.joints import MirroredJoint
+from joshua_mirror.loss import TopicLoss
 from joshua_mirror.options_pb2 import MirrorOptions
 
 APPLY_LATENCY_SAMPLES = 100_000  # kept for the report's percentiles; older ones are dropped
@@ -88,6 +89,8 @@ class Mirror:
         self.stats = [JointStats() for _ in joints]
         self.unknown_names: dict[str, int] = {}  # JointState names (or Float64 topics) nobody mapped
         self.malformed = 0  # JointState messages whose position list is shorter than their name list
+        self.loss: dict[str, TopicLoss] = {}  # per subscribed topic: messages lost before the mirror read them
+        self.lost_at_last_warning = 0
         self.apply_latency_us: list[float] = []  # message callback entered -> state updated
         self.started_at = clock()
         self.on_applied: Callable[[int, float], None] | None = None  # (joint index, value) after each update
@@ -154,6 +157,27 @@ class Mirror:
     def count_unknown(self, name: str) -> None:
         self.unknown_names[name] = self.unknown_names.get(name, 0) + 1
 
+    def track_loss(self, topic: str, publisher_count: Callable[[], int]) -> TopicLoss:
+        """The lost-message count of a subscribed topic, whose callback reports each message's sequence number."""
+        self.loss[topic] = TopicLoss(publisher_count)
+        return self.loss[topic]
+
+    def lost_messages(self) -> int:
+        return sum(loss.lost for loss in self.loss.values())
+
+    def loss_warning(self) -> str | None:
+        """A line naming the messages lost since the last such line, by topic, or None if there were none."""
+        total = self.lost_messages()
+        new = total - self.lost_at_last_warning
+        if not new:
+            return None
+        self.lost_at_last_warning = total
+        topics = ", ".join(f"{topic} {loss.lost}" for topic, loss in sorted(self.loss.items()) if loss.lost)
+        return (
+            f"lost {new} messages since the last warning, {total} in all ({topics}): the network dropped them or "
+            "the mirror fell behind the publishers and its queues overflowed; the report counts them"
+        )
+
     def update_staleness(self) -> list[MirroredJoint]:
         """Mark joints with no accepted message for `stale_timeout` seconds stale; return those that just became so."""
         now = self.clock()
@@ -179,7 +203,9 @@ class Mirror:
             flags += f" rejected {stats.rejected}" if stats.rejected else ""
             parts.append(f"{joint.joint} {rate:.0f}/s {age}{flags}")
         unknown = sum(self.unknown_names.values())
+        lost = self.lost_messages()
         tail = f" | unknown {unknown}" if unknown else ""
+        tail += f" | lost {lost}" if lost else ""
         return f"[mirror {now - self.started_at:6.1f} s] " + " | ".join(parts) + tail
 
     def report(self) -> dict[str, Any]:
@@ -212,6 +238,7 @@ class Mirror:
             "joints": joints,
             "unknown": dict(sorted(self.unknown_names.items())),
             "malformed_messages": self.malformed,
+            "lost_messages": {topic: loss.lost for topic, loss in sorted(self.loss.items())},
             "apply_latency_us": percentiles(self.apply_latency_us),
         }
 

@@ -1,8 +1,9 @@
 """The MIRROR mode: a ROS 2 digital twin. Encoder messages move the simulated robot as they arrive.
 
-Threads: the ROS executor thread applies every message the moment it arrives (`Mirror.receive`); the
-main thread steps physics in real time when tracking through actuators, checks staleness, prints the
-status line and feeds the display from a copy of the state, so rendering never delays a message.
+Threads: the ROS thread applies every message the moment it arrives (`Mirror.receive`) and counts the
+messages lost before it (`TopicLoss`); the main thread steps physics in real time when tracking through
+actuators, checks staleness, prints the status line and loss warnings and feeds the display from a copy of the
+state, so rendering never delays a message.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from joshua_core.run_context import RunContext
 from joshua_mirror import options_pb2
 from joshua_mirror.graph import TypeChecker
 from joshua_mirror.joints import MirroredJoint, resolve_joints
+from joshua_mirror.loss import TopicLoss
 from joshua_mirror.mirror import Mirror
 from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.recorder import Recorder
@@ -38,7 +40,7 @@ DEFAULT_DISPLAY_FPS = 30.0
 STALE_CHECK_PERIOD_S = 0.05
 QUEUE_DEPTH = 100  # messages kept per subscription if the callback thread falls behind
 MAX_CATCH_UP_S = 0.25  # physics further behind the wall clock than this skips ahead instead of racing
-GIL_SWITCH_INTERVAL_S = 2e-4  # the executor thread gets the GIL within this while the main thread runs Python
+GIL_SWITCH_INTERVAL_S = 2e-4  # the ROS thread gets the GIL within this while the main thread runs Python
 FLOAT64_TYPE = "std_msgs/msg/Float64"
 JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
 
@@ -75,13 +77,15 @@ class MirrorMode(Mode):
         path = context.output_dir / REPORT_FILE
         atomic_write_json(path, json_safe(report))  # NaN/inf are not JSON: null
         accepted = sum(joint["accepted"] for joint in report["joints"].values())
+        lost = sum(report["lost_messages"].values())
         rejected = sum(
             joint["rejected_non_finite"] + joint["rejected_out_of_range"] for joint in report["joints"].values()
         )
         stale = [name for name, joint in report["joints"].items() if joint["stale"]]
         print(
             f"mirrored {len(joints)} joints for {report['wall_seconds']:.1f} s ({stopped_by}): {accepted} values "
-            f"applied, {rejected} rejected, stale at the end: {', '.join(stale) or 'none'}; report: {path}"
+            f"applied, {rejected} rejected, {lost} messages lost, stale at the end: {', '.join(stale) or 'none'}; "
+            f"report: {path}"
         )
         problem = types.error()
         if problem:
@@ -114,7 +118,7 @@ class _UnknownTopicWatcher:
                 and topic.rsplit("/", 1)[0] in self.namespaces
             ):
                 self.watched.add(topic)
-                self.ros.node.create_subscription(self.float64, topic, self._counter(topic), sensor_qos(1))
+                self.ros.subscribe(self.float64, topic, self._counter(topic), sensor_qos(1))
 
     def _counter(self, topic: str) -> Callable[[Any], None]:
         def count(_message: Any) -> None:
@@ -124,36 +128,41 @@ class _UnknownTopicWatcher:
 
 
 def _subscribe(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> _UnknownTopicWatcher | None:
-    """Create the subscriptions whose callbacks feed `mirror` (their topic names checked by `resolve_joints`)."""
+    """Create the subscriptions whose callbacks feed `mirror` (their topic names checked by `resolve_joints`) and
+    count the messages lost on each."""
     float64, joint_state = message_types()
     qos = sensor_qos(QUEUE_DEPTH)
     node = ros.node
     if options.message_type == MirrorOptions.JOINT_STATE:
-        topic = options.joint_state_topic or DEFAULT_JOINT_STATE_TOPIC
+        topic = node.resolve_topic_name(options.joint_state_topic or DEFAULT_JOINT_STATE_TOPIC)
         by_name = {joint.source: index for index, joint in enumerate(mirror.joints)}
+        loss = mirror.track_loss(topic, lambda: node.count_publishers(topic))
 
-        def on_joint_state(message: Any) -> None:
+        def on_joint_state(message: Any, info: dict[str, Any]) -> None:
             entered = time.perf_counter_ns()
             names, positions = message.name, message.position
             if len(positions) < len(names):
                 mirror.malformed += 1
-                return
-            updates = []
-            for name, position in zip(names, positions, strict=False):
-                index = by_name.get(name)
-                if index is None:
-                    mirror.count_unknown(name)
-                else:
-                    updates.append((index, position))
-            mirror.receive(updates, entered)
+            else:
+                updates = []
+                for name, position in zip(names, positions, strict=False):
+                    index = by_name.get(name)
+                    if index is None:
+                        mirror.count_unknown(name)
+                    else:
+                        updates.append((index, position))
+                mirror.receive(updates, entered)
+            loss.see(info["publication_sequence_number"])  # after the update: it adds no latency
 
-        node.create_subscription(joint_state, topic, on_joint_state, qos)
+        ros.subscribe(joint_state, topic, on_joint_state, qos)
         return None
 
     mapped = set()
     for index, joint in enumerate(mirror.joints):
-        node.create_subscription(float64, joint.source, _float64_callback(mirror, index), qos)
-        mapped.add(node.resolve_topic_name(joint.source))
+        topic = node.resolve_topic_name(joint.source)
+        loss = mirror.track_loss(topic, lambda topic=topic: node.count_publishers(topic))
+        ros.subscribe(float64, topic, _float64_callback(mirror, index, loss), qos)
+        mapped.add(topic)
     return _UnknownTopicWatcher(ros, mirror, mapped, float64)
 
 
@@ -164,9 +173,7 @@ def _subscribe_commands(ros: RosSession, recorder: Recorder | None) -> None:
     float64, _ = message_types()
     for index, joint in enumerate(recorder.joints):
         if joint.command_topic:
-            ros.node.create_subscription(
-                float64, joint.command_topic, recorder.command_callback(index), sensor_qos(QUEUE_DEPTH)
-            )
+            ros.subscribe(float64, joint.command_topic, recorder.command_callback(index), sensor_qos(QUEUE_DEPTH))
 
 
 def _expected_types(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> dict[str, str]:
@@ -187,9 +194,10 @@ def _warn_types(lines: list[str]) -> None:
         print(f"joshua: mirror: wrong message type: {line}", file=sys.stderr, flush=True)
 
 
-def _float64_callback(mirror: Mirror, index: int) -> Any:
-    def on_float64(message: Any) -> None:
+def _float64_callback(mirror: Mirror, index: int, loss: TopicLoss) -> Any:
+    def on_float64(message: Any, info: dict[str, Any]) -> None:
         mirror.receive(((index, message.data),), time.perf_counter_ns())
+        loss.see(info["publication_sequence_number"])  # after the update: it adds no latency
 
     return on_float64
 
@@ -306,6 +314,7 @@ class _MainLoop:
                 if self.watcher is not None:
                     self.watcher.poll()
                 _warn_types(self.types.poll())
+                _warn_loss(self.mirror.loss_warning())
                 if self.print_status:
                     print(self._status_line(), file=sys.stderr, flush=True)
             if self.display is not None and now >= next_frame:
@@ -342,6 +351,11 @@ def _warn_stale(joints: list[MirroredJoint], timeout: float) -> None:
     if joints:
         names = ", ".join(f"{joint.joint} ({joint.source})" for joint in joints)
         print(f"joshua: mirror: stale, no valid value for {timeout:g} s: {names}", file=sys.stderr)
+
+
+def _warn_loss(line: str | None) -> None:
+    if line:
+        print(f"joshua: mirror: {line}", file=sys.stderr, flush=True)
 
 
 def _report(config: SimulationConfig, mirror: Mirror, loop: _MainLoop, stopped_by: str) -> dict[str, Any]:

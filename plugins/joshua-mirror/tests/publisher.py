@@ -1,10 +1,12 @@
 """A real ROS 2 publisher process for the tests: publishes the messages of a JSON plan, then exits.
 
-Plan: {"wait_for": TOPIC, "messages": [{"topic": T, "value": V} | {"topic": T, "names": [...],
-"positions": [...]} | {"topic": T, "type": "Float32" | "String", "value": V} | {"sleep": S}, ...]}. Values may
-be "nan"/"inf". It first waits until TOPIC has a subscriber (the mirror), so no message is published before the
-mirror listens. With "hold": true instead of "wait_for" it creates the publishers, prints "ready" and stays
-until SIGINT (for publishers of a type the mirror does not read, which no subscriber ever matches).
+Plan: {"wait_for": TOPIC, "messages": [{"topic": T, "value": V} | {"topic": T, "names": [...], "positions":
+[...]} | {"topic": T, "type": "Float32" | "String", "value": V} | {"sleep": S} | {"topic": T, "burst": [V, ...]}
+| {"await": LINE}, ...]}. Values may be "nan"/"inf". A burst publishes its Float64 values back to back, as fast
+as it can; "await" prints LINE and waits for a line on stdin (the test's go-ahead). It first waits until TOPIC
+has a subscriber (the mirror), so no message is published before the mirror listens. With "hold": true instead
+of "wait_for" it creates the publishers, prints "ready" and stays until SIGINT (for publishers of a type the
+mirror does not read, which no subscriber ever matches).
 """
 
 from __future__ import annotations
@@ -57,6 +59,15 @@ def main() -> None:
     for message in plan["messages"]:
         if "sleep" in message:
             time.sleep(message["sleep"])
+            continue
+        if "await" in message:
+            print(message["await"], flush=True)
+            sys.stdin.readline()
+            continue
+        if "burst" in message:
+            burst_publisher = publishers[message["topic"]]
+            for value in message["burst"]:
+                burst_publisher.publish(Float64(data=float(value)))
             continue
         if "names" in message:
             ros_message = JointState(name=message["names"], position=[float(p) for p in message["positions"]])

@@ -107,13 +107,15 @@ def test_sim_mirror_preset_runs_for_its_duration(tmp_path: Path, ros_env: dict[s
 def test_float64_motion_is_mirrored_exactly(tmp_path: Path, ros_env: dict[str, str]) -> None:
     mirror = start_mirror(tmp_path, ros_env)
     publish(ros_env, float64_plan(range(40)))
-    report, _ = stop(mirror, tmp_path)
+    report, err = stop(mirror, tmp_path)
     assert_mirrored(report, motion(39))
     for entry in report["joints"].values():
         assert entry["accepted"] == 40 and entry["received"] == 40
         assert entry["final_ctrl"] == 0.0  # KINEMATIC: the actuators are not touched
         assert entry["tracking_error"] is None
     assert report["apply_latency_us"]["samples"] == 240
+    assert report["lost_messages"] == {f"/encoder/{joint}": 0 for joint in JOINTS}  # a steady publisher loses none
+    assert "lost" not in err.replace("0 messages lost", "")
 
 
 def test_joint_state_motion_is_mirrored_exactly(tmp_path: Path, ros_env: dict[str, str]) -> None:
@@ -130,6 +132,7 @@ def test_joint_state_motion_is_mirrored_exactly(tmp_path: Path, ros_env: dict[st
     assert all(entry["accepted"] == 30 for entry in report["joints"].values())
     assert report["unknown"] == {"gripper_camera_tilt": 30}
     assert report["malformed_messages"] == 1
+    assert report["lost_messages"] == {"/joint_states": 0}
 
 
 def test_bad_messages_are_counted_and_never_written(tmp_path: Path, ros_env: dict[str, str]) -> None:
@@ -165,6 +168,77 @@ def test_publisher_loss_and_return_resumes_mirroring(tmp_path: Path, ros_env: di
     for entry in report["joints"].values():
         assert entry["accepted"] == 20
         assert entry["stale_episodes"] >= 2  # before the first publisher, and between the two
+    assert not any(report["lost_messages"].values())  # the second publisher numbers its messages from 1 again
+
+
+def test_two_publishers_on_one_topic_are_counted_apart(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    """Two publishers at once on each topic, each numbering its own messages: the interleaved numbers are no loss.
+
+    Every message joint_1's publishers send is read or counted lost (they publish once the mirror matched that
+    topic); a gap taken for a loss would count more than were sent. The other topics may match a little later,
+    on a busy machine after the first messages (those were never sent to the mirror, so never lost)."""
+    mirror = start_mirror(tmp_path, ros_env)
+    plan = json.dumps(float64_plan(range(40)))
+    publishers = [subprocess.Popen([sys.executable, str(PUBLISHER), plan], env=ros_env) for _ in range(2)]
+    assert [publisher.wait(timeout=60) for publisher in publishers] == [0, 0]
+    report, _ = stop(mirror, tmp_path)
+    lost = report["lost_messages"]
+    assert report["joints"]["joint_1"]["received"] + lost["/encoder/joint_1"] == 80, lost
+    assert all(entry["received"] + lost[entry["source"]] <= 80 for entry in report["joints"].values()), lost
+
+
+def test_a_flood_the_mirror_cannot_read_is_reported_as_lost(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    """A burst of 5000 messages while the mirror process is stopped (SIGSTOP) overflows what DDS buffers and the
+    subscription's keep-last queue of 100 hold. The publisher numbers its messages, so the mirror counts exactly
+    the ones it never read (sent = received + lost), says so on stderr, in the status line and in the report.
+
+    No timing is assumed: the mirror has read the first message before it is stopped (a publisher's first
+    message seen starts its numbering), and the tail, five out-of-range values sent once the mirror has said
+    the loss, is waited for in the status line ("rejected 5"), so every message that was not lost was read."""
+    topic = "/encoder/joint_1"
+    burst = [0.1 + index * 1e-5 for index in range(5000)]
+    tail = [5.0] * 5  # outside joint_1's range: rejected, which the status line counts
+    messages = [{"topic": topic, "value": 0.05}, {"await": "first sent"}, {"topic": topic, "burst": burst}]
+    messages += [{"await": "burst sent"}, *({"topic": topic, "value": value} for value in tail)]
+    mirror = start_mirror(tmp_path, ros_env)
+    publisher = subprocess.Popen(
+        [sys.executable, str(PUBLISHER), json.dumps({"wait_for": topic, "messages": messages})],
+        env=ros_env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    assert publisher.stdin is not None and publisher.stdout is not None
+    try:
+        assert publisher.stdout.readline() == "first sent\n"
+        wait_for_line(mirror, lambda line: line.startswith("[mirror") and joint_1_status(line).split()[2] != "never")
+        mirror.send_signal(signal.SIGSTOP)
+        try:
+            publisher.stdin.write("\n")
+            publisher.stdin.flush()
+            assert publisher.stdout.readline() == "burst sent\n"
+        finally:
+            mirror.send_signal(signal.SIGCONT)
+        warning = wait_for_line(mirror, lambda line: line.startswith("joshua: mirror: lost "))
+        publisher.stdin.write("\n")
+        publisher.stdin.flush()
+        assert publisher.wait(timeout=60) == 0
+    finally:
+        publisher.kill()
+    status = wait_for_line(mirror, lambda line: line.startswith("[mirror") and "rejected 5" in joint_1_status(line))
+    mirror.send_signal(signal.SIGINT)
+    summary, err = mirror.communicate(timeout=30)
+    assert mirror.returncode == 0 and "Traceback" not in err, err
+    report = json.loads((tmp_path / "joshua_output" / "mirror_report.json").read_text())
+    lost = report["lost_messages"][topic]
+    received = report["joints"]["joint_1"]["received"]
+    assert lost > 0 and received + lost == 1 + len(burst) + len(tail), (received, lost)
+    assert f"{topic} " in warning and status.rstrip().endswith(f"| lost {lost}")
+    assert f"{lost} messages lost" in summary
+    assert not any(count for name, count in report["lost_messages"].items() if name != topic)
+    assert report["joints"]["joint_1"]["last_value"] in burst  # the burst's newest messages were kept
+
+
+def joint_1_status(line: str) -> str:
+    """joint_1's part of a status line: 'joint_1 RATE/s AGE [STALE] [rejected N]'."""
+    return line.split("] ", 1)[1].split(" | ")[0]
 
 
 def test_actuator_tracking_reports_sim_vs_real_error(tmp_path: Path, ros_env: dict[str, str]) -> None:
