@@ -15,6 +15,7 @@ It prints the policy's final distance to the target (`joshua eval`, 5 episodes) 
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -47,7 +48,12 @@ def main() -> None:
         joshua("--preset", PRESET, *SMOOTH, "--set", "training.checkpoint_dir=runs",
                "--set", "training.sb3.run_name=reach", cwd=work, env=env)  # fmt: skip
         joshua("eval", "runs/reach", "--episodes", "5", "--no-video", cwd=work, env=env)
-        joshua("export", "runs/reach", "--out", str(OUT), cwd=work, env=env)
+        # exported beside the run, then its two files copied over the committed ones: `--out` replaces only a
+        # folder that joshua wrote, and the committed folder carries no output marker
+        joshua("export", "runs/reach", "--out", "exported", cwd=work, env=env)
+        OUT.mkdir(exist_ok=True)
+        for name in ("policy.onnx", "policy.json"):
+            shutil.copyfile(work / "exported" / name, OUT / name)
     print(f"wrote {OUT / 'policy.onnx'} and {OUT / 'policy.json'}")
 
 
