@@ -118,7 +118,7 @@ def test_lerobot_dataset_replays_and_validates(tmp_path: Path, ranges: dict[str,
     output = tmp_path / "out"
     command = [
         sys.executable, "-m", "joshua_core.cli", "--preset", "sim_passive", "--strict",
-        "--set", f"simulation.trajectory_path={root}", "--set", "simulation.replay.episode=1",
+        "--set", f"simulation.trajectory_path={root}", "--episode", "1",
         "--set", f"simulation.output_dir={output}", "--set", "simulation.viewer.display=RECORD",
         "--set", "simulation.viewer.fps=5",
         "--set", "simulation.render_width=64", "--set", "simulation.render_height=48",
