@@ -31,6 +31,7 @@ from joshua_core.plugins import DISABLE_ENV_VAR, PluginHost
 from joshua_core.run_context import RunContext
 
 STRICT_OVERRIDE = "simulation.replay.strict=true"  # what --strict means
+EPISODE_OVERRIDE = "simulation.replay.episode={episode}"  # what --episode N means
 WEB_OVERRIDES = ("simulation.viewer.display=WEB", "simulation.viewer.web={address}")  # what --web ADDRESS means
 
 EPILOG = f"""\
@@ -74,6 +75,14 @@ def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.Argu
         "--strict",
         action="store_true",
         help=f"do not replay a trajectory that fails validation (same as --set {STRICT_OVERRIDE})",
+    )
+    parser.add_argument(
+        "--episode",
+        type=int,
+        metavar="N",
+        help="replay episode N of a trajectory that holds several, a LeRobot dataset (same as --set "
+        + EPISODE_OVERRIDE.format(episode="N")
+        + ")",
     )
     parser.add_argument(
         "--web",
@@ -225,6 +234,10 @@ def run(args: argparse.Namespace, host: PluginHost) -> int:
     loaded = load(args, options)
     if args.strict:
         apply_override(loaded.message, STRICT_OVERRIDE, options)
+    if args.episode is not None:
+        if args.episode < 0:
+            raise UsageError(f"--episode must be 0 or more (got {args.episode})")
+        apply_override(loaded.message, EPISODE_OVERRIDE.format(episode=args.episode), options)
     if args.web is not None:
         for override in WEB_OVERRIDES:
             apply_override(loaded.message, override.format(address=args.web), options)

@@ -154,6 +154,14 @@ def test_options_set_on_the_command_line_print_by_short_name_and_read_back(run_j
     assert again.returncode == 0 and again.stdout == printed.stdout
 
 
+def test_episode_is_the_replay_episode_option(run_joshua) -> None:
+    printed = run_joshua("--preset", "sim_passive", "--episode", "3", "--print-config")
+    assert printed.returncode == 0, printed.stderr
+    assert "replay {\n    episode: 3\n" in printed.stdout
+    negative = run_joshua("--preset", "sim_passive", "--episode", "-1")
+    assert negative.returncode == 2 and negative.stderr.strip() == "joshua: error: --episode must be 0 or more (got -1)"
+
+
 def test_bad_option_names_list_the_close_ones(run_joshua, tmp_path: Path) -> None:
     result = run_joshua("--preset", "sim_offscreen", "--set", "simulation.offscren.fps=3")
     assert result.returncode == 2 and "Did you mean: offscreen?" in result.stderr

@@ -6,6 +6,7 @@ the positions themselves (a scripted trajectory is its own command)."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -13,6 +14,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from joshua_core.cli import add_config_arguments, load
+from joshua_core.config import finalize
+from joshua_core.config_pb2 import TopicMapping
 from joshua_core.defaults import DEFAULT_OUTPUT_DIR
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
@@ -22,6 +26,7 @@ from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
 from joshua_core.trajectory import Trajectory
 from joshua_core.trajectory_sources import load_trajectory
+from joshua_lerobot.joints import DEFAULT_UNITS, BodyUnits, LeRobotUnits, joint_offsets, read_calibration
 from joshua_lerobot.writer import DatasetEpisode, write_dataset
 
 DEFAULT_MODEL = "so_arm100/scene.xml"
@@ -62,6 +67,20 @@ class LeRobotExportCommand(Command):
             help=f"the episodes' task text: once for all, or once per trajectory in order (default '{DEFAULT_TASK}')",
         )
         parser.add_argument("--episode", type=int, default=0, help="the episode of a dataset to replay (default 0)")
+        parser.add_argument(
+            "--units",
+            choices=[str(units) for units in BodyUnits],
+            default=str(BodyUnits.DEGREES),
+            help="the SO-100 body joints' unit: degrees (lerobot's use_degrees=True, the default) or range "
+            "(use_degrees=False: -100..100 over the calibrated range; needs --calibration)",
+        )
+        parser.add_argument(
+            "--calibration",
+            type=Path,
+            metavar="JSON",
+            help="the arm's LeRobot calibration file (lerobot-calibrate): each motor's calibrated range",
+        )
+        add_config_arguments(parser, verb="take the mirror mapping's offsets (simulation.mirror_topic_mappings) from")
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
         if args.fps < 1 or args.width < 2 or args.height < 2 or args.episode < 0:
@@ -72,6 +91,13 @@ class LeRobotExportCommand(Command):
                 f"--task is given {len(tasks)} times for {len(args.trajectory)} trajectories: give it once, or once "
                 "per trajectory"
             )
+        calibration = None if args.calibration is None else read_calibration(args.calibration)
+        units = LeRobotUnits(BodyUnits(args.units), calibration)
+        mappings = []
+        if args.preset or args.config:
+            mappings = list(finalize(load(args, plugins.options())).simulation.mirror_topic_mappings.mappings)
+        elif args.overrides:
+            raise UsageError("--set changes the config of --preset or --config; give one of them")
         check_replaceable(args.out, overwrite=args.overwrite, option="--out")
         model = resolve_data_path(args.model)
         sources = [resolve_data_path(item, what="trajectory", folders=True) for item in args.trajectory]
@@ -86,6 +112,8 @@ class LeRobotExportCommand(Command):
             tasks=tasks * len(sources) if len(tasks) == 1 else tasks,
             episode=args.episode,
             plugins=plugins,
+            units=units,
+            mappings=mappings,
             overwrite=args.overwrite,
         )
         print(f"LeRobot dataset: {path}")
@@ -133,23 +161,28 @@ def export_trajectories(
     tasks: Sequence[str],
     episode: int = 0,
     plugins: PluginHost,
+    units: LeRobotUnits = DEFAULT_UNITS,
+    mappings: Sequence[TopicMapping] = (),
     overwrite: bool = False,
     option: str = "--out",
 ) -> Path:
     """Replay each of `sources` (episode `episode` of a dataset) on `model_path` at `fps` and write them to `out` as
     one LeRobot dataset, an episode each with its task of `tasks`; one video per camera of `cameras` ("" = the
     model's first camera; empty: no video) at `size` (w, h). A folder at `out` is replaced only when joshua wrote
-    it and `overwrite` is set (`option` names `out` in errors)."""
+    it and `overwrite` is set (`option` names `out` in errors). Values are written in `units`, the mirror's
+    `mappings` giving the offsets (robot value = model value - offset)."""
     from joshua_modes import model_joint_ranges
     from joshua_mujoco import compile_model
 
     model = compile_model(model_path, plugins=plugins)
     ranges = model_joint_ranges(model)
+    if mappings:
+        units = dataclasses.replace(units, offsets=joint_offsets(model, mappings))
     recorded = [
         _episode(source, model_path, model, ranges, fps, cameras, size, task, episode, plugins)
         for source, task in zip(sources, tasks, strict=True)
     ]
-    return write_dataset(out, recorded, fps=fps, joint_ranges=ranges, overwrite=overwrite, option=option)
+    return write_dataset(out, recorded, fps=fps, joint_ranges=ranges, units=units, overwrite=overwrite, option=option)
 
 
 def _episode(

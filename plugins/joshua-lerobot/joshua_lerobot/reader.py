@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from joshua_core.interfaces import TrajectoryReader
 from joshua_core.trajectory import Trajectory, TrajectoryError
-from joshua_lerobot.joints import model_joint, plausible_bound, to_model
+from joshua_lerobot.joints import DEFAULT_UNITS, LeRobotUnits, model_joint, plausible_bound, units_from_metadata
 
 INFO = "meta/info.json"
 EPISODES = "meta/episodes"
@@ -41,6 +41,7 @@ class LeRobotReader(TrajectoryReader):
         action_names = _names(path, info, ACTION) if ACTION in info["features"] else None
         if action_names is not None and action_names != names:
             raise TrajectoryError(f"{path / INFO}: '{ACTION}' names other joints than '{STATE}'; cannot pair them")
+        units = _units(path, info)
         row = _episode_row(path, episode)
         file, data = _episode_data(path, info, row, episode, names)
         order = np.argsort(data["frame_index"], kind="stable")
@@ -58,7 +59,7 @@ class LeRobotReader(TrajectoryReader):
             values = values[order]
             return np.stack(
                 [
-                    to_model(name, values[:, i], joints[joint])
+                    units.to_model(name, values[:, i], joints[joint])
                     for i, (name, joint) in enumerate(zip(names, joint_names, strict=True))
                 ],
                 axis=1,
@@ -97,6 +98,15 @@ def _info(path: Path) -> dict[str, Any]:
             "'data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet')"
         )
     return info
+
+
+def _units(path: Path, info: dict[str, Any]) -> LeRobotUnits:
+    """The units the state feature (checked by `_names`) records: joshua's writer notes them (`units_metadata`);
+    lerobot records none, and its default is degrees (`use_degrees=True`)."""
+    recorded = info["features"][STATE].get("units")
+    if recorded is None:
+        return DEFAULT_UNITS
+    return units_from_metadata(recorded, f"{path / INFO}: features.{STATE}.units")
 
 
 def _names(path: Path, info: dict[str, Any], key: str) -> list[str]:

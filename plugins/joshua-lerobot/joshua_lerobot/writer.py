@@ -26,7 +26,7 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.errors import UsageError
 from joshua_core.outputs import output_folder
 from joshua_lerobot import stats as statistics
-from joshua_lerobot.joints import feature_names, from_model
+from joshua_lerobot.joints import DEFAULT_UNITS, LeRobotUnits, feature_names, units_metadata
 from joshua_lerobot.video import CODEC_NAME, PIXEL_FORMAT, Mp4Writer
 
 CODEBASE_VERSION = "v3.0"
@@ -63,12 +63,14 @@ def write_dataset(
     *,
     fps: int,
     joint_ranges: Mapping[str, tuple[float, float]],
+    units: LeRobotUnits = DEFAULT_UNITS,
     overwrite: bool = False,
     option: str = "--out",
 ) -> Path:
     """Write `episodes` (same joints and cameras each) as a LeRobot dataset folder at `path`; joint values are
-    converted to LeRobot's names and units (joshua_lerobot.joints). A folder there is only replaced when joshua
-    wrote it and `overwrite` is set (`joshua_core.outputs.output_folder`; `option` names `path` in errors)."""
+    converted to LeRobot's names and `units` (joshua_lerobot.joints), which info.json records. A folder there is
+    only replaced when joshua wrote it and `overwrite` is set (`joshua_core.outputs.output_folder`; `option` names
+    `path` in errors)."""
     if not episodes:
         raise UsageError("a LeRobot dataset needs at least one episode")
     first = episodes[0]
@@ -78,10 +80,11 @@ def write_dataset(
     names, robot_type = feature_names(first.joint_names)
     tasks = list(dict.fromkeys(episode.task for episode in episodes))
     with output_folder(path, overwrite=overwrite, option=option) as folder:
-        layout = _Layout(folder, names, first.joint_names, joint_ranges, fps, tasks)
+        layout = _Layout(folder, names, first.joint_names, joint_ranges, units, fps, tasks)
         video_shapes = layout.write_videos(episodes)
         layout.write_data(episodes)
-        info = _info(episodes, names, video_shapes, fps, robot_type, len(tasks))
+        recorded_units = units_metadata(units) if robot_type else None
+        info = _info(episodes, names, video_shapes, fps, robot_type, len(tasks), recorded_units)
         atomic_write_json(folder / "meta/info.json", info)
         atomic_write_json(folder / "meta/stats.json", statistics.as_json(layout.dataset_stats()))
         _write_tasks(folder / "meta/tasks.parquet", tasks)
@@ -98,14 +101,16 @@ class _Layout:
         names: list[str],
         joints: tuple[str, ...],
         joint_ranges: Mapping[str, tuple[float, float]],
+        units: LeRobotUnits,
         fps: int,
         tasks: list[str],
     ) -> None:
-        self.folder, self.names, self.joints, self.ranges, self.fps, self.tasks = (
+        self.folder, self.names, self.joints, self.ranges, self.units, self.fps, self.tasks = (
             folder,
             names,
             joints,
             joint_ranges,
+            units,
             fps,
             tasks,
         )
@@ -116,7 +121,7 @@ class _Layout:
     def lerobot_values(self, values: NDArray[np.float64]) -> NDArray[np.float32]:
         """(frames, joints) model values in LeRobot's units, float32."""
         columns = [
-            from_model(name, values[:, i], self.ranges[joint])
+            self.units.from_model(name, values[:, i], self.ranges[joint])
             for i, (name, joint) in enumerate(zip(self.names, self.joints, strict=True))
         ]
         return np.stack(columns, axis=1).astype(np.float32)
@@ -260,8 +265,11 @@ def _info(
     fps: int,
     robot_type: str | None,
     total_tasks: int,
+    units: dict[str, Any] | None,
 ) -> dict[str, Any]:
-    vector = {"dtype": "float32", "shape": [len(names)], "names": names}
+    vector: dict[str, Any] = {"dtype": "float32", "shape": [len(names)], "names": names}
+    if units is not None:
+        vector["units"] = units
     features: dict[str, Any] = {STATE: vector, ACTION: vector}
     for key, (height, width) in video_shapes.items():
         features[key] = {

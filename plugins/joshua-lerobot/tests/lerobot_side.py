@@ -5,6 +5,12 @@ lerobot-requirements.txt first on PYTHONPATH (so they never change .venv). Print
                                           episode, and each camera's decoded frames (shape, mean per frame)
     python lerobot_side.py write ROOT     LeRobotDataset.create + add_frame + save_episode: two SO-100 episodes
                                           of known values with one camera; prints what it wrote
+    python lerobot_side.py normalize FILE lerobot's `MotorsBus._normalize` of the SO-100 follower's motors, with
+                                          FILE's calibration, on FILE's ticks: per motor, the values with
+                                          use_degrees=True and with use_degrees=False
+
+pyserial and deepdiff (which the motor bus imports, for the serial port and for comparing calibrations) are not
+installed either: `normalize` puts placeholders in their place whose use raises.
 
 torchvision is not installed (its PyPI wheels for torch 2.13 are CUDA builds): lerobot.datasets imports it
 but uses it only for PIL-image features and its pyav decoder, so a placeholder module stands in whose every
@@ -56,6 +62,43 @@ def known_state(episode: int, frame: int) -> np.ndarray:
     t = frame / FPS
     arm = [40 * np.sin(t + joint + episode) for joint in range(5)]
     return np.array([*arm, 50 + 40 * np.sin(2 * t + episode)], dtype=np.float32)
+
+
+def normalize(request: Path) -> dict[str, Any]:
+    """What lerobot's motor bus reads for each of `request`'s ticks, as SOFollower builds its bus."""
+    for name, attribute in (("serial", "Serial"), ("deepdiff", "DeepDiff")):
+        module = types.ModuleType(name)
+
+        def unavailable(*args: Any, _name: str = name, **kwargs: Any) -> Any:
+            raise RuntimeError(f"lerobot used {_name}, which this test environment does not have")
+
+        setattr(module, attribute, unavailable)
+        sys.modules[name] = module
+    from lerobot.motors.feetech.tables import MODEL_RESOLUTION
+    from lerobot.motors.motors_bus import Motor, MotorCalibration, MotorNormMode, MotorsBus
+
+    spec = json.loads(request.read_text())
+    calibration = {motor: MotorCalibration(**entry) for motor, entry in spec["calibration"].items()}
+    answer: dict[str, Any] = {}
+    for use_degrees in (True, False):
+        body = MotorNormMode.DEGREES if use_degrees else MotorNormMode.RANGE_M100_100  # as SOFollower.__init__
+        motors = {
+            motor: Motor(entry.id, "sts3215", MotorNormMode.RANGE_0_100 if motor == "gripper" else body)
+            for motor, entry in calibration.items()
+        }
+        bus = types.SimpleNamespace(
+            calibration=calibration,
+            motors=motors,
+            apply_drive_mode=True,  # FeetechMotorsBus's
+            model_resolution_table=MODEL_RESOLUTION,
+            _id_to_name=lambda id_, motors=motors: next(name for name, m in motors.items() if m.id == id_),
+            _id_to_model=lambda id_: "sts3215",
+        )
+        answer[str(use_degrees)] = {
+            motor: [MotorsBus._normalize(bus, {entry.id: tick})[entry.id] for tick in spec["ticks"][motor]]
+            for motor, entry in calibration.items()
+        }
+    return answer
 
 
 def load(root: Path) -> dict[str, Any]:
@@ -116,4 +159,4 @@ def write(root: Path) -> dict[str, Any]:
 if __name__ == "__main__":
     _without_torchvision()
     command, folder = sys.argv[1], Path(sys.argv[2])
-    print(json.dumps({"load": load, "write": write}[command](folder)))
+    print(json.dumps({"load": load, "write": write, "normalize": normalize}[command](folder)))

@@ -118,7 +118,7 @@ def test_lerobot_dataset_replays_and_validates(tmp_path: Path, ranges: dict[str,
     output = tmp_path / "out"
     command = [
         sys.executable, "-m", "joshua_core.cli", "--preset", "sim_passive", "--strict",
-        "--set", f"simulation.trajectory_path={root}", "--set", "simulation.replay.episode=1",
+        "--set", f"simulation.trajectory_path={root}", "--episode", "1",
         "--set", f"simulation.output_dir={output}", "--set", "simulation.viewer.display=RECORD",
         "--set", "simulation.viewer.fps=5",
         "--set", "simulation.render_width=64", "--set", "simulation.render_height=48",
@@ -393,3 +393,129 @@ def test_several_recordings_export_as_one_dataset_with_a_task_each(
     )
     assert wrong.returncode == 2 and wrong.stderr.count("\n") == 1
     assert "--task is given 3 times for 2 trajectories" in wrong.stderr
+
+
+MOTORS = [name.removesuffix(".pos") for name in NAMES]
+# An SO-100 calibration as lerobot-calibrate writes it: ranges off-centre and of different widths, the wrist
+# roll a full turn (as SOFollower.calibrate sets it), the elbow with its drive mode set.
+CALIBRATION = {
+    motor: {"id": i + 1, "drive_mode": int(motor == "elbow_flex"), "homing_offset": 100 * i - 250,
+            "range_min": low, "range_max": high}
+    for i, (motor, (low, high)) in enumerate(
+        zip(MOTORS, [(820, 3300), (900, 3150), (880, 3100), (870, 3200), (0, 4095), (2010, 3400)], strict=True)
+    )
+}  # fmt: skip
+OFFSETS = {"joint_1": 0.05, "joint_3": -0.1, "joint_6": 0.02}
+ROUND_TRIP_TOLERANCE = 1e-9  # rad: float64 arithmetic only
+
+
+def calibration_file(tmp_path: Path) -> Path:
+    path = tmp_path / "so100_follower_arm.json"
+    path.write_text(json.dumps(CALIBRATION, indent=4))
+    return path
+
+
+def all_units(tmp_path: Path) -> dict[str, Any]:
+    from joshua_lerobot.joints import BodyUnits, LeRobotUnits, read_calibration
+
+    calibration = read_calibration(calibration_file(tmp_path))
+    return {
+        "degrees": LeRobotUnits(),
+        "degrees, calibrated": LeRobotUnits(BodyUnits.DEGREES, calibration, OFFSETS),
+        "range": LeRobotUnits(BodyUnits.RANGE, calibration),
+        "range, offsets": LeRobotUnits(BodyUnits.RANGE, calibration, OFFSETS),
+    }
+
+
+def test_radians_to_lerobot_units_and_back_in_both_modes(
+    tmp_path: Path, ranges: dict[str, tuple[float, float]]
+) -> None:
+    rng = np.random.default_rng(0)
+    for label, units in all_units(tmp_path).items():
+        for name, joint in zip(NAMES, JOINTS, strict=True):
+            low, high = ranges[joint]
+            q = rng.uniform(low, high, 200)
+            values = units.from_model(name, q, ranges[joint])
+            assert np.allclose(units.to_model(name, values, ranges[joint]), q, rtol=0, atol=ROUND_TRIP_TOLERANCE), label
+
+
+def test_lerobot_motor_bus_values_map_to_the_same_radians_in_both_modes(
+    tmp_path: Path, ranges: dict[str, tuple[float, float]]
+) -> None:
+    from joshua_lerobot.joints import BodyUnits, LeRobotUnits, read_calibration
+
+    ticks = {motor: np.linspace(e["range_min"], e["range_max"], 9).round().tolist() for motor, e in CALIBRATION.items()}
+    request = tmp_path / "normalize.json"
+    request.write_text(json.dumps({"calibration": CALIBRATION, "ticks": ticks}))
+    read = lerobot("normalize", request, tmp_path)
+    calibration = read_calibration(calibration_file(tmp_path))
+    degrees, in_range = LeRobotUnits(BodyUnits.DEGREES, calibration), LeRobotUnits(BodyUnits.RANGE, calibration)
+    tick = 2 * np.pi / 4095  # rad: lerobot's degree is 4095 / 360 ticks
+    for motor, name, joint in zip(MOTORS, NAMES, JOINTS, strict=True):
+        entry, low_high = CALIBRATION[motor], ranges[joint]
+        middle = (entry["range_min"] + entry["range_max"]) / 2
+        # the arm's angle from the middle of its calibrated range, the model's middle there
+        expected = sum(low_high) / 2 + (np.array(ticks[motor]) - middle) * tick
+        from_degrees = degrees.to_model(name, np.array(read["True"][motor]), low_high)
+        from_range = in_range.to_model(name, np.array(read["False"][motor]), low_high)
+        assert np.allclose(from_degrees, expected, rtol=0, atol=1e-9), motor
+        assert np.allclose(from_range, expected, rtol=0, atol=1e-9), motor
+
+
+@pytest.mark.parametrize("label", ["degrees, calibrated", "range, offsets"])
+def test_a_dataset_in_each_mode_loads_in_lerobot_and_reads_back(
+    tmp_path: Path, ranges: dict[str, tuple[float, float]], label: str
+) -> None:
+    units = all_units(tmp_path)[label]
+    trajectory = motion(ranges)
+    episode = DatasetEpisode(JOINTS, trajectory.timestamps, trajectory.positions, trajectory.targets, "wave")
+    root = write_dataset(tmp_path / "dataset", [episode], fps=FPS, joint_ranges=ranges, units=units)
+    loaded = lerobot("load", root, tmp_path)
+    for key, values in (("state", trajectory.positions), ("action", trajectory.targets)):
+        expected = np.column_stack(
+            [units.from_model(name, values[:, i], ranges[JOINTS[i]]) for i, name in enumerate(NAMES)]
+        )
+        assert np.allclose(np.array(loaded[key]), expected, rtol=0, atol=1e-3), key  # float32 of values <= 180
+    read = load_trajectory(root, ranges, plugins=PLUGINS)
+    assert read.targets is not None
+    assert np.allclose(read.positions, trajectory.positions, rtol=0, atol=1e-5)  # rad: float32 in LeRobot units
+    assert np.allclose(read.targets, trajectory.targets, rtol=0, atol=1e-5)
+
+
+def test_export_in_range_units_needs_the_calibration(tmp_path: Path) -> None:
+    joshua = str(Path(sys.executable).parent / "joshua")
+    csv = str(models_dir() / "trajectories" / "so_arm100_example.csv")
+    export = [joshua, "lerobot-export", csv, "--no-video", "--fps", "5", "--units", "range"]
+    missing = subprocess.run([*export, "--out", str(tmp_path / "a")], capture_output=True, text=True, timeout=300)
+    assert missing.returncode == 2 and missing.stderr.count("\n") == 1, missing.stderr
+    assert "need the arm's calibration" in missing.stderr and not (tmp_path / "a").exists()
+    broken = tmp_path / "broken.json"
+    broken.write_text(json.dumps({motor: entry for motor, entry in CALIBRATION.items() if motor != "gripper"}))
+    refused = subprocess.run(
+        [*export, "--out", str(tmp_path / "b"), "--calibration", str(broken)], capture_output=True, text=True
+    )
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1
+    assert f"{broken}: the LeRobot calibration has no motor gripper" in refused.stderr
+
+    config = tmp_path / "arm.pbtxt"
+    config.write_text(
+        'extends: "sim_mirror"\nsimulation { mirror_topic_mappings {\n'
+        + "".join(
+            f'  mappings {{ ros_topic: "/enc/{j}" mujoco_actuator: "{j}_position" offset: {OFFSETS.get(j, 0.0)} }}\n'
+            for j in JOINTS
+        )
+        + "} }\n"
+    )
+    out = tmp_path / "c"
+    done = subprocess.run(
+        [*export, "--out", str(out), "--calibration", str(calibration_file(tmp_path)), "--config", str(config)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    recorded = json.loads((out / INFO).read_text())["features"][STATE]["units"]
+    assert recorded["body"] == "range" and recorded["offsets"] == pytest.approx(
+        {j: OFFSETS.get(j, 0.0) for j in JOINTS}
+    )  # float32 in the config
+    assert recorded["calibration"]["elbow_flex"] == {"range_min": 880, "range_max": 3100, "drive_mode": 1}

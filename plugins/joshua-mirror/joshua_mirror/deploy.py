@@ -9,6 +9,7 @@ control rate. Everything is checked before the node starts; bad input is one lin
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import math
 import sys
 from pathlib import Path
@@ -31,12 +32,13 @@ from joshua_mirror.controller import COMMAND, PolicyController, unmapped_joints
 from joshua_mirror.deploy_loop import DeployLoop
 from joshua_mirror.graph import TypeChecker
 from joshua_mirror.joints import MirroredJoint, resolve_joints
-from joshua_mirror.link import RobotLink
+from joshua_mirror.link import RobotLink, RobotUnits
 from joshua_mirror.names import topic_argument
 from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.ros import RosSession
 
 DEFAULT_PRESET = "sim_mirror"
+UNITS = ("radians", "degrees", "range")  # the robot's: the model's own, or LeRobot's two (joshua_lerobot.BodyUnits)
 DEFAULT_STALE_AFTER_S = 0.2
 # rad/s (m/s for a slide joint): under the SO-ARM100 servos' top speed (STS3215: 0.222 s/60 deg at 7.4 V, 4.7 rad/s);
 # a target that moves faster than the servo can follow only builds up error
@@ -87,6 +89,17 @@ class DeployCommand(Command):
             default=DEFAULT_ESTOP_TOPIC,
             help=f"std_msgs/Bool; true stops the arm in place until restart (default {DEFAULT_ESTOP_TOPIC})",
         )
+        parser.add_argument(
+            "--units",
+            choices=UNITS,
+            default=UNITS[0],
+            help="the robot's units on the encoder and command topics: radians (default), or LeRobot's for an "
+            "SO-100 driven by its follower: degrees (use_degrees=True) or range (use_degrees=False, needs "
+            "--calibration); needs joshua-lerobot",
+        )
+        parser.add_argument(
+            "--calibration", type=Path, metavar="JSON", help="the arm's LeRobot calibration file (lerobot-calibrate)"
+        )
         parser.add_argument("--duration", type=float, default=0.0, metavar="S", help="stop after S s (0: Ctrl-C)")
         parser.add_argument("--status-period", type=float, default=1.0, metavar="S", help="seconds between statuses")
         parser.add_argument("--output-dir", default=DEFAULT_OUTPUT_DIR, help="where the run folder goes")
@@ -112,12 +125,13 @@ class DeployCommand(Command):
         rate = contract["control_hz"] if args.rate is None else args.rate
         options = options_of(config, options_pb2.mirror)
         joints, commanded = _robot_joints(observer, contract, config, options)
+        units = _robot_units(args.units, args.calibration, joints)
         controller = PolicyController(policy, contract, observer, joints, args.max_speed / rate)
         root = writable_folder(args.output_dir, "--output-dir")
         if args.run_name and (root / args.run_name).exists():
             raise UsageError(f"run folder {root / args.run_name} exists; choose another --run-name")
         with create_run(root, args.run_name, stem=RUN_STEM, options="--run-name") as run, RosSession(NODE_NAME) as ros:
-            link = RobotLink(ros, joints, options, commanded, args.estop_topic, args.target_topic)
+            link = RobotLink(ros, joints, options, commanded, args.estop_topic, args.target_topic, units)
             types = TypeChecker(ros.node, link.expected_types, reader="deploy")
             loop = DeployLoop(
                 link,
@@ -176,6 +190,24 @@ def _load(folder: Path, plugins: PluginHost) -> tuple[Any, dict[str, Any], Any]:
             f"only a '{COMMAND}' of 3 values (--target, --target-topic)"
         )
     return policy, contract, observer
+
+
+def _robot_units(name: str, calibration: Path | None, joints: list[MirroredJoint]) -> RobotUnits:
+    """The robot's units `name` (--units) for the mirrored `joints`: LeRobot's need joshua-lerobot and the
+    SO-ARM100's joints, each mapped to its SO-100 motor."""
+    if name == UNITS[0]:
+        if calibration is not None:
+            raise UsageError("--calibration is for LeRobot's units: give --units degrees or range with it")
+        return RobotUnits()
+    if importlib.util.find_spec("joshua_lerobot") is None:
+        raise PluginNotFoundError(f"--units {name} converts with joshua-lerobot: pip install joshua-lerobot")
+    from joshua_lerobot import BodyUnits, LeRobotUnits, feature_names, read_calibration
+
+    names, robot_type = feature_names([joint.joint for joint in joints])
+    if robot_type is None:
+        raise UsageError(f"--units {name} is for the SO-100's six joints; the config mirrors {len(joints)} others")
+    lerobot = LeRobotUnits(BodyUnits(name), None if calibration is None else read_calibration(calibration))
+    return RobotUnits(lerobot, {joint.joint: feature for joint, feature in zip(joints, names, strict=True)})
 
 
 def _robot_joints(
@@ -246,7 +278,9 @@ def _report(
             "rejected_non_finite": int(link.rejected[index]),
             "last_value": float(link.values[index]),
             "command_topic": joint.command_topic or None,
-            "last_target_sent": None if last is None or position is None else float(last[position]) - joint.offset,
+            "last_target_sent": None
+            if last is None or position is None
+            else link.robot_value(joint, float(last[position])),
             "limited": entry.limited if entry else 0,
             "slowed": entry.slowed if entry else 0,
         }

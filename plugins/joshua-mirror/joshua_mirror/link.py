@@ -2,13 +2,16 @@
 
 Callbacks run on the ROS executor thread: they store each encoder value with its arrival time and wake the
 control loop (`wait`). The loop takes a snapshot of the values when every joint has a new one, and publishes
-targets on the command topics, in encoder units (target - offset), the way the robot expects them.
+targets on the command topics, in encoder units (target - offset), the way the robot expects them. An arm driven
+through LeRobot's follower speaks LeRobot's units (`RobotUnits`): its values become radians as they arrive, and
+targets leave in its units.
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -24,6 +27,25 @@ POINT_TYPE = "geometry_msgs/msg/Point"
 COMMAND_DEPTH = 10  # reliable, keep-last: a robot driver subscribes as it likes
 
 
+@dataclass(frozen=True)
+class RobotUnits:
+    """The robot's units: radians (`lerobot` None), or LeRobot's (`joshua_lerobot.LeRobotUnits`, without offsets:
+    the mapping's offsets stay the mirror's) for the model joints `features` names (joint -> LeRobot feature)."""
+
+    lerobot: Any = None
+    features: dict[str, str] = field(default_factory=dict)
+
+    def to_radians(self, joint: MirroredJoint, value: float) -> float:
+        if self.lerobot is None:
+            return value
+        return float(self.lerobot.to_model(self.features[joint.joint], np.array(value), (joint.low, joint.high)))
+
+    def from_radians(self, joint: MirroredJoint, value: float) -> float:
+        if self.lerobot is None:
+            return value
+        return float(self.lerobot.from_model(self.features[joint.joint], np.array(value), (joint.low, joint.high)))
+
+
 class RobotLink:
     """Latest encoder values and their arrival times, the e-stop latch and the target; publishes joint targets."""
 
@@ -35,13 +57,15 @@ class RobotLink:
         commanded: list[MirroredJoint],
         estop_topic: str,
         target_topic: str | None,
+        units: RobotUnits | None = None,
     ) -> None:
         self.node = ros.node
         self.joints = joints
+        self.units = units or RobotUnits()
         self.commanded = commanded
         self.changed = threading.Condition()
         size = len(joints)
-        self.values = np.full(size, np.nan)  # encoder units
+        self.values = np.full(size, np.nan)  # encoder units, in radians
         self.arrived_ns = np.zeros(size, np.int64)  # perf_counter_ns of each value's callback
         self.before = np.full(size, np.nan)  # the value before, and when it came: for the velocity
         self.before_ns = np.zeros(size, np.int64)
@@ -103,7 +127,7 @@ class RobotLink:
                     self.rejected[index] += 1
                     continue
                 self.before[index], self.before_ns[index] = self.values[index], self.arrived_ns[index]
-                self.values[index] = value
+                self.values[index] = self.units.to_radians(self.joints[index], value)
                 self.arrived_ns[index] = arrived_ns
                 self.fresh[index] = True
             self.changed.notify()
@@ -162,6 +186,10 @@ class RobotLink:
         return [joint.command_topic for publisher, joint in pairs if publisher.get_subscription_count() == 0]
 
     def publish(self, targets: NDArray[np.float64]) -> None:
-        """Send each target (sim units, in the order of `commanded`) as target - offset, the robot's units."""
+        """Send each target (sim units, in the order of `commanded`) as target - offset in the robot's units."""
         for publisher, joint, target in zip(self.publishers, self.commanded, targets, strict=True):
-            publisher.publish(self.float64(data=float(target) - joint.offset))
+            publisher.publish(self.float64(data=self.robot_value(joint, float(target))))
+
+    def robot_value(self, joint: MirroredJoint, target: float) -> float:
+        """A target in sim units as the robot reads it: target - offset, in its units."""
+        return self.units.from_radians(joint, target - joint.offset)

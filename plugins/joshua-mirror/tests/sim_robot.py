@@ -2,16 +2,17 @@
 
 Plan (JSON, argv[1]): {"model": scene.xml, "keyframe": "home", "rate": Hz, "site": "gripper", "target": [x, y, z],
 "estop_topic": T, "target_topic": T, "deaf": bool (optional), "lifetime": seconds,
-"joints": [{"joint": j, "actuator": a, "encoder": topic, "command": topic, "offset": o}, ...]}.
-It publishes each joint's qpos - offset (std_msgs/Float64) on its encoder topic at `rate`, applies each Float64
-received on a command topic as its position actuator's ctrl (value + offset), prints "ready", then every 0.1 s
-"distance D" (gripper site to target, m). Lines on stdin: "mute" / "unmute" stop and resume the encoders, "mark"
-notes how many commands came so far, "estop" publishes true on the e-stop topic and "target X Y Z" the point on
-the target topic (geometry_msgs/Point; it becomes the target the distance is measured to), each once a
-subscriber is there, "await N" prints "received N" once N commands have come (messages still on their way when
-the deploy stopped), "listen" subscribes to the command topics (at once unless the plan says "deaf"), "quit" (or
-the end of the lifetime) prints the result as JSON ("result {...}": commands counted, marks, the last command and
-the encoder value of each joint, the distance) and exits.
+"joints": [{"joint": j, "actuator": a, "encoder": topic, "command": topic, "offset": o, "units": [k, c]}, ...]}.
+It publishes each joint's qpos - offset (std_msgs/Float64) on its encoder topic at `rate`, in its units: k * value +
+c (optional; default radians, [1, 0]; an arm driven by LeRobot when the test gives LeRobot's scale), applies each
+Float64 received on a command topic as its position actuator's ctrl ((value - c) / k + offset), prints "ready", then
+every 0.1 s "distance D" (gripper site to target, m). Lines on stdin: "mute" / "unmute" stop and resume the
+encoders, "mark" notes how many commands came so far, "estop" publishes true on the e-stop topic and "target X Y Z"
+the point on the target topic (geometry_msgs/Point; it becomes the target the distance is measured to), each once a
+subscriber is there, "await N" prints "received N" once N commands have come (messages still on their way when the
+deploy stopped), "listen" subscribes to the command topics (at once unless the plan says "deaf"), "quit" (or the end
+of the lifetime) prints the result as JSON ("result {...}": commands counted, marks, the last command and the
+encoder value of each joint, the distance) and exits.
 """
 
 from __future__ import annotations
@@ -58,13 +59,15 @@ class SimRobot:
     def listen(self) -> None:
         """Subscribe to every joint's command topic."""
         for index, joint in enumerate(self.joints):
-            callback = self._on_command(index, self.model.actuator(joint["actuator"]).id, joint["offset"])
+            callback = self._on_command(index, self.model.actuator(joint["actuator"]).id, joint)
             self.node.create_subscription(Float64, joint["command"], callback, 100)
 
-    def _on_command(self, index: int, actuator: int, offset: float):  # noqa: ANN202
+    def _on_command(self, index: int, actuator: int, joint: dict):  # noqa: ANN202
+        scale, shift = joint.get("units", (1.0, 0.0))
+
         def apply(message: Float64) -> None:
             with self.lock:
-                self.data.ctrl[actuator] = message.data + offset
+                self.data.ctrl[actuator] = (message.data - shift) / scale + joint["offset"]
                 self.commands += 1
                 self.last_commands[index] = message.data
 
@@ -77,7 +80,11 @@ class SimRobot:
 
     def encoder_values(self) -> list[float]:
         with self.lock:
-            return [float(self.data.joint(j["joint"]).qpos[0]) - j["offset"] for j in self.joints]
+            return [
+                j.get("units", (1.0, 0.0))[0] * (float(self.data.joint(j["joint"]).qpos[0]) - j["offset"])
+                + j.get("units", (1.0, 0.0))[1]
+                for j in self.joints
+            ]
 
     def publish_encoders(self) -> None:
         values = self.encoder_values()

@@ -9,6 +9,7 @@ how far its gripper is from the target; the deploy's report tells what the node 
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import signal
 import subprocess
@@ -17,6 +18,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
+import mujoco
 import pytest
 
 from joshua_core.config import load_preset
@@ -122,7 +124,9 @@ def robot_and_deploy(
         "--duration",
         str(LIFETIME_S),
     ]
-    deploy = start(command, ros_env, tmp_path)
+    if "calibration" in param:
+        (tmp_path / "arm.json").write_text(json.dumps(param["calibration"]))
+    deploy = start([*command, *param.get("deploy", [])], ros_env, tmp_path)
     try:
         yield robot, deploy
     finally:
@@ -157,6 +161,60 @@ def test_policy_reaches_the_target_and_holds_on_stale_encoders(
     assert report["published_messages"] == result["commands"] == 6 * (report["steps"] + 1)  # all delivered, counted
     assert report["rate_hz"] == 50 and report["latency_us"]["input_to_publish"]["samples"] == report["steps"]
     assert all(joint["received"] > 0 and joint["last_target_sent"] is not None for joint in report["joints"].values())
+
+
+# An SO-100 calibrated by lerobot-calibrate: motor -> ticks range (drive mode set on the elbow)
+LEROBOT_RANGES = {
+    "shoulder_pan": (820, 3300), "shoulder_lift": (880, 3170), "elbow_flex": (880, 3100),
+    "wrist_flex": (870, 3200), "wrist_roll": (0, 4095), "gripper": (2010, 3400),
+}  # fmt: skip
+CALIBRATION = {
+    motor: {"id": i + 1, "drive_mode": int(motor == "elbow_flex"), "homing_offset": 0, "range_min": low,
+            "range_max": high}
+    for i, (motor, (low, high)) in enumerate(LEROBOT_RANGES.items())
+}  # fmt: skip
+
+
+def lerobot_range_units() -> list[tuple[float, float]]:
+    """(k, c) per joint: lerobot's use_degrees=False value = k * angle + c, the angle from the middle of the
+    calibrated range (the model's zero, its ranges symmetric) in radians at 2 pi / 4095 per tick: -100..100 over
+    the range for the body (negated where the drive mode is set), 0..100 for the gripper."""
+    model = mujoco.MjModel.from_xml_path(str(models_dir() / "so_arm100" / "scene.xml"))
+    units = []
+    for motor, (low, high) in LEROBOT_RANGES.items():
+        half_span = (high - low) / 2 * 2 * math.pi / 4095
+        if motor == "gripper":
+            joint_low, joint_high = model.joint("joint_6").range
+            units.append((50 / half_span, 50 - 50 / half_span * (joint_low + joint_high) / 2))
+        else:
+            units.append(((-100 if CALIBRATION[motor]["drive_mode"] else 100) / half_span, 0.0))
+    return units
+
+
+@pytest.mark.parametrize(
+    "robot_and_deploy",
+    [
+        {
+            "plan": {
+                "joints": [j | {"units": u} for j, u in zip(robot_plan()["joints"], lerobot_range_units(), strict=True)]
+            },
+            "calibration": CALIBRATION,
+            "deploy": ["--units", "range", "--calibration", "arm.json"],
+        }
+    ],
+    indirect=True,
+)
+def test_an_arm_in_lerobots_range_units_reaches_the_target(
+    tmp_path: Path, robot_and_deploy: tuple[Process, Process]
+) -> None:
+    robot, deploy = robot_and_deploy
+    next_line(robot.stdout, lambda line: float(line.split()[1]) < REACHED_M, "the target was reached", deploy)
+    report = stop_deploy(deploy, tmp_path)
+    result = robot_result(robot, report["published_messages"])
+    sent = [joint["last_target_sent"] for joint in report["joints"].values()]
+    assert result["last_commands"] == pytest.approx(sent, abs=1e-9)  # what the robot got: LeRobot's units
+    body = [abs(value) for value in result["last_commands"][:5]]
+    assert max(body) <= 100 and max(body) > 3  # -100..100, not radians
 
 
 def test_estop_stops_the_targets_until_restart(tmp_path: Path, robot_and_deploy: tuple[Process, Process]) -> None:
@@ -260,6 +318,8 @@ def test_bad_input_is_one_line(tmp_path: Path, ros_env: dict[str, str]) -> None:
         ),
         ([str(POLICY), "--run-name", "../../x"], "--run-name '../../x' holds a '/'"),
         ([str(POLICY), "--run-name", "x_step_7"], "ends in _step_<N>"),
+        ([str(POLICY), "--units", "range"], "need the arm's calibration: give the JSON lerobot-calibrate wrote"),
+        ([str(POLICY), "--calibration", "arm.pbtxt"], "--calibration is for LeRobot's units"),
     ]
     for args, message in cases:
         if "--target" not in args:
