@@ -37,6 +37,9 @@ def one_line_usage_error(capsys: pytest.CaptureFixture[str], argv: list[str], me
         (["deploy", "policy", "--rate", "1e9"], "--rate takes a number at least 1 and at most 10000, got '1e9'"),
         (["deploy", "policy", "--target", "1e300,0,0"], "--target takes three numbers X,Y,Z in metres within ±1000"),
         (["eval", "run", "--episodes", "1e20"], "--episodes takes an integer at least 1 and at most 100000"),
+        (["lerobot-export", EXAMPLE, "--fps", "1e9"], "--fps takes an integer at least 1 and at most 1000, got '1e9'"),
+        (["lerobot-export", EXAMPLE, "--height", "1"], "--height takes an integer at least 16 and at most 8192"),
+        (["lerobot-export", EXAMPLE, "--width", "20000"], "--width takes an integer at least 16 and at most 8192"),
     ],
 )
 def test_an_implausible_command_line_number_is_one_line(
