@@ -56,11 +56,11 @@ BOUNDS: dict[str, Bound] = {
             "num_epochs",
             "minibatch_size",
             "learning_rate",
-            "gae_lambda",
             "clip_epsilon",
         )
     },
     "joshua.TrainingConfig.gamma": Bound(0, 1),  # a discount: above 1 returns grow without bound
+    "joshua.TrainingConfig.gae_lambda": Bound(0, 1),  # GAE's weight of longer returns: above 1 advantages diverge
     "joshua_modes.OffscreenOptions.fps": Bound(MIN_FPS, MAX_FPS, zero_is_default=True),
     "joshua_modes.ViewerOptions.fps": Bound(MIN_FPS, MAX_FPS, zero_is_default=True),
     "joshua_modes.ReplayOptions.speed": Bound(0, MAX_REPLAY_SPEED),

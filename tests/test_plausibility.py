@@ -37,6 +37,9 @@ def one_line_usage_error(capsys: pytest.CaptureFixture[str], argv: list[str], me
         (["deploy", "policy", "--rate", "1e9"], "--rate takes a number at least 1 and at most 10000, got '1e9'"),
         (["deploy", "policy", "--target", "1e300,0,0"], "--target takes three numbers X,Y,Z in metres within ±1000"),
         (["eval", "run", "--episodes", "1e20"], "--episodes takes an integer at least 1 and at most 100000"),
+        (["lerobot-export", EXAMPLE, "--fps", "1e9"], "--fps takes an integer at least 1 and at most 1000, got '1e9'"),
+        (["lerobot-export", EXAMPLE, "--height", "1"], "--height takes an integer at least 16 and at most 8192"),
+        (["lerobot-export", EXAMPLE, "--width", "20000"], "--width takes an integer at least 16 and at most 8192"),
     ],
 )
 def test_an_implausible_command_line_number_is_one_line(
@@ -56,6 +59,7 @@ def test_an_implausible_command_line_number_is_one_line(
         ),
         ("sim_offscreen", "simulation.offscreen.output=7", "offscreen.output: 7 is not one of MP4, PNG, MP4_AND_PNG"),
         ("so_arm100_reach_sb3", "training.gamma=2", "training.gamma: must be at most 1, got 2"),
+        ("ant_train_mjx", "training.gae_lambda=2", "training.gae_lambda: must be at most 1, got 2"),
         ("ant_train_mjx", "training.ppo.hidden_sizes=[2000000000]", "hidden_sizes[0]: must be at most 65536"),
         ("so_arm100_reach_sb3", "training.sb3.hidden_sizes=[0]", "hidden_sizes[0]: must be at least 1, got 0"),
         ("ant_train_mjx", "training.ppo.distributed.num_processes=-1", "num_processes: must be at least 0, got -1"),

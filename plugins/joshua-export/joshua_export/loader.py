@@ -11,14 +11,27 @@ import numpy as np
 import onnxruntime
 from google.protobuf import text_format
 from numpy.typing import ArrayLike, NDArray
+from onnxruntime.capi import onnxruntime_pybind11_state as onnxruntime_errors
 
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import UsageError
 from joshua_core.limits import MAX_CONTROL_HZ, MIN_CONTROL_HZ
+from joshua_core.outputs import check_name
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_export.contract import CONTRACT_FILE, CONTRACT_FORMAT, sha256
 from joshua_export.observer import Observer, model_sha256
+
+# What onnxruntime raises for a file it cannot load as a graph (its errors derive from Exception alone).
+ONNXRUNTIME_LOAD_ERRORS = (
+    onnxruntime_errors.Fail,
+    onnxruntime_errors.InvalidArgument,
+    onnxruntime_errors.InvalidGraph,
+    onnxruntime_errors.InvalidProtobuf,
+    onnxruntime_errors.NoSuchFile,
+    onnxruntime_errors.NotImplemented,
+    onnxruntime_errors.RuntimeException,
+)
 
 
 class OnnxPolicy:
@@ -54,10 +67,17 @@ def load_policy(folder: Path) -> tuple[OnnxPolicy, dict[str, Any]]:
         raise UsageError(
             f"{path}: control_hz is {rate!r}; expected a number of Hz from {MIN_CONTROL_HZ:g} to {MAX_CONTROL_HZ:g}"
         )
-    model = folder / contract["model"]["file"]
-    if not model.is_file() or sha256(model.read_bytes()) != contract["model"]["sha256"]:
+    entry = contract.get("model")
+    if not isinstance(entry, dict) or not all(isinstance(entry.get(key), str) for key in ("file", "sha256")):
+        raise UsageError(f"{path}: model is {entry!r}; expected the ONNX file's name and sha256 (see `joshua export`)")
+    model = folder / check_name(entry["file"], f"{path}: model.file")  # the file beside the contract, no other
+    if not model.is_file() or sha256(model.read_bytes()) != entry["sha256"]:
         raise UsageError(f"{model} is missing or is not the file {path} describes (its sha256 differs)")
-    return OnnxPolicy(model), contract
+    try:
+        return OnnxPolicy(model), contract
+    except ONNXRUNTIME_LOAD_ERRORS as error:
+        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise UsageError(f"{model}: onnxruntime cannot load it as a policy: {reason}") from None
 
 
 def contract_observer(contract: dict[str, Any], plugins: PluginHost, model_path: Path | None = None) -> Observer:

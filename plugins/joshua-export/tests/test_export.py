@@ -4,12 +4,14 @@ random observations; the contract's slices tile the task's observation; bad runs
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import pickle
 import shutil
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -19,6 +21,7 @@ import onnx
 import onnxruntime
 import pytest
 
+from joshua_core.errors import UsageError
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_export import load_policy
@@ -200,3 +203,37 @@ def test_the_model_hash_does_not_depend_on_where_the_checkout_lies(tmp_path: Pat
     assert model_sha256(here) == model_sha256(elsewhere)
     elsewhere.actuator_gainprm[0, 0] *= 1.01
     assert model_sha256(here) != model_sha256(elsewhere)
+
+
+def garbage_with_its_hash(folder: Path) -> None:
+    """A policy.onnx that is no graph, its contract updated to match: the hash passes, onnxruntime refuses it."""
+    (folder / "policy.onnx").write_bytes(b"not a graph")
+    contract = json.loads((folder / "policy.json").read_text())
+    contract["model"]["sha256"] = hashlib.sha256(b"not a graph").hexdigest()
+    (folder / "policy.json").write_text(json.dumps(contract))
+
+
+def edited_model_entry(value: object) -> Callable[[Path], None]:
+    def edit(folder: Path) -> None:
+        contract = json.loads((folder / "policy.json").read_text())
+        (folder / "policy.json").write_text(json.dumps(contract | {"model": value}))
+
+    return edit
+
+
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        (garbage_with_its_hash, "policy.onnx: onnxruntime cannot load it as a policy: [ONNXRuntimeError]"),
+        (edited_model_entry(None), "policy.json: model is None; expected the ONNX file's name and sha256"),
+        (edited_model_entry({"file": 7, "sha256": ""}), "expected the ONNX file's name and sha256"),
+        (edited_model_entry({"file": "../policy.onnx", "sha256": ""}), "model.file '../policy.onnx' holds a '/'"),
+    ],
+)
+def test_a_damaged_exported_policy_is_one_line(tmp_path: Path, damage: Callable[[Path], None], message: str) -> None:
+    folder = tmp_path / "policy"
+    shutil.copytree(resolve_data_path("policies/so_arm100_reach", folders=True), folder)
+    damage(folder)
+    with pytest.raises(UsageError) as refused:
+        load_policy(folder)
+    assert message in str(refused.value) and "\n" not in str(refused.value), str(refused.value)

@@ -20,6 +20,7 @@ from joshua_core.config_pb2 import TopicMapping
 from joshua_core.defaults import DEFAULT_OUTPUT_DIR
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
+from joshua_core.limits import MAX_FPS, MAX_IMAGE_SIDE, MIN_FPS, MIN_IMAGE_SIDE, cli_number
 from joshua_core.outputs import check_replaceable
 from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
@@ -48,7 +49,12 @@ class LeRobotExportCommand(Command):
         parser.add_argument(
             "--overwrite", action="store_true", help="replace the --out folder when joshua wrote it (a dataset)"
         )
-        parser.add_argument("--fps", type=int, default=DEFAULT_FPS, help=f"frames per second (default {DEFAULT_FPS})")
+        parser.add_argument(
+            "--fps",
+            type=cli_number("--fps", MIN_FPS, MAX_FPS, integer=True),
+            default=DEFAULT_FPS,
+            help=f"frames per second (default {DEFAULT_FPS})",
+        )
         parser.add_argument(
             "--camera",
             action="append",
@@ -56,10 +62,13 @@ class LeRobotExportCommand(Command):
             help="a model camera to record as observation.images.<camera> (repeatable; default: the model's first)",
         )
         parser.add_argument("--no-video", action="store_true", help="write joint data only, no camera video")
-        parser.add_argument("--width", type=int, default=DEFAULT_WIDTH, help=f"video width (default {DEFAULT_WIDTH})")
-        parser.add_argument(
-            "--height", type=int, default=DEFAULT_HEIGHT, help=f"video height (default {DEFAULT_HEIGHT})"
-        )
+        for side, default in (("width", DEFAULT_WIDTH), ("height", DEFAULT_HEIGHT)):
+            parser.add_argument(
+                f"--{side}",
+                type=cli_number(f"--{side}", MIN_IMAGE_SIDE, MAX_IMAGE_SIDE, integer=True),
+                default=default,
+                help=f"video {side} (default {default})",
+            )
         parser.add_argument(
             "--task",
             action="append",
@@ -83,8 +92,8 @@ class LeRobotExportCommand(Command):
         add_config_arguments(parser, verb="take the mirror mapping's offsets (simulation.mirror_topic_mappings) from")
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
-        if args.fps < 1 or args.width < 2 or args.height < 2 or args.episode < 0:
-            raise UsageError("--fps, --width and --height must be positive and --episode at least 0")
+        if args.episode < 0:
+            raise UsageError(f"--episode must be at least 0 (got {args.episode})")
         tasks = args.task or [DEFAULT_TASK]
         if len(tasks) not in (1, len(args.trajectory)):
             raise UsageError(

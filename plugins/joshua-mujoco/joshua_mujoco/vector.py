@@ -182,6 +182,8 @@ class BatchedSimulation:
 
         Returns which environments failed (a MuJoCo error, or a non-finite state).
         """
+        if np.iscomplexobj(actions):  # float64 conversion would drop the imaginary part with only a warning
+            raise ValueError("step expects real actions, got complex values")
         action = np.asarray(actions, dtype=np.float64)
         if action.size != self.action.size:
             raise ValueError(

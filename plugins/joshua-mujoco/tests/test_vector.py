@@ -100,6 +100,8 @@ def test_actions_are_clipped_and_bad_actions_rejected(plugins: PluginHost) -> No
         clipped.step(np.zeros(7))
     with pytest.raises(ValueError, match=r"NaN or infinity for environments \[1\]"):
         clipped.step(np.array([[0.0] * 8, [np.nan] + [0.0] * 7]))
+    with pytest.raises(ValueError, match="step expects real actions, got complex values"):
+        clipped.step(np.full((2, 8), 0.1 + 1j))
 
 
 def test_the_docs_say_our_ant_integrates_unlike_stock_ant_v5() -> None:
