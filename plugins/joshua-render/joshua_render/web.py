@@ -141,7 +141,8 @@ def _geom_rgba(model: mujoco.MjModel, geom: int) -> np.ndarray:
 
 
 class ModelScene:
-    """One copy of a model's visible geoms in a viser scene, under `/{name}`, moved by body poses."""
+    """One copy of a model's visible geoms in a viser scene, under `/{name}`, moved by body poses; without its
+    `planes` (the floor), so that copies side by side do not draw one floor over another."""
 
     def __init__(
         self,
@@ -150,11 +151,16 @@ class ModelScene:
         name: str,
         *,
         offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        planes: bool = True,
     ) -> None:
+        import mujoco
+
         self._offset = np.asarray(offset, np.float64)
         self._frames: dict[int, viser.FrameHandle] = {}
         for geom in range(model.ngeom):
             if model.geom_group[geom] not in VISIBLE_GROUPS or model.geom_rgba[geom][3] == 0:
+                continue
+            if not planes and model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_PLANE:
                 continue
             mesh = _geom_mesh(model, geom)
             if mesh is None:
