@@ -223,8 +223,8 @@ class WebControls:
 
 class WebDisplay(Display):
     """A simulation in the browser: `data` of `model` drawn by viser, with pause and step (`controls`; not for a
-    simulation that follows a robot), for a replay of `duration` seconds a time slider with `marks` (time, label),
-    and a free text block (`set_report`). `update` never waits for a browser; closing one changes nothing."""
+    simulation that follows a robot), for a replay of `duration` seconds a time slider, and a free text block
+    (`set_report`). `update` never waits for a browser; closing one changes nothing."""
 
     def __init__(
         self,
@@ -233,7 +233,6 @@ class WebDisplay(Display):
         data: mujoco.MjData,
         *,
         duration: float | None = None,
-        marks: tuple[tuple[float, str], ...] = (),
         controls: bool = True,
     ) -> None:
         self._server, self._model, self._data = server, model, data
@@ -253,9 +252,7 @@ class WebDisplay(Display):
         self._time = gui.add_text("time (s)", initial_value="0.000", disabled=True)
         self._slider = None
         if duration is not None and duration > 0:
-            self._slider = gui.add_slider(
-                "scrub (s)", min=0.0, max=duration, step=duration / 1000, initial_value=0.0, marks=marks or None
-            )
+            self._slider = gui.add_slider("scrub (s)", min=0.0, max=duration, step=duration / 1000, initial_value=0.0)
             self._slider.on_update(self._on_scrub)
         self._report = gui.add_markdown("", visible=False)
         self.description = f"web display at port {server.get_port()}"
@@ -313,7 +310,6 @@ def open_web_display(
     title: str,
     instead: str | None,
     duration: float | None = None,
-    marks: tuple[tuple[float, str], ...] = (),
     controls: bool = True,
 ) -> WebDisplay | None:
     """A WebDisplay on `address`; when it cannot listen there, None with one line saying why and what the run
@@ -321,4 +317,4 @@ def open_web_display(
     server = start_server(address, title=title, instead=instead)
     if server is None:
         return None
-    return WebDisplay(server, model, data, duration=duration, marks=marks, controls=controls)
+    return WebDisplay(server, model, data, duration=duration, controls=controls)
