@@ -1,5 +1,6 @@
 """Settings and fixtures for every test run, core and plugins alike: SIGINT for child processes, one JAX
-compilation cache per run, and a real X server (Xvfb) with screenshots of it, for the tests of the viewers."""
+compilation cache per run, a real X server (Xvfb) with screenshots of it, for the tests of the viewers, and a
+headless chromium for the tests of the web display."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import subprocess
 import sys
 import tempfile
 from collections.abc import Callable, Iterator
+from typing import Any
 
 import numpy as np
 import pytest
@@ -114,3 +116,24 @@ def _decode_xwd(dump: bytes) -> NDArray[np.uint8]:
     pixels = np.frombuffer(dump[start : start + bytes_per_line * height], np.uint8)
     pixels = pixels.reshape(height, bytes_per_line)[:, : width * 4].reshape(height, width, 4)
     return pixels[..., [2, 1, 0]] if byte_order == 0 else pixels[..., [1, 2, 3]]
+
+
+@pytest.fixture
+def browser() -> Iterator[Any]:
+    """Debian's chromium, headless (800x600, WebGL on the CPU through SwiftShader: no GPU on CI), driven by
+    selenium; the test is skipped where selenium or chromedriver is missing."""
+    pytest.importorskip("selenium", reason="the browser tests need selenium")
+    from selenium import webdriver
+
+    driver_path = shutil.which("chromedriver")
+    if driver_path is None:
+        pytest.skip("needs chromium and chromedriver (apt-get install chromium chromium-driver)")
+    options = webdriver.ChromeOptions()
+    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=800,600"):
+        options.add_argument(argument)
+    options.add_argument("--enable-unsafe-swiftshader")
+    driver = webdriver.Chrome(options=options, service=webdriver.ChromeService(executable_path=driver_path))
+    try:
+        yield driver
+    finally:
+        driver.quit()

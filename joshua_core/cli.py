@@ -32,7 +32,7 @@ from joshua_core.run_context import RunContext
 
 STRICT_OVERRIDE = "simulation.replay.strict=true"  # what --strict means
 EPISODE_OVERRIDE = "simulation.replay.episode={episode}"  # what --episode N means
-WEB_OVERRIDES = ("simulation.viewer.display=WEB", "simulation.viewer.web={address}")  # what --web ADDRESS means
+WEB_FIELDS = {"SIMULATION": "simulation.web", "TRAINING": "training.web"}  # what --web sets, by operation_mode
 
 EPILOG = f"""\
 examples:
@@ -87,8 +87,9 @@ def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.Argu
     parser.add_argument(
         "--web",
         metavar="[HOST:]PORT",
-        help="show PASSIVE or INTERACTIVE in a web page at this address (HOST defaults to 127.0.0.1, this "
-        "machine only); prints the URL. Same as --set " + " --set ".join(WEB_OVERRIDES),
+        help="show the run in a web page at this address (HOST defaults to 127.0.0.1, this machine only): "
+        "PASSIVE, INTERACTIVE, MIRROR, or a training's environments and return curve; prints the URL. "
+        "Same as --set simulation.web=ADDRESS (or training.web for a training config)",
     )
     parser.add_argument("--print-config", action="store_true", help="print the final config and exit")
     add_no_cache_argument(parser)
@@ -239,8 +240,8 @@ def run(args: argparse.Namespace, host: PluginHost) -> int:
             raise UsageError(f"--episode must be 0 or more (got {args.episode})")
         apply_override(loaded.message, EPISODE_OVERRIDE.format(episode=args.episode), options)
     if args.web is not None:
-        for override in WEB_OVERRIDES:
-            apply_override(loaded.message, override.format(address=args.web), options)
+        field = WEB_FIELDS[JoshuaConfig.OperationMode.Name(loaded.message.operation_mode)]
+        apply_override(loaded.message, f"{field}={args.web}", options)
     config = finalize(loaded)
     if args.print_config:
         print(config_text_of(config, options), end="")

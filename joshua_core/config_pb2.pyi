@@ -29,7 +29,7 @@ class JoshuaConfig(_message.Message):
     def __init__(self, operation_mode: _Optional[_Union[JoshuaConfig.OperationMode, str]] = ..., simulation: _Optional[_Union[SimulationConfig, _Mapping]] = ..., training: _Optional[_Union[TrainingConfig, _Mapping]] = ..., description: _Optional[str] = ..., extends: _Optional[str] = ...) -> None: ...
 
 class SimulationConfig(_message.Message):
-    __slots__ = ("mode", "model_path", "trajectory_path", "mirror_topic_mappings", "render_width", "render_height", "backend", "keyframe", "duration", "output_dir")
+    __slots__ = ("mode", "model_path", "trajectory_path", "mirror_topic_mappings", "render_width", "render_height", "backend", "keyframe", "duration", "output_dir", "web")
     Extensions: _python_message._ExtensionDict
     MODE_FIELD_NUMBER: _ClassVar[int]
     MODEL_PATH_FIELD_NUMBER: _ClassVar[int]
@@ -41,6 +41,7 @@ class SimulationConfig(_message.Message):
     KEYFRAME_FIELD_NUMBER: _ClassVar[int]
     DURATION_FIELD_NUMBER: _ClassVar[int]
     OUTPUT_DIR_FIELD_NUMBER: _ClassVar[int]
+    WEB_FIELD_NUMBER: _ClassVar[int]
     mode: str
     model_path: str
     trajectory_path: str
@@ -51,7 +52,8 @@ class SimulationConfig(_message.Message):
     keyframe: str
     duration: float
     output_dir: str
-    def __init__(self, mode: _Optional[str] = ..., model_path: _Optional[str] = ..., trajectory_path: _Optional[str] = ..., mirror_topic_mappings: _Optional[_Union[MirrorTopicMappings, _Mapping]] = ..., render_width: _Optional[int] = ..., render_height: _Optional[int] = ..., backend: _Optional[str] = ..., keyframe: _Optional[str] = ..., duration: _Optional[float] = ..., output_dir: _Optional[str] = ...) -> None: ...
+    web: str
+    def __init__(self, mode: _Optional[str] = ..., model_path: _Optional[str] = ..., trajectory_path: _Optional[str] = ..., mirror_topic_mappings: _Optional[_Union[MirrorTopicMappings, _Mapping]] = ..., render_width: _Optional[int] = ..., render_height: _Optional[int] = ..., backend: _Optional[str] = ..., keyframe: _Optional[str] = ..., duration: _Optional[float] = ..., output_dir: _Optional[str] = ..., web: _Optional[str] = ...) -> None: ...
 
 class MirrorTopicMappings(_message.Message):
     __slots__ = ("mappings",)
@@ -70,7 +72,7 @@ class TopicMapping(_message.Message):
     def __init__(self, ros_topic: _Optional[str] = ..., mujoco_actuator: _Optional[str] = ..., offset: _Optional[float] = ...) -> None: ...
 
 class TrainingConfig(_message.Message):
-    __slots__ = ("framework", "model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "task_config", "synchronized_episodes", "nthread")
+    __slots__ = ("framework", "model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "task_config", "synchronized_episodes", "nthread", "web")
     Extensions: _python_message._ExtensionDict
     class Framework(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
@@ -97,6 +99,7 @@ class TrainingConfig(_message.Message):
     TASK_CONFIG_FIELD_NUMBER: _ClassVar[int]
     SYNCHRONIZED_EPISODES_FIELD_NUMBER: _ClassVar[int]
     NTHREAD_FIELD_NUMBER: _ClassVar[int]
+    WEB_FIELD_NUMBER: _ClassVar[int]
     framework: TrainingConfig.Framework
     model_path: str
     num_envs: int
@@ -116,7 +119,8 @@ class TrainingConfig(_message.Message):
     task_config: TaskConfig
     synchronized_episodes: bool
     nthread: int
-    def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., synchronized_episodes: _Optional[bool] = ..., nthread: _Optional[int] = ...) -> None: ...
+    web: str
+    def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., synchronized_episodes: _Optional[bool] = ..., nthread: _Optional[int] = ..., web: _Optional[str] = ...) -> None: ...
 
 class TaskConfig(_message.Message):
     __slots__ = ("episode_length", "frame_skip", "terms", "keyframe", "events", "action")

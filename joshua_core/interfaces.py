@@ -107,7 +107,8 @@ class EnvKind(enum.Enum):
 
     NUMPY: a `gymnasium.vector.VectorEnv` with `metadata["autoreset_mode"] == AutoresetMode.SAME_STEP`,
     float32 Box spaces (actions in [-1, 1]), `num_envs`, `task` (the built `Task`), `render_frame(env_index,
-    camera, width, height)` and these infos from `step`: "reward_terms" and "metrics" (name -> (N,)
+    camera, width, height)`, `model` (the `mujoco.MjModel` simulated) and `qpos` (the (num_envs, nq) joint positions
+    now, for drawing) and these infos from `step`: "reward_terms" and "metrics" (name -> (N,)
     arrays of this step); where an episode ended, "final_obs" (valid where "_final_obs") and "episode"
     ("r" return, "l" length, "reward/<term>" the term's episode sum; valid where "_episode").
 

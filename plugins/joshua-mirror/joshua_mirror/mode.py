@@ -38,6 +38,7 @@ DEFAULT_STALE_TIMEOUT_S = 0.5
 DEFAULT_STATUS_PERIOD_S = 1.0
 DEFAULT_DISPLAY_FPS = 30.0
 STALE_CHECK_PERIOD_S = 0.05
+WEB_FALLBACK = "mirroring without a display"  # what the mirror does when its web page cannot listen
 QUEUE_DEPTH = 100  # messages kept per subscription if the callback thread falls behind
 MAX_CATCH_UP_S = 0.25  # physics further behind the wall clock than this skips ahead instead of racing
 GIL_SWITCH_INTERVAL_S = 2e-4  # the ROS thread gets the GIL within this while the main thread runs Python
@@ -205,41 +206,54 @@ def _float64_callback(mirror: Mirror, index: int, loss: TopicLoss) -> Any:
 def _open_display(
     stack: ExitStack, config: SimulationConfig, context: RunContext, mirror: Mirror
 ) -> _DisplayFeed | None:
-    """The display the options ask for (None for NONE), on an engine of its own from the config's backend.
+    """The display the options ask for (None for NONE), on an engine of its own from the config's backend; a set
+    `simulation.web` (`--web`) means WEB, a web page that also shows the topics' status.
 
     It shows its first frame (the start pose) before it is announced, so "display: ..." means it is up.
     """
     options = options_of(config, options_pb2.mirror)
-    choice = options.display
+    choice = MirrorOptions.WEB if config.web else options.display
     if choice == MirrorOptions.NONE:
         return None
-    from joshua_render import open_display  # here: mujoco's viewer and OpenCV load only when a display is asked for
+    # here: mujoco's viewer, OpenCV and viser load only when a display is asked for
+    from joshua_render import open_display, open_web_display
 
     shadow = stack.enter_context(context.create_engine(config))
-    viewer = {MirrorOptions.AUTO: None, MirrorOptions.VIEWER: True, MirrorOptions.RECORD: False}[choice]
-    display = stack.enter_context(
-        open_display(
-            shadow,
-            output_dir=context.output_dir,
-            name="mirror",
-            fps=options.display_fps or DEFAULT_DISPLAY_FPS,
-            camera=options.camera or None,
-            viewer=viewer,
+    fps = options.display_fps or DEFAULT_DISPLAY_FPS
+    if choice == MirrorOptions.WEB:
+        page = open_web_display(
+            shadow.model, shadow.data, config.web, title="JOSHUA mirror", instead=WEB_FALLBACK, controls=False
         )
-    )
-    feed = _DisplayFeed(shadow, display, options.display_fps or DEFAULT_DISPLAY_FPS)
+        if page is None:
+            return None
+        display = stack.enter_context(page)
+    else:
+        viewer = {MirrorOptions.AUTO: None, MirrorOptions.VIEWER: True, MirrorOptions.RECORD: False}[choice]
+        display = stack.enter_context(
+            open_display(
+                shadow,
+                output_dir=context.output_dir,
+                name="mirror",
+                fps=fps,
+                camera=options.camera or None,
+                viewer=viewer,
+            )
+        )
+    feed = _DisplayFeed(shadow, display, fps, shows_status=choice == MirrorOptions.WEB)
     feed.show(mirror, 0.0)
     print(f"joshua: mirror: display: {display.description}", file=sys.stderr)
     return feed
 
 
 class _DisplayFeed:
-    """Copies the mirrored state into the display's own engine (under the lock, microseconds) and renders it there."""
+    """Copies the mirrored state into the display's own engine (under the lock, microseconds) and renders it there;
+    a web page also gets the topics' status (`shows_status`)."""
 
-    def __init__(self, shadow: Any, display: Any, fps: float) -> None:
+    def __init__(self, shadow: Any, display: Any, fps: float, *, shows_status: bool = False) -> None:
         self.shadow = shadow
         self.display = display
         self.period = 1.0 / fps
+        self.shows_status = shows_status
         self.shown = 0  # frames shown so far (the status line says it: one can tell a frame came after an event)
 
     def show(self, mirror: Mirror, elapsed: float) -> bool:
@@ -255,6 +269,40 @@ class _DisplayFeed:
         still_open = bool(self.display.update(elapsed))
         self.shown += 1
         return still_open
+
+    def show_status(self, mirror: Mirror, types: TypeChecker) -> None:
+        """The topics' status on a web page (each status period); nothing for the viewer or a recording."""
+        if self.shows_status:
+            self.display.set_report(status_page(mirror, types))
+
+
+def status_page(mirror: Mirror, types: TypeChecker) -> str:
+    """The mirror's status as Markdown: per joint its last value, age, STALE and rejections, and the tracking error
+    when physics follows the values; then lost messages, wrong message types and unknown names."""
+    now = mirror.clock()
+    lines = ["**mirror status**", ""]
+    for joint, stats in zip(mirror.joints, mirror.stats, strict=True):
+        value = "no value yet" if stats.last_value is None else f"{stats.last_value:+.3f}"
+        age = "" if stats.last_accepted_at is None else f", {(now - stats.last_accepted_at) * 1e3:.0f} ms ago"
+        flags = " **STALE**" if stats.stale else ""
+        flags += f", rejected {stats.rejected}" if stats.rejected else ""
+        line = f"- {joint.joint} ({joint.source}): {value}{age}{flags}"
+        if mirror.actuated:
+            error = stats.error_summary()
+            line += (
+                ", tracking error: no sample yet"
+                if error["rms"] is None
+                else f", tracking error RMS {error['rms']:.4f} max {error['max_abs']:.4f}"
+            )
+        lines.append(line)
+    lost = {topic: loss.lost for topic, loss in sorted(mirror.loss.items()) if loss.lost}
+    lines.append("")
+    lines.append("lost messages: " + (", ".join(f"{topic} {n}" for topic, n in lost.items()) or "none"))
+    lines.extend(f"- **WRONG TYPE** {topic}: published as {kinds}" for topic, kinds in sorted(types.current.items()))
+    unknown = sum(mirror.unknown_names.values())
+    if unknown:
+        lines.append(f"unknown names or topics: {unknown} messages")
+    return "\n".join(lines)
 
 
 class _MainLoop:
@@ -315,6 +363,8 @@ class _MainLoop:
                     self.watcher.poll()
                 _warn_types(self.types.poll())
                 _warn_loss(self.mirror.loss_warning())
+                if self.display is not None:
+                    self.display.show_status(self.mirror, self.types)
                 if self.print_status:
                     print(self._status_line(), file=sys.stderr, flush=True)
             if self.display is not None and now >= next_frame:

@@ -32,10 +32,12 @@ class MirrorOptions(_message.Message):
         NONE: _ClassVar[MirrorOptions.Display]
         VIEWER: _ClassVar[MirrorOptions.Display]
         RECORD: _ClassVar[MirrorOptions.Display]
+        WEB: _ClassVar[MirrorOptions.Display]
     AUTO: MirrorOptions.Display
     NONE: MirrorOptions.Display
     VIEWER: MirrorOptions.Display
     RECORD: MirrorOptions.Display
+    WEB: MirrorOptions.Display
     class JointStateNamesEntry(_message.Message):
         __slots__ = ("key", "value")
         KEY_FIELD_NUMBER: _ClassVar[int]

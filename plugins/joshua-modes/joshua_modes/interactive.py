@@ -123,6 +123,6 @@ class InteractiveMode(Mode):
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         viewer = options_of(config, options_pb2.viewer)
-        web = viewer.web if viewer.display == ViewerOptions.WEB else None
+        web = config.web if config.web or viewer.display == ViewerOptions.WEB else None
         with context.create_engine(config) as engine:
             simulate(engine, keyframe=config.keyframe or None, duration=config.duration, web=web)

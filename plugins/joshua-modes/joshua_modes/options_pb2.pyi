@@ -57,7 +57,7 @@ class ReplayOptions(_message.Message):
     def __init__(self, speed: _Optional[float] = ..., loop: _Optional[bool] = ..., as_fast_as_possible: _Optional[bool] = ..., strict: _Optional[bool] = ..., tracked: _Optional[bool] = ..., velocity_limit: _Optional[float] = ..., penetration_threshold: _Optional[float] = ..., episode: _Optional[int] = ...) -> None: ...
 
 class ViewerOptions(_message.Message):
-    __slots__ = ("display", "camera", "fps", "web")
+    __slots__ = ("display", "camera", "fps")
     class Display(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         AUTO: _ClassVar[ViewerOptions.Display]
@@ -71,9 +71,7 @@ class ViewerOptions(_message.Message):
     DISPLAY_FIELD_NUMBER: _ClassVar[int]
     CAMERA_FIELD_NUMBER: _ClassVar[int]
     FPS_FIELD_NUMBER: _ClassVar[int]
-    WEB_FIELD_NUMBER: _ClassVar[int]
     display: ViewerOptions.Display
     camera: str
     fps: float
-    web: str
-    def __init__(self, display: _Optional[_Union[ViewerOptions.Display, str]] = ..., camera: _Optional[str] = ..., fps: _Optional[float] = ..., web: _Optional[str] = ...) -> None: ...
+    def __init__(self, display: _Optional[_Union[ViewerOptions.Display, str]] = ..., camera: _Optional[str] = ..., fps: _Optional[float] = ...) -> None: ...

@@ -57,11 +57,11 @@ class PassiveMode(Mode):
                 plugins=context.plugins,
             )
             display = None
-            if viewer.display == ViewerOptions.WEB:
+            if config.web or viewer.display == ViewerOptions.WEB:
                 display = open_web_display(
                     engine.model,
                     engine.data,
-                    viewer.web,
+                    config.web,
                     title="JOSHUA replay",
                     instead="recording the replay instead",
                     duration=replayer.duration,

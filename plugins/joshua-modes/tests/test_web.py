@@ -75,19 +75,6 @@ def replay_url(tmp_path: Path) -> Iterator[str]:
         process.wait(timeout=30)
 
 
-@pytest.fixture
-def browser() -> Iterator[webdriver.Chrome]:
-    options = webdriver.ChromeOptions()
-    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=800,600"):
-        options.add_argument(argument)
-    options.add_argument("--enable-unsafe-swiftshader")  # WebGL on the CPU: no GPU on CI
-    driver = webdriver.Chrome(options=options, service=webdriver.ChromeService(executable_path=CHROMEDRIVER))
-    try:
-        yield driver
-    finally:
-        driver.quit()
-
-
 def screenshot(driver: webdriver.Chrome) -> NDArray[np.uint8]:
     return np.asarray(Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB"))
 

@@ -334,6 +334,16 @@ class BatchedVectorEnv(VectorEnv):
             observation[ids] = simulation.reset(ids)
         return observation, outcome.reward, outcome.terminated, outcome.truncated, infos
 
+    @property
+    def model(self) -> mujoco.MjModel:
+        """The model every environment simulates (for drawing them)."""
+        return self.simulation.model
+
+    @property
+    def qpos(self) -> NDArray[np.float64]:
+        """(num_envs, nq) joint positions now, a view of the simulations' state (for drawing them)."""
+        return self.simulation.qpos
+
     def render_frame(
         self,
         env_index: int = 0,

@@ -9,7 +9,8 @@ A library the MuJoCo backend, the modes, the mirror and the trainers share (no `
 - display: `open_display` (the MuJoCo viewer when a display is usable, else an MP4 recording),
   `Display`, `ViewerDisplay`, `RecordingDisplay`, `display_usable`, `no_display_error`;
 - training: `LiveViewer`, `open_viewer` (a few environments' poses in the viewer);
-- browser: `WebDisplay`, `open_web_display`, `parse_web_address` (a simulation in a web page, via viser).
+- browser: `WebDisplay`, `open_web_display`, `parse_web_address` (a simulation in a web page, via viser);
+  `TrainingPage`, `open_training_page` (a running training's environments and return curve in a web page).
 
 Importing the package is light: mujoco, OpenCV and PyAV are imported the first time a name is used.
 """
@@ -34,13 +35,16 @@ if TYPE_CHECKING:
     from joshua_render.video import VideoWriter, write_png
     from joshua_render.viewer import LiveViewer, open_viewer
     from joshua_render.web import WebControls, WebDisplay, open_web_display, parse_web_address
+    from joshua_render.web_training import TrainingPage, open_training_page
 
 __all__ = [
+    "PUSH_HZ",
     "Display",
     "GridVideoWriter",
     "LiveViewer",
     "RecordingDisplay",
     "RenderingUnavailableError",
+    "TrainingPage",
     "VideoWriter",
     "ViewerDisplay",
     "WebControls",
@@ -54,6 +58,7 @@ __all__ = [
     "has_display",
     "no_display_error",
     "open_display",
+    "open_training_page",
     "open_viewer",
     "open_web_display",
     "parse_web_address",
@@ -85,7 +90,10 @@ _HOME = {
     "WebControls": "web",
     "WebDisplay": "web",
     "open_web_display": "web",
+    "PUSH_HZ": "web",
     "parse_web_address": "web",
+    "TrainingPage": "web_training",
+    "open_training_page": "web_training",
 }
 
 

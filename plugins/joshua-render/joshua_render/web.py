@@ -141,7 +141,8 @@ def _geom_rgba(model: mujoco.MjModel, geom: int) -> np.ndarray:
 
 
 class ModelScene:
-    """One copy of a model's visible geoms in a viser scene, under `/{name}`, moved by body poses."""
+    """One copy of a model's visible geoms in a viser scene, under `/{name}`, moved by body poses; without its
+    `planes` (the floor), so that copies side by side do not draw one floor over another."""
 
     def __init__(
         self,
@@ -150,11 +151,16 @@ class ModelScene:
         name: str,
         *,
         offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        planes: bool = True,
     ) -> None:
+        import mujoco
+
         self._offset = np.asarray(offset, np.float64)
         self._frames: dict[int, viser.FrameHandle] = {}
         for geom in range(model.ngeom):
             if model.geom_group[geom] not in VISIBLE_GROUPS or model.geom_rgba[geom][3] == 0:
+                continue
+            if not planes and model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_PLANE:
                 continue
             mesh = _geom_mesh(model, geom)
             if mesh is None:
@@ -216,8 +222,9 @@ class WebControls:
 
 
 class WebDisplay(Display):
-    """A simulation in the browser: `data` of `model` drawn by viser, with pause, step and (for a replay of
-    `duration` seconds) a time slider. `update` never waits for a browser; closing one changes nothing."""
+    """A simulation in the browser: `data` of `model` drawn by viser, with pause and step (`controls`; not for a
+    simulation that follows a robot), for a replay of `duration` seconds a time slider, and a free text block
+    (`set_report`). `update` never waits for a browser; closing one changes nothing."""
 
     def __init__(
         self,
@@ -226,6 +233,7 @@ class WebDisplay(Display):
         data: mujoco.MjData,
         *,
         duration: float | None = None,
+        controls: bool = True,
     ) -> None:
         self._server, self._model, self._data = server, model, data
         self.controls = WebControls()
@@ -235,16 +243,18 @@ class WebDisplay(Display):
         server.initial_camera.position = tuple(center + extent * np.array(CAMERA_DIRECTION))
         self._last_push = -np.inf
         gui = server.gui
-        self._pause = gui.add_button("Pause")
-        self._pause.on_click(self._on_pause)
-        step = gui.add_button("Step")
-        step.on_click(lambda _: self.controls.step())
+        if controls:
+            self._pause = gui.add_button("Pause")
+            self._pause.on_click(self._on_pause)
+            step = gui.add_button("Step")
+            step.on_click(lambda _: self.controls.step())
         self._status = gui.add_text("status", initial_value="running", disabled=True)
         self._time = gui.add_text("time (s)", initial_value="0.000", disabled=True)
         self._slider = None
         if duration is not None and duration > 0:
             self._slider = gui.add_slider("scrub (s)", min=0.0, max=duration, step=duration / 1000, initial_value=0.0)
             self._slider.on_update(self._on_scrub)
+        self._report = gui.add_markdown("", visible=False)
         self.description = f"web display at port {server.get_port()}"
         self._push(0.0)
 
@@ -266,6 +276,12 @@ class WebDisplay(Display):
     def set_status(self, text: str) -> None:
         """One line shown in the panel (empty: running or paused)."""
         self._status.value = text or ("paused" if self.controls.paused else "running")
+
+    def set_report(self, markdown: str) -> None:
+        """A block of text (Markdown) under the panel, e.g. a status table; empty hides it."""
+        if markdown != self._report.content:
+            self._report.content = markdown
+            self._report.visible = bool(markdown)
 
     def _push(self, time: float) -> None:
         with self._server.atomic():
@@ -294,8 +310,11 @@ def open_web_display(
     title: str,
     instead: str | None,
     duration: float | None = None,
+    controls: bool = True,
 ) -> WebDisplay | None:
     """A WebDisplay on `address`; when it cannot listen there, None with one line saying why and what the run
     does `instead`, or UsageError when `instead` is None (see `start_server`)."""
     server = start_server(address, title=title, instead=instead)
-    return None if server is None else WebDisplay(server, model, data, duration=duration)
+    if server is None:
+        return None
+    return WebDisplay(server, model, data, duration=duration, controls=controls)

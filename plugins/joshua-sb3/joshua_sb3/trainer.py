@@ -16,7 +16,7 @@ import gymnasium
 import numpy as np
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList
 from stable_baselines3.common.logger import KVWriter, Logger, TensorBoardOutputFormat
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
@@ -55,6 +55,7 @@ from joshua_sb3.run_folder import (
 )
 from joshua_sb3.settings import Settings
 from joshua_sb3.vec_env import METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv
+from joshua_sb3.web_page import PagePublisher, open_page
 
 TRAINER_NAME = "sb3"
 RUN_FORMAT = "joshua-sb3-run/1"
@@ -267,13 +268,17 @@ class Sb3Trainer(Trainer):
         model.set_logger(
             Logger(str(run_dir), [TensorBoardOutputFormat(str(run_dir / "tensorboard")), MetricsHistory(run.records)])
         )
+        page = open_page(config, environments, title=f"JOSHUA {config.task}: sb3 {settings.algorithm}")
         bar = progress_bar(
             settings.total_timesteps, description=f"sb3 {settings.algorithm}", unit="steps", initial=run.start_step
         )
         try:
-            checkpoint = _learn(run, model, bar, first_leg=resume_from is None)
+            extra = [PagePublisher(page, environments)] if page is not None else []
+            checkpoint = _learn(run, model, bar, first_leg=resume_from is None, extra_callbacks=extra)
         finally:
             bar.close()
+            if page is not None:
+                page.close()
             environments.close()
         print(f"sb3: {model.num_timesteps} steps; checkpoint {checkpoint}")
         return checkpoint
@@ -319,10 +324,12 @@ class Sb3Trainer(Trainer):
         return ExportedPolicy(TRAINER_NAME, checkpoint, training, policy)
 
 
-def _learn(run: RunWriter, model: BaseAlgorithm, bar: Any, *, first_leg: bool) -> Path:
-    """Train up to the total, saving checkpoints; the last one is returned. A SIGINT or SIGTERM stops
-    training at the next environment step: a checkpoint is saved, the command that resumes is printed and
-    `Interrupted` raised (the CLI exits 130 or 143)."""
+def _learn(
+    run: RunWriter, model: BaseAlgorithm, bar: Any, *, first_leg: bool, extra_callbacks: list[BaseCallback]
+) -> Path:
+    """Train up to the total, saving checkpoints, calling `extra_callbacks` too; the last checkpoint is returned.
+    A SIGINT or SIGTERM stops training at the next environment step: a checkpoint is saved, the command that
+    resumes is printed and `Interrupted` raised (the CLI exits 130 or 143)."""
     with stop_requests() as stop:
         if first_leg:
             run.save_checkpoint(model)  # step 0: the untrained policy, to compare against
@@ -330,9 +337,10 @@ def _learn(run: RunWriter, model: BaseAlgorithm, bar: Any, *, first_leg: bool) -
         remaining = run.settings.total_timesteps - model.num_timesteps
         if remaining <= 0:
             return resolve_checkpoint(run.run_dir)
+        monitor = TrainingMonitor(run, bar, run.start_step + run.settings.checkpoint_interval, stop)
         model.learn(
             remaining,
-            callback=TrainingMonitor(run, bar, run.start_step + run.settings.checkpoint_interval, stop),
+            callback=CallbackList([monitor, *extra_callbacks]),
             reset_num_timesteps=False,
             progress_bar=False,
         )

@@ -1,0 +1,133 @@
+"""What watching a training in the browser costs it: training env steps/s with and without two connected browsers.
+
+One `joshua --preset PRESET --web 127.0.0.1:PORT` training (SB3 on the CPU by default), timed from its progress bar
+in three windows of one run: no browser, two headless chromiums showing the page (selenium; the arms drawn before
+the window opens), no browser again. The ratio is the browsers' window over the mean of the two others, so that a
+drift of the machine's load over the run does not read as the browsers' cost.
+
+    python bench/web_display_cost.py                      # so_arm100_reach_sb3, 3 windows of 30 s
+    python bench/web_display_cost.py --window 60 --set training.num_envs=64
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from selenium import webdriver
+
+JOSHUA = Path(sys.executable).parent / "joshua"
+PROGRESS = re.compile(r"(\d+)/\d+ steps")
+PAGE_TIMEOUT_S = 120.0
+
+
+class Progress:
+    """The training's step count over time, read from its progress bar (lines end in \\r or \\n)."""
+
+    def __init__(self, stream: Any) -> None:
+        self.samples: list[tuple[float, int]] = []
+        self.url: str | None = None
+        self.started = threading.Event()
+        threading.Thread(target=self._read, args=(stream,), daemon=True).start()
+
+    def _read(self, stream: Any) -> None:
+        line = ""
+        while character := stream.read(1):
+            if character not in "\r\n":
+                line += character
+                continue
+            if match := re.match(r"web display: (http://\S+)", line):
+                self.url = match[1]
+            if "training" in line and "Ctrl-C" in line:
+                self.started.set()
+            if match := PROGRESS.search(line):
+                self.samples.append((time.monotonic(), int(match[1])))
+            line = ""
+
+    def rate(self, start: float, end: float) -> float:
+        """Steps/s between the first and last progress samples inside [start, end]."""
+        inside = [(t, steps) for t, steps in self.samples if start <= t <= end]
+        (t0, s0), (t1, s1) = inside[0], inside[-1]
+        return (s1 - s0) / (t1 - t0)
+
+
+def browser() -> webdriver.Chrome:
+    options = webdriver.ChromeOptions()
+    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=800,600"):
+        options.add_argument(argument)
+    options.add_argument("--enable-unsafe-swiftshader")
+    return webdriver.Chrome(
+        options=options, service=webdriver.ChromeService(executable_path=shutil.which("chromedriver"))
+    )
+
+
+def page_loaded(driver: webdriver.Chrome) -> bool:
+    """The page's panel shows a policy step (its websocket is up and poses arrive)."""
+    fields = driver.find_elements("xpath", "//label[text()='policy after (steps)']/following::input[1]")
+    return bool(fields) and fields[0].get_attribute("value") not in ("", None)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--preset", default="so_arm100_reach_sb3")
+    parser.add_argument("--window", type=float, default=30.0, help="seconds of each timed window")
+    parser.add_argument("--warmup", type=float, default=10.0, help="seconds of training before the first window")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE")
+    args = parser.parse_args()
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    command = [str(JOSHUA), "--preset", args.preset, "--web", f"127.0.0.1:{port}"]
+    command += ["--set", "training.total_timesteps=1000000000"]  # stopped by this script
+    command += [argument for override in args.overrides for argument in ("--set", override)]
+    env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    work = Path(os.environ.get("TMPDIR", "/tmp")) / f"web_display_cost_{port}"
+    work.mkdir(parents=True, exist_ok=True)
+    process = subprocess.Popen(command, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    progress = Progress(process.stdout)
+    try:
+        if not progress.started.wait(PAGE_TIMEOUT_S):
+            sys.exit("the training did not start")
+        time.sleep(args.warmup)
+        windows = {}
+        start = time.monotonic()
+        time.sleep(args.window)
+        windows["no browser"] = (start, time.monotonic())
+        drivers = [browser(), browser()]
+        for driver in drivers:
+            driver.get(progress.url)
+        deadline = time.monotonic() + PAGE_TIMEOUT_S
+        while not all(page_loaded(driver) for driver in drivers):
+            if time.monotonic() > deadline:
+                sys.exit("the pages did not load")
+            time.sleep(0.5)
+        start = time.monotonic()
+        time.sleep(args.window)
+        windows["two browsers"] = (start, time.monotonic())
+        for driver in drivers:
+            driver.quit()
+        start = time.monotonic()
+        time.sleep(args.window)
+        windows["no browser again"] = (start, time.monotonic())
+    finally:
+        process.terminate()
+        process.wait(timeout=60)
+        shutil.rmtree(work, ignore_errors=True)
+    rates = {name: progress.rate(*window) for name, window in windows.items()}
+    for name, rate in rates.items():
+        print(f"{name:>17}: {rate:8.1f} training env steps/s")
+    without = (rates["no browser"] + rates["no browser again"]) / 2
+    print(f"two browsers / without: {rates['two browsers'] / without:.3f}")
+
+
+if __name__ == "__main__":
+    main()
