@@ -108,9 +108,7 @@ class RosSession:
 
     def _spin(self) -> None:
         from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
-        from rclpy.subscription import Subscription
 
-        with_info = Subscription.CallbackType.WithMessageInfo
         wait_set: Any = None
         capacity = -1
         while not self._stop.is_set() and self.context.ok():
@@ -126,7 +124,7 @@ class RosSession:
             ready = wait_set.get_ready_entities("subscription")
             for subscription in subscriptions:
                 if subscription.handle.pointer in ready:
-                    _take_pending(subscription, subscription._callback_type is with_info)
+                    _take_pending(subscription)
 
     def close(self) -> None:
         """Stop the thread, destroy the node, shut the context down (rclpy.shutdown for our context)."""
@@ -135,6 +133,8 @@ class RosSession:
         self._stop.set()
         self._wake.trigger()
         self._thread.join()
+        for subscription in list(self.node.subscriptions):  # what arrived while it stopped is still applied
+            _take_pending(subscription)
         self._wake.destroy()
         self.node.destroy_node()
         self.context.try_shutdown()
@@ -146,10 +146,11 @@ class RosSession:
         self.close()
 
 
-def _take_pending(subscription: Subscription, with_info: bool) -> None:
+def _take_pending(subscription: Subscription) -> None:
     """Take the messages waiting in a subscription's queue and call its callback on each, with the message info
-    when `with_info` (what rclpy's executors read from `_callback_type`: the callback takes two parameters). At
-    most a queue's depth: a flood on one topic never keeps the thread from the others or from stopping."""
+    when the callback takes two parameters (what rclpy's executors read from `_callback_type`). At most a queue's
+    depth: a flood on one topic never keeps the thread from the others or from stopping."""
+    with_info = subscription._callback_type is subscription.CallbackType.WithMessageInfo
     handle, msg_type, raw = subscription.handle, subscription.msg_type, subscription.raw
     callback = subscription.callback
     for _ in range(max(subscription.qos_profile.depth, 1)):

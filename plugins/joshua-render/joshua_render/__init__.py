@@ -38,7 +38,6 @@ if TYPE_CHECKING:
     from joshua_render.web_training import TrainingPage, open_training_page
 
 __all__ = [
-    "PUSH_HZ",
     "Display",
     "GridVideoWriter",
     "LiveViewer",
@@ -90,7 +89,6 @@ _HOME = {
     "WebControls": "web",
     "WebDisplay": "web",
     "open_web_display": "web",
-    "PUSH_HZ": "web",
     "parse_web_address": "web",
     "TrainingPage": "web_training",
     "open_training_page": "web_training",

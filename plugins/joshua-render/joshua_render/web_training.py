@@ -28,6 +28,8 @@ RETURN_COLOUR = "rgb(220, 20, 60)"  # the return curve's stroke (crimson: apart 
 class TrainingPage:
     """`envs` copies of `model` side by side, the policy's step count, and the mean episode return per update."""
 
+    PUSH_HZ = PUSH_HZ  # poses sent at most this often: publishing more often only replaces the pending ones
+
     def __init__(self, server: viser.ViserServer, model: mujoco.MjModel, envs: int) -> None:
         import mujoco
         from viser import uplot

@@ -10,7 +10,7 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_render import PUSH_HZ, TrainingPage, open_training_page
+from joshua_render import TrainingPage, open_training_page
 
 PAGE_ENVS = 4  # environments shown side by side (fewer when the run has fewer)
 
@@ -23,8 +23,8 @@ def open_page(config: TrainingConfig, environments: Any, title: str) -> Training
 
 
 class PagePublisher(BaseCallback):
-    """Publishes the shown environments' poses at most PUSH_HZ times a second (a clock read per step otherwise) and
-    each rollout's mean return; the page's own thread does the rest, so training never waits for it."""
+    """Publishes the shown environments' poses at most TrainingPage.PUSH_HZ times a second (a clock read per step
+    otherwise) and each rollout's mean return; the page's own thread does the rest, so training never waits."""
 
     def __init__(self, page: TrainingPage, environments: Any) -> None:
         super().__init__()
@@ -36,7 +36,7 @@ class PagePublisher(BaseCallback):
     def _on_step(self) -> bool:
         now = time.perf_counter()
         if now >= self.next_push:
-            self.next_push = now + 1.0 / PUSH_HZ
+            self.next_push = now + 1.0 / TrainingPage.PUSH_HZ
             self.page.publish_poses(self.environments.qpos, self.policy_step)
         return True
 
