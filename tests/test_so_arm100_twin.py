@@ -16,7 +16,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from joshua_lerobot.joints import SO100_JOINTS, to_model
+from joshua_lerobot.joints import DEFAULT_UNITS, SO100_JOINTS
 
 ARM_DIR = Path(__file__).parents[1] / "models" / "so_arm100"
 LINK_GROUP = 5  # the added link parts: no other geom of the model is in this group
@@ -92,7 +92,7 @@ def test_lerobot_rest_pose_does_not_self_penetrate(twin) -> None:
     qpos = np.zeros(model.nq)
     for name, degrees in LEROBOT_REST.items():
         joint = model.joint(SO100_JOINTS[name])
-        qpos[joint.qposadr[0]] = to_model(name, np.array([degrees]), tuple(joint.range))[0]
+        qpos[joint.qposadr[0]] = DEFAULT_UNITS.to_model(name, np.array([degrees]), tuple(joint.range))[0]
     np.testing.assert_allclose(np.degrees(qpos[:4]), [0, -90, 90, 45], atol=1e-9)  # our zeros are LeRobot's
     _pose(model, data, qpos)
     shapes = _distances(model, data, collision)
