@@ -15,7 +15,7 @@ import socket
 import sys
 import threading
 import time as clock
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -223,8 +223,9 @@ class WebControls:
 
 class WebDisplay(Display):
     """A simulation in the browser: `data` of `model` drawn by viser, with pause and step (`controls`; not for a
-    simulation that follows a robot), for a replay of `duration` seconds a time slider, and a free text block
-    (`set_report`). `update` never waits for a browser; closing one changes nothing."""
+    simulation that follows a robot), for a replay of `duration` seconds a time slider (`marks`, (time, label)
+    pairs, marked under it between its ends), and a free text block (`set_report`). `update` never waits for a
+    browser; closing one changes nothing."""
 
     def __init__(
         self,
@@ -234,6 +235,7 @@ class WebDisplay(Display):
         *,
         duration: float | None = None,
         controls: bool = True,
+        marks: Sequence[tuple[float, str]] = (),
     ) -> None:
         self._server, self._model, self._data = server, model, data
         self.controls = WebControls()
@@ -252,7 +254,14 @@ class WebDisplay(Display):
         self._time = gui.add_text("time (s)", initial_value="0.000", disabled=True)
         self._slider = None
         if duration is not None and duration > 0:
-            self._slider = gui.add_slider("scrub (s)", min=0.0, max=duration, step=duration / 1000, initial_value=0.0)
+            self._slider = gui.add_slider(
+                "scrub (s)",
+                min=0.0,
+                max=duration,
+                step=duration / 1000,
+                initial_value=0.0,
+                marks=((0.0, "0"), *marks, (duration, f"{duration:.6g}")) if marks else None,
+            )
             self._slider.on_update(self._on_scrub)
         self._report = gui.add_markdown("", visible=False)
         self.description = f"web display at port {server.get_port()}"
@@ -311,10 +320,11 @@ def open_web_display(
     instead: str | None,
     duration: float | None = None,
     controls: bool = True,
+    marks: Sequence[tuple[float, str]] = (),
 ) -> WebDisplay | None:
     """A WebDisplay on `address`; when it cannot listen there, None with one line saying why and what the run
     does `instead`, or UsageError when `instead` is None (see `start_server`)."""
     server = start_server(address, title=title, instead=instead)
     if server is None:
         return None
-    return WebDisplay(server, model, data, duration=duration, controls=controls)
+    return WebDisplay(server, model, data, duration=duration, controls=controls, marks=marks)
