@@ -124,7 +124,7 @@ def test_page_draws_the_moving_arm_and_pause_stops_time(replay_url: str, browser
     wait.until(lambda d: shown_time(d) != paused_at)
 
 
-def test_page_lists_the_problems_with_their_times_and_marks_them_on_the_slider(
+def test_page_lists_the_problems_with_their_times_marks_them_and_goes_to_them(
     tmp_path: Path, browser: webdriver.Chrome
 ) -> None:
     home = "-0.35,0.35,1.0,0.0,0.4"  # joints 2 to 6
@@ -142,3 +142,12 @@ def test_page_lists_the_problems_with_their_times_and_marks_them_on_the_slider(
         centre = {text: label.rect["x"] + label.rect["width"] / 2 for text, label in labels.items()}
         halfway = (centre["0"] + centre["2"]) / 2
         assert abs(centre["#1"] - halfway) <= 0.02 * (centre["2"] - centre["0"]), centre
+        # choosing the mark in the "go to" list moves the paused replay to it
+        wait.until(lambda d: float(shown_time(d)) >= 1.5)  # past the mark (the replay loops over 2 s)
+        click_button(browser, "Pause")
+        wait.until(lambda d: d.find_elements(By.XPATH, "//button[normalize-space()='Resume']"))
+        assert shown_time(browser) != "1.000"  # else the check below could not fail
+        browser.find_element(By.XPATH, "//label[text()='go to']/following::input[1]").click()
+        wait.until(lambda d: d.find_elements(By.XPATH, "//*[@role='option'][normalize-space()='#1 at 1.000 s']"))
+        browser.find_element(By.XPATH, "//*[@role='option'][normalize-space()='#1 at 1.000 s']").click()
+        wait.until(lambda d: shown_time(d) == "1.000")

@@ -34,6 +34,7 @@ PUSH_HZ = 30.0  # body poses sent to the browsers at most this often
 VISIBLE_GROUPS = (0, 1, 2)  # the geom groups MuJoCo's viewers show by default
 PLANE_HALF_SIZE_M = 5.0  # an infinite plane (size 0) is drawn this large
 CAMERA_DIRECTION = (0.8, -1.1, 0.7)  # where the first view looks from, in model extents from the model's centre
+NO_MARK = "-"  # the "go to" list's entry that goes nowhere
 INSTALL_HINT = "the web display needs viser: pip install 'joshua-render[web]'"
 
 
@@ -224,8 +225,9 @@ class WebControls:
 class WebDisplay(Display):
     """A simulation in the browser: `data` of `model` drawn by viser, with pause and step (`controls`; not for a
     simulation that follows a robot), for a replay of `duration` seconds a time slider (`marks`, (time, label)
-    pairs, marked under it between its ends), and a free text block (`set_report`). `update` never waits for a
-    browser; closing one changes nothing."""
+    pairs with labels of their own, marked under it between its ends and listed in a "go to" list that seeks to
+    them), and a free text block (`set_report`). `update` never waits for a browser; closing one changes
+    nothing."""
 
     def __init__(
         self,
@@ -263,6 +265,10 @@ class WebDisplay(Display):
                 marks=((0.0, "0"), *marks, (duration, f"{duration:.6g}")) if marks else None,
             )
             self._slider.on_update(self._on_scrub)
+        self._targets = {f"{label} at {time:.3f} s": time for time, label in marks} if self._slider is not None else {}
+        if self._targets:
+            self._go_to = gui.add_dropdown("go to", options=(NO_MARK, *self._targets), initial_value=NO_MARK)
+            self._go_to.on_update(self._on_go_to)
         self._report = gui.add_markdown("", visible=False)
         self.description = f"web display at port {server.get_port()}"
         self._push(0.0)
@@ -276,6 +282,11 @@ class WebDisplay(Display):
     def _on_scrub(self, event: viser.GuiEvent) -> None:
         if event.client is not None:  # a browser moved it, not `update`
             self.controls.seek(float(self._slider.value))
+
+    def _on_go_to(self, event: viser.GuiEvent) -> None:
+        if event.client is not None and self._go_to.value in self._targets:  # a browser chose a mark
+            self.controls.seek(self._targets[self._go_to.value])
+            self._go_to.value = NO_MARK  # so that the same mark can be chosen again
 
     @contextlib.contextmanager
     def lock(self) -> Iterator[None]:
