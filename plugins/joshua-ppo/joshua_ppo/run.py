@@ -146,13 +146,13 @@ class Run:
     def open_monitors(self, start: int) -> None:
         """The progress bar (from `start` steps), TensorBoard log, live viewer and web page; the line saying training
         started."""
+        self.page = open_page(self.config, self.env.model, self.env.num_envs)  # its URL line before the bar
+        self._page_policy_step = start
         self.bar = progress_bar(
             self.settings.total_timesteps, description=f"ppo {self.config.task}", unit="steps", initial=start
         )
         self.scalars = ScalarLog(self.folder / "tensorboard")
         self.viewer = open_viewer(options_of(self.config, options_pb2.ppo), self.env.model)
-        self.page = open_page(self.config, self.env.model, self.env.num_envs)
-        self._page_policy_step = start
         processes = jax.process_count()
         devices = ", ".join(str(device) for device in jax.devices())
         where = f"{len(jax.devices())} devices of {processes} processes" if processes > 1 else devices
