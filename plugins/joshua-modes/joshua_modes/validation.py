@@ -118,8 +118,8 @@ def validate(
     issues += _velocity_issues(trajectory, times, positions, kept_lines, velocity_limit)
     issues += _penetrations(model, base_qpos, trajectory, positions, kept_lines, penetration_threshold)
     issues.sort(key=lambda issue: (issue.first_line, issue.kind, issue.subject))
-    times = line_times(trajectory, usable, [issue.first_line for issue in issues])
-    issues = [replace(issue, time=float(time)) for issue, time in zip(issues, times, strict=True)]
+    starts = line_times(trajectory, usable, [issue.first_line for issue in issues])
+    issues = [replace(issue, time=float(start)) for issue, start in zip(issues, starts, strict=True)]
     report = ValidationReport(
         trajectory=str(trajectory.path),
         model=model_path,
