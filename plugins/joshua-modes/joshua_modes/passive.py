@@ -1,7 +1,8 @@
 """PASSIVE mode: validate a trajectory CSV against the model, then replay it.
 
 The replay is shown in the MuJoCo viewer when a display is usable (real time x `replay.speed`, or as
-fast as possible, optionally looping), and recorded headless to `passive_replay.mp4` otherwise. The
+fast as possible, optionally looping), in a web page with `web` (the problems marked on its time slider
+and listed with their times), and recorded headless to `passive_replay.mp4` otherwise. The
 validation report is printed and written to `passive_report.json`; with `replay.strict` a trajectory
 with problems is not replayed (exit status 2). A tracked replay adds the per-joint tracking error.
 """
@@ -28,6 +29,8 @@ REPORT_NAME = "passive_report.json"
 VIDEO_NAME = "passive_replay"
 DEFAULT_FPS = 30.0
 WINDOW_PERIOD_S = 1.0 / 60.0  # how often the viewer is synced during a real-time replay
+MAX_SHOWN_PROBLEMS = 50  # problems marked and listed on the web page; the report file holds them all
+MARKDOWN_SPECIAL = "\\`*_{}[]<>#|"  # characters a message shows as they are, escaped in Markdown
 
 VIEWER_CHOICE: dict[int, bool | None] = {
     ViewerOptions.AUTO: None,
@@ -65,6 +68,7 @@ class PassiveMode(Mode):
                     title="JOSHUA replay",
                     instead="recording the replay instead",
                     duration=replayer.duration,
+                    marks=_problem_marks(report, replayer.start_time),
                 )
             if display is None:
                 display = open_display(
@@ -83,6 +87,7 @@ class PassiveMode(Mode):
                 if isinstance(display, RecordingDisplay):
                     _record(replayer, display, speed, fps)
                 elif isinstance(display, WebDisplay):
+                    display.set_report(_problem_list(report, replayer.start_time, report_path.name))
                     _play(replayer, display, speed, loop=replay.loop)
                 else:
                     _show(replayer, display, speed, loop=replay.loop, as_fast_as_possible=replay.as_fast_as_possible)
@@ -91,6 +96,31 @@ class PassiveMode(Mode):
             _report_tracking(report, replayer, report_path)
         if video is not None:
             print(f"video: {video}")
+
+
+def _problem_marks(report: ValidationReport, start_time: float) -> list[tuple[float, str]]:
+    """A mark per problem on the web page's time slider, at its replay time, labelled with its number in the list
+    (`#N`: apart from the slider's own time labels)."""
+    shown = report.issues[:MAX_SHOWN_PROBLEMS]
+    return [(issue.time - start_time, f"#{number}") for number, issue in enumerate(shown, start=1)]
+
+
+def _problem_list(report: ValidationReport, start_time: float, report_name: str) -> str:
+    """The problems as a Markdown list, each with its number on the slider and its replay time (as the page's time
+    field counts it: seconds since the first replayed row)."""
+    if report.ok:
+        return ""
+    lines = [f"**{len(report.issues)} problem(s)** (replay time, s):", ""]
+    for number, issue in enumerate(report.issues[:MAX_SHOWN_PROBLEMS], start=1):
+        lines.append(f"- #{number} at {issue.time - start_time:.3f} s: {_escape(issue.message)}")
+    if len(report.issues) > MAX_SHOWN_PROBLEMS:
+        lines += ["", f"and {len(report.issues) - MAX_SHOWN_PROBLEMS} more in {_escape(report_name)}"]
+    return "\n".join(lines)
+
+
+def _escape(text: str) -> str:
+    """`text` as Markdown that shows it unchanged."""
+    return "".join(f"\\{char}" if char in MARKDOWN_SPECIAL else char for char in text)
 
 
 def _record(replayer: Replayer, display: RecordingDisplay, speed: float, fps: float) -> None:

@@ -5,13 +5,14 @@ Checks: timestamps that go back or repeat, NaN/inf values, joints outside their 
 (self-penetration between parts of one robot, or penetration of the table and other world geometry).
 Runs of consecutive rows with the same problem are reported once, with their line range and worst value.
 Rows with a bad timestamp or a non-finite value are left out of the replay; the others are replayed.
+Each problem also has its replay time (`line_times`), where a display marks it.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -38,7 +39,8 @@ DEFAULT_PENETRATION_THRESHOLD = 0.005  # m
 
 @dataclass(frozen=True)
 class Issue:
-    """One problem, over the rows `first_line`..`last_line` of the file (`rows` of them)."""
+    """One problem, over the rows `first_line`..`last_line` of the file (`rows` of them), replayed from `time`
+    (the trajectory time of `first_line`, see `line_times`; NaN when no row is replayed)."""
 
     kind: str  # "timestamp", "non_finite", "joint_limit", "velocity", "self_penetration", "world_penetration"
     subject: str  # the joint, or the two geoms in contact
@@ -48,6 +50,7 @@ class Issue:
     worst_line: int
     worst_value: float
     message: str
+    time: float = math.nan
 
 
 @dataclass
@@ -115,6 +118,8 @@ def validate(
     issues += _velocity_issues(trajectory, times, positions, kept_lines, velocity_limit)
     issues += _penetrations(model, base_qpos, trajectory, positions, kept_lines, penetration_threshold)
     issues.sort(key=lambda issue: (issue.first_line, issue.kind, issue.subject))
+    starts = line_times(trajectory, usable, [issue.first_line for issue in issues])
+    issues = [replace(issue, time=float(start)) for issue, start in zip(issues, starts, strict=True)]
     report = ValidationReport(
         trajectory=str(trajectory.path),
         model=model_path,
@@ -127,6 +132,19 @@ def validate(
         issues=issues,
     )
     return report, usable
+
+
+def line_times(trajectory: Trajectory, usable: NDArray[np.bool_], lines: Iterable[int]) -> NDArray[np.float64]:
+    """The replay time of each file line in `lines`: the timestamp of the last replayed row at or before it (a
+    skipped row is passed over there), of the first replayed row for a line before them all; NaN when no row
+    is replayed. The one mapping from a file line to the moment of the replay that shows it."""
+    wanted = np.asarray(list(lines), dtype=np.int64)
+    kept = np.flatnonzero(usable)
+    if not kept.size:
+        return np.full(len(wanted), math.nan)
+    rows = np.searchsorted(trajectory.lines, wanted, side="right") - 1  # the row at or before each line
+    before = np.maximum(np.searchsorted(kept, rows, side="right") - 1, 0)  # the last replayed row up to it
+    return trajectory.timestamps[kept[before]]
 
 
 def _row_issues(trajectory: Trajectory) -> tuple[list[Issue], NDArray[np.bool_]]:

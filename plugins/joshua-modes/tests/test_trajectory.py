@@ -11,7 +11,7 @@ from modes_testing import HEADER, SCENE, SMALL, example_rows
 
 from joshua_core.trajectory import TrajectoryError, read_trajectory
 from joshua_modes.replay import model_joint_names
-from joshua_modes.validation import validate
+from joshua_modes.validation import line_times, validate
 from joshua_mujoco import MuJoCoEngine
 
 HOME = "0.0,-0.35,0.35,1.0,0.0,0.4"
@@ -145,6 +145,24 @@ def test_penetration_of_the_table_and_of_the_arm_itself(engine, write_csv) -> No
     assert table_hits and all((issue.first_line, issue.last_line) == (5, 6) for issue in table_hits)
     assert all("table_top" in issue.subject and issue.worst_value > 0.005 for issue in table_hits)
     assert "mm deep (threshold 5 mm)" in table_hits[0].message
+
+
+def test_each_problem_has_the_replay_time_of_its_first_line(engine, write_csv) -> None:
+    beyond = "2.0," + HOME.split(",", 1)[1]  # joint_1 at 2 rad, beyond its range [-1.92, 1.92]
+    lines = ["# recorded", HEADER, f"0,{HOME}", f"0.5,{HOME}", "0.7,0,nan,0,0,0,0", f"1.0,{beyond}", f"0.9,{HOME}"]
+    path = write_csv([*lines, f"1.5,{HOME}"])  # file lines 3 to 8
+    trajectory = read_trajectory(path, model_joint_names(engine.model))
+    report, usable = validate(trajectory, engine.model, engine.data.qpos.copy())
+    # a skipped row (NaN, timestamp going back) is passed over at the time of the last replayed row before it
+    found = [(issue.kind, issue.first_line, issue.time) for issue in report.issues]
+    assert found == [("non_finite", 5, 0.5), ("joint_limit", 6, 1.0), ("timestamp", 7, 1.0)], report.summary()
+    assert [issue["time"] for issue in report.to_json()["issues"]] == [0.5, 1.0, 1.0]
+    # a line before every row (the header) is at the first replayed row, one after them all at the last
+    assert line_times(trajectory, usable, [2, 3, 4, 8, 9]).tolist() == [0.0, 0.0, 0.5, 1.5, 1.5]
+    first_skipped = usable.copy()
+    first_skipped[0] = False
+    assert line_times(trajectory, first_skipped, [2, 3]).tolist() == [0.5, 0.5]
+    assert np.isnan(line_times(trajectory, np.zeros_like(usable), [3])).all()
 
 
 def test_cli_reports_and_replays_unless_strict(run_joshua, write_csv, tmp_path: Path) -> None:

@@ -1,11 +1,13 @@
 """The web display in a real headless browser (Debian's chromium and chromedriver, driven by selenium).
 
 `joshua --preset sim_passive --web ADDRESS` runs with no X display; the page must draw the orange arm,
-its image must change as the replay moves, and a click on Pause must stop the replay's time.
+its image must change as the replay moves, and a click on Pause must stop the replay's time. A trajectory's
+problems are listed with their replay times and marked at those times on the time slider.
 """
 
 from __future__ import annotations
 
+import contextlib
 import io
 import queue
 import re
@@ -18,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from modes_testing import JOSHUA_SCRIPT, headless_env, orange_pixels
+from modes_testing import HEADER, JOSHUA_SCRIPT, headless_env, orange_pixels
 from numpy.typing import NDArray
 
 pytest.importorskip("viser", reason="the web display needs viser (pip install 'joshua-render[web]')")
@@ -43,14 +45,14 @@ def free_port() -> int:
         return probe.getsockname()[1]
 
 
-@pytest.fixture
-def replay_url(tmp_path: Path) -> Iterator[str]:
-    """A looping, slowed-down PASSIVE replay of the example trajectory in a web page; yields its URL."""
+@contextlib.contextmanager
+def web_replay(folder: Path, *overrides: str) -> Iterator[str]:
+    """A PASSIVE replay in a web page, run in `folder` with `--set` `overrides`; yields its URL."""
     port = free_port()
     process = subprocess.Popen(
         [str(JOSHUA_SCRIPT), "--preset", "sim_passive", "--web", f"127.0.0.1:{port}"]
-        + ["--set", "simulation.replay.loop=true", "--set", "simulation.replay.speed=0.5"],
-        cwd=tmp_path,
+        + [argument for override in overrides for argument in ("--set", override)],
+        cwd=folder,
         env=headless_env(MUJOCO_GL="egl"),
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
@@ -73,6 +75,13 @@ def replay_url(tmp_path: Path) -> Iterator[str]:
     finally:
         process.terminate()
         process.wait(timeout=30)
+
+
+@pytest.fixture
+def replay_url(tmp_path: Path) -> Iterator[str]:
+    """A looping, slowed-down PASSIVE replay of the example trajectory in a web page; yields its URL."""
+    with web_replay(tmp_path, "simulation.replay.loop=true", "simulation.replay.speed=0.5") as url:
+        yield url
 
 
 def screenshot(driver: webdriver.Chrome) -> NDArray[np.uint8]:
@@ -113,3 +122,32 @@ def test_page_draws_the_moving_arm_and_pause_stops_time(replay_url: str, browser
 
     click_button(browser, "Resume")  # and time goes on again: the checks above can fail
     wait.until(lambda d: shown_time(d) != paused_at)
+
+
+def test_page_lists_the_problems_with_their_times_marks_them_and_goes_to_them(
+    tmp_path: Path, browser: webdriver.Chrome
+) -> None:
+    home = "-0.35,0.35,1.0,0.0,0.4"  # joints 2 to 6
+    rows = [f"{t},0.0,{home}" for t in ("0.0", "0.5")] + [f"1.0,2.0,{home}"]  # joint_1 beyond 1.92 at 1 s
+    trajectory = tmp_path / "motion.csv"
+    trajectory.write_text("\n".join([HEADER, *rows, *(f"{t},0.0,{home}" for t in ("1.5", "2.0"))]) + "\n")
+    with web_replay(tmp_path, f"simulation.trajectory_path={trajectory}", "simulation.replay.loop=true") as url:
+        browser.get(url)
+        wait = WebDriverWait(browser, PAGE_S, poll_frequency=0.2)
+        problem = "#1 at 1.000 s: motion.csv:4: joint_1 outside its range [-1.92, 1.92]: 2 at line 4"
+        wait.until(lambda d: problem in d.find_element(By.TAG_NAME, "body").text)
+        labels = {label.text: label for label in browser.find_elements(By.CLASS_NAME, "mantine-Slider-markLabel")}
+        assert set(labels) == {"0", "#1", "2"}, sorted(labels)
+        # the mark stands where 1 s of the 2 s replay is on the slider: halfway between the ends' marks
+        centre = {text: label.rect["x"] + label.rect["width"] / 2 for text, label in labels.items()}
+        halfway = (centre["0"] + centre["2"]) / 2
+        assert abs(centre["#1"] - halfway) <= 0.02 * (centre["2"] - centre["0"]), centre
+        # choosing the mark in the "go to" list moves the paused replay to it
+        wait.until(lambda d: float(shown_time(d)) >= 1.5)  # past the mark (the replay loops over 2 s)
+        click_button(browser, "Pause")
+        wait.until(lambda d: d.find_elements(By.XPATH, "//button[normalize-space()='Resume']"))
+        assert shown_time(browser) != "1.000"  # else the check below could not fail
+        browser.find_element(By.XPATH, "//label[text()='go to']/following::input[1]").click()
+        wait.until(lambda d: d.find_elements(By.XPATH, "//*[@role='option'][normalize-space()='#1 at 1.000 s']"))
+        browser.find_element(By.XPATH, "//*[@role='option'][normalize-space()='#1 at 1.000 s']").click()
+        wait.until(lambda d: shown_time(d) == "1.000")

@@ -1,5 +1,5 @@
 """One PPO run being trained: its folder, history and monitors (progress bar, TensorBoard, training-curve
-PNG, rollout MP4s, the live viewer), and the callbacks `train_ppo` calls to report and checkpoint.
+PNG, rollout MP4s, the live viewer, the web page), and the callbacks `train_ppo` calls to report and checkpoint.
 The checkpoint layout is in `joshua_ppo.checkpoints`."""
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.rollout import collect, make_rollout, render_video
 from joshua_ppo.state import Progress, TrainingState
 from joshua_ppo.train import IterationReport
-from joshua_ppo.viewer import open_viewer
-from joshua_render import LiveViewer
+from joshua_ppo.viewer import open_page, open_viewer
+from joshua_render import LiveViewer, TrainingPage
 
 TRAINER_NAME = "ppo"
 RUN_FORMAT = "joshua-ppo-run/1"
@@ -99,6 +99,8 @@ class Run:
         self.bar: Any = None
         self.scalars: ScalarLog | None = None
         self.viewer: LiveViewer | None = None
+        self.page: TrainingPage | None = None
+        self._page_policy_step = 0  # the step the policy that made the next published poses was updated at
         self._rollout: tuple[JaxEnv, Any] | None = None
 
     def config_document(self) -> dict[str, Any]:
@@ -142,7 +144,10 @@ class Run:
         print(f"ppo: resuming {self.name} from {checkpoint.name} ({progress.env_steps} steps)")
 
     def open_monitors(self, start: int) -> None:
-        """The progress bar (from `start` steps), TensorBoard log and live viewer; the line saying training started."""
+        """The progress bar (from `start` steps), TensorBoard log, live viewer and web page; the line saying training
+        started."""
+        self.page = open_page(self.config, self.env.model, self.env.num_envs)  # its URL line before the bar
+        self._page_policy_step = start
         self.bar = progress_bar(
             self.settings.total_timesteps, description=f"ppo {self.config.task}", unit="steps", initial=start
         )
@@ -164,6 +169,8 @@ class Run:
             self.scalars.close()
         if self.viewer is not None:
             self.viewer.close()
+        if self.page is not None:
+            self.page.close()
 
     # --- callbacks of train_ppo ---
 
@@ -191,6 +198,17 @@ class Run:
             if not self.viewer.show(qpos, status):
                 self.viewer.close()
                 self.viewer = None
+        if self.page is not None:
+            self.publish_to_page(report, state)
+
+    def publish_to_page(self, report: IterationReport, state: TrainingState) -> None:
+        """The shown environments as this iteration's rollout left them (moved by the policy before its update) and
+        the mean return of the episodes that ended in it; the page's own thread sends them, training never waits."""
+        qpos = _first_local(state.env_state.data.qpos, self.page.envs)
+        self.page.publish_poses(qpos, self._page_policy_step)
+        self._page_policy_step = report.env_steps  # the policy just updated makes the next iteration's poses
+        if report.metrics["episodes"] > 0:
+            self.page.publish_return(report.env_steps, report.metrics["mean_return"])
 
     def report_compiled(self, reads_before: tuple[int, int]) -> None:
         """The line after the first iteration: how long compiling took and how much of it came from the cache."""

@@ -1,14 +1,17 @@
-"""The live MuJoCo viewer of a PPO run (`training.ppo.viewer`): joshua_render's LiveViewer on the run's model."""
+"""The live displays of a PPO run: the MuJoCo viewer (`training.ppo.viewer`, joshua_render's LiveViewer) and the web
+page (`training.web`, `--web`, joshua_render's TrainingPage), both on the run's model."""
 
 from __future__ import annotations
 
 import mujoco
 
+from joshua_core.config_pb2 import TrainingConfig
 from joshua_ppo.options_pb2 import PpoOptions
-from joshua_render import LiveViewer
+from joshua_render import LiveViewer, TrainingPage, open_training_page
 from joshua_render import open_viewer as open_live_viewer
 
 DEFAULT_VIEWER_ENVS = 4
+PAGE_ENVS = 4  # environments the web page shows side by side (fewer when the run has fewer)
 
 
 def open_viewer(options: PpoOptions, model: mujoco.MjModel) -> LiveViewer | None:
@@ -22,3 +25,10 @@ def open_viewer(options: PpoOptions, model: mujoco.MjModel) -> LiveViewer | None
         required=options.viewer == PpoOptions.ON,
         what="training.ppo.viewer ON (the live MuJoCo viewer)",
     )
+
+
+def open_page(config: TrainingConfig, model: mujoco.MjModel, num_envs: int) -> TrainingPage | None:
+    """The web page at `config.web` (None when unset, or when it cannot listen there: training goes on, and says so)."""
+    if not config.web:
+        return None
+    return open_training_page(model, min(PAGE_ENVS, num_envs), config.web, title=f"JOSHUA {config.task}: ppo")

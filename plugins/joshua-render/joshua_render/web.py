@@ -15,7 +15,7 @@ import socket
 import sys
 import threading
 import time as clock
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -34,6 +34,7 @@ PUSH_HZ = 30.0  # body poses sent to the browsers at most this often
 VISIBLE_GROUPS = (0, 1, 2)  # the geom groups MuJoCo's viewers show by default
 PLANE_HALF_SIZE_M = 5.0  # an infinite plane (size 0) is drawn this large
 CAMERA_DIRECTION = (0.8, -1.1, 0.7)  # where the first view looks from, in model extents from the model's centre
+NO_MARK = "-"  # the "go to" list's entry that goes nowhere
 INSTALL_HINT = "the web display needs viser: pip install 'joshua-render[web]'"
 
 
@@ -223,8 +224,10 @@ class WebControls:
 
 class WebDisplay(Display):
     """A simulation in the browser: `data` of `model` drawn by viser, with pause and step (`controls`; not for a
-    simulation that follows a robot), for a replay of `duration` seconds a time slider, and a free text block
-    (`set_report`). `update` never waits for a browser; closing one changes nothing."""
+    simulation that follows a robot), for a replay of `duration` seconds a time slider (`marks`, (time, label)
+    pairs with labels of their own, marked under it between its ends and listed in a "go to" list that seeks to
+    them), and a free text block (`set_report`). `update` never waits for a browser; closing one changes
+    nothing."""
 
     def __init__(
         self,
@@ -234,6 +237,7 @@ class WebDisplay(Display):
         *,
         duration: float | None = None,
         controls: bool = True,
+        marks: Sequence[tuple[float, str]] = (),
     ) -> None:
         self._server, self._model, self._data = server, model, data
         self.controls = WebControls()
@@ -252,8 +256,19 @@ class WebDisplay(Display):
         self._time = gui.add_text("time (s)", initial_value="0.000", disabled=True)
         self._slider = None
         if duration is not None and duration > 0:
-            self._slider = gui.add_slider("scrub (s)", min=0.0, max=duration, step=duration / 1000, initial_value=0.0)
+            self._slider = gui.add_slider(
+                "scrub (s)",
+                min=0.0,
+                max=duration,
+                step=duration / 1000,
+                initial_value=0.0,
+                marks=((0.0, "0"), *marks, (duration, f"{duration:.6g}")) if marks else None,
+            )
             self._slider.on_update(self._on_scrub)
+        self._targets = {f"{label} at {time:.3f} s": time for time, label in marks} if self._slider is not None else {}
+        if self._targets:
+            self._go_to = gui.add_dropdown("go to", options=(NO_MARK, *self._targets), initial_value=NO_MARK)
+            self._go_to.on_update(self._on_go_to)
         self._report = gui.add_markdown("", visible=False)
         self.description = f"web display at port {server.get_port()}"
         self._push(0.0)
@@ -267,6 +282,11 @@ class WebDisplay(Display):
     def _on_scrub(self, event: viser.GuiEvent) -> None:
         if event.client is not None:  # a browser moved it, not `update`
             self.controls.seek(float(self._slider.value))
+
+    def _on_go_to(self, event: viser.GuiEvent) -> None:
+        if event.client is not None and self._go_to.value in self._targets:  # a browser chose a mark
+            self.controls.seek(self._targets[self._go_to.value])
+            self._go_to.value = NO_MARK  # so that the same mark can be chosen again
 
     @contextlib.contextmanager
     def lock(self) -> Iterator[None]:
@@ -311,10 +331,11 @@ def open_web_display(
     instead: str | None,
     duration: float | None = None,
     controls: bool = True,
+    marks: Sequence[tuple[float, str]] = (),
 ) -> WebDisplay | None:
     """A WebDisplay on `address`; when it cannot listen there, None with one line saying why and what the run
     does `instead`, or UsageError when `instead` is None (see `start_server`)."""
     server = start_server(address, title=title, instead=instead)
     if server is None:
         return None
-    return WebDisplay(server, model, data, duration=duration, controls=controls)
+    return WebDisplay(server, model, data, duration=duration, controls=controls, marks=marks)

@@ -1,0 +1,130 @@
+"""A running PPO training in a real headless browser: `joshua --preset so_arm100_train_mjx --web ADDRESS` on the CPU
+with no X display. The page must draw several arms side by side and a return curve of at least two points, the
+policy shown must change as iterations end, and Ctrl-C then stops the training as without the page (a checkpoint,
+exit 130)."""
+
+from __future__ import annotations
+
+import io
+import os
+import queue
+import re
+import signal
+import socket
+import subprocess
+import sys
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from numpy.typing import NDArray
+
+pytest.importorskip("viser", reason="the web page needs viser (pip install 'joshua-ppo[web]')")
+pytest.importorskip("selenium", reason="the browser tests need selenium")
+from PIL import Image  # noqa: E402
+from selenium.webdriver.common.by import By  # noqa: E402
+from selenium.webdriver.support.wait import WebDriverWait  # noqa: E402
+
+pytestmark = pytest.mark.slow  # it trains
+
+JOSHUA = Path(sys.executable).parent / "joshua"
+STARTUP_S = 120.0  # the trainer builds its environments before the page listens (2 busy cores)
+PAGE_S = 300.0  # the page shows the arms after the first iteration: the iteration compiles first (about 40 s)
+MIN_ARM_PIXELS = 150  # orange pixels of one arm at the first view's distance (about 1000 seen)
+ARM_GAP_PX = 8  # columns without orange between two arms
+MIN_CURVE_PIXELS = 30  # the curve's crimson stroke between two points, 2 px wide
+SMALL_RUN = {  # 8 environments x 10 steps per iteration, a tiny network; episodes end within every iteration
+    "num_envs": 8,
+    "num_steps": 10,
+    "num_epochs": 1,
+    "minibatch_size": 40,
+    "total_timesteps": 10**9,  # stopped by the test
+    "task_config.episode_length": 20,
+    "ppo.hidden_sizes": "[16]",
+    "ppo.viewer": "OFF",
+    "ppo.video_interval": -1,
+}
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def image_of(png: bytes) -> NDArray[np.uint8]:
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+
+
+def arms_seen(rgb: NDArray[np.uint8]) -> int:
+    """Arms in an image: runs of columns holding the SO-ARM100's orange, apart by ARM_GAP_PX, of MIN_ARM_PIXELS."""
+    r, g, b = (rgb[..., i].astype(int) for i in range(3))
+    per_column = np.count_nonzero((r > 150) & (r - b > 100) & (g - b > 30) & (r - g > 20), axis=0)
+    arms, run, gap = 0, 0, ARM_GAP_PX
+    for count in [*per_column, 0]:
+        if count:
+            run, gap = run + count, 0
+            continue
+        gap += 1
+        if gap == ARM_GAP_PX:
+            arms += run >= MIN_ARM_PIXELS
+            run = 0
+    return arms
+
+
+def crimson_pixels(rgb: NDArray[np.uint8]) -> int:
+    """Pixels of the return curve's stroke, rgb(220, 20, 60), anti-aliased against white."""
+    r, g, b = (rgb[..., i].astype(int) for i in range(3))
+    return int(np.count_nonzero((r > 180) & (g < 120) & (b < 140) & (b - g > 10)))
+
+
+def shown(driver: Any, label: str) -> str:
+    return driver.find_element(By.XPATH, f"//label[text()='{label}']/following::input[1]").get_attribute("value")
+
+
+@pytest.fixture
+def training(tmp_path: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
+    port = free_port()
+    env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    command = [str(JOSHUA), "--preset", "so_arm100_train_mjx", "--web", f"127.0.0.1:{port}"]
+    settings = {**SMALL_RUN, "checkpoint_dir": str(tmp_path)}
+    command += [argument for name, value in settings.items() for argument in ("--set", f"training.{name}={value}")]
+    process = subprocess.Popen(
+        command, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+    )
+    lines: queue.Queue[str] = queue.Queue()
+    threading.Thread(target=lambda: [lines.put(line) for line in process.stdout], daemon=True).start()
+    try:
+        seen = []
+        while not (
+            match := re.match(r"web display: (http://\S+) \(this machine only", line := lines.get(timeout=STARTUP_S))
+        ):
+            seen.append(line)
+            assert process.poll() is None, "".join(seen)
+        assert match[1] == f"http://127.0.0.1:{port}/"
+        yield match[1], process
+    finally:
+        if process.poll() is None:
+            process.kill()
+        process.wait(timeout=30)
+
+
+def test_page_shows_the_training_arms_and_the_return_curve(
+    training: tuple[str, subprocess.Popen[str]], browser: Any
+) -> None:
+    url, process = training
+    browser.get(url)
+    wait = WebDriverWait(browser, PAGE_S, poll_frequency=0.5)
+    wait.until(lambda d: arms_seen(image_of(d.get_screenshot_as_png())) >= 2)
+    wait.until(lambda d: int(shown(d, "return points")) >= 2)
+    first_policy = int(shown(browser, "policy after (steps)"))
+    curve = browser.find_element(By.CLASS_NAME, "uplot")
+    wait.until(lambda _: crimson_pixels(image_of(curve.screenshot_as_png)) >= MIN_CURVE_PIXELS)
+    # the poses shown are those of the policy being trained: its step changes as iterations end
+    wait.until(lambda d: int(shown(d, "policy after (steps)")) > first_policy)
+    assert process.poll() is None, "the training stopped while the browser watched"
+    process.send_signal(signal.SIGINT)
+    assert process.wait(timeout=60) == 130  # stopped as without the page: a checkpoint, then exit 130
