@@ -172,19 +172,24 @@ def test_bad_runs_are_one_line_exit_2(sb3_run: tuple[Path, Path], ppo_run: Path,
     one_line_exit_2(joshua("export", str(damaged), cwd=tmp_path), "has no params.msgpack")
 
 
-def test_out_replaces_only_a_folder_joshua_wrote_and_only_with_overwrite(ppo_run: Path, tmp_path: Path) -> None:
+def test_out_replaces_only_a_folder_joshua_wrote_and_only_with_overwrite(
+    sb3_run: tuple[Path, Path], tmp_path: Path
+) -> None:
+    run, key = sb3_run  # the lighter of the two runs: --out is the same for every trainer
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "notes.txt").write_text("keep")
     for extra in ((), ("--overwrite",)):
-        one_line_exit_2(joshua("export", str(ppo_run), "--out", "mine", *extra, cwd=tmp_path), "not written by joshua")
-        one_line_exit_2(joshua("export", str(ppo_run), "--out", ".", *extra, cwd=tmp_path), "no folder of its own")
+        one_line_exit_2(
+            joshua("export", str(run), "--out", "mine", *extra, cwd=tmp_path, key=key), "not written by joshua"
+        )
+        one_line_exit_2(joshua("export", str(run), "--out", ".", *extra, cwd=tmp_path, key=key), "no folder of its own")
     assert (mine / "notes.txt").read_text() == "keep"
-    done = joshua("export", str(ppo_run), "--out", "out", cwd=tmp_path)
+    done = joshua("export", str(run), "--out", "out", cwd=tmp_path, key=key)
     assert done.returncode == 0, done.stderr[-2000:]
-    one_line_exit_2(joshua("export", str(ppo_run), "--out", "out", cwd=tmp_path), "exists; pass --overwrite")
+    one_line_exit_2(joshua("export", str(run), "--out", "out", cwd=tmp_path, key=key), "exists; pass --overwrite")
     (tmp_path / "out" / "policy.onnx").write_bytes(b"stale")
-    done = joshua("export", str(ppo_run), "--out", "out", "--overwrite", cwd=tmp_path)
+    done = joshua("export", str(run), "--out", "out", "--overwrite", cwd=tmp_path, key=key)
     assert done.returncode == 0, done.stderr[-2000:]
     load_policy(tmp_path / "out")  # whole again: the graph its contract names
     assert sorted(path.name for path in tmp_path.iterdir()) == ["mine", "out"]  # no temporaries left

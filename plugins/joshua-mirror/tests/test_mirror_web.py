@@ -104,6 +104,7 @@ def publish(env: dict[str, str], plan: dict[str, Any]) -> None:
     assert result.returncode == 0, result.stderr
 
 
+@pytest.mark.slow  # a mirror, a publisher and a browser: 35 s on 2 cores; the passive page test stays fast
 def test_page_shows_the_mirrored_arm_and_the_topics_status(
     mirror_url: str, browser: Any, ros_env: dict[str, str], hold_publishers: Callable[..., subprocess.Popen[str]]
 ) -> None:

@@ -92,6 +92,7 @@ def test_same_parameters_give_the_same_trajectories_on_both_backends() -> None:
     assert np.abs(nominal[..., arm] - cpu[..., arm]).max() > 5 * PARITY_TOLERANCE
 
 
+@pytest.mark.slow  # compiles MJX forward passes over randomized models: 30 s on 2 cores
 def test_mjx_recomputes_the_inverse_weights_mj_setconst_derives() -> None:
     params, _, simulation = _cpu_run()
     env = make_mjx_env(TASK, ENVS, model_path=MODEL, task_config=_config())

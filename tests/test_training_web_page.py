@@ -1,6 +1,7 @@
-"""A running SB3 training in a real headless browser: `joshua --preset so_arm100_reach_sb3 --web ADDRESS` with no X
-display. The page must draw several arms side by side and a return curve of at least two points, while training
-goes on; Ctrl-C then stops the training as without the page (a checkpoint, exit 130)."""
+"""A running training in a real headless browser, for each trainer that reads `training.web`: `joshua --preset P
+--web ADDRESS` on the CPU with no X display. The page must draw several arms side by side and a return curve of at
+least two points, the policy shown must change as updates arrive, and Ctrl-C then stops the training as without the
+page (a checkpoint, exit 130)."""
 
 from __future__ import annotations
 
@@ -21,23 +22,44 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-pytest.importorskip("viser", reason="the web page needs viser (pip install 'joshua-sb3[web]')")
+pytest.importorskip("viser", reason="the training page needs viser (pip install 'joshua-render[web]')")
 pytest.importorskip("selenium", reason="the browser tests need selenium")
 from PIL import Image  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.wait import WebDriverWait  # noqa: E402
 
 JOSHUA = Path(sys.executable).parent / "joshua"
-STARTUP_S = 120.0  # the trainer builds its environments and model first (2 busy cores)
-PAGE_S = 90.0  # the page loads three.js and four arms' meshes, software WebGL; two rollouts must end
+STARTUP_S = 120.0  # the trainer builds its environments (and model) before the page listens (2 busy cores)
 MIN_ARM_PIXELS = 150  # orange pixels of one arm at the first view's distance (about 1000 seen)
 ARM_GAP_PX = 8  # columns without orange between two arms
 MIN_CURVE_PIXELS = 30  # the curve's crimson stroke between two points, 2 px wide
-SMALL_RUN = (
-    "training.total_timesteps=10000000",  # stopped by the test
-    "training.num_envs=8",
-    "training.task_config.episode_length=20",  # episodes end within every 50-step rollout
-)
+# preset, --set overrides for a small run (stopped by the test), seconds the page may take to show two returns
+TRAININGS = {
+    "sb3": (
+        "so_arm100_reach_sb3",
+        ["training.total_timesteps=10000000", "training.num_envs=8", "training.task_config.episode_length=20"],
+        90.0,  # three.js and four arms' meshes in software WebGL, then two 50-step rollouts must end
+    ),
+    "ppo": (
+        "so_arm100_train_mjx",
+        # 8 environments x 10 steps per iteration, a tiny network; episodes end within every iteration
+        [
+            f"training.{name}={value}"
+            for name, value in {
+                "num_envs": 8,
+                "num_steps": 10,
+                "num_epochs": 1,
+                "minibatch_size": 40,
+                "total_timesteps": 10**9,
+                "task_config.episode_length": 20,
+                "ppo.hidden_sizes": "[16]",
+                "ppo.viewer": "OFF",
+                "ppo.video_interval": -1,
+            }.items()
+        ],  # fmt: skip
+        300.0,  # the first iteration compiles before the page shows anything (about 2 minutes on 2 busy cores)
+    ),
+}
 
 
 def free_port() -> int:
@@ -76,12 +98,22 @@ def shown(driver: Any, label: str) -> str:
     return driver.find_element(By.XPATH, f"//label[text()='{label}']/following::input[1]").get_attribute("value")
 
 
-@pytest.fixture
-def training(tmp_path: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
+@pytest.fixture(params=sorted(TRAININGS))
+def training(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[tuple[str, subprocess.Popen[str], float]]:
+    pytest.importorskip(f"joshua_{request.param}", reason=f"needs the {request.param} trainer")
+    preset, overrides, page_s = TRAININGS[request.param]
     port = free_port()
     env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    command = [str(JOSHUA), "--preset", "so_arm100_reach_sb3", "--web", f"127.0.0.1:{port}"]
-    command += [argument for override in SMALL_RUN for argument in ("--set", override)]
+    command = [
+        str(JOSHUA),
+        "--preset",
+        preset,
+        "--web",
+        f"127.0.0.1:{port}",
+        "--set",
+        f"training.checkpoint_dir={tmp_path}",
+    ]
+    command += [argument for override in overrides for argument in ("--set", override)]
     process = subprocess.Popen(
         command, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
     )
@@ -95,19 +127,20 @@ def training(tmp_path: Path) -> Iterator[tuple[str, subprocess.Popen[str]]]:
             seen.append(line)
             assert process.poll() is None, "".join(seen)
         assert match[1] == f"http://127.0.0.1:{port}/"
-        yield match[1], process
+        yield match[1], process, page_s
     finally:
         if process.poll() is None:
             process.kill()
         process.wait(timeout=30)
 
 
+@pytest.mark.slow  # trains with a browser watching: 40-90 s (SB3) and about 2 minutes (PPO) on 2 cores
 def test_page_shows_the_training_arms_and_the_return_curve(
-    training: tuple[str, subprocess.Popen[str]], browser: Any
+    training: tuple[str, subprocess.Popen[str], float], browser: Any
 ) -> None:
-    url, process = training
+    url, process, page_s = training
     browser.get(url)
-    wait = WebDriverWait(browser, PAGE_S, poll_frequency=0.5)
+    wait = WebDriverWait(browser, page_s, poll_frequency=0.5)
     wait.until(lambda d: arms_seen(image_of(d.get_screenshot_as_png())) >= 2)
     wait.until(lambda d: int(shown(d, "return points")) >= 2)
     first_policy = int(shown(browser, "policy after (steps)"))
