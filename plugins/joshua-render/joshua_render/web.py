@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import logging
 import socket
 import sys
 import threading
@@ -96,11 +97,29 @@ def start_server(address: str, *, title: str, instead: str | None) -> viser.Vise
         import viser
     except ImportError:
         raise UsageError(INSTALL_HINT) from None
+    logging.getLogger("websockets.server").addFilter(_CLIENT_ERRORS)  # adding it again changes nothing
     server = viser.ViserServer(host=host, port=port, label=title, verbose=False)
     shown = f"[{host}]" if ":" in host else host
     scope = "this machine only" if host in ("127.0.0.1", "localhost", "::1") else "reachable from the network"
     print(f"web display: http://{shown}:{server.get_port()}/ ({scope}; no authentication)", flush=True)
     return server
+
+
+class _OneLineClientErrors(logging.Filter):
+    """The websockets server under viser logs a client that does not speak HTTP or WebSocket (a port scanner, a
+    wrong URL scheme) with a traceback; the run says it in one line and goes on."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if not record.exc_info:
+            return True
+        problem = record.exc_info[1]
+        cause = problem.__cause__ if problem is not None and problem.__cause__ is not None else problem
+        print(f"joshua: warning: web display: a client sent something else than the page's protocol ({cause}); "
+              "ignored it", file=sys.stderr)  # fmt: skip
+        return False
+
+
+_CLIENT_ERRORS = _OneLineClientErrors()
 
 
 def _geom_mesh(model: mujoco.MjModel, geom: int) -> tuple[np.ndarray, np.ndarray] | None:

@@ -1,11 +1,13 @@
-"""The web display's address handling: [HOST:]PORT parsing, and an address it cannot listen on.
+"""The web display's address handling ([HOST:]PORT parsing, an address it cannot listen on), and garbage clients.
 
 Listening and drawing in a real browser is tested in joshua-modes (tests/test_web.py).
 """
 
 from __future__ import annotations
 
+import contextlib
 import socket
+import urllib.request
 
 import pytest
 
@@ -58,3 +60,33 @@ def test_nothing_to_do_instead_is_an_error() -> None:
         port = taken.getsockname()[1]
         with pytest.raises(UsageError, match=f"cannot listen on 127.0.0.1:{port}: port {port} is in use"):
             start_server(f"127.0.0.1:{port}", title="t", instead=None)
+
+
+def test_a_client_sending_garbage_leaves_the_page_served(capfd: pytest.CaptureFixture[str]) -> None:
+    """Raw bytes on the port and malformed WebSocket messages: the server keeps serving the page and the next
+    client, and prints no traceback (viser drops what it cannot decode)."""
+    from websockets.exceptions import ConnectionClosed
+    from websockets.sync.client import connect
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    server = start_server(f"127.0.0.1:{port}", title="t", instead="going on")
+    assert server is not None
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as raw:
+            raw.sendall(b"\x00\xff\xfeGARBAGE \r\n\r\n" * 100)
+        with connect(f"ws://127.0.0.1:{port}", open_timeout=30) as client:
+            with contextlib.suppress(ConnectionClosed):  # the server may close on a client that makes no sense
+                for message in (b"\x00\x01\x02garbage", "not a message", b"\xc1" * 1000):
+                    client.send(message)
+        with connect(f"ws://127.0.0.1:{port}", open_timeout=30) as client:  # the next client still connects
+            with contextlib.suppress(ConnectionClosed):
+                client.send(b"\x93")
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=30) as page:
+            assert page.status == 200 and b"<html" in page.read().lower()
+    finally:
+        server.stop()
+    err = capfd.readouterr().err
+    assert "Traceback" not in err
+    assert "joshua: warning: web display: a client sent something else than the page's protocol" in err
