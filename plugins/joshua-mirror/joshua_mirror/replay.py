@@ -40,9 +40,6 @@ MAX_LOOPS = 1_000_000  # plays of one trajectory: more is a typo, not a session
 SUBSCRIBER_WAIT_POLL_S = 0.02
 # After our side sees the subscriber, its side still needs a moment to match us; samples sent before are lost.
 MATCH_SETTLE_S = 0.5
-# Fast DDS drops the samples still on their way when their writer goes away (the mirror then missed the last row
-# about one run in five on a loaded machine): the publishers stay this long after the last one.
-DELIVERY_GRACE_S = 0.5
 
 
 class MirrorReplayCommand(Command):
@@ -111,7 +108,6 @@ class MirrorReplayCommand(Command):
             publisher.wait_for_subscribers(args.wait)
             try:
                 _play(publisher, times - times[0], encoder_values, args.speed, args.loops)
-                time.sleep(DELIVERY_GRACE_S)
             except KeyboardInterrupt:
                 print("joshua: mirror-replay: stopped", file=sys.stderr)
                 return 130
