@@ -4,15 +4,21 @@ headless chromium for the tests of the web display."""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import queue
+import re
 import select
 import shutil
 import signal
+import socket
 import struct
 import subprocess
 import sys
 import tempfile
+import threading
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -137,3 +143,48 @@ def browser() -> Iterator[Any]:
         yield driver
     finally:
         driver.quit()
+
+
+WebRun = Callable[..., contextlib.AbstractContextManager[tuple[str, "subprocess.Popen[str]"]]]
+
+
+@pytest.fixture
+def web_run() -> WebRun:
+    """Starts `joshua ... --web 127.0.0.1:PORT` (a free port appended to `command`) in `cwd` with `env`, as a
+    context manager yielding (the URL it printed, the process) within `startup_s`; the process is killed after,
+    if it still runs."""
+
+    @contextlib.contextmanager
+    def run(
+        command: list[str], *, cwd: Path, env: dict[str, str], startup_s: float
+    ) -> Iterator[tuple[str, subprocess.Popen[str]]]:
+        with socket.socket() as probe:
+            probe.bind(("127.0.0.1", 0))
+            port = probe.getsockname()[1]
+        process = subprocess.Popen(
+            [*command, "--web", f"127.0.0.1:{port}"],
+            cwd=cwd,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=lambda: [lines.put(line) for line in process.stdout], daemon=True).start()
+        try:
+            seen = []
+            while not (
+                match := re.match(
+                    r"web display: (http://\S+) \(this machine only", line := lines.get(timeout=startup_s)
+                )
+            ):
+                seen.append(line)
+                assert process.poll() is None, "".join(seen)
+            assert match[1] == f"http://127.0.0.1:{port}/"
+            yield match[1], process
+        finally:
+            if process.poll() is None:
+                process.kill()
+            process.wait(timeout=30)
+
+    return run

@@ -7,13 +7,9 @@ from __future__ import annotations
 
 import io
 import os
-import queue
-import re
 import signal
-import socket
 import subprocess
 import sys
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -62,12 +58,6 @@ TRAININGS = {
 }
 
 
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
 def image_of(png: bytes) -> NDArray[np.uint8]:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
 
@@ -99,39 +89,16 @@ def shown(driver: Any, label: str) -> str:
 
 
 @pytest.fixture(params=sorted(TRAININGS))
-def training(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[tuple[str, subprocess.Popen[str], float]]:
+def training(
+    request: pytest.FixtureRequest, tmp_path: Path, web_run: Any
+) -> Iterator[tuple[str, subprocess.Popen[str], float]]:
     pytest.importorskip(f"joshua_{request.param}", reason=f"needs the {request.param} trainer")
     preset, overrides, page_s = TRAININGS[request.param]
-    port = free_port()
     env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    command = [
-        str(JOSHUA),
-        "--preset",
-        preset,
-        "--web",
-        f"127.0.0.1:{port}",
-        "--set",
-        f"training.checkpoint_dir={tmp_path}",
-    ]
+    command = [str(JOSHUA), "--preset", preset, "--set", f"training.checkpoint_dir={tmp_path}"]
     command += [argument for override in overrides for argument in ("--set", override)]
-    process = subprocess.Popen(
-        command, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
-    )
-    lines: queue.Queue[str] = queue.Queue()
-    threading.Thread(target=lambda: [lines.put(line) for line in process.stdout], daemon=True).start()
-    try:
-        seen = []
-        while not (
-            match := re.match(r"web display: (http://\S+) \(this machine only", line := lines.get(timeout=STARTUP_S))
-        ):
-            seen.append(line)
-            assert process.poll() is None, "".join(seen)
-        assert match[1] == f"http://127.0.0.1:{port}/"
-        yield match[1], process, page_s
-    finally:
-        if process.poll() is None:
-            process.kill()
-        process.wait(timeout=30)
+    with web_run(command, cwd=tmp_path, env=env, startup_s=STARTUP_S) as (url, process):
+        yield url, process, page_s
 
 
 @pytest.mark.slow  # trains with a browser watching: 40-90 s (SB3) and about 2 minutes (PPO) on 2 cores

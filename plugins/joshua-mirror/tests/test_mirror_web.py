@@ -7,13 +7,9 @@ from __future__ import annotations
 
 import io
 import json
-import queue
 import re
-import signal
-import socket
 import subprocess
 import sys
-import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -38,12 +34,6 @@ POSE = {"joint_1": 0.6, "joint_2": -0.5, "joint_3": 0.8, "joint_4": 0.3, "joint_
 WRONG_TOPIC = "/encoder/joint_6"  # published as std_msgs/Float32, which the mirror (Float64) never receives
 
 
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
 def orange_pixels(rgb: NDArray[np.uint8]) -> int:
     """Pixels of the SO-ARM100's printed parts (material 'printed', orange), lit or shaded."""
     r, g, b = (rgb[..., i].astype(int) for i in range(3))
@@ -65,36 +55,15 @@ def page_text(driver: Any) -> str:
 
 
 @pytest.fixture
-def mirror_url(tmp_path: Path, ros_env: dict[str, str]) -> Iterator[str]:
+def mirror_url(tmp_path: Path, ros_env: dict[str, str], web_run: Any) -> Iterator[str]:
     """The mirror (tracking through the actuators) in a web page, without an X display; yields its URL."""
-    port = free_port()
     env = {key: value for key, value in ros_env.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY", "MUJOCO_GL")}
-    command = [str(JOSHUA), "--preset", "sim_mirror", "--web", f"127.0.0.1:{port}"]
+    command = [str(JOSHUA), "--preset", "sim_mirror"]
     for override in ("simulation.mirror.apply=ACTUATOR", "simulation.mirror.status_period=0.2"):
         command += ["--set", override]
-    process = subprocess.Popen(
-        command,
-        cwd=tmp_path,
-        env={**env, "MUJOCO_GL": "egl"},
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    lines: queue.Queue[str] = queue.Queue()
-    threading.Thread(target=lambda: [lines.put(line) for line in process.stdout], daemon=True).start()
-    try:
-        seen = []
-        while not (
-            match := re.match(r"web display: (http://\S+) \(this machine only", line := lines.get(timeout=STARTUP_S))
-        ):
-            seen.append(line)
-            assert process.poll() is None, "".join(seen)
-        assert match[1] == f"http://127.0.0.1:{port}/"
-        yield match[1]
+    with web_run(command, cwd=tmp_path, env={**env, "MUJOCO_GL": "egl"}, startup_s=STARTUP_S) as (url, process):
+        yield url
         assert process.poll() is None, "the mirror stopped while the browser watched"
-    finally:
-        process.send_signal(signal.SIGINT)
-        process.wait(timeout=30)
 
 
 def publish(env: dict[str, str], plan: dict[str, Any]) -> None:

@@ -9,14 +9,10 @@ from __future__ import annotations
 
 import contextlib
 import io
-import queue
-import re
 import shutil
-import socket
-import subprocess
-import threading
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -39,48 +35,21 @@ MIN_ARM_PIXELS = 500  # of 800x600: the arm seen whole from the first camera cov
 MOVED_PIXELS = 200  # pixels that must differ between two images of the moving arm
 
 
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
 @contextlib.contextmanager
-def web_replay(folder: Path, *overrides: str) -> Iterator[str]:
-    """A PASSIVE replay in a web page, run in `folder` with `--set` `overrides`; yields its URL."""
-    port = free_port()
-    process = subprocess.Popen(
-        [str(JOSHUA_SCRIPT), "--preset", "sim_passive", "--web", f"127.0.0.1:{port}"]
-        + [argument for override in overrides for argument in ("--set", override)],
-        cwd=folder,
-        env=headless_env(MUJOCO_GL="egl"),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    lines: queue.Queue[str] = queue.Queue()
-    threading.Thread(target=lambda: [lines.put(line) for line in process.stdout], daemon=True).start()
-    try:
-        seen = []
-        while True:
-            line = lines.get(timeout=STARTUP_S)
-            seen.append(line)
-            match = re.match(r"web display: (http://\S+) \(this machine only", line)
-            if match:
-                break
-            assert process.poll() is None, "".join(seen)
-        assert match[1] == f"http://127.0.0.1:{port}/"
-        yield match[1]
+def web_replay(web_run: Any, folder: Path, *overrides: str) -> Iterator[str]:
+    """A PASSIVE replay in a web page (the `web_run` fixture), run in `folder` with `--set` `overrides`; yields
+    its URL."""
+    command = [str(JOSHUA_SCRIPT), "--preset", "sim_passive"]
+    command += [argument for override in overrides for argument in ("--set", override)]
+    with web_run(command, cwd=folder, env=headless_env(MUJOCO_GL="egl"), startup_s=STARTUP_S) as (url, process):
+        yield url
         assert process.poll() is None, "the replay stopped while the browser watched"
-    finally:
-        process.terminate()
-        process.wait(timeout=30)
 
 
 @pytest.fixture
-def replay_url(tmp_path: Path) -> Iterator[str]:
+def replay_url(tmp_path: Path, web_run: Any) -> Iterator[str]:
     """A looping, slowed-down PASSIVE replay of the example trajectory in a web page; yields its URL."""
-    with web_replay(tmp_path, "simulation.replay.loop=true", "simulation.replay.speed=0.5") as url:
+    with web_replay(web_run, tmp_path, "simulation.replay.loop=true", "simulation.replay.speed=0.5") as url:
         yield url
 
 
@@ -125,13 +94,15 @@ def test_page_draws_the_moving_arm_and_pause_stops_time(replay_url: str, browser
 
 
 def test_page_lists_the_problems_with_their_times_marks_them_and_goes_to_them(
-    tmp_path: Path, browser: webdriver.Chrome
+    tmp_path: Path, browser: webdriver.Chrome, web_run: Any
 ) -> None:
     home = "-0.35,0.35,1.0,0.0,0.4"  # joints 2 to 6
     rows = [f"{t},0.0,{home}" for t in ("0.0", "0.5")] + [f"1.0,2.0,{home}"]  # joint_1 beyond 1.92 at 1 s
     trajectory = tmp_path / "motion.csv"
     trajectory.write_text("\n".join([HEADER, *rows, *(f"{t},0.0,{home}" for t in ("1.5", "2.0"))]) + "\n")
-    with web_replay(tmp_path, f"simulation.trajectory_path={trajectory}", "simulation.replay.loop=true") as url:
+    with web_replay(
+        web_run, tmp_path, f"simulation.trajectory_path={trajectory}", "simulation.replay.loop=true"
+    ) as url:
         browser.get(url)
         wait = WebDriverWait(browser, PAGE_S, poll_frequency=0.2)
         problem = "#1 at 1.000 s: motion.csv:4: joint_1 outside its range [-1.92, 1.92]: 2 at line 4"
