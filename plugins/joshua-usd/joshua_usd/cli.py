@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from joshua_core.interfaces import Command
@@ -31,8 +32,14 @@ class UsdCommand(Command):
 
             print(describe(resolve_data_path(args.file, what="USD")))
             return 0
+        from pxr import Usd
+
+        from joshua_usd import physx_schema
         from joshua_usd.exporter import export_model
 
         written = export_model(resolve_data_path(args.model), args.out)
+        if physx_schema.registered():  # the exporter's own PhysX attributes, checked against the PhysX schemas
+            for problem in physx_schema.check_stage(Usd.Stage.Open(str(written))):
+                print(f"joshua: warning: {written}: {problem}", file=sys.stderr)
         print(f"wrote {written}")
         return 0

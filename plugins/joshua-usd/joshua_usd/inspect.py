@@ -8,14 +8,17 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+from pxr import Usd
 
+from joshua_usd import physx_schema
 from joshua_usd.importer import Imported, compile_spec, import_usd
 
 JOINT_TYPES = {0: "free", 1: "ball (spherical)", 2: "prismatic (slide)", 3: "revolute (hinge)"}
 
 
 def describe(path: Path) -> str:
-    """Bodies with masses, joints with limits, drives in SI units, colliders and the import's warnings."""
+    """Bodies with masses, joints with limits, drives in SI units, colliders, the check against the PhysX schemas
+    and the import's warnings."""
     imported = import_usd(path)
     model = compile_spec(imported.spec, imported.report)
     frame = imported.frame
@@ -29,10 +32,20 @@ def describe(path: Path) -> str:
         *_joints(model, imported),
         *_actuators(model),
         *_colliders(model, imported),
+        *physx_check(Usd.Stage.Open(str(path))),
         f"warnings ({len(imported.report.warnings)}):",
         *(f"  {warning}" for warning in imported.report.warnings),
     ]
     return "\n".join(lines)
+
+
+def physx_check(stage: Usd.Stage) -> list[str]:
+    """The stage's PhysX API schemas and physx* attributes against the PhysX schemas: a summary line and a line per
+    problem; one line saying why where the schemas are not registered."""
+    if not physx_schema.registered():
+        return [f"PhysX schemas: not checked, {physx_schema.missing_reason()}"]
+    problems = physx_schema.check_stage(stage)
+    return [f"PhysX schemas ({len(problems)} problems):", *(f"  {problem}" for problem in problems)]
 
 
 def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, index: int) -> str:

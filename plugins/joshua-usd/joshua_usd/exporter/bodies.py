@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdPhysics
 
-from joshua_usd.exporter.context import Context, set_pose, set_raw
+from joshua_usd.exporter.context import Context, set_physx, set_pose, set_raw
 from joshua_usd.exporter.filtering import bits, can_touch
 from joshua_usd.exporter.frames import gf_quatf, gf_vec3f
 
@@ -25,9 +25,8 @@ def write_scene(ctx: Context) -> None:
     scene.CreateGravityDirectionAttr(gf_vec3f(direction))
     scene.CreateGravityMagnitudeAttr(magnitude)
     prim = scene.GetPrim()
-    prim.AddAppliedSchema("PhysxSceneAPI")
     steps = int(round(1.0 / ctx.model.opt.timestep))
-    set_raw(prim, "physxScene:timeStepsPerSecond", Sdf.ValueTypeNames.UInt, steps)
+    set_physx(prim, "PhysxSceneAPI", "timeStepsPerSecond", Sdf.ValueTypeNames.UInt, steps)
     _write_options(ctx, prim)
 
 
@@ -48,8 +47,8 @@ def write_root(ctx: Context) -> None:
     prim = UsdGeom.Xform.Define(ctx.stage, ctx.root).GetPrim()
     ctx.stage.SetDefaultPrim(prim)
     UsdPhysics.ArticulationRootAPI.Apply(prim)
-    prim.AddAppliedSchema("PhysxArticulationAPI")
-    set_raw(prim, "physxArticulation:enabledSelfCollisions", Sdf.ValueTypeNames.Bool, self_collides(ctx.model))
+    self_collisions = self_collides(ctx.model)
+    set_physx(prim, "PhysxArticulationAPI", "enabledSelfCollisions", Sdf.ValueTypeNames.Bool, self_collisions)
 
 
 def self_collides(model: mujoco.MjModel) -> bool:

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from pxr import Sdf, Tf, Usd, UsdGeom
 
+from joshua_usd import physx_schema
 from joshua_usd.exporter.frames import Pose, gf_quatd, gf_vec3d
 
 ENVIRONMENT = Sdf.Path("/Environment")  # world geoms, cameras and sensors: beside the robot, not in it
@@ -79,8 +80,27 @@ def set_pose(prim: Usd.Prim, pos: ArrayLike, quat: ArrayLike, scale: ArrayLike |
 
 
 def set_raw(prim: Usd.Prim, name: str, value_type: Sdf.ValueTypeName, value: Any, *, custom: bool = False) -> None:
-    """Author an attribute by name: PhysX schema attributes (no PhysxSchema in usd-core) and joshua:* ones."""
+    """Author an attribute by name: joshua:* ones and the attributes of Isaac's prim types (no schema in usd-core)."""
     prim.CreateAttribute(name, value_type, custom=custom).Set(value)
+
+
+def set_physx(
+    prim: Usd.Prim,
+    api: str,
+    name: str,
+    value_type: Sdf.ValueTypeName,
+    value: Any,
+    instance: str = "",
+    *,
+    uniform: bool = False,
+) -> None:
+    """Apply the PhysX API schema `api` (its `instance` where multiple-apply) and author its property `name`,
+    named by the PhysX schemas; type and variability as theirs (physx_schema.check_stage compares), given here
+    so that the file is the same whether the schemas are registered or not."""
+    physx_schema.apply(prim, api, instance)
+    variability = Sdf.VariabilityUniform if uniform else Sdf.VariabilityVarying
+    attribute_name = physx_schema.attribute_name(api, name, instance)
+    prim.CreateAttribute(attribute_name, value_type, False, variability).Set(value)
 
 
 def per_degree(value: float) -> float:

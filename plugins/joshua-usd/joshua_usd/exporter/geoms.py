@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdPhysics, Vt
 
-from joshua_usd.exporter.context import Context, set_pose, set_raw
+from joshua_usd.exporter.context import Context, set_physx, set_pose
 from joshua_usd.exporter.frames import gf_vec3f
 from joshua_usd.exporter.materials import Materials
 
@@ -64,10 +64,9 @@ def _collider(ctx: Context, prim: Usd.Prim, geom: int, name: str) -> None:
         UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(UsdPhysics.Tokens.convexHull)
     margin, gap = float(model.geom_margin[geom]), float(model.geom_gap[geom])
     if margin > 0:
-        prim.AddAppliedSchema("PhysxCollisionAPI")
-        set_raw(prim, "physxCollision:restOffset", Sdf.ValueTypeNames.Float, margin - gap)
+        set_physx(prim, "PhysxCollisionAPI", "restOffset", Sdf.ValueTypeNames.Float, margin - gap)
         if gap > 0:  # PhysX needs contactOffset > restOffset
-            set_raw(prim, "physxCollision:contactOffset", Sdf.ValueTypeNames.Float, margin)
+            set_physx(prim, "PhysxCollisionAPI", "contactOffset", Sdf.ValueTypeNames.Float, margin)
     if model.geom_condim[geom] > 3:
         ctx.note(f"geom '{name}': condim {model.geom_condim[geom]} (torsional and rolling friction)")
 

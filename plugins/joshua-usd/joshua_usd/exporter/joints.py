@@ -8,8 +8,9 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdPhysics
 
 from joshua_core.errors import ModelError
-from joshua_usd.exporter.context import Context, per_degree, set_raw
+from joshua_usd.exporter.context import Context, per_degree, set_physx, set_raw
 from joshua_usd.exporter.frames import WORLD, Pose, axis_frame, gf_quatf, gf_vec3f, quat_mul
+from joshua_usd.physx_schema import JOINT_AXES
 
 J = mujoco.mjtJoint
 
@@ -97,26 +98,24 @@ def _moving_joint(ctx: Context, scope: Sdf.Path, body: int, joint_id: int) -> Us
 
 
 def _joint_properties(ctx: Context, prim: Usd.Prim, joint_id: int) -> None:
-    """Armature (PhysxJointAPI), frictionloss as static and dynamic friction effort and passive damping
-    as viscous friction (PhysxJointAxisAPI, per degree on angular axes): MuJoCo's meanings exactly."""
+    """Per PhysX axis of the joint (PhysxJointAxisAPI; a ball joint's three rotation axes): armature,
+    frictionloss as static and dynamic friction effort and passive damping as viscous friction (per degree on
+    angular axes): MuJoCo's meanings exactly."""
     model = ctx.model
-    dof = model.jnt_dofadr[joint_id]
-    angular = model.jnt_type[joint_id] != J.mjJNT_SLIDE
-    prim.AddAppliedSchema("PhysxJointAPI")
-    set_raw(prim, "physxJoint:armature", Sdf.ValueTypeNames.Float, float(model.dof_armature[dof]))
-    instance = "angular" if angular else "linear"
-    prim.AddAppliedSchema(f"PhysxJointAxisAPI:{instance}")
-    prefix = f"physxJointAxis:{instance}"
-    friction = float(model.dof_frictionloss[dof])
-    damping = float(model.dof_damping[dof])
-    set_raw(prim, f"{prefix}:staticFrictionEffort", Sdf.ValueTypeNames.Float, friction)
-    set_raw(prim, f"{prefix}:dynamicFrictionEffort", Sdf.ValueTypeNames.Float, friction)
-    set_raw(
-        prim,
-        f"{prefix}:viscousFrictionCoefficient",
-        Sdf.ValueTypeNames.Float,
-        per_degree(damping) if angular else damping,
-    )
+    kind = J(int(model.jnt_type[joint_id]))
+    angular = kind != J.mjJNT_SLIDE
+    for axis, instance in enumerate(JOINT_AXES[kind]):
+        dof = model.jnt_dofadr[joint_id] + axis
+        friction = float(model.dof_frictionloss[dof])
+        damping = float(model.dof_damping[dof])
+        values = {
+            "armature": float(model.dof_armature[dof]),
+            "staticFrictionEffort": friction,
+            "dynamicFrictionEffort": friction,
+            "viscousFrictionCoefficient": per_degree(damping) if angular else damping,
+        }
+        for name, value in values.items():
+            set_physx(prim, "PhysxJointAxisAPI", name, Sdf.ValueTypeNames.Float, value, instance)
     if model.jnt_stiffness[joint_id]:
         ctx.note(f"joint '{prim.GetName()}': spring stiffness {model.jnt_stiffness[joint_id]:g}")
 

@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdPhysics, UsdShade
 
-from joshua_usd.exporter.context import Context, set_raw
+from joshua_usd.exporter.context import Context, set_physx
 
 DEFAULT_SHININESS = 0.5  # MuJoCo's default material
 
@@ -69,8 +69,8 @@ class Materials:
             api.CreateStaticFrictionAttr(friction)
             api.CreateDynamicFrictionAttr(friction)
             api.CreateRestitutionAttr(0.0)
-            material.GetPrim().AddAppliedSchema("PhysxMaterialAPI")
-            set_raw(material.GetPrim(), "physxMaterial:frictionCombineMode", Sdf.ValueTypeNames.Token, "max")
+            token = Sdf.ValueTypeNames.Token
+            set_physx(material.GetPrim(), "PhysxMaterialAPI", "frictionCombineMode", token, "max", uniform=True)
             self._physics[friction] = material
         UsdShade.MaterialBindingAPI.Apply(prim).Bind(
             self._physics[friction], UsdShade.Tokens.weakerThanDescendants, "physics"

@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, Vt
 
-from joshua_usd.exporter.context import Context, set_pose, set_raw
+from joshua_usd.exporter.context import Context, set_physx, set_pose, set_raw
 from joshua_usd.exporter.frames import gf_vec3f
 
 HORIZONTAL_APERTURE = 20.955  # USD's default (mm); the focal length is chosen to give MuJoCo's fovy
@@ -92,8 +92,7 @@ def _contact_sensor(ctx: Context, prim: Usd.Prim, body: int, radius: float) -> N
     set_raw(prim, "threshold", Sdf.ValueTypeNames.Float2, CONTACT_THRESHOLD)
     set_raw(prim, "radius", Sdf.ValueTypeNames.Float, radius)
     body_prim = ctx.stage.GetPrimAtPath(ctx.body_paths[body])
-    body_prim.AddAppliedSchema("PhysxContactReportAPI")
-    set_raw(body_prim, "physxContactReport:threshold", Sdf.ValueTypeNames.Float, 0.0)
+    set_physx(body_prim, "PhysxContactReportAPI", "threshold", Sdf.ValueTypeNames.Float, 0.0)
 
 
 def _imu(ctx: Context, group: Sdf.Path, site: int, names: list[str]) -> None:

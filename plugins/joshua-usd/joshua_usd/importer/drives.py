@@ -10,16 +10,18 @@ import mujoco
 from pxr import Usd, UsdPhysics
 
 from joshua_usd.importer.report import ImportReport
-from joshua_usd.importer.stage import StageFrame, positive, read
+from joshua_usd.importer.stage import StageFrame, positive, read, read_physx
+from joshua_usd.physx_schema import JOINT_AXES, attribute_name
 
 # Above this (deg/s or units/s) PhysX's max joint velocity is Isaac's "unlimited" default: not warned about.
 UNLIMITED_VELOCITY = 1e6
-FRICTION_ATTRIBUTES = ("physxJoint:jointFriction", "physics:jointFriction")
-# The PhysxJointAxisAPI instances of a joint's motion (a revolute joint's is "angular").
-AXIS_INSTANCES = {
-    mujoco.mjtJoint.mjJNT_BALL: ("angular", "rotX", "rotY", "rotZ"),
-    mujoco.mjtJoint.mjJNT_SLIDE: ("linear",),
-}
+# PhysxJointAPI: gone from the PhysX schemas (physx-usd-schemas 25.11; ovphysx 0.7 ignores it), still in Isaac assets
+# written before: its attributes are read by name, per joint, where the joint's PhysxJointAxisAPI has no value.
+LEGACY_JOINT_NAMESPACE = "physxJoint"
+FRICTION_ATTRIBUTES = (f"{LEGACY_JOINT_NAMESPACE}:jointFriction", "physics:jointFriction")
+# The PhysxJointAxisAPI instances read per joint type: PhysX's, and "angular" on ball joints too (exports before
+# the PhysX schemas wrote it there).
+AXIS_INSTANCES = {**JOINT_AXES, mujoco.mjtJoint.mjJNT_BALL: ("angular", *JOINT_AXES[mujoco.mjtJoint.mjJNT_BALL])}
 
 
 def _units(angular: bool, frame: StageFrame) -> tuple[float, float]:
@@ -101,7 +103,7 @@ def joint_properties(prim: Usd.Prim, joint: mujoco.MjsJoint, frame: StageFrame, 
     """PhysX joint attributes, per axis (PhysxJointAxisAPI) before per joint (PhysxJointAPI): armature, viscous
     friction (MuJoCo's damping), friction effort (frictionloss) and max velocity (warned)."""
     angular = joint.type != mujoco.mjtJoint.mjJNT_SLIDE
-    instances = AXIS_INSTANCES.get(joint.type, ("angular",))
+    instances = AXIS_INSTANCES[joint.type]
     position_unit, force_unit = _units(angular, frame)
     armature = _joint_value(prim, instances, "armature", report)
     if armature:  # an inertia (kg unit^2) for angular joints, a mass for linear ones
@@ -127,20 +129,22 @@ def _joint_value(
     joint_level: bool = True,
     allow_inf: bool = False,
 ) -> tuple[str, float] | None:
-    """(attribute, value) of physxJointAxis:<instance>:<key> for the joint's axis instances (the largest where a
-    ball joint's differ: MuJoCo has one value per joint, warned), else of physxJoint:<key>; None if unauthored."""
+    """(attribute, value) of PhysxJointAxisAPI's <key> for the joint's axis instances (the largest where a ball
+    joint's differ: MuJoCo has one value per joint, warned), else of physxJoint:<key>; None if unauthored."""
     found = {
-        name: value
-        for name in (f"physxJointAxis:{instance}:{key}" for instance in instances)
-        if (value := read(prim, name, report, allow_inf=allow_inf)) is not None
+        attribute_name("PhysxJointAxisAPI", key, instance): value
+        for instance in instances
+        if (value := read_physx(prim, "PhysxJointAxisAPI", key, report, instance=instance, allow_inf=allow_inf))
+        is not None
     }
     if len(set(found.values())) > 1:
         report.warn(prim.GetPath(), f"{key} differs between axes: MuJoCo uses the largest on every axis")
     if found:
         name = max(found, key=found.__getitem__)
         return name, float(found[name])
-    value = read(prim, f"physxJoint:{key}", report, allow_inf=allow_inf) if joint_level else None
-    return None if value is None else (f"physxJoint:{key}", float(value))
+    name = f"{LEGACY_JOINT_NAMESPACE}:{key}"
+    value = read(prim, name, report, allow_inf=allow_inf) if joint_level else None
+    return None if value is None else (name, float(value))
 
 
 def _friction_effort(prim: Usd.Prim, instances: tuple[str, ...], report: ImportReport) -> tuple[str, float] | None:

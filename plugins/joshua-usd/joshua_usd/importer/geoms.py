@@ -14,7 +14,7 @@ from pxr import Sdf, Usd, UsdGeom, UsdPhysics, UsdShade
 from joshua_usd.importer.pose import Pose
 from joshua_usd.importer.report import ImportReport
 from joshua_usd.importer.shapes import add_shape
-from joshua_usd.importer.stage import StageFrame, positive, prims, read
+from joshua_usd.importer.stage import StageFrame, positive, prims, read, read_physx
 from joshua_usd.importer.topology import enclosing_body
 
 VISUAL_GROUP = 2
@@ -79,7 +79,9 @@ def _margin(geom: mujoco.MjsGeom, prim: Usd.Prim, frame: StageFrame, report: Imp
     """PhysX's contact offset (where contacts start) as MuJoCo's margin and its rest offset (where shapes come to
     rest) as margin - gap: margin = max(contactOffset, restOffset), gap = margin - restOffset. Unauthored, -inf
     or a negative contactOffset is PhysX's automatic one: MuJoCo's margin 0."""
-    offsets = [read(prim, f"physxCollision:{name}Offset", report, allow_inf=True) for name in ("rest", "contact")]
+    offsets = [
+        read_physx(prim, "PhysxCollisionAPI", f"{name}Offset", report, allow_inf=True) for name in ("rest", "contact")
+    ]
     rest, contact = (value if value is not None and math.isfinite(value) else None for value in offsets)
     if contact is not None and contact < 0:
         contact = None

@@ -12,8 +12,9 @@ import numpy as np
 from pxr import Sdf, Usd, UsdPhysics
 
 from joshua_usd.importer.report import ImportReport
-from joshua_usd.importer.stage import StageFrame, prims, read
+from joshua_usd.importer.stage import StageFrame, prims, read, read_physx
 from joshua_usd.importer.topology import Link, walk
+from joshua_usd.physx_schema import attribute_name
 
 EARTH_GRAVITY = 9.80665  # m/s^2, UsdPhysics' default magnitude
 OPTION_PREFIX = "joshua:option:"  # MuJoCo solver settings the exporter writes on the PhysicsScene
@@ -38,10 +39,11 @@ def set_scene(spec: mujoco.MjSpec, stage: Usd.Stage, frame: StageFrame, report: 
         direction = np.array([0.0, 0.0, -1.0])
     gravity = EARTH_GRAVITY if magnitude is None or math.isinf(magnitude) else magnitude * frame.meters_per_unit
     spec.option.gravity = direction * gravity
-    steps = read(scene, "physxScene:timeStepsPerSecond", report)
+    steps = read_physx(scene, "PhysxSceneAPI", "timeStepsPerSecond", report)
     if steps is not None:
         if steps <= 0:
-            raise report.error(scene.GetPath(), "physxScene:timeStepsPerSecond", f"must be positive, got {steps}")
+            name = attribute_name("PhysxSceneAPI", "timeStepsPerSecond")
+            raise report.error(scene.GetPath(), name, f"must be positive, got {steps}")
         spec.option.timestep = 1.0 / steps
     _set_options(spec, scene, report)
 
@@ -80,10 +82,10 @@ def set_articulations(
     for prim in prims(stage):
         if not prim.HasAPI(UsdPhysics.ArticulationRootAPI):
             continue
-        count = read(prim, "physxArticulation:solverPositionIterationCount", report)
+        count = read_physx(prim, "PhysxArticulationAPI", "solverPositionIterationCount", report)
         if count is not None:
             iterations.append(int(count))
-        if read(prim, "physxArticulation:enabledSelfCollisions", report) is False:
+        if read_physx(prim, "PhysxArticulationAPI", "enabledSelfCollisions", report) is False:
             bodies = [link.prim.GetPath() for link in _articulation(prim.GetPath(), roots)]
             for first, second in itertools.combinations(bodies, 2):
                 spec.add_exclude(bodyname1=names[first], bodyname2=names[second])

@@ -15,6 +15,7 @@ from pxr import Gf, Tf, Usd, UsdGeom, UsdPhysics
 
 from joshua_usd.importer.pose import Pose, Vec, decompose
 from joshua_usd.importer.report import ImportReport
+from joshua_usd.physx_schema import attribute_name
 
 
 def open_stage(path: Path, report: ImportReport) -> Usd.Stage:
@@ -109,6 +110,16 @@ def read(prim: Usd.Prim, name: str, report: ImportReport, *, allow_inf: bool = F
     if numbers.size and (np.isnan(numbers).any() or (not allow_inf and np.isinf(numbers).any())):
         raise report.error(prim.GetPath(), name, f"is not a finite number: {value}")
     return value
+
+
+def read_physx(
+    prim: Usd.Prim, api: str, key: str, report: ImportReport, *, instance: str = "", allow_inf: bool = False
+) -> Any:
+    """The authored value of property `key` of the PhysX API schema `api` (its `instance` where multiple-apply),
+    named by the PhysX schemas; None when unauthored: their fallbacks are PhysX's defaults, not MuJoCo's, so a
+    stage imports the same with the schemas registered or not. Checked as `read` checks."""
+    name = attribute_name(api, key, instance)
+    return read(prim, name, report, allow_inf=allow_inf) if prim.GetAttribute(name).HasAuthoredValue() else None
 
 
 def _numeric(value: Any) -> Any:
