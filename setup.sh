@@ -6,7 +6,8 @@
 #                       joshua-sb3 (stable-baselines3 with torch's CPU wheel), joshua-mjx and joshua-ppo
 #                       (MJX with MuJoCo Warp, JAX, Flax, Optax; JAX for the CPU: on a GPU machine add
 #                       pip install "jax[cuda13]")
-#                       joshua-usd (usd-core: USD robots on MuJoCo, export to Isaac), joshua-sysid
+#                       joshua-usd with its physx extra (usd-core: USD robots on MuJoCo, export to Isaac; ovphysx,
+#                       ovstage and physx-usd-schemas: PhysX and its USD schemas, ~203 MB of wheels), joshua-sysid
 #                       (joshua sysid: fit servo and joint parameters to recordings with mujoco.sysid),
 #                       joshua-export (onnx, onnxruntime: `joshua export` writes policies as ONNX with their contract) and
 #                       joshua-lerobot (LeRobot datasets in and out: pyarrow, PyAV)
@@ -64,6 +65,13 @@ if [[ $option == --dev ]]; then
 fi
 echo "setup: installing ${requirements[*]} into .venv"
 .venv/bin/pip install -q -c constraints.txt "${requirements[@]}"
+if [[ -n $option ]]; then
+  # joshua-usd[physx] without dependencies: ovphysx pins packaging<24, pytest 9 and hatchling need packaging>=24, and
+  # ovphysx runs with packaging 25. Its other requirements are here: ovstage (installed with it) and warp-lang
+  # (joshua-mjx[warp], in ovphysx's range); physx-usd-schemas has none. So `pip check` reports that pin alone.
+  echo "setup: installing joshua-usd[physx] (ovphysx, ovstage, physx-usd-schemas) into .venv"
+  .venv/bin/pip install -q -c constraints.txt --no-deps ovphysx ovstage physx-usd-schemas
+fi
 if [[ $option == --dev && ! -d .cache/lerobot-site/lerobot ]]; then
   # the real lerobot for joshua-lerobot's tests, beside .venv, not in it: its pins (torch<2.11 ...) must not change .venv
   echo "setup: installing lerobot (tests only) into .cache/lerobot-site"
