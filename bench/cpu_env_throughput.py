@@ -50,7 +50,7 @@ def measure(num_envs: int, seconds: float, repeats: int, nthread: int | None) ->
 
     reference = gymnasium.make_vec("Ant-v5", num_envs=num_envs, vectorization_mode="sync")
     ours = make_vector_env("ant_locomotion", num_envs, seed=0, nthread=nthread)
-    batch, frame_skip = ours.simulation.batch, ours.task.frame_skip
+    batch, frame_skip = ours.simulation.physics.batch, ours.task.frame_skip
     ctrl = ours.simulation.ctrl
 
     def bare(action: np.ndarray) -> None:

@@ -49,6 +49,7 @@ SCHEMAS = (
     _plugin_options("plugins/joshua-mjx", "joshua_mjx"),
     _plugin_options("plugins/joshua-ppo", "joshua_ppo"),
     _plugin_options("plugins/joshua-sb3", "joshua_sb3"),
+    _plugin_options("plugins/joshua-usd", "joshua_usd"),
     _plugin_options("docs/examples/joshua-rk4", "joshua_rk4"),
 )
 

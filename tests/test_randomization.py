@@ -38,9 +38,9 @@ def test_the_randomized_preset_builds_and_draws_within_its_ranges() -> None:
     env = make_vector_env(TASK, 16, seed=0, nthread=1, task_config=config)
     simulation, defaults = env.simulation, env.task.defaults
     cube = env.simulation.model.body("cube").id
-    ratio = simulation.batch.expanded("body_mass")[:, cube] / defaults["body_mass"][cube]
+    ratio = simulation.physics.batch.expanded("body_mass")[:, cube] / defaults["body_mass"][cube]
     assert 0.7 <= ratio.min() < ratio.max() <= 1.3
-    kp = simulation.batch.expanded("actuator_gainprm")[:, :, 0] / defaults["actuator_gainprm"][:, 0]
+    kp = simulation.physics.batch.expanded("actuator_gainprm")[:, :, 0] / defaults["actuator_gainprm"][:, 0]
     assert 0.9 <= kp.min() < kp.max() <= 1.1
     assert set(np.unique(simulation.params["action_delay"])) == {0, 1}
 
@@ -77,7 +77,7 @@ def test_bad_events_fail_when_the_task_is_built(text: str, message: str) -> None
 
 def test_mass_changes_recompute_the_derived_inverse_weights() -> None:
     env = env_with(event("m", "randomize_body_mass", bodies='["cube"]', range="[0.5, 2.0]"))
-    batch, cube = env.simulation.batch, env.simulation.model.body("cube").id
+    batch, cube = env.simulation.physics.batch, env.simulation.model.body("cube").id
     mass = batch.expanded("body_mass")[:, cube]
     # the free cube: mj_setConst's translational inverse weight is 1 / mass
     np.testing.assert_allclose(batch.expanded("body_invweight0")[:, cube, 0], 1.0 / mass, rtol=1e-9)

@@ -98,7 +98,7 @@ def test_mjx_recomputes_the_inverse_weights_mj_setconst_derives() -> None:
     env = make_mjx_env(TASK, ENVS, model_path=MODEL, task_config=_config())
     drawn = env.randomization.with_derived({name: jnp.asarray(value) for name, value in params.items()})
     for name in ("body_invweight0", "dof_invweight0"):
-        expected = simulation.batch.expanded(name)  # mj_setConst of each simulation, per simulation
+        expected = simulation.physics.batch.expanded(name)  # mj_setConst of each simulation, per simulation
         np.testing.assert_allclose(np.asarray(drawn[name]), expected, rtol=2e-4, atol=1e-6)
         assert not np.allclose(expected, getattr(env.model, name)[None], rtol=1e-2)  # they did change
 

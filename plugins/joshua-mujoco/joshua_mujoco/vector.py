@@ -21,7 +21,6 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 from gymnasium.vector import AutoresetMode, VectorEnv  # noqa: E402
 from gymnasium.vector.utils import batch_space  # noqa: E402
-from mujoco.batch import Batch, SimulationError  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
 from joshua_core.config_pb2 import TaskConfig, TrainingConfig  # noqa: E402
@@ -32,7 +31,6 @@ from joshua_core.resources import resolve_data_path  # noqa: E402
 from joshua_core.tasks import (  # noqa: E402
     DERIVED_FIELDS,
     INERTIAL_FIELDS,
-    KINEMATIC_FIELDS,
     MODEL_FIELDS,
     EpisodeSums,
     NumpyRandom,
@@ -48,13 +46,10 @@ from joshua_core.tasks import (  # noqa: E402
     tiled,
 )
 from joshua_mujoco.models import compiled, read_spec  # noqa: E402
+from joshua_mujoco.physics import BatchPhysics, MuJoCoBatchPhysics  # noqa: E402
 from joshua_mujoco.task_options import task_config_from_options  # noqa: E402
 from joshua_render import camera_id, create_renderer, render_with_commands  # noqa: E402
 
-# Fields that describe the state after the step: mjSTAGE_VEL recomputes kinematics and sensors at its end (as
-# mj_step1 would, so the next step reuses them). cfrc_ext is not among them: like Gymnasium, it is the contact
-# wrench of the step's last substep.
-_CURRENT_FIELDS = KINEMATIC_FIELDS | {"sensordata"}
 # A sensor that makes MuJoCo compute cfrc_ext (mj_rnePostConstraint) inside every step.
 _CONTACT_FORCE_SENSOR = "joshua_contact_forces"
 
@@ -89,23 +84,29 @@ def load_task_model(
 class BatchedSimulation:
     """N simulations of one task: reset some, step all, evaluate the task's terms on the batch.
 
-    Holds the per-environment state the terms read besides MuJoCo's (actions, previous qpos,
-    episode step, commands) in numpy arrays with the environments on the leading axis.
+    Holds the per-environment state the terms read besides the physics' (actions, previous qpos,
+    episode step, commands) in numpy arrays with the environments on the leading axis. The physics is
+    `mujoco.batch` unless another `BatchPhysics` of the same model is given.
     """
 
     def __init__(
-        self, task: Task, model: mujoco.MjModel, num_envs: int, *, seed: int = 0, nthread: int | None = None
+        self,
+        task: Task,
+        model: mujoco.MjModel,
+        num_envs: int,
+        *,
+        seed: int = 0,
+        nthread: int | None = None,
+        physics: BatchPhysics | None = None,
     ) -> None:
         self.task = task
         self.model = model
         self.num_envs = num_envs
-        self.batch = Batch(model, nsim=num_envs, nthread=nthread or 0)
-        self.qpos = self.batch.bind("qpos")
-        self.qvel = self.batch.bind("qvel")
-        self.ctrl = self.batch.bind("ctrl")
-        self.derived = {name: self.batch.bind(name) for name in DERIVED_FIELDS if name in task.fields}
-        # Recompute positions and velocities after each step only when terms read derived fields.
-        self.stage = mujoco.mjtStage.mjSTAGE_VEL if _CURRENT_FIELDS & task.fields else mujoco.mjtStage.mjSTAGE_NONE
+        self.physics = physics or MuJoCoBatchPhysics(model, num_envs, task.fields, nthread)
+        self.qpos = self.physics.field("qpos")
+        self.qvel = self.physics.field("qvel")
+        self.ctrl = self.physics.field("ctrl")
+        self.derived = {name: self.physics.field(name) for name in DERIVED_FIELDS if name in task.fields}
         self.prev_qpos = np.zeros_like(self.qpos)
         self.action = np.zeros((num_envs, task.action_size))
         self.prev_action = np.zeros_like(self.action)
@@ -115,8 +116,8 @@ class BatchedSimulation:
         self.params = {
             name: np.array(value) for name, value in tiled(np, task.defaults, num_envs, task.param_fields).items()
         }
-        self.model_fields = {name: self.batch.expand(name) for name in task.param_fields if name in MODEL_FIELDS}
-        self.xfrc_applied = self.batch.bind("xfrc_applied") if "xfrc_applied" in self.params else None
+        self.model_fields = {name: self.physics.model_field(name) for name in task.param_fields if name in MODEL_FIELDS}
+        self.xfrc_applied = self.physics.field("xfrc_applied") if "xfrc_applied" in self.params else None
         self.history = np.zeros((num_envs, task.max_action_delay + 1, task.action_size))
         self.seed(seed)
 
@@ -158,7 +159,7 @@ class BatchedSimulation:
     def reset(self, ids: NDArray[np.intp]) -> NDArray[np.float64]:
         """Reset the environments `ids` (initial state, then the task's reset terms); return their observations."""
         task = self.task
-        self.batch.reset(ids, keyframe=task.keyframe_id, stage=mujoco.mjtStage.mjSTAGE_NONE)
+        self.physics.reset(ids, task.keyframe_id)
         state = task.reset(task.reset_context(np, len(ids), self.random))
         self.qpos[ids] = state.qpos
         self.qvel[ids] = state.qvel
@@ -170,7 +171,7 @@ class BatchedSimulation:
         self.ctrl[ids] = task.reset_ctrl(np, len(ids), drawn)
         self.write_model(ids)
         self.history[ids] = 0.0
-        self.batch.forward(ids)
+        self.physics.forward(ids)
         self.prev_qpos[ids] = self.qpos[ids]
         self.action[ids] = 0.0
         self.prev_action[ids] = 0.0
@@ -202,11 +203,7 @@ class BatchedSimulation:
         self.ctrl[:] = self.task.action_to_ctrl(np, applied, self.params, self.ctrl)
         if self.xfrc_applied is not None:
             self.xfrc_applied[:] = self.params["xfrc_applied"]
-        failed = np.zeros(self.num_envs, dtype=bool)
-        try:
-            self.batch.step(nstep=self.task.frame_skip, stage=self.stage)
-        except SimulationError as error:
-            failed[error.ids] = True
+        failed = self.physics.step(self.task.frame_skip)
         self.episode_step += 1
         self._step_events()
         return failed | nonfinite(np, self.qpos, self.qvel)
@@ -217,7 +214,7 @@ class BatchedSimulation:
         for name, field in self.model_fields.items():
             field[ids] = self.params[name][ids]
         if INERTIAL_FIELDS & self.model_fields.keys() and len(ids):
-            self.batch.set_const(ids)
+            self.physics.set_const(ids)
 
     def _step_events(self) -> None:
         """End the pushes of the step and run the interval events that are due (see step_params)."""
@@ -236,20 +233,19 @@ class BatchedSimulation:
         if not 0 <= env_index < self.num_envs:
             raise IndexError(f"env_index {env_index} out of range for {self.num_envs} environments")
         renderers = self.__dict__.setdefault("_renderers", {})
+        model, data = self.physics.model_and_data(env_index)
         if (width, height) not in renderers:
-            model = self.batch.get_model(env_index)
-            renderers[(width, height)] = (create_renderer(model, width, height), model)
-        renderer, model = renderers[(width, height)]
-        data = self.batch.get_data(env_index)
-        mujoco.mj_forward(model, data)
+            renderers[(width, height)] = create_renderer(model, width, height)
+        renderer = renderers[(width, height)]
         if camera is None:
             camera = camera_id(model, None)
         commands = {name: value[env_index] for name, value in self.commands.items()}
         return render_with_commands(renderer, model, data, camera, commands)
 
     def close(self) -> None:
-        for renderer, _ in self.__dict__.pop("_renderers", {}).values():
+        for renderer in self.__dict__.pop("_renderers", {}).values():
             renderer.close()
+        self.physics.close()
 
 
 class BatchedVectorEnv(VectorEnv):
@@ -286,7 +282,7 @@ class BatchedVectorEnv(VectorEnv):
     @property
     def nthread(self) -> int:
         """Threads stepping the simulations."""
-        return int(self.simulation.batch.nthread)
+        return int(self.simulation.physics.nthread)
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None

@@ -120,7 +120,7 @@ def test_ant_matches_gymnasium_ant_v5_on_the_same_model(plugins: PluginHost) -> 
     env = make_vector_env("ant_locomotion", 1, seed=0, plugins=plugins)
     simulation = env.simulation
     simulation.qpos[0], simulation.qvel[0] = reference.data.qpos, reference.data.qvel
-    simulation.batch.forward()
+    simulation.physics.batch.forward()
     simulation.prev_qpos[:] = simulation.qpos
     rng = np.random.default_rng(0)
     forward = np.zeros(2)

@@ -1,15 +1,19 @@
-"""The `usd` backend: MuJoCo physics for robots described in USD (Isaac's format), or in any format a
-plugin reads (`joshua_mujoco.read_spec`), MJCF included.
+"""The `usd` backend: robots described in USD (Isaac's format), or in any format a plugin reads
+(`joshua_mujoco.read_spec`), MJCF included, on MuJoCo physics (the default) or PhysX.
 
-It adds no physics of its own: engines are joshua-mujoco's `MuJoCoEngine`, NUMPY environments its
-`mujoco.batch` ones, JAX environments joshua-mjx's (an optional dependency, imported only then).
+Engines are joshua-mujoco's `MuJoCoEngine`; JAX environments joshua-mjx's (an optional dependency,
+imported only then). NUMPY environments are joshua-mujoco's `mujoco.batch` ones, or with
+`training.usd { physics: PHYSX }` the same environments on PhysX (`joshua_usd.physx`): the model is
+written to USD by our exporter first when it is not a stage already.
 """
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, EnvKind, EnvSpec
 from joshua_mujoco import MuJoCoBackend, MuJoCoEngine
@@ -21,10 +25,11 @@ MJX_MISSING = (
     "backend usd: JAX environments need joshua-mjx, which is not installed; "
     "install joshua-mjx (pip install 'joshua-usd[mjx]')"
 )
+PHYSX_JAX = "backend usd: physics PHYSX gives NUMPY environments only; use a NUMPY framework (sb3) or physics MUJOCO"
 
 
 class UsdBackend(Backend):
-    """The `usd` backend: a MuJoCoEngine per model; NUMPY (mujoco.batch) and JAX (MJX) environments."""
+    """The `usd` backend: a MuJoCoEngine per model; NUMPY (mujoco.batch or PhysX) and JAX (MJX) environments."""
 
     def create_engine(
         self,
@@ -37,9 +42,42 @@ class UsdBackend(Backend):
         return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height, plugins=plugins)
 
     def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> Any:
+        physx = uses_physx(spec.training)
+        if physx and kind is not EnvKind.NUMPY:
+            raise ConfigError(PHYSX_JAX)
+        if physx:
+            return physx_envs(spec, plugins)
         if kind is EnvKind.NUMPY:
             return MuJoCoBackend().create_envs(spec, kind, plugins)
         return mjx_backend().create_envs(spec, kind, plugins)
+
+
+def uses_physx(training: TrainingConfig | None) -> bool:
+    """Whether `training.usd.physics` is PHYSX (MuJoCo where the config names none)."""
+    from joshua_usd.options_pb2 import UsdOptions, usd
+
+    return training is not None and training.Extensions[usd].physics == UsdOptions.PHYSX
+
+
+def physx_envs(spec: EnvSpec, plugins: PluginHost) -> Any:
+    """joshua-mujoco's BatchedVectorEnv of the task on PhysX (joshua_usd.physx), reset with the spec's seed."""
+    from joshua_core.resources import resolve_data_path
+    from joshua_core.tasks import load_task_spec
+    from joshua_mujoco.vector import BatchedSimulation, BatchedVectorEnv, load_task_model
+    from joshua_usd.exporter import export_model
+    from joshua_usd.physx import PhysxBatchPhysics
+    from joshua_usd.plugin import USD_SUFFIXES
+
+    task, model = load_task_model(spec.task, spec.model_path, plugins, spec.task_config)
+    path = spec.model_path or resolve_data_path(load_task_spec(spec.task, plugins).model_path)
+    with tempfile.TemporaryDirectory(prefix="joshua-physx-") as folder:
+        if path.suffix.lower() not in USD_SUFFIXES:
+            path = export_model(path, Path(folder) / f"{path.stem}.usda")
+        physics = PhysxBatchPhysics(model, path, spec.num_envs, task.fields)
+    simulation = BatchedSimulation(task, model, spec.num_envs, seed=spec.seed, physics=physics)
+    env = BatchedVectorEnv(simulation, desync_episodes=spec.desync_episodes)
+    env.reset(seed=spec.seed)
+    return env
 
 
 def mjx_backend() -> Backend:

@@ -31,9 +31,14 @@ def joshua_register_backends(registry: Registrar) -> None:
     registry.add(
         "usd",
         "joshua_usd.backend:UsdBackend",
-        "MuJoCo physics for USD (Isaac) robots and any other model: mujoco.batch on the CPU, MJX in JAX",
+        "USD (Isaac) robots and any other model on MuJoCo (mujoco.batch, MJX in JAX) or PhysX (training.usd)",
         env_kinds=("numpy", "jax"),
     )
+
+
+@hookimpl
+def joshua_register_options(registry: Registrar) -> None:
+    registry.add("usd", "joshua_usd.options_pb2:usd", "usd backend's environments: physics (MUJOCO or PHYSX)")
 
 
 @hookimpl

@@ -1,0 +1,135 @@
+"""The `usd` backend on PhysX (ovphysx, CPU here): the Isaac Ant stage and an exported MJCF robot step as
+cloned, independent NUMPY environments under the same task terms as on MuJoCo; configs choose it with
+`training.usd { physics: PHYSX }`; a term reading what PhysX does not give fails in one line."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from joshua_core.config import apply_override, load_preset
+from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.errors import ConfigError
+from joshua_core.interfaces import EnvKind, EnvSpec
+from joshua_core.plugins import PluginHost
+from joshua_core.resources import resolve_data_path
+from joshua_mujoco.vector import load_task_model, task_config_from_options
+from joshua_usd.backend import uses_physx
+from joshua_usd.options_pb2 import UsdOptions, usd
+
+pytest.importorskip("ovphysx")
+
+NO_RESET_NOISE = {"reset_joints_uniform": {"weight": 0}, "reset_qvel_normal": {"weight": 0}}
+NUM_ENVS, STEPS = 3, 10
+# float32 PhysX link poses against float64 MuJoCo forward kinematics of the same joint positions
+KINEMATICS_TOLERANCE = 1e-4
+
+
+def physx_training(**fields: object) -> TrainingConfig:
+    training = TrainingConfig(**fields)
+    training.Extensions[usd].physics = UsdOptions.PHYSX
+    return training
+
+
+def ant_spec(num_envs: int = NUM_ENVS, terms: dict | None = None) -> EnvSpec:
+    config = task_config_from_options({"terms": terms or NO_RESET_NOISE})
+    return EnvSpec(
+        "isaac_ant_locomotion",
+        num_envs,
+        model_path=resolve_data_path("isaac/ant.usd"),
+        task_config=config,
+        training=physx_training(),
+    )
+
+
+@pytest.fixture(scope="module")
+def plugins() -> PluginHost:
+    return PluginHost.discover()
+
+
+@pytest.fixture(scope="module")
+def ant(plugins: PluginHost):  # type: ignore[no-untyped-def]
+    env = plugins.backend("usd").create_envs(ant_spec(), EnvKind.NUMPY, plugins)
+    yield env
+    env.close()
+
+
+def test_ant_steps_on_physx_and_its_joints_follow_the_actions(ant) -> None:  # type: ignore[no-untyped-def]
+    from joshua_usd.physx import PhysxBatchPhysics
+
+    assert isinstance(ant.simulation.physics, PhysxBatchPhysics)
+    observation, _ = ant.reset(seed=0)
+    assert observation.shape == (NUM_ENVS, 60)
+    start = ant.qpos[:, 7:].copy()
+    actions = np.zeros((NUM_ENVS, 8))
+    actions[0] = 1.0  # env 0 pushes every joint one way, env 1 the other, env 2 rests
+    actions[1] = -1.0
+    for _ in range(STEPS):
+        observation, reward, terminated, truncated, _ = ant.step(actions)
+        assert np.isfinite(observation).all() and np.isfinite(reward).all()
+    moved = ant.qpos[:, 7:] - start
+    # hips (columns 0, 2, 4, 6 of the joints) driven at full torque move towards their limits (0.52 rad)
+    assert (moved[0, ::2] > 0.1).all() and (moved[1, ::2] < -0.1).all(), moved
+    # the clones are independent: a resting Ant's hips barely move while its neighbours' swing
+    assert np.abs(moved[2, ::2]).max() < 0.05, moved
+
+
+def test_physx_link_poses_are_mujocos_forward_kinematics(ant) -> None:  # type: ignore[no-untyped-def]
+    physics = ant.simulation.physics
+    model = physics.model
+    q = model.qpos0.copy()
+    q[2] = 1.5
+    q[7:] = [0.3, 0.8, -0.2, -0.9, 0.1, -0.7, 0.4, 0.6]  # inside every joint's limits
+    physics.field("qpos")[:] = q
+    physics.field("qvel")[:] = 0.0
+    physics.forward(np.arange(NUM_ENVS))
+    data = mujoco.MjData(model)
+    data.qpos[:] = q
+    mujoco.mj_forward(model, data)
+    for env in range(NUM_ENVS):
+        np.testing.assert_allclose(physics.field("qpos")[env], q, atol=KINEMATICS_TOLERANCE)
+        np.testing.assert_allclose(physics.field("xpos")[env, 1:], data.xpos[1:], atol=KINEMATICS_TOLERANCE)
+    ant.reset(seed=0)
+
+
+def test_a_term_reading_what_physx_lacks_fails_in_one_line(plugins: PluginHost) -> None:
+    from joshua_usd.physx import PhysxBatchPhysics
+
+    task, model = load_task_model("isaac_ant_locomotion", None, plugins, None)
+    with pytest.raises(ConfigError, match=r"^backend usd, physics PHYSX: the task's terms read sensordata, ") as error:
+        PhysxBatchPhysics(model, resolve_data_path("isaac/ant.usd"), 1, task.fields | {"sensordata"})
+    assert "\n" not in str(error.value)
+
+
+def test_physx_gives_numpy_environments_only(plugins: PluginHost) -> None:
+    with pytest.raises(ConfigError, match="physics PHYSX gives NUMPY environments only"):
+        plugins.backend("usd").create_envs(ant_spec(), EnvKind.JAX, plugins)
+
+
+@pytest.mark.parametrize("preset", ["isaac_ant_locomotion", "isaac_trileg"])
+def test_the_isaac_presets_choose_physx(preset: str, plugins: PluginHost) -> None:
+    options = plugins.options()
+    config = load_preset(preset, options).message
+    assert not uses_physx(config.training)  # MuJoCo stays the default
+    apply_override(config, "training.usd.physics=PHYSX", options)
+    assert uses_physx(config.training)
+
+
+def test_an_mjcf_robot_reaches_physx_through_the_exporter(plugins: PluginHost) -> None:
+    spec = EnvSpec(
+        "ant_locomotion",
+        2,
+        task_config=task_config_from_options({"terms": {}}),
+        training=physx_training(),
+    )
+    env = plugins.backend("usd").create_envs(spec, EnvKind.NUMPY, plugins)
+    try:
+        env.reset(seed=0)
+        start = env.qpos.copy()
+        for _ in range(5):
+            observation, reward, *_ = env.step(np.ones((2, env.task.action_size)))
+        assert np.isfinite(observation).all() and np.isfinite(reward).all()
+        assert np.abs(env.qpos[:, 7:] - start[:, 7:]).max() > 0.05
+    finally:
+        env.close()
