@@ -27,7 +27,7 @@ from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
 from joshua_core.trajectory import Trajectory
 from joshua_core.trajectory_sources import load_trajectory
-from joshua_lerobot.joints import DEFAULT_UNITS, BodyUnits, LeRobotUnits, joint_offsets, read_calibration
+from joshua_lerobot.joints import DEFAULT_UNITS, LeRobotUnits, add_units_arguments, joint_offsets, units_from_arguments
 from joshua_lerobot.writer import DatasetEpisode, write_dataset
 
 DEFAULT_MODEL = "so_arm100/scene.xml"
@@ -76,19 +76,7 @@ class LeRobotExportCommand(Command):
             help=f"the episodes' task text: once for all, or once per trajectory in order (default '{DEFAULT_TASK}')",
         )
         parser.add_argument("--episode", type=int, default=0, help="the episode of a dataset to replay (default 0)")
-        parser.add_argument(
-            "--units",
-            choices=[str(units) for units in BodyUnits],
-            default=str(BodyUnits.DEGREES),
-            help="the SO-100 body joints' unit: degrees (lerobot's use_degrees=True, the default) or range "
-            "(use_degrees=False: -100..100 over the calibrated range; needs --calibration)",
-        )
-        parser.add_argument(
-            "--calibration",
-            type=Path,
-            metavar="JSON",
-            help="the arm's LeRobot calibration file (lerobot-calibrate): each motor's calibrated range",
-        )
+        add_units_arguments(parser, what="the written")
         add_config_arguments(parser, verb="take the mirror mapping's offsets (simulation.mirror_topic_mappings) from")
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
@@ -100,8 +88,7 @@ class LeRobotExportCommand(Command):
                 f"--task is given {len(tasks)} times for {len(args.trajectory)} trajectories: give it once, or once "
                 "per trajectory"
             )
-        calibration = None if args.calibration is None else read_calibration(args.calibration)
-        units = LeRobotUnits(BodyUnits(args.units), calibration)
+        units = units_from_arguments(args)
         mappings = []
         if args.preset or args.config:
             mappings = list(finalize(load(args, plugins.options())).simulation.mirror_topic_mappings.mappings)

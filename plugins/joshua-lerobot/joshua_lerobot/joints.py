@@ -22,6 +22,7 @@ sim joint position = robot value + offset.
 
 from __future__ import annotations
 
+import argparse
 import enum
 import json
 import math
@@ -192,6 +193,31 @@ class LeRobotUnits:
 
 
 DEFAULT_UNITS = LeRobotUnits()  # lerobot's default: use_degrees=True, no calibration, no offsets
+
+
+def add_units_arguments(parser: argparse.ArgumentParser, *, what: str) -> None:
+    """`--units degrees|range` and `--calibration JSON`, the one definition of LeRobot's unit options; `what`
+    says whose values they describe (e.g. "the dataset's")."""
+    parser.add_argument(
+        "--units",
+        choices=[str(units) for units in BodyUnits],
+        default=str(BodyUnits.DEGREES),
+        help=f"the unit of {what} SO-100 body joints: degrees (lerobot's use_degrees=True, the default) or range "
+        "(use_degrees=False: -100..100 over the calibrated range; needs --calibration)",
+    )
+    parser.add_argument(
+        "--calibration",
+        type=Path,
+        metavar="JSON",
+        help="the arm's LeRobot calibration file (lerobot-calibrate): each motor's calibrated range",
+    )
+
+
+def units_from_arguments(args: argparse.Namespace) -> LeRobotUnits:
+    """The `LeRobotUnits` of `add_units_arguments`' options; a range mode without calibration, or a calibration
+    file that does not read, is a UsageError."""
+    calibration = None if args.calibration is None else read_calibration(args.calibration)
+    return LeRobotUnits(BodyUnits(args.units), calibration)
 
 
 def units_metadata(units: LeRobotUnits) -> dict[str, Any]:

@@ -1,4 +1,5 @@
-"""Entry point of joshua-lerobot: registers the "lerobot" trajectory reader and `joshua lerobot-export`."""
+"""Entry point of joshua-lerobot: registers the "lerobot" trajectory reader, `joshua lerobot-export` and
+`joshua lerobot-units`."""
 
 from __future__ import annotations
 
@@ -21,4 +22,9 @@ def joshua_register_commands(registry: Registrar) -> None:
         "lerobot-export",
         "joshua_lerobot.export:LeRobotExportCommand",
         "replay a trajectory (CSV or dataset) on a model, render it and write a LeRobot dataset with camera videos",
+    )
+    registry.add(
+        "lerobot-units",
+        "joshua_lerobot.units_command:LeRobotUnitsCommand",
+        "record which units (degrees or range, with the calibration) a LeRobot dataset's SO-100 values are in",
     )

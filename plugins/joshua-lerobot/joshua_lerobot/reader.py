@@ -9,7 +9,9 @@ dataset) must not pass for a replay of it.
 from __future__ import annotations
 
 import json
+import os
 import string
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -19,7 +21,17 @@ from numpy.typing import NDArray
 
 from joshua_core.interfaces import TrajectoryReader
 from joshua_core.trajectory import Trajectory, TrajectoryError
-from joshua_lerobot.joints import DEFAULT_UNITS, LeRobotUnits, model_joint, plausible_bound, units_from_metadata
+from joshua_lerobot.joints import (
+    DEFAULT_UNITS,
+    GRIPPER,
+    RANGE_SCALE,
+    SO100_JOINTS,
+    LeRobotUnits,
+    model_joint,
+    plausible_bound,
+    units_from_metadata,
+    units_metadata,
+)
 
 INFO = "meta/info.json"
 EPISODES = "meta/episodes"
@@ -27,6 +39,7 @@ SUPPORTED_VERSION = "v3.0"
 STATE, ACTION = "observation.state", "action"
 EPISODE_COLUMNS = ("episode_index", "data/chunk_index", "data/file_index", "length")
 DATA_PATH_FIELDS = {"chunk_index", "file_index"}
+RANGE_TOLERANCE = 1e-6  # rad: a value this close to its joint's limit is within it (float32 in the dataset)
 
 
 class LeRobotReader(TrajectoryReader):
@@ -41,7 +54,7 @@ class LeRobotReader(TrajectoryReader):
         action_names = _names(path, info, ACTION) if ACTION in info["features"] else None
         if action_names is not None and action_names != names:
             raise TrajectoryError(f"{path / INFO}: '{ACTION}' names other joints than '{STATE}'; cannot pair them")
-        units = _units(path, info)
+        units, recorded = _units(path, info)
         row = _episode_row(path, episode)
         file, data = _episode_data(path, info, row, episode, names)
         order = np.argsort(data["frame_index"], kind="stable")
@@ -65,11 +78,14 @@ class LeRobotReader(TrajectoryReader):
                 axis=1,
             )
 
+        positions = convert(data[STATE])
+        if not recorded:
+            _hint_range_units(path, names, data[STATE], positions, [joints[joint] for joint in joint_names])
         return Trajectory(
             path=path,
             joint_names=tuple(joint_names),
             timestamps=data["timestamp"][order],
-            positions=convert(data[STATE]),
+            positions=positions,
             lines=data["frame_index"][order],  # frame numbers stand in for lines
             targets=convert(data[ACTION]) if ACTION in data else None,
         )
@@ -100,13 +116,54 @@ def _info(path: Path) -> dict[str, Any]:
     return info
 
 
-def _units(path: Path, info: dict[str, Any]) -> LeRobotUnits:
-    """The units the state feature (checked by `_names`) records: joshua's writer notes them (`units_metadata`);
-    lerobot records none, and its default is degrees (`use_degrees=True`)."""
+def _units(path: Path, info: dict[str, Any]) -> tuple[LeRobotUnits, bool]:
+    """The units the state feature (checked by `_names`) records, and whether it records them: joshua's writer
+    and `joshua lerobot-units` note them (`units_metadata`). lerobot records none (its info.json does not say
+    which `use_degrees` the follower had), so without a record the values are read in lerobot's default,
+    degrees (`use_degrees=True`)."""
     recorded = info["features"][STATE].get("units")
     if recorded is None:
-        return DEFAULT_UNITS
-    return units_from_metadata(recorded, f"{path / INFO}: features.{STATE}.units")
+        return DEFAULT_UNITS, False
+    return units_from_metadata(recorded, f"{path / INFO}: features.{STATE}.units"), True
+
+
+def _hint_range_units(
+    path: Path,
+    names: list[str],
+    values: NDArray[np.float64],
+    positions: NDArray[np.float64],
+    ranges: list[tuple[float, float]],
+) -> None:
+    """One line on stderr when the SO-100 body values of a dataset without a units record look like lerobot's
+    range units (use_degrees=False): all within -100..100, yet some outside their joint's range as degrees."""
+    body = [i for i, name in enumerate(names) if name in SO100_JOINTS and name != GRIPPER]
+    if not body or not (np.abs(values[:, body]) <= RANGE_SCALE).all():
+        return
+    low, high = (np.array([ranges[i][end] for i in body]) for end in (0, 1))
+    beyond = (positions[:, body] < low - RANGE_TOLERANCE) | (positions[:, body] > high + RANGE_TOLERANCE)
+    outside = [names[i] for i, out in zip(body, beyond.any(axis=0), strict=True) if out]
+    if outside:
+        print(
+            f"joshua: hint: {path}: {', '.join(outside)} leave their joint range read as degrees, but every body "
+            "value lies within -100..100: if the arm recorded with use_degrees=False, say so once with "
+            f"joshua lerobot-units {path} --units range --calibration JSON",
+            file=sys.stderr,
+        )
+
+
+def record_units(path: Path, units: LeRobotUnits) -> Path:
+    """Note `units` in the dataset's meta/info.json (the state and action features' `units`, as joshua's writer
+    does), so that every reader of the dataset converts with them; lerobot ignores the key. Returns the file."""
+    info = _info(path)
+    file = path / INFO
+    for key in (STATE, ACTION):
+        if key in info["features"]:
+            _names(path, info, key)
+            info["features"][key]["units"] = units_metadata(units)
+    temporary = file.with_name(file.name + ".tmp")
+    temporary.write_text(json.dumps(info, indent=4) + "\n", encoding="utf-8")
+    os.replace(temporary, file)
+    return file
 
 
 def _names(path: Path, info: dict[str, Any], key: str) -> list[str]:

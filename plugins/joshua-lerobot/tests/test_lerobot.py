@@ -519,3 +519,61 @@ def test_export_in_range_units_needs_the_calibration(tmp_path: Path) -> None:
         {j: OFFSETS.get(j, 0.0) for j in JOINTS}
     )  # float32 in the config
     assert recorded["calibration"]["elbow_flex"] == {"range_min": 880, "range_max": 3100, "drive_mode": 1}
+
+
+def joshua_units(root: Path, *options: str) -> subprocess.CompletedProcess[str]:
+    """`joshua lerobot-units ROOT OPTIONS...`."""
+    command = [str(Path(sys.executable).parent / "joshua"), "lerobot-units", str(root), *options]
+    return subprocess.run(command, capture_output=True, text=True, timeout=300)
+
+
+def test_a_dataset_lerobot_recorded_in_range_units_reads_once_its_units_are_recorded(
+    tmp_path: Path, ranges: dict[str, tuple[float, float]], capsys: pytest.CaptureFixture[str]
+) -> None:
+    from joshua_lerobot.joints import BodyUnits, LeRobotUnits, read_calibration
+
+    root = tmp_path / "recorded"
+    written = lerobot("write", root, tmp_path)  # as a use_degrees=False follower: body -100..100, gripper 0..100
+    refused = joshua_units(root, "--units", "range")
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and "calibration" in refused.stderr
+    done = joshua_units(root, "--units", "range", "--calibration", str(calibration_file(tmp_path)))
+    assert done.returncode == 0, done.stderr
+    units = LeRobotUnits(BodyUnits.RANGE, read_calibration(calibration_file(tmp_path)))
+    for episode, expected in enumerate(written["episodes"]):
+        trajectory = load_trajectory(root, ranges, episode=episode, plugins=PLUGINS)
+        source = np.array(expected["state"])
+        converted = np.column_stack([units.to_model(n, source[:, i], ranges[JOINTS[i]]) for i, n in enumerate(NAMES)])
+        assert np.allclose(trajectory.positions, converted, rtol=0, atol=1e-6)  # rad
+        assert not np.allclose(trajectory.positions[:, :5], np.radians(source[:, :5]), atol=1e-3)  # not degrees
+    assert "hint" not in capsys.readouterr().err
+    loaded = lerobot("load", root, tmp_path)  # lerobot still loads it, values untouched
+    assert np.allclose(loaded["state"], [row for e in written["episodes"] for row in e["state"]], atol=1e-6)
+
+
+def test_range_values_read_as_degrees_give_a_one_line_hint(
+    tmp_path: Path, ranges: dict[str, tuple[float, float]], capsys: pytest.CaptureFixture[str]
+) -> None:
+    from joshua_lerobot.joints import BodyUnits, LeRobotUnits, read_calibration
+
+    narrow = dict(CALIBRATION, wrist_flex=dict(CALIBRATION["wrist_flex"], range_min=1200, range_max=2900))
+    calibration = tmp_path / "narrow.json"
+    calibration.write_text(json.dumps(narrow))
+    units = LeRobotUnits(BodyUnits.RANGE, read_calibration(calibration))
+    trajectory = motion(ranges)
+    positions = trajectory.positions.copy()
+    positions[:, 3] = 1.28 * np.sin(np.linspace(0, np.pi, len(positions)))  # wrist_flex up to 98.5 of 100
+    episode = DatasetEpisode(JOINTS, trajectory.timestamps, positions, positions, "wave")
+    root = write_dataset(tmp_path / "dataset", [episode], fps=FPS, joint_ranges=ranges, units=units)
+    info = json.loads((root / INFO).read_text())
+    for feature in info["features"].values():
+        feature.pop("units", None)  # as lerobot writes it: no record of use_degrees
+    (root / INFO).write_text(json.dumps(info))
+    capsys.readouterr()
+    load_trajectory(root, ranges, plugins=PLUGINS)
+    hint = capsys.readouterr().err
+    assert hint.count("\n") == 1 and "wrist_flex.pos leave their joint range read as degrees" in hint, hint
+    assert f"joshua lerobot-units {root} --units range" in hint
+    assert joshua_units(root, "--units", "range", "--calibration", str(calibration)).returncode == 0
+    read = load_trajectory(root, ranges, plugins=PLUGINS)
+    assert np.allclose(read.positions, positions, rtol=0, atol=1e-5)  # rad: float32 in LeRobot units
+    assert "hint" not in capsys.readouterr().err

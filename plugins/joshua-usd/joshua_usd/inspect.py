@@ -109,6 +109,10 @@ def _passive(model: mujoco.MjModel, joint: int) -> str:
 def _actuators(model: mujoco.MjModel) -> list[str]:
     lines = [f"drives ({model.nu}):"]
     for index in range(model.nu):
+        if model.actuator_trntype[index] == mujoco.mjtTrn.mjTRN_BODY:
+            body = model.body(model.actuator_trnid[index, 0]).name
+            lines.append(f"  {_name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, index)}: adhesion on body {body}")
+            continue
         joint = int(model.actuator_trnid[index, 0])
         slide = model.jnt_type[joint] == 2
         force, position = ("N", "m") if slide else ("N m", "rad")

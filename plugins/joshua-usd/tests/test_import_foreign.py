@@ -19,6 +19,7 @@ from joshua_usd.importer import import_usd
 from joshua_usd.inspect import describe
 
 CUBE_POINTS = [(x, y, z) for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (-0.05, 0.05)]
+KP, KV, MAX_TORQUE = 0.05, 0.003, 0.02  # the converter stage's shoulder servo (N m/rad, N m s/rad, N m)
 CUBE_FACES = [0, 1, 3, 2, 4, 6, 7, 5, 0, 4, 5, 1, 2, 3, 7, 6, 0, 2, 6, 4, 1, 5, 7, 3]
 
 
@@ -40,9 +41,22 @@ def cube_mesh(stage: Usd.Stage, path: str) -> UsdGeom.Mesh:
     return mesh
 
 
+def uniform(prim: Usd.Prim, name: str, kind: Sdf.ValueTypeName, value: object) -> None:
+    """A schema attribute of mjcPhysics (not registered with usd-core, so written as the converter's are)."""
+    prim.CreateAttribute(name, kind, custom=False, variability=Sdf.VariabilityUniform).Set(value)
+
+
+def mjc_actuator(stage: Usd.Stage, path: str, target: str) -> Usd.Prim:
+    """An MjcActuator prim (MuJoCo's USD schema) whose transmission is the joint or body at `target`."""
+    prim = stage.DefinePrim(path, "MjcActuator")
+    prim.CreateRelationship("mjc:target", custom=False).SetTargets([target])
+    return prim
+
+
 def converter_asset(folder: Path) -> Path:
     """arm.usda -> Payload/Contents.usda (sublayers Physics, Materials, Geometry); GeometryLibrary.usdc and
-    MaterialsLibrary.usdc hold the mesh and the material. /arm is moved 1 m along x and turned 90 deg about z."""
+    MaterialsLibrary.usdc hold the mesh and the material. /arm is moved 1 m along x and turned 90 deg about z.
+    The shoulder is driven by an MjcActuator in /arm/Physics: a position servo (kp, kv, clamped ctrl and force)."""
     payload = folder / "Payload"
     payload.mkdir(parents=True)
     library = layer_stage(payload / "GeometryLibrary.usdc", "/Geometry")
@@ -100,7 +114,24 @@ def converter_asset(folder: Path) -> Path:
     mesh_collider = physics.OverridePrim("/arm/Geometry/base/base_geom")
     UsdPhysics.CollisionAPI.Apply(mesh_collider)
     UsdPhysics.MeshCollisionAPI.Apply(mesh_collider).CreateApproximationAttr("convexHull")
-    UsdPhysics.Scene.Define(physics, "/arm/Physics/PhysicsScene")
+    scene = UsdPhysics.Scene.Define(physics, "/arm/Physics/PhysicsScene").GetPrim()
+    scene.AddAppliedSchema("MjcSceneAPI")
+    uniform(scene, "mjc:compiler:angle", Sdf.ValueTypeNames.Token, "degree")
+    shoulder = mjc_actuator(physics, "/arm/Physics/shoulder", "/arm/Geometry/base/link/shoulder")
+    for name, kind, value in (
+        ("mjc:gainType", Sdf.ValueTypeNames.Token, "fixed"),
+        ("mjc:biasType", Sdf.ValueTypeNames.Token, "affine"),
+        ("mjc:gainPrm", Sdf.ValueTypeNames.DoubleArray, [KP, 0, 0, 0, 0, 0, 0, 0, 0, 0]),
+        ("mjc:biasPrm", Sdf.ValueTypeNames.DoubleArray, [0, -KP, -KV, 0, 0, 0, 0, 0, 0, 0]),
+        ("mjc:gear", Sdf.ValueTypeNames.DoubleArray, [1, 0, 0, 0, 0, 0]),
+        ("mjc:ctrlLimited", Sdf.ValueTypeNames.Token, "true"),
+        ("mjc:ctrlRange:min", Sdf.ValueTypeNames.Double, -1.9),
+        ("mjc:ctrlRange:max", Sdf.ValueTypeNames.Double, 1.9),
+        ("mjc:forceLimited", Sdf.ValueTypeNames.Token, "auto"),
+        ("mjc:forceRange:min", Sdf.ValueTypeNames.Double, -MAX_TORQUE),
+        ("mjc:forceRange:max", Sdf.ValueTypeNames.Double, MAX_TORQUE),
+    ):
+        uniform(shoulder, name, kind, value)
     physics.Save()
 
     contents = layer_stage(payload / "Contents.usda", "/arm")
@@ -196,6 +227,46 @@ def test_mujoco_usd_converter_layout_loads(tmp_path: Path) -> None:
     assert model.geom("link_geom").bodyid[0] == model.body("link").id
     np.testing.assert_allclose(model.geom_rbound[model.geom("base_geom").id], math.sqrt(3) * 0.05, rtol=1e-6)
     assert not imported.report.warnings
+    assert model.nu == 1 and model.actuator_trnid[0, 0] == model.joint("shoulder").id
+    actuator = model.actuator("shoulder")
+    np.testing.assert_allclose(actuator.gainprm[:3], [KP, 0, 0])
+    np.testing.assert_allclose(actuator.biasprm[:3], [0, -KP, -KV])
+    np.testing.assert_allclose(actuator.ctrlrange, [-1.9, 1.9])
+    np.testing.assert_allclose(actuator.forcerange, [-MAX_TORQUE, MAX_TORQUE])
+    assert actuator.ctrllimited[0] and actuator.forcelimited[0]  # "auto" with a range: limited (autolimits)
+
+
+def test_mujoco_usd_converter_actuator_drives_its_joint(tmp_path: Path) -> None:
+    """The converter's MjcActuator turns the shoulder to the commanded angle, with the torque clamped."""
+    model = import_usd(converter_asset(tmp_path / "arm")).spec.compile()
+    data = mujoco.MjData(model)
+    data.ctrl[0] = 0.8  # rad
+    torques = []
+    for _ in range(int(2.0 / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+        torques.append(data.actuator_force[0])
+    assert data.joint("shoulder").qpos[0] == pytest.approx(0.8, abs=0.01)
+    assert max(np.abs(torques)) == pytest.approx(MAX_TORQUE, rel=1e-9)  # kp x 0.8 = 0.04 N m, clamped
+
+
+def test_unsupported_mjc_actuators_are_warned_and_left_out(tmp_path: Path) -> None:
+    path = converter_asset(tmp_path / "arm")
+    physics = Usd.Stage.Open(str(path.parent / "Payload" / "Physics.usda"))
+    user = mjc_actuator(physics, "/arm/Physics/user_kind", "/arm/Geometry/base/link/shoulder")
+    uniform(user, "mjc:gainType", Sdf.ValueTypeNames.Token, "user")
+    mjc_actuator(physics, "/arm/Physics/on_site", "/arm/Geometry/base/link/link_geom")
+    crank = mjc_actuator(physics, "/arm/Physics/crank", "/arm/Geometry/base/link/shoulder")
+    crank.CreateRelationship("mjc:sliderSite", custom=False).SetTargets(["/arm/Geometry/base"])
+    physics.Save()
+    imported = import_usd(path)
+    model = imported.spec.compile()
+    assert [model.actuator(i).name for i in range(model.nu)] == ["shoulder"]
+    assert imported.report.warnings == [
+        "/arm/Physics/user_kind: MjcActuator with mjc:gainType user is not supported: not imported",
+        "/arm/Physics/on_site: MjcActuator target </arm/Geometry/base/link/link_geom> is not an imported joint or "
+        "rigid body: not imported",
+        "/arm/Physics/crank: MjcActuator with mjc:sliderSite is not supported: not imported",
+    ]
 
 
 def test_isaac_importer_layout_with_instanceable_colliders_loads(tmp_path: Path) -> None:

@@ -16,6 +16,7 @@ from joshua_usd.importer.drives import add_drive, joint_properties
 from joshua_usd.importer.geoms import add_geom, shapes
 from joshua_usd.importer.joints import add_joint, place
 from joshua_usd.importer.mass import probe, set_inertial
+from joshua_usd.importer.mjc_actuators import add_mjc_actuators, mjc_actuators
 from joshua_usd.importer.pose import IDENTITY, Pose, Vec
 from joshua_usd.importer.report import ImportReport
 from joshua_usd.importer.scene import set_articulations, set_collision_groups, set_scene
@@ -57,7 +58,14 @@ def import_usd(path: Path) -> Imported:
     spec.modelname = path.stem
     spec.compiler.degree = False
     names = unique_names((link.prim.GetPath() for link in links), reserved={"world"})
-    made, targets = _add_links(spec, links, names, frame, report)
+    made, joints, targets = _add_links(spec, links, names, frame, report)
+    found_actuators = list(mjc_actuators(stage))
+    actuator_names = unique_names(
+        (prim.GetPath() for prim in found_actuators), reserved={actuator.name for actuator in spec.actuators}
+    )
+    bodies_made = {path: body.spec for path, body in made.items()}
+    added = add_mjc_actuators(spec, found_actuators, actuator_names, joints, bodies_made, frame, report)
+    targets += [0.0] * added  # mjcPhysics holds no target: their ctrl stays MuJoCo's 0
     found = shapes(stage, body_paths, report)
     geom_names = unique_names(shape.prim.GetPath() for shape in found)
     world = _Body(spec.worldbody, IDENTITY, np.ones(3))
@@ -92,11 +100,12 @@ def import_usd(path: Path) -> Imported:
 
 def _add_links(
     spec: mujoco.MjSpec, links: list[Link], names: dict[Sdf.Path, str], frame: StageFrame, report: ImportReport
-) -> tuple[dict[Sdf.Path, _Body], list[float]]:
-    """Add every link (parents first) as a body with its joint and drive; returns the bodies by prim path and
-    the drive targets in actuator order."""
+) -> tuple[dict[Sdf.Path, _Body], dict[Sdf.Path, mujoco.MjsJoint], list[float]]:
+    """Add every link (parents first) as a body with its joint and drive; returns the bodies and the MuJoCo
+    joints by prim path and the drive targets in actuator order."""
     joint_names = unique_names(link.joint.prim.GetPath() for link in links if link.joint is not None)
     made: dict[Sdf.Path, _Body] = {}
+    joints: dict[Sdf.Path, mujoco.MjsJoint] = {}
     targets: list[float] = []
     for link in links:
         placement = place(link, frame, report)
@@ -112,10 +121,11 @@ def _add_links(
         report.sources["joint", joint_name] = str(link.joint.prim.GetPath())
         joint = add_joint(body, link, placement, joint_name, frame, report)
         if joint is not None:
+            joints[link.joint.prim.GetPath()] = joint
             joint_properties(link.joint.prim, joint, frame, report)
             target = add_drive(spec, link.joint.prim, joint, frame, report)
             targets += [] if target is None else [target]
-    return made, targets
+    return made, joints, targets
 
 
 def unique_names(paths: Iterable[Sdf.Path], reserved: set[str] | None = None) -> dict[Sdf.Path, str]:

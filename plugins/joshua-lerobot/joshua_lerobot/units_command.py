@@ -1,0 +1,31 @@
+"""`joshua lerobot-units DATASET --units degrees|range [--calibration JSON]`: say which units a dataset's SO-100
+values are in. lerobot does not record its follower's `use_degrees`, so a dataset recorded with
+`use_degrees=False` would be read as degrees; this notes the units in the dataset's info.json, the record
+every reader of the dataset (replay, validation, sysid, lerobot-export) converts with."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from joshua_core.errors import UsageError
+from joshua_core.interfaces import Command
+from joshua_core.plugins import PluginHost
+from joshua_lerobot.joints import add_units_arguments, units_from_arguments
+from joshua_lerobot.reader import INFO, record_units
+
+
+class LeRobotUnitsCommand(Command):
+    """Records the unit mode (and calibration) of a LeRobot dataset's joint values in its meta/info.json."""
+
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("dataset", type=Path, help="the LeRobot dataset folder (with meta/info.json)")
+        add_units_arguments(parser, what="the dataset's")
+
+    def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        units = units_from_arguments(args)
+        if not (args.dataset / INFO).is_file():
+            raise UsageError(f"{args.dataset}: not a LeRobot dataset folder (no {INFO})")
+        file = record_units(args.dataset, units)
+        print(f"{file}: SO-100 body joints in {units.body}" + (", calibrated" if units.calibration else ""))
+        return 0
