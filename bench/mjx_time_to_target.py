@@ -47,7 +47,7 @@ from joshua_core.options import OptionSet
 from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
 from joshua_core.statistics import SUCCESS_METRIC, summarize
-from joshua_mjx import MjxEnv
+from joshua_mjx import MjxEnv, Physics
 from joshua_mjx.physics import mjx
 from joshua_ppo.checkpoints import checkpoint_payloads, load_state, read_json, write_payloads
 from joshua_ppo.config_settings import PpoSettings
@@ -347,6 +347,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         plugins.options(),
     )
     settings = PpoSettings.from_config(config)
+    Physics.from_training(config.training).leave_memory_to_warp()  # before jax.devices() starts JAX's backends
     devices = jax.devices()
     print(f"devices: {devices}  preset {args.preset}: {settings.rollout} {settings.optimization}", flush=True)
     env = environment(config, plugins, None, devices, training=True)

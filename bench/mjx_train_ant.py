@@ -48,7 +48,7 @@ from mjx_time_to_target import (
 )
 
 from joshua_core.plugins import PluginHost
-from joshua_mjx import MjxEnv
+from joshua_mjx import MjxEnv, Physics
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import DEFAULT_NUM_ENVS
 
@@ -100,6 +100,7 @@ def main() -> None:
     plugins = PluginHost.discover()
     config = load_config(args.preset, args.set + impl_assignment(args.impl), args.num_envs, plugins.options())
     settings = PpoSettings.from_config(config)
+    Physics.from_training(config.training).leave_memory_to_warp()  # before jax.devices() starts JAX's backends
     device_sets = [jax.devices()[:1], jax.devices()] if args.scaling else [jax.devices()]
     print(f"devices: {jax.devices()}  preset {args.preset}: {settings.rollout} {settings.optimization}")
     results = []

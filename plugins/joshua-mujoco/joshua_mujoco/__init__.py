@@ -12,19 +12,36 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine
     from joshua_mujoco.models import compile_model, read_spec
-    from joshua_mujoco.vector import BatchedVectorEnv, load_task_model, make_vector_env, vector_env_from_config
+    from joshua_mujoco.physics import BatchPhysics, MuJoCoBatchPhysics
+    from joshua_mujoco.vector import (
+        BatchedSimulation,
+        BatchedVectorEnv,
+        load_task_model,
+        make_vector_env,
+        vector_env_from_config,
+    )
 
 __all__ = [
     "MuJoCoBackend",
     "MuJoCoEngine",
     "compile_model",
     "read_spec",
+    "BatchPhysics",
+    "MuJoCoBatchPhysics",
+    "BatchedSimulation",
     "BatchedVectorEnv",
     "load_task_model",
     "make_vector_env",
     "vector_env_from_config",
 ]
-_MODULES = {"compile_model": "models", "read_spec": "models", "MuJoCoBackend": "engine", "MuJoCoEngine": "engine"}
+_MODULES = {
+    "compile_model": "models",
+    "read_spec": "models",
+    "MuJoCoBackend": "engine",
+    "MuJoCoEngine": "engine",
+    "BatchPhysics": "physics",
+    "MuJoCoBatchPhysics": "physics",
+}
 
 
 def __getattr__(name: str) -> Any:

@@ -63,7 +63,7 @@ def physx_envs(spec: EnvSpec, plugins: PluginHost) -> Any:
     """joshua-mujoco's BatchedVectorEnv of the task on PhysX (joshua_usd.physx), reset with the spec's seed."""
     from joshua_core.resources import resolve_data_path
     from joshua_core.tasks import load_task_spec
-    from joshua_mujoco.vector import BatchedSimulation, BatchedVectorEnv, load_task_model
+    from joshua_mujoco import BatchedSimulation, BatchedVectorEnv, load_task_model
     from joshua_usd.exporter import export_model
     from joshua_usd.physx import PhysxBatchPhysics
     from joshua_usd.plugin import USD_SUFFIXES

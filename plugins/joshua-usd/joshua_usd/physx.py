@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.errors import ConfigError
-from joshua_mujoco.physics import BatchPhysics
+from joshua_mujoco import BatchPhysics
 
 ENV_SPACING = 20.0  # metres between the lanes of the clones: further than a robot walks in an episode
 # The state fields this physics gives (BatchPhysics.field).
