@@ -347,7 +347,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         plugins.options(),
     )
     settings = PpoSettings.from_config(config)
-    Physics.from_training(config.training).leave_memory_to_warp()  # before jax.devices() starts JAX's backends
+    Physics.from_training(config).leave_memory_to_warp()  # before jax.devices() starts JAX's backends
     devices = jax.devices()
     print(f"devices: {devices}  preset {args.preset}: {settings.rollout} {settings.optimization}", flush=True)
     env = environment(config, plugins, None, devices, training=True)

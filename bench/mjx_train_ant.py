@@ -100,7 +100,7 @@ def main() -> None:
     plugins = PluginHost.discover()
     config = load_config(args.preset, args.set + impl_assignment(args.impl), args.num_envs, plugins.options())
     settings = PpoSettings.from_config(config)
-    Physics.from_training(config.training).leave_memory_to_warp()  # before jax.devices() starts JAX's backends
+    Physics.from_training(config).leave_memory_to_warp()  # before jax.devices() starts JAX's backends
     device_sets = [jax.devices()[:1], jax.devices()] if args.scaling else [jax.devices()]
     print(f"devices: {jax.devices()}  preset {args.preset}: {settings.rollout} {settings.optimization}")
     results = []

@@ -111,6 +111,7 @@ class Physics:
             raise ModelError(
                 f"{source}: MuJoCo Warp does not support {_feature(error)}; use training.mjx.impl JAX"
             ) from None
+        _load_warp_kernels(device)
         # warn_overflow 0: no message from every kernel of every step; `OverflowCheck` reports capacities once
         settings = {"warn_overflow": 0, **warp_options}
         return mjx_model.replace(opt=mjx_model.opt.replace(_impl=mjx_model.opt._impl.replace(**settings)))
@@ -135,6 +136,20 @@ def batch_data(data: Any, n: int) -> Any:
     """`n` copies of one environment's Data along a leading axis. A vmap, not a broadcast of every leaf: Warp's
     Data shares its contact arrays among the environments, and its vmapping rule keeps them unbatched."""
     return jax.vmap(lambda _: data)(jnp.arange(n))
+
+
+def _load_warp_kernels(device: jax.Device) -> None:
+    """Compile (or load from Warp's kernel cache) MuJoCo Warp's kernels on a GPU now, on every core at once.
+
+    Left to Warp, each module compiles when a step first launches it, one after another: on an H100 host that
+    was 102 s of a cold start of pick-and-place, against 49 s for this and 12 s left at the first step
+    (bench/RESULTS.md). On the CPU, where compiling is Warp's development path, only what a step uses is built.
+    """
+    if device.platform != "gpu":
+        return
+    import warp as wp
+
+    wp.force_load(device=f"cuda:{device.local_hardware_id}", max_workers=os.cpu_count() or 1)
 
 
 def _require_warp() -> None:
