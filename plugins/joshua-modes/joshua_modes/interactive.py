@@ -3,7 +3,8 @@
 The physics runs in real time on the calling thread; the viewer (mouse drag of bodies, contact and
 force visualisation, cameras, rendering options) renders on its own thread. Space pauses and resumes,
 Right arrow steps once while paused. Closing the window ends the run; Ctrl-C closes the window, joins
-the viewer's thread and re-raises KeyboardInterrupt (the CLI exits with status 130).
+the viewer's thread and re-raises KeyboardInterrupt (the CLI exits with status 130). In a web page
+(`InteractivePage`) the same loop also takes the page's Reset (back to the keyframe) and speed.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from joshua_core.run_context import RunContext
 from joshua_modes import options_pb2
 from joshua_modes.options_pb2 import ViewerOptions
 from joshua_mujoco import MuJoCoEngine
-from joshua_render import ViewerDisplay, WebControls, WebDisplay, open_web_display
+from joshua_render import InteractiveControls, InteractivePage, ViewerDisplay, open_interactive_page
 
 KEY_SPACE = 32  # GLFW key codes, as the viewer's key_callback reports them
 KEY_RIGHT = 262
@@ -30,6 +31,8 @@ MAX_CATCH_UP_S = 0.1  # after a stall, at most this much simulated time is run a
 
 class _Controls:
     """Pause and single-step requests from the viewer's key presses (called on the viewer's thread)."""
+
+    speed = 1.0  # real time: the desktop viewer's keys set no other speed for this loop
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
@@ -47,6 +50,10 @@ class _Controls:
         with self._lock:
             steps, self._steps = self._steps, 0
             return steps
+
+    def take_reset(self) -> bool:
+        """False: going back to the keyframe is the web page's control; no key of the desktop viewer asks it."""
+        return False
 
 
 def run_interactive(model_path: str | Path, *, keyframe: str | None = None, duration: float = 0.0) -> None:
@@ -69,9 +76,9 @@ def simulate(engine: Engine, *, keyframe: str | None, duration: float, web: str 
     except KeyError as error:
         raise ConfigError(f"simulation.keyframe: {error.args[0]}") from None
     held = f"held at keyframe '{name}' by its actuators" if name else "from its initial state"
-    viewer: ViewerDisplay | WebDisplay
+    viewer: ViewerDisplay | InteractivePage
     if web is None:
-        controls: _Controls | WebControls = _Controls()
+        controls: _Controls | InteractiveControls = _Controls()
         viewer = ViewerDisplay(engine.model, engine.data, key_callback=controls.on_key)
         print(
             f"MuJoCo viewer: {engine.model.nbody - 1} bodies, {held}. Space: pause/resume, Right: step while "
@@ -80,20 +87,24 @@ def simulate(engine: Engine, *, keyframe: str | None, duration: float, web: str 
         )
     else:
         # instead=None: a live simulation nobody can watch is no use, so an address it cannot listen on is an error
-        page = open_web_display(engine.model, engine.data, web, title="JOSHUA interactive", instead=None)
-        assert page is not None
+        page = open_interactive_page(engine.model, engine.data, web, title="JOSHUA interactive")
         viewer, controls = page, page.controls
         print(f"web display: {engine.model.nbody - 1} bodies, {held}; press Ctrl-C to quit", flush=True)
     try:
-        _loop(engine, viewer, controls, duration)
+        _loop(engine, viewer, controls, duration, name)
     finally:
         viewer.close()
 
 
 def _loop(
-    engine: Engine, viewer: ViewerDisplay | WebDisplay, controls: _Controls | WebControls, duration: float
+    engine: Engine,
+    viewer: ViewerDisplay | InteractivePage,
+    controls: _Controls | InteractiveControls,
+    duration: float,
+    keyframe: str | None,
 ) -> None:
-    """Step the physics to keep up with the wall clock (not while paused) and sync the viewer each frame."""
+    """Step the physics to keep up with the wall clock times the speed (not while paused), back to `keyframe` when
+    asked, and sync the viewer each frame."""
     timestep = engine.timestep
     last = time.perf_counter()
     owed = 0.0  # simulated seconds the physics is behind the wall clock
@@ -102,10 +113,13 @@ def _loop(
         now = time.perf_counter()
         elapsed, last = min(now - last, MAX_CATCH_UP_S), now
         with viewer.lock():
+            if controls.take_reset():
+                engine.reset(keyframe)
+                owed = 0.0
             if controls.paused:
                 steps = controls.take_steps()
             else:
-                owed += elapsed
+                owed += elapsed * controls.speed
                 steps = int(owed / timestep)
                 owed -= steps * timestep
             if steps:

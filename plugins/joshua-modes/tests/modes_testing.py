@@ -1,14 +1,17 @@
-"""Plain helpers of the joshua-modes tests: paths, small trajectories, video decoding, colour counts."""
+"""Plain helpers of the joshua-modes tests: paths, small trajectories, video decoding, colour counts, web pages."""
 
 from __future__ import annotations
 
+import io
 import os
 import sys
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from PIL import Image
 
 from joshua_core.resources import models_dir
 
@@ -51,7 +54,27 @@ def distinct_colours(image: NDArray[np.uint8]) -> int:
     return len(np.unique(image.reshape(-1, image.shape[-1]), axis=0))
 
 
-def orange_pixels(rgb: NDArray[np.uint8]) -> int:
-    """Pixels of the SO-ARM100's printed parts (material 'printed', orange), lit or shaded."""
+def orange_mask(rgb: NDArray[np.uint8]) -> NDArray[np.bool_]:
+    """Where the SO-ARM100's printed parts (material 'printed', orange) are, lit or shaded."""
     r, g, b = (rgb[..., i].astype(int) for i in range(3))
-    return int(np.count_nonzero((r > 150) & (r - b > 100) & (g - b > 30) & (r - g > 20)))
+    return (r > 150) & (r - b > 100) & (g - b > 30) & (r - g > 20)
+
+
+def orange_pixels(rgb: NDArray[np.uint8]) -> int:
+    """How many pixels show the SO-ARM100's printed parts."""
+    return int(np.count_nonzero(orange_mask(rgb)))
+
+
+def page_screenshot(driver: Any) -> NDArray[np.uint8]:
+    """What a selenium-driven browser shows, as RGB."""
+    return np.asarray(Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB"))
+
+
+def shown_time(driver: Any) -> str:
+    """The simulation time a web display's page shows (the panel's 'time (s)' field)."""
+    return driver.find_element("xpath", "//label[text()='time (s)']/following::input[1]").get_attribute("value")
+
+
+def click_button(driver: Any, text: str) -> None:
+    """Click the page's button labelled `text`."""
+    driver.find_element("xpath", f"//button[normalize-space()='{text}']").click()

@@ -8,7 +8,6 @@ problems are listed with their replay times and marked at those times on the tim
 from __future__ import annotations
 
 import contextlib
-import io
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
@@ -16,12 +15,12 @@ from typing import Any
 
 import numpy as np
 import pytest
-from modes_testing import HEADER, JOSHUA_SCRIPT, headless_env, orange_pixels
+from modes_testing import HEADER, JOSHUA_SCRIPT, click_button, headless_env, orange_pixels, shown_time
+from modes_testing import page_screenshot as screenshot
 from numpy.typing import NDArray
 
 pytest.importorskip("viser", reason="the web display needs viser (pip install 'joshua-render[web]')")
 pytest.importorskip("selenium", reason="the browser tests need selenium")
-from PIL import Image  # noqa: E402
 from selenium import webdriver  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
 from selenium.webdriver.support.wait import WebDriverWait  # noqa: E402
@@ -53,23 +52,10 @@ def replay_url(tmp_path: Path, web_run: Any) -> Iterator[str]:
         yield url
 
 
-def screenshot(driver: webdriver.Chrome) -> NDArray[np.uint8]:
-    return np.asarray(Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB"))
-
-
 def arm_image(driver: webdriver.Chrome) -> list[NDArray[np.uint8]]:
     """[a screenshot] if it shows the orange arm, else [] (the page is still loading)."""
     image = screenshot(driver)
     return [image] if orange_pixels(image) >= MIN_ARM_PIXELS else []
-
-
-def shown_time(driver: webdriver.Chrome) -> str:
-    """The replay time the page shows (the panel's 'time (s)' field)."""
-    return driver.find_element(By.XPATH, "//label[text()='time (s)']/following::input[1]").get_attribute("value")
-
-
-def click_button(driver: webdriver.Chrome, text: str) -> None:
-    driver.find_element(By.XPATH, f"//button[normalize-space()='{text}']").click()
 
 
 def test_page_draws_the_moving_arm_and_pause_stops_time(replay_url: str, browser: webdriver.Chrome) -> None:

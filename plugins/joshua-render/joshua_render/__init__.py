@@ -10,6 +10,8 @@ A library the MuJoCo backend, the modes, the mirror and the trainers share (no `
   `Display`, `ViewerDisplay`, `RecordingDisplay`, `display_usable`, `no_display_error`;
 - training: `LiveViewer`, `open_viewer` (a few environments' poses in the viewer);
 - browser: `WebDisplay`, `open_web_display`, `parse_web_address` (a simulation in a web page, via viser);
+  `InteractivePage`, `InteractiveControls`, `open_interactive_page` (a live simulation with reset, speed,
+  contact and frame display and body dragging);
   `TrainingPage`, `open_training_page` (a running training's environments and return curve in a web page).
 
 Importing the package is light: mujoco, OpenCV and PyAV are imported the first time a name is used.
@@ -35,11 +37,14 @@ if TYPE_CHECKING:
     from joshua_render.video import VideoWriter, write_png
     from joshua_render.viewer import LiveViewer, open_viewer
     from joshua_render.web import WebControls, WebDisplay, open_web_display, parse_web_address
+    from joshua_render.web_interactive import InteractiveControls, InteractivePage, open_interactive_page
     from joshua_render.web_training import TrainingPage, open_training_page
 
 __all__ = [
     "Display",
     "GridVideoWriter",
+    "InteractiveControls",
+    "InteractivePage",
     "LiveViewer",
     "RecordingDisplay",
     "RenderingUnavailableError",
@@ -57,6 +62,7 @@ __all__ = [
     "has_display",
     "no_display_error",
     "open_display",
+    "open_interactive_page",
     "open_training_page",
     "open_viewer",
     "open_web_display",
@@ -90,6 +96,9 @@ _HOME = {
     "WebDisplay": "web",
     "open_web_display": "web",
     "parse_web_address": "web",
+    "InteractiveControls": "web_interactive",
+    "InteractivePage": "web_interactive",
+    "open_interactive_page": "web_interactive",
     "TrainingPage": "web_training",
     "open_training_page": "web_training",
 }

@@ -199,6 +199,11 @@ class ModelScene:
                 wxyz=model.geom_quat[geom],
             )
 
+    @property
+    def body_frames(self) -> dict[int, viser.FrameHandle]:
+        """The scene frame of each drawn body (by body id): what is added under one moves with that body."""
+        return self._frames
+
     def show(self, xpos: np.ndarray, xquat: np.ndarray) -> None:
         """Move the bodies to world positions `xpos` (nbody, 3) and orientations `xquat` (nbody, 4)."""
         for body, frame in self._frames.items():
