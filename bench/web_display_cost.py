@@ -3,7 +3,9 @@
 One `joshua --preset PRESET --web 127.0.0.1:PORT` training (SB3 on the CPU by default), timed from its progress bar
 in three windows of one run: no browser, two headless chromiums showing the page (selenium; the arms drawn before
 the window opens), no browser again. The ratio is the browsers' window over the mean of the two others, so that a
-drift of the machine's load over the run does not read as the browsers' cost.
+drift of the machine's load over the run does not read as the browsers' cost. The training runs on --training-cpus
+and the browsers on the other CPUs, as they would on another machine: on a 2-core host two software-WebGL chromiums
+sharing the training's cores would measure chromium, not the page.
 
     python bench/web_display_cost.py                      # so_arm100_reach_sb3, 3 windows of 30 s
     python bench/web_display_cost.py --window 60 --set training.num_envs=64
@@ -81,6 +83,9 @@ def main() -> None:
     parser.add_argument("--preset", default="so_arm100_reach_sb3")
     parser.add_argument("--window", type=float, default=30.0, help="seconds of each timed window")
     parser.add_argument("--warmup", type=float, default=10.0, help="seconds of training before the first window")
+    parser.add_argument(
+        "--training-cpus", default="0", help="comma-separated CPUs for the training ('all': share every CPU)"
+    )
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE")
     args = parser.parse_args()
     with socket.socket() as probe:
@@ -92,7 +97,18 @@ def main() -> None:
     env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
     work = Path(os.environ.get("TMPDIR", "/tmp")) / f"web_display_cost_{port}"
     work.mkdir(parents=True, exist_ok=True)
-    process = subprocess.Popen(command, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    cpus = os.sched_getaffinity(0)
+    training_cpus = cpus if args.training_cpus == "all" else {int(cpu) for cpu in args.training_cpus.split(",")}
+    os.sched_setaffinity(0, cpus - training_cpus or cpus)  # this script and the browsers it starts
+    process = subprocess.Popen(
+        command,
+        cwd=work,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        preexec_fn=lambda: os.sched_setaffinity(0, training_cpus),
+    )
     progress = Progress(process.stdout)
     try:
         if not progress.started.wait(PAGE_TIMEOUT_S):
