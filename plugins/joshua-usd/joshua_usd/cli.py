@@ -1,4 +1,4 @@
-"""`joshua usd inspect FILE` and `joshua usd export MODEL OUT.usd`."""
+"""`joshua usd inspect FILE`, `joshua usd export MODEL OUT.usd` and `joshua usd eval RUN --physics MUJOCO,PHYSX`."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from joshua_core.resources import resolve_data_path
 
 
 class UsdCommand(Command):
-    """What the importer understands of a USD robot, and MJCF -> USD for Isaac."""
+    """What the importer understands of a USD robot, MJCF -> USD for Isaac, and a policy on each physics."""
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
@@ -25,8 +25,21 @@ class UsdCommand(Command):
         export = actions.add_parser("export", help="write a MuJoCo model as a UsdPhysics articulation Isaac loads")
         export.add_argument("model", type=Path, help="an MJCF model (.xml), e.g. so_arm100/so_arm100.xml")
         export.add_argument("out", type=Path, help="the USD file to write (.usd, .usda or .usdc)")
+        from joshua_usd import sim2sim
+
+        sim2sim.add_arguments(
+            actions.add_parser(
+                "eval",
+                help="roll one trained policy out on each physics of the usd backend (MuJoCo, PhysX): "
+                "mean return and success with 95 %% intervals side by side",
+            )
+        )
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        if args.action == "eval":
+            from joshua_usd import sim2sim
+
+            return sim2sim.run(args, plugins)
         if args.action == "inspect":
             from joshua_usd.inspect import describe
 

@@ -34,6 +34,9 @@ from joshua_mujoco import BatchPhysics
 ENV_SPACING = 20.0  # metres between the lanes of the clones: further than a robot walks in an episode
 # The state fields this physics gives (BatchPhysics.field).
 FIELDS = frozenset({"qpos", "qvel", "ctrl", "xpos", "xquat", "cfrc_ext"})
+PHYSX_MISSING = (
+    "backend usd, physics PHYSX: needs NVIDIA's ovphysx, which is not installed; pip install 'joshua-usd[physx]'"
+)
 _schemas_registered = False
 
 
@@ -47,10 +50,7 @@ def _ovphysx() -> Any:
     except ModuleNotFoundError as error:
         if error.name not in ("ovphysx", "ovstage"):
             raise
-        raise ConfigError(
-            "backend usd, physics PHYSX: needs NVIDIA's ovphysx, which is not installed; "
-            "pip install 'joshua-usd[physx]'"
-        ) from None
+        raise ConfigError(PHYSX_MISSING) from None
     from ovphysx.samples.python_samples.schema_support import physx_schema_paths
 
     if not _schemas_registered:
