@@ -11,8 +11,12 @@ the same stage, so the task terms, resets and autoreset are joshua-mujoco's `Bat
 - ctrl: MuJoCo's actuator law, force = gain * ctrl + bias(q, qdot) times the gear, clamped to its
   range, evaluated on the PhysX state before each physics step and applied as joint effort (the
   stage's PhysX drives on actuated joints are switched off so that nothing acts twice).
-- xpos/xquat: link poses; cfrc_ext: each link's net contact force, normal plus friction (PhysX's
-  contact report); its torque half is zero (the net report gives no torque about the body).
+- xpos/xquat: link poses; cfrc_ext: each link's contact wrench as MuJoCo defines it (world frame,
+  [torque; force], the torque about the centre of mass of the link's whole robot, MuJoCo's
+  `subtree_com` of its root): the force is the net normal plus friction force of PhysX's contact
+  report; the torque sums each contact point's normal force about that centre (ovphysx's raw contact
+  data), with the net friction force applied at the links' normal-force-weighted contact centre
+  (friction anchors come only with filtered bindings: exact for one contact point, e.g. a foot).
 
 Anything else a term reads (sites, sensors, model fields) is refused when the environments are built.
 """
@@ -31,6 +35,7 @@ from numpy.typing import NDArray
 from joshua_core.errors import ConfigError
 from joshua_mujoco import BatchPhysics
 
+CONTACTS_PER_LINK = 16  # room for contact points per link and read; grown when a step reports more
 ENV_SPACING = 20.0  # metres between the lanes of the clones: further than a robot walks in an episode
 # The state fields this physics gives (BatchPhysics.field).
 FIELDS = frozenset({"qpos", "qvel", "ctrl", "xpos", "xquat", "cfrc_ext"})
@@ -170,10 +175,10 @@ class PhysxBatchPhysics(BatchPhysics):
         self._bodies = np.array([model.body(name).id for name in bodies])
         self._contacts = None
         if "cfrc_ext" in fields:
-            with warnings.catch_warnings():  # the contact binding is ovphysx 0.6's bulk (N, 3) contact force
-                warnings.simplefilter("ignore", DeprecationWarning)
-                self._contacts = physx.create_contact_binding([f"{p}/{b}" for p in paths for b in bodies])
-            self._contact_force = np.zeros((2, self._contacts.sensor_count, 3), np.float32)
+            self._sensors = [f"{p}/{b}" for p in paths for b in bodies]
+            self._bind_contacts(CONTACTS_PER_LINK * len(self._sensors))
+            robot = self._bodies
+            self._body_ipos, self._body_mass = model.body_ipos[robot], model.body_mass[robot]
         self._switch_off_drives(TensorType, bind)
         nd = len(names)
         self._buffers = {
@@ -194,6 +199,56 @@ class PhysxBatchPhysics(BatchPhysics):
             "cfrc_ext": np.zeros((num_envs, model.nbody, 6)),
         }
         self._data = mujoco.MjData(model)
+
+    def _bind_contacts(self, capacity: int) -> None:
+        """The contact report of every link of every clone: net forces and up to `capacity` contact points
+        (ovphysx's contact binding: rows in the order of the sensor paths, before the first step reported)."""
+        if self._contacts is not None:
+            self._contacts.destroy()
+        with warnings.catch_warnings():  # the contact binding is ovphysx 0.6's bulk (N, 3) contact force
+            warnings.simplefilter("ignore", DeprecationWarning)
+            self._contacts = self._physx.create_contact_binding(self._sensors, max_contact_data_count=capacity)
+        sensors = self._contacts.sensor_count
+        self._contact_force = np.zeros((2, sensors, 3), np.float32)
+        self._contact_points = (
+            np.zeros((capacity, 1), np.float32),  # normal force (N)
+            np.zeros((capacity, 3), np.float32),  # world position
+            np.zeros((capacity, 3), np.float32),  # unit normal, towards the link
+            np.zeros((capacity, 1), np.float32),  # separation
+            np.zeros((sensors, 2), np.int32),  # per link: count, start
+            np.zeros((capacity, 2), np.int64),  # actor ids
+        )
+
+    def _contact_torque(self, friction: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(num_envs, links, 3) torque of each link's contacts about its robot's centre of mass, in the world
+        (MuJoCo's cfrc_ext torque); `friction` is each link's net friction force (sensors, 3)."""
+        required = self._contacts.read_raw_contact_data(*self._contact_points)
+        magnitude, position, normal, _, layout, _ = self._contact_points
+        counts, starts = layout[:, 0].astype(np.intp), layout[:, 1].astype(np.intp)
+        sensor = np.repeat(np.arange(len(counts)), counts)
+        contact = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+        envs, links = self.num_envs, len(self._bodies)
+        centre = self._robot_com() + self.offsets  # world frame, as PhysX reports the contact points
+        lever = position[contact].astype(np.float64) - centre[sensor // links]
+        force = magnitude[contact].astype(np.float64) * normal[contact]
+        torque = np.zeros((len(counts), 3))
+        np.add.at(torque, sensor, np.cross(lever, force))
+        weight, weighted = np.zeros(len(counts)), np.zeros((len(counts), 3))
+        np.add.at(weight, sensor, magnitude[contact, 0])
+        np.add.at(weighted, sensor, magnitude[contact] * lever)
+        pressed = weight > 0
+        torque[pressed] += np.cross(weighted[pressed] / weight[pressed, None], friction[pressed])
+        if required > len(magnitude):  # this read kept the first contacts; the next ones get room for all
+            self._bind_contacts(2 * required)
+        return torque.reshape(envs, links, 3)
+
+    def _robot_com(self) -> NDArray[np.float64]:
+        """(num_envs, 3) centre of mass of each clone's links, relative to its lane (MuJoCo's subtree_com)."""
+        xpos, xquat = self._fields["xpos"][:, self._bodies], self._fields["xquat"][:, self._bodies]
+        envs, links = xpos.shape[:2]
+        offset = np.broadcast_to(self._body_ipos, xpos.shape).reshape(-1, 3)
+        xipos = xpos + _rotate(xquat.reshape(-1, 4), offset).reshape(envs, links, 3)
+        return (xipos * self._body_mass[:, None]).sum(axis=1) / self._body_mass.sum()
 
     def _switch_off_drives(self, tensor_type: Any, bind: Any) -> None:
         """Zero the PhysX drive gains of actuated joints: their effort comes from MuJoCo's actuator law."""
@@ -318,6 +373,7 @@ class PhysxBatchPhysics(BatchPhysics):
             self._contacts.read_net_normal_forces(self._contact_force[0])
             self._contacts.read_net_friction_forces(self._contact_force[1])
             forces = self._contact_force.sum(axis=0).reshape(self.num_envs, len(self._bodies), 3)
+            f["cfrc_ext"][:, self._bodies, :3] = self._contact_torque(self._contact_force[1].astype(np.float64))
             f["cfrc_ext"][:, self._bodies, 3:] = forces
 
     def model_and_data(self, env_index: int) -> tuple[mujoco.MjModel, mujoco.MjData]:

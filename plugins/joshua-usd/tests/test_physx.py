@@ -133,3 +133,40 @@ def test_an_mjcf_robot_reaches_physx_through_the_exporter(plugins: PluginHost) -
         assert np.abs(env.qpos[:, 7:] - start[:, 7:]).max() > 0.05
     finally:
         env.close()
+
+
+# An Ant at rest: its feet's contact wrenches about its centre of mass balance its weight, which acts there.
+REST_STEPS = 100
+EQUILIBRIUM_TOLERANCE = 0.02  # of the feet's summed torque magnitude (several N·m), or of the weight (N)
+
+
+@pytest.mark.parametrize("physics", [UsdOptions.MUJOCO, UsdOptions.PHYSX])
+def test_cfrc_ext_torques_are_about_the_robots_centre_of_mass(physics: int, plugins: PluginHost) -> None:
+    training = TrainingConfig()
+    training.Extensions[usd].physics = physics
+    spec = EnvSpec(
+        "isaac_ant_locomotion",
+        2,  # the second clone stands in its own lane: its torques must not carry the lane's offset
+        model_path=resolve_data_path("isaac/ant.usd"),
+        task_config=task_config_from_options({"terms": NO_RESET_NOISE}),
+        training=training,
+    )
+    env = plugins.backend("usd").create_envs(spec, EnvKind.NUMPY, plugins)
+    try:
+        env.reset(seed=0)
+        for _ in range(REST_STEPS):
+            env.step(np.zeros((2, 8)))
+        model = env.simulation.physics.model
+        wrench = env.simulation.physics.field("cfrc_ext")
+        feet = [model.body(name).id for name in ("front_left_shin", "front_right_shin", "back_shin", "right_back_shin")]
+        weight = float(model.body_subtreemass[1] * -model.opt.gravity[2])
+        for env_index in range(2):
+            torque, force = wrench[env_index, feet, :3], wrench[env_index, feet, 3:]
+            scale = np.abs(torque).sum()
+            assert scale > 1.0  # each foot carries a quarter of the weight about 0.75 m (x and y) from the centre
+            np.testing.assert_allclose(torque.sum(axis=0), 0.0, atol=EQUILIBRIUM_TOLERANCE * scale)
+            np.testing.assert_allclose(force.sum(axis=0), [0.0, 0.0, weight], atol=EQUILIBRIUM_TOLERANCE * weight)
+            # the front-left foot (+x, +y of the centre) pushed up: torque +x, -y, as r x F gives
+            assert torque[0, 0] > 0.5 and torque[0, 1] < -0.5, torque
+    finally:
+        env.close()
