@@ -205,8 +205,9 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> N
         for devices in (jax.devices()[:1], jax.devices()):
             env = make_mjx_env("ant_locomotion", 4, model_path="ant/ant_mjx.xml", devices=devices)
             state = env.reset(jax.random.PRNGKey(3))
-            for _ in range(3):
-                state = env.step(state, jnp.full((4, 8), 0.3))
+            for _ in range(3):  # laid out as reset's again: the step returns some fields (zero-size, constant)
+                # replicated, and a step called with those would compile a second program
+                state = jax.device_put(env.step(state, jnp.full((4, 8), 0.3)), env.sharding)
             results.append(np.asarray(state.data.qpos))
             print("devices", len(state.data.qpos.sharding.device_set))
         print("max difference", float(np.abs(results[0] - results[1]).max()))
