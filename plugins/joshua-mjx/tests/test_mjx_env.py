@@ -67,7 +67,8 @@ def test_mjx_contacts_hold_the_ant_up_like_mujoco(ant_env) -> None:  # type: ign
     torso_height = np.asarray(state.observation)[:, 0]
     assert 0.3 < torso_height.min()  # standing, not fallen through the floor
     # the contact forces the terms read are rne_postconstraint's, though the step keeps no other of its outputs
-    full = jax.vmap(mjx.rne_postconstraint, (None, 0))(env.mjx_model, state.data)._impl.cfrc_ext
+    # jitted: one program, where the vmap run eagerly compiles each of its operations apart (5 s more on 2 cores)
+    full = jax.jit(jax.vmap(mjx.rne_postconstraint, (None, 0)))(env.mjx_model, state.data)._impl.cfrc_ext
     assert np.abs(np.asarray(full)).max() > 1.0  # the feet press on the floor
     np.testing.assert_allclose(np.asarray(state.data._impl.cfrc_ext), np.asarray(full), rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(torso_height, cpu_observation[:, 0], atol=1e-4)
