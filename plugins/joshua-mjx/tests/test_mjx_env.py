@@ -67,7 +67,8 @@ def test_mjx_contacts_hold_the_ant_up_like_mujoco(ant_env) -> None:  # type: ign
     torso_height = np.asarray(state.observation)[:, 0]
     assert 0.3 < torso_height.min()  # standing, not fallen through the floor
     # the contact forces the terms read are rne_postconstraint's, though the step keeps no other of its outputs
-    full = jax.vmap(mjx.rne_postconstraint, (None, 0))(env.mjx_model, state.data)._impl.cfrc_ext
+    # jitted: one program, where the vmap run eagerly compiles each of its operations apart (5 s more on 2 cores)
+    full = jax.jit(jax.vmap(mjx.rne_postconstraint, (None, 0)))(env.mjx_model, state.data)._impl.cfrc_ext
     assert np.abs(np.asarray(full)).max() > 1.0  # the feet press on the floor
     np.testing.assert_allclose(np.asarray(state.data._impl.cfrc_ext), np.asarray(full), rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(torso_height, cpu_observation[:, 0], atol=1e-4)
@@ -205,8 +206,9 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> N
         for devices in (jax.devices()[:1], jax.devices()):
             env = make_mjx_env("ant_locomotion", 4, model_path="ant/ant_mjx.xml", devices=devices)
             state = env.reset(jax.random.PRNGKey(3))
-            for _ in range(3):
-                state = env.step(state, jnp.full((4, 8), 0.3))
+            for _ in range(3):  # laid out as reset's again: the step returns some fields (zero-size, constant)
+                # replicated, and a step called with those would compile a second program
+                state = jax.device_put(env.step(state, jnp.full((4, 8), 0.3)), env.sharding)
             results.append(np.asarray(state.data.qpos))
             print("devices", len(state.data.qpos.sharding.device_set))
         print("max difference", float(np.abs(results[0] - results[1]).max()))
