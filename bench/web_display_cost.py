@@ -83,6 +83,15 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def total_cpu_seconds(pids: set[int]) -> float:
+    """CPU time the processes `pids` have used so far (those that ended since left out)."""
+    total = 0.0
+    for pid in pids:
+        with contextlib.suppress(OSError):
+            total += cpu_seconds(pid)
+    return total
+
+
 def descendants(pids: set[int]) -> set[int]:
     """`pids` and every process under them."""
     children: dict[int, list[int]] = {}
@@ -172,7 +181,10 @@ def main() -> None:
             if time.monotonic() > deadline:
                 sys.exit("the pages did not load")
             time.sleep(0.5)
+        browser_processes = descendants({driver.service.process.pid for driver in drivers})
+        browser_cpu = total_cpu_seconds(browser_processes)
         timed("two browsers")
+        browser_cpu = total_cpu_seconds(browser_processes) - browser_cpu
         pinned.set()
         for driver in drivers:
             driver.quit()
@@ -188,6 +200,8 @@ def main() -> None:
         share = cpu / (end - start)
         print(f"{name:>17}: {rates[name]:8.1f} training env steps/s (the training on {share:4.0%} of a CPU:"
               f" {per_cpu[name]:8.1f} per CPU second)")  # fmt: skip
+    start, end, _ = windows["two browsers"]
+    print(f"the browsers used {browser_cpu / (end - start):.0%} of a CPU in their window")
     for label, values in (("steps/s", rates), ("steps per CPU second", per_cpu)):
         without = (values["no browser"] + values["no browser again"]) / 2
         print(f"two browsers / without ({label}): {values['two browsers'] / without:.3f}")
