@@ -3,9 +3,13 @@
 One `joshua --preset PRESET --web 127.0.0.1:PORT` training (SB3 on the CPU by default), timed from its progress bar
 in three windows of one run: no browser, two headless chromiums showing the page (selenium; the arms drawn before
 the window opens), no browser again. The ratio is the browsers' window over the mean of the two others, so that a
-drift of the machine's load over the run does not read as the browsers' cost. The training runs on --training-cpus
+drift of the machine's load over the run does not read as the browsers' cost. Env steps per CPU second of the
+training process (its page threads included) is printed too: on a machine shared with other jobs it shows the
+page's cost apart from the CPU time those jobs took from the training. The training runs on --training-cpus
 and the browsers on the other CPUs, as they would on another machine: on a 2-core host two software-WebGL chromiums
-sharing the training's cores would measure chromium, not the page.
+sharing the training's cores would measure chromium, not the page. Chromium's software-WebGL worker threads (named
+Thread<NN>) set their own affinity to CPU 0 whatever CPUs chromium was started on, so the script moves every thread
+of the browsers back to their CPUs twice a second while they run.
 
     python bench/web_display_cost.py                      # so_arm100_reach_sb3, 3 windows of 30 s
     python bench/web_display_cost.py --window 60 --set training.num_envs=64
@@ -14,6 +18,7 @@ sharing the training's cores would measure chromium, not the page.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import re
 import shutil
@@ -72,6 +77,49 @@ def browser() -> webdriver.Chrome:
     )
 
 
+def cpu_seconds(pid: int) -> float:
+    """CPU time the process `pid` has used so far, all its threads."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def total_cpu_seconds(pids: set[int]) -> float:
+    """CPU time the processes `pids` have used so far (those that ended since left out)."""
+    total = 0.0
+    for pid in pids:
+        with contextlib.suppress(OSError):
+            total += cpu_seconds(pid)
+    return total
+
+
+def descendants(pids: set[int]) -> set[int]:
+    """`pids` and every process under them."""
+    children: dict[int, list[int]] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            parent = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            continue
+        children.setdefault(parent, []).append(int(entry.name))
+    found, todo = set(), list(pids)
+    while todo:
+        pid = todo.pop()
+        found.add(pid)
+        todo += children.get(pid, [])
+    return found
+
+
+def keep_on(drivers: list[webdriver.Chrome], cpus: set[int], stop: threading.Event) -> None:
+    """Every thread of the browsers' processes on `cpus`, until `stop`."""
+    while not stop.wait(0.5):
+        for pid in descendants({driver.service.process.pid for driver in drivers}):
+            for task in Path(f"/proc/{pid}/task").glob("*"):
+                with contextlib.suppress(OSError):  # a thread or process that just ended
+                    os.sched_setaffinity(int(task.name), cpus)
+
+
 def page_loaded(driver: webdriver.Chrome) -> bool:
     """The page's panel shows a policy step (its websocket is up and poses arrive)."""
     fields = driver.find_elements("xpath", "//label[text()='policy after (steps)']/following::input[1]")
@@ -99,7 +147,8 @@ def main() -> None:
     work.mkdir(parents=True, exist_ok=True)
     cpus = os.sched_getaffinity(0)
     training_cpus = cpus if args.training_cpus == "all" else {int(cpu) for cpu in args.training_cpus.split(",")}
-    os.sched_setaffinity(0, cpus - training_cpus or cpus)  # this script and the browsers it starts
+    browser_cpus = cpus - training_cpus or cpus
+    os.sched_setaffinity(0, browser_cpus)  # this script and the browsers it starts
     process = subprocess.Popen(
         command,
         cwd=work,
@@ -114,11 +163,17 @@ def main() -> None:
         if not progress.started.wait(PAGE_TIMEOUT_S):
             sys.exit("the training did not start")
         time.sleep(args.warmup)
-        windows = {}
-        start = time.monotonic()
-        time.sleep(args.window)
-        windows["no browser"] = (start, time.monotonic())
+        windows: dict[str, tuple[float, float, float]] = {}  # name: start, end, the training's CPU seconds
+
+        def timed(name: str) -> None:
+            start, cpu = time.monotonic(), cpu_seconds(process.pid)
+            time.sleep(args.window)
+            windows[name] = (start, time.monotonic(), cpu_seconds(process.pid) - cpu)
+
+        timed("no browser")
         drivers = [browser(), browser()]
+        pinned = threading.Event()
+        threading.Thread(target=keep_on, args=(drivers, browser_cpus, pinned), daemon=True).start()
         for driver in drivers:
             driver.get(progress.url)
         deadline = time.monotonic() + PAGE_TIMEOUT_S
@@ -126,23 +181,30 @@ def main() -> None:
             if time.monotonic() > deadline:
                 sys.exit("the pages did not load")
             time.sleep(0.5)
-        start = time.monotonic()
-        time.sleep(args.window)
-        windows["two browsers"] = (start, time.monotonic())
+        browser_processes = descendants({driver.service.process.pid for driver in drivers})
+        browser_cpu = total_cpu_seconds(browser_processes)
+        timed("two browsers")
+        browser_cpu = total_cpu_seconds(browser_processes) - browser_cpu
+        pinned.set()
         for driver in drivers:
             driver.quit()
-        start = time.monotonic()
-        time.sleep(args.window)
-        windows["no browser again"] = (start, time.monotonic())
+        timed("no browser again")
     finally:
         process.terminate()
         process.wait(timeout=60)
         shutil.rmtree(work, ignore_errors=True)
-    rates = {name: progress.rate(*window) for name, window in windows.items()}
-    for name, rate in rates.items():
-        print(f"{name:>17}: {rate:8.1f} training env steps/s")
-    without = (rates["no browser"] + rates["no browser again"]) / 2
-    print(f"two browsers / without: {rates['two browsers'] / without:.3f}")
+    rates, per_cpu = {}, {}
+    for name, (start, end, cpu) in windows.items():
+        rates[name] = progress.rate(start, end)
+        per_cpu[name] = rates[name] * (end - start) / cpu
+        share = cpu / (end - start)
+        print(f"{name:>17}: {rates[name]:8.1f} training env steps/s (the training on {share:4.0%} of a CPU:"
+              f" {per_cpu[name]:8.1f} per CPU second)")  # fmt: skip
+    start, end, _ = windows["two browsers"]
+    print(f"the browsers used {browser_cpu / (end - start):.0%} of a CPU in their window")
+    for label, values in (("steps/s", rates), ("steps per CPU second", per_cpu)):
+        without = (values["no browser"] + values["no browser again"]) / 2
+        print(f"two browsers / without ({label}): {values['two browsers'] / without:.3f}")
 
 
 if __name__ == "__main__":

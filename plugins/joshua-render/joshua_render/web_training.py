@@ -2,8 +2,9 @@
 return curve (viser's uPlot), for a trainer on a machine with no display.
 
 The trainer only publishes: `publish_poses` and `publish_return` copy a few numbers under a lock and return. A thread
-of the page's own turns the newest poses into body poses and sends them at most `PUSH_HZ` times a second; poses
-published in between are dropped, never queued, so a slow page (or browser) never slows or stops the training.
+of the page's own turns the newest poses into body poses and sends them at most `TrainingPage.PUSH_HZ` times a second,
+and only while a browser is connected; poses published in between are dropped, never queued, so a slow page (or
+browser) never slows or stops the training.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from joshua_render.web import CAMERA_DIRECTION, PUSH_HZ, ModelScene, start_server
+from joshua_render.web import CAMERA_DIRECTION, ModelScene, start_server
 
 if TYPE_CHECKING:
     import mujoco
@@ -28,7 +29,10 @@ RETURN_COLOUR = "rgb(220, 20, 60)"  # the return curve's stroke (crimson: apart 
 class TrainingPage:
     """`envs` copies of `model` side by side, the policy's step count, and the mean episode return per update."""
 
-    PUSH_HZ = PUSH_HZ  # poses sent at most this often: publishing more often only replaces the pending ones
+    # Poses sent at most this often (publishing more often only replaces the pending ones). Below the replays' rate:
+    # the policy changes once per update, and each pose sent costs the training's process its kinematics and viser's
+    # messages, and every watching browser a frame drawn (on a server's CPU in software WebGL, with no GPU).
+    PUSH_HZ = 10.0
 
     def __init__(self, server: viser.ViserServer, model: mujoco.MjModel, envs: int) -> None:
         import mujoco
@@ -85,7 +89,9 @@ class TrainingPage:
             self._returns.append(float(mean_return))
 
     def _run(self) -> None:
-        while not self._stop.wait(1.0 / PUSH_HZ):
+        while not self._stop.wait(1.0 / self.PUSH_HZ):
+            if not self._server.get_clients():
+                continue  # nobody watching: what was published waits, replaced as it comes, for the first browser
             with self._lock:
                 poses, self._poses = self._poses, None
                 policy_step = self._policy_step

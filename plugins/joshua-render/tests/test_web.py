@@ -1,4 +1,5 @@
-"""The web display's address handling ([HOST:]PORT parsing, an address it cannot listen on), and garbage clients.
+"""The web display's address handling ([HOST:]PORT parsing, an address it cannot listen on), garbage clients, and
+the training page's silence while nobody watches.
 
 Listening and drawing in a real browser is tested in joshua-modes (tests/test_web.py).
 """
@@ -7,8 +8,11 @@ from __future__ import annotations
 
 import contextlib
 import socket
+import threading
+import time
 import urllib.request
 
+import numpy as np
 import pytest
 
 from joshua_core.errors import UsageError
@@ -90,3 +94,66 @@ def test_a_client_sending_garbage_leaves_the_page_served(capfd: pytest.CaptureFi
     err = capfd.readouterr().err
     assert "Traceback" not in err
     assert "joshua: warning: web display: a client sent something else than the page's protocol" in err
+
+
+CAMERA_MESSAGE = {  # viser's ViewerCameraMessage as its browser client sends it
+    "type": "ViewerCameraMessage",
+    "wxyz": (1.0, 0.0, 0.0, 0.0),
+    "position": (0.0, -2.0, 1.0),
+    "fov": 1.0,
+    "near": 0.01,
+    "far": 100.0,
+    "image_height": 600,
+    "image_width": 800,
+    "look_at": (0.0, 0.0, 0.0),
+    "up_direction": (0.0, 0.0, 1.0),
+}
+SLIDER_MJCF = """<mujoco><worldbody>
+  <body name="slider"><joint type="slide" axis="1 0 0"/><geom type="box" size="0.1 0.1 0.1"/></body>
+</worldbody></mujoco>"""
+
+
+def test_training_page_sends_poses_only_while_a_client_is_connected() -> None:
+    """With nobody watching, the page's thread looks for clients and sends nothing; once one connects, the newest
+    published pose is sent (the body frame moves to it). viser counts a client from its first camera message, which
+    a browser sends once the page has loaded; this client sends one of its own."""
+    import msgspec
+    import mujoco
+    import viser
+    from websockets.sync.client import connect
+
+    from joshua_render.web_training import TrainingPage
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    server = start_server(f"127.0.0.1:{port}", title="t", instead="going on")
+    assert server is not None
+    looks, looked_enough = [], threading.Event()
+    get_clients = server.get_clients
+
+    def counted_get_clients() -> dict[int, viser.ClientHandle]:
+        clients = get_clients()
+        looks.append(len(clients))
+        if len(looks) >= 3:
+            looked_enough.set()
+        return clients
+
+    server.get_clients = counted_get_clients  # type: ignore[method-assign]
+    model = mujoco.MjModel.from_xml_string(SLIDER_MJCF)
+    page = TrainingPage(server, model, envs=1)
+    try:
+        frame = next(iter(page._scenes[0].body_frames.values()))
+        page.publish_poses(np.array([[0.3]]), policy_step=7)
+        assert looked_enough.wait(timeout=30)
+        assert set(looks[:3]) == {0}
+        np.testing.assert_allclose(frame.position, (0.0, 0.0, 0.0), atol=1e-12)  # nothing sent to nobody
+        with connect(f"ws://127.0.0.1:{port}", subprotocols=[f"viser-v{viser.__version__}"], open_timeout=30) as client:
+            client.send(msgspec.msgpack.encode(CAMERA_MESSAGE))
+            deadline = time.monotonic() + 30
+            while not np.allclose(frame.position, (0.3, 0.0, 0.0), atol=1e-9) and time.monotonic() < deadline:
+                looked_enough.clear()
+                looked_enough.wait(timeout=1)  # the page's next look
+            np.testing.assert_allclose(frame.position, (0.3, 0.0, 0.0), atol=1e-9)  # the slide joint's 0.3 m
+    finally:
+        page.close()
