@@ -70,16 +70,15 @@ def unavailable(fields: frozenset[str]) -> list[str]:
     return sorted(fields - FIELDS - {"action", "prev_qpos", "prev_action", "episode_step", "commands"})
 
 
-def _actuator_laws(model: mujoco.MjModel) -> tuple[NDArray[np.intp], ...]:
-    """(actuator ids, their joints' dof addresses); refuses an actuator MuJoCo's affine law on a joint doesn't cover."""
+def _actuator_dofs(model: mujoco.MjModel) -> NDArray[np.intp]:
+    """Each actuator's joint's dof address; refuses an actuator MuJoCo's affine law on a joint doesn't cover."""
     for i in range(model.nu):
         name = model.actuator(i).name or str(i)
         if model.actuator_trntype[i] != mujoco.mjtTrn.mjTRN_JOINT:
             raise ConfigError(f"backend usd, physics PHYSX: actuator {name} does not act on a joint")
         if model.actuator_dyntype[i] != mujoco.mjtDyn.mjDYN_NONE or model.actuator_gaintype[i] != 0:
             raise ConfigError(f"backend usd, physics PHYSX: actuator {name} has activation or a non-fixed gain")
-    joints = model.actuator_trnid[:, 0]
-    return np.arange(model.nu), model.jnt_dofadr[joints]
+    return model.jnt_dofadr[model.actuator_trnid[:, 0]]
 
 
 def _articulation_root(stage_path: Path) -> str:
@@ -94,23 +93,19 @@ def _articulation_root(stage_path: Path) -> str:
 
 
 def _with_contact_reports(stage_path: Path, root: str, folder: Path) -> Path:
-    """A copy of the stage whose articulation links report contacts (PhysxContactReportAPI), in `folder`."""
-    from pxr import Usd, UsdPhysics
+    """A copy of the stage whose articulation links report every contact (PhysxContactReportAPI, threshold 0, as
+    the exporter authors it on contact-sensor bodies), in `folder`."""
+    from pxr import Sdf, Usd, UsdPhysics
+
+    from joshua_usd.exporter.context import set_physx
 
     stage = Usd.Stage.Open(str(stage_path))
     for prim in Usd.PrimRange(stage.GetPrimAtPath(root)):
         if prim.HasAPI(UsdPhysics.RigidBodyAPI):
-            prim.AddAppliedSchema("PhysxContactReportAPI")
-            prim.CreateAttribute("physxContactReport:threshold", Sdf_float()).Set(0.0)
+            set_physx(prim, "PhysxContactReportAPI", "threshold", Sdf.ValueTypeNames.Float, 0.0)
     path = folder / "stage.usda"
     stage.Export(str(path))
     return path
-
-
-def Sdf_float() -> Any:  # noqa: N802
-    from pxr import Sdf
-
-    return Sdf.ValueTypeNames.Float
 
 
 class PhysxBatchPhysics(BatchPhysics):
@@ -128,7 +123,7 @@ class PhysxBatchPhysics(BatchPhysics):
             raise ConfigError("backend usd, physics PHYSX: the robot needs one floating root (a free joint first)")
         self.model = model
         self.num_envs = num_envs
-        self._actuators, self._actuator_dofs = _actuator_laws(model)
+        self._actuator_dofs = _actuator_dofs(model)
         self._biased = bool(np.any(model.actuator_biastype != 0))
         ovphysx, ovstage = _ovphysx()
         from ovphysx.types import TensorType
