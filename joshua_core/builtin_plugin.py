@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 from joshua_core.hookspecs import hookimpl
 from joshua_core.tasks.builtin import BUILTIN_TASKS
 from joshua_core.tasks.grasping import GRASP_TERMS
-from joshua_core.tasks.randomization import EVENT_TERMS
+from joshua_core.tasks.randomization import RANDOMIZATION_TERMS
 from joshua_core.tasks.terms import BUILTIN_TERMS
 
 if TYPE_CHECKING:
@@ -31,7 +31,7 @@ def joshua_register_tasks(registry: Registrar) -> None:
 
 @hookimpl
 def joshua_register_terms(registry: Registrar) -> None:
-    for name, function in {**BUILTIN_TERMS, **GRASP_TERMS, **EVENT_TERMS}.items():
+    for name, function in {**BUILTIN_TERMS, **GRASP_TERMS, **RANDOMIZATION_TERMS}.items():
         registry.add(name, function, (function.__doc__ or "").strip().splitlines()[0])
 
 

@@ -123,20 +123,34 @@ class TrainingConfig(_message.Message):
     def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., synchronized_episodes: _Optional[bool] = ..., nthread: _Optional[int] = ..., web: _Optional[str] = ...) -> None: ...
 
 class TaskConfig(_message.Message):
-    __slots__ = ("episode_length", "frame_skip", "terms", "keyframe", "events", "action")
+    __slots__ = ("episode_length", "frame_skip", "terms", "keyframe", "events", "action", "randomization_curriculum")
     EPISODE_LENGTH_FIELD_NUMBER: _ClassVar[int]
     FRAME_SKIP_FIELD_NUMBER: _ClassVar[int]
     TERMS_FIELD_NUMBER: _ClassVar[int]
     KEYFRAME_FIELD_NUMBER: _ClassVar[int]
     EVENTS_FIELD_NUMBER: _ClassVar[int]
     ACTION_FIELD_NUMBER: _ClassVar[int]
+    RANDOMIZATION_CURRICULUM_FIELD_NUMBER: _ClassVar[int]
     episode_length: int
     frame_skip: int
     terms: _containers.RepeatedCompositeFieldContainer[TermOverride]
     keyframe: str
     events: _containers.RepeatedCompositeFieldContainer[EventConfig]
     action: ActionConfig
-    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ..., keyframe: _Optional[str] = ..., events: _Optional[_Iterable[_Union[EventConfig, _Mapping]]] = ..., action: _Optional[_Union[ActionConfig, _Mapping]] = ...) -> None: ...
+    randomization_curriculum: RandomizationCurriculum
+    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ..., keyframe: _Optional[str] = ..., events: _Optional[_Iterable[_Union[EventConfig, _Mapping]]] = ..., action: _Optional[_Union[ActionConfig, _Mapping]] = ..., randomization_curriculum: _Optional[_Union[RandomizationCurriculum, _Mapping]] = ...) -> None: ...
+
+class RandomizationCurriculum(_message.Message):
+    __slots__ = ("metric", "start", "step_up", "step_down")
+    METRIC_FIELD_NUMBER: _ClassVar[int]
+    START_FIELD_NUMBER: _ClassVar[int]
+    STEP_UP_FIELD_NUMBER: _ClassVar[int]
+    STEP_DOWN_FIELD_NUMBER: _ClassVar[int]
+    metric: str
+    start: float
+    step_up: float
+    step_down: float
+    def __init__(self, metric: _Optional[str] = ..., start: _Optional[float] = ..., step_up: _Optional[float] = ..., step_down: _Optional[float] = ...) -> None: ...
 
 class ActionConfig(_message.Message):
     __slots__ = ("mode", "scale")

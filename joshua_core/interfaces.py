@@ -139,7 +139,9 @@ class EnvSpec:
     simulations on CPU backends (None: one per core). devices: the JAX devices to spread over
     (None: every visible one). desync_episodes: each environment's first episode after a reset starts at
     a uniformly random step in [0, episode_length), so that episodes end in every stretch of steps rather
-    than all together (training sets it unless `training.synchronized_episodes`). training: the finalized
+    than all together (training sets it unless `training.synchronized_episodes`). curriculum: the task's
+    randomization curriculum (`Task.curriculum`) moves each environment's event strength (training sets it);
+    otherwise events act at full strength, as evaluation needs. training: the finalized
     training config the environments are for (None outside one), where a backend reads its own options
     (its extension of TrainingConfig). `num_envs` is checked here, once, for every backend.
     """
@@ -152,6 +154,7 @@ class EnvSpec:
     nthread: int | None = None
     devices: Sequence[Any] | None = None
     desync_episodes: bool = False
+    curriculum: bool = False
     training: TrainingConfig | None = None
 
     def __post_init__(self) -> None:

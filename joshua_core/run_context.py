@@ -56,11 +56,15 @@ class RunContext:
         does not provide `kind` is a ConfigError naming those that do. `num_envs`, `seed` replace the config's;
         `devices` (JAX environments) are the devices to spread them over (None: every visible one).
         `training_envs`: the environments a trainer learns on, whose episodes are desynchronised unless
-        `training.synchronized_episodes` (evaluation wants whole first episodes: leave it False)."""
+        `training.synchronized_episodes` and whose events follow the task's randomization curriculum
+        (evaluation wants whole first episodes at full strength: leave it False)."""
         trainer, backend = training_plugins(training)
         self.plugins.check_env_kinds(trainer, backend, needs=(kind,))
         desync = training_envs and not training.synchronized_episodes
         spec = replace(
-            EnvSpec.from_training(training, num_envs=num_envs, seed=seed), devices=devices, desync_episodes=desync
+            EnvSpec.from_training(training, num_envs=num_envs, seed=seed),
+            devices=devices,
+            desync_episodes=desync,
+            curriculum=training_envs,
         )
         return self.plugins.backend(backend).create_envs(spec, kind, self.plugins)

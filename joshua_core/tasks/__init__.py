@@ -20,6 +20,7 @@ from joshua_core.tasks.handles import Actuators, Bodies, Body, Geoms, Joint, Joi
 from joshua_core.tasks.randomization import (
     INERTIAL_FIELDS,
     MODEL_FIELDS,
+    Curriculum,
     Range,
     delayed_action,
     episode_params,
@@ -40,6 +41,7 @@ __all__ = [
     "Bodies",
     "Body",
     "BoundTerm",
+    "Curriculum",
     "Episode",
     "EpisodeSums",
     "EventSpec",

@@ -118,6 +118,8 @@ class TermContext:
     # randomized quantities, (N, ...) by name, and the model's own values of them, unbatched.
     params: Mapping[str, Any] = field(default_factory=dict)
     defaults: Mapping[str, Any] = field(default_factory=dict)
+    # (N,) each environment's strength in [0, 1] of the events it draws (a randomization curriculum); None: full
+    strength: Any = None
 
     @property
     def num_envs(self) -> int:

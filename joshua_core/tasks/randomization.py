@@ -18,6 +18,11 @@ joshua-mjx) then simulate each environment with its values:
 Ranges are `[low, high]` with a distribution ("uniform", or "log_uniform" for positive ranges) and
 an operation on the default ("scale": default x sample, "add": default + sample, "set": sample).
 Bad ranges and names fail when the task is built. docs/tasks.md#domain-randomization lists the terms.
+
+A `Curriculum` eases the events in during training: each environment draws at its own strength
+`ctx.strength` in [0, 1], a fraction of the way from the model's own value (no noise, no push, no
+delay) to the full draw, and its strength rises after episodes that succeed and falls after ones
+that fail. Without one (`ctx.strength` None, as in evaluation) every draw is at full strength.
 """
 
 from __future__ import annotations
@@ -122,6 +127,32 @@ def with_observation_columns(task: str, event: Any, layout: Sequence[tuple[str, 
     return replace(event, params=params)
 
 
+@dataclass(frozen=True)
+class Curriculum:
+    """How the training environments' strengths move: by `step_up` after an episode whose `metric` (a task
+    metric) ended above 0.5, by `step_down` after one that ended at or below it, within [0, 1]. Strengths
+    settle where a fraction step_down / (step_up + step_down) of the episodes succeed, and reach 1 once the
+    policy does better than that at full strength."""
+
+    metric: str
+    start: float = 0.0
+    step_up: float = 0.2
+    step_down: float = 0.1
+
+    def __post_init__(self) -> None:
+        for name in ("start", "step_up", "step_down"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0.0 <= value <= 1.0):
+                raise ValueError(f"{name} must be in [0, 1], got {value}")
+        if self.step_up == 0.0:
+            raise ValueError("step_up must be above 0, or the strengths never rise")
+
+    def next_strength(self, xp: Any, strength: Any, ended: Any, metric: Any) -> Any:
+        """(N,) the strengths after a step on which the episodes `ended` (N,) bool ended with `metric` (N,)."""
+        change = xp.where(metric > 0.5, self.step_up, -self.step_down)
+        return xp.clip(strength + xp.where(ended, change, 0.0), 0.0, 1.0).astype(strength.dtype)
+
+
 def default_params(model: Any, observation_size: int) -> dict[str, np.ndarray]:
     """The model's own value of every randomizable quantity (see the module docstring), unbatched."""
     values = {name: np.array(getattr(model, name), dtype=np.float64) for name in MODEL_FIELDS}
@@ -198,14 +229,24 @@ def _sample(ctx: TermContext, shape: tuple[int, ...], span: Range, distribution:
     return ctx.random.uniform(shape, span.low, span.high)
 
 
+def _at_strength(ctx: TermContext, draw: Any, neutral: Any = 0.0) -> Any:
+    """`draw` (N, ...) moved toward `neutral` (what leaves the model as it is) by each environment's strength:
+    neutral + strength x (draw - neutral); `draw` itself at full strength (ctx.strength None)."""
+    if ctx.strength is None:
+        return draw
+    strength = ctx.strength.reshape(ctx.strength.shape + (1,) * (np.ndim(draw) - 1))
+    return neutral + strength * (draw - neutral)
+
+
 def _drawn(ctx: TermContext, base: Any, span: Range, distribution: str, operation: str) -> Any:
-    """`base` (the defaults of some entries, broadcast over the environments) changed by fresh samples."""
+    """`base` (the defaults of some entries, broadcast over the environments) changed by fresh samples, at each
+    environment's strength."""
     shape = (ctx.num_envs, *np.shape(base))
     sample = _sample(ctx, shape, span, distribution)
     operation = _choice("operation", operation, OPERATIONS)
     if operation == "scale":
-        return base * sample
-    return base + sample if operation == "add" else sample
+        return base * _at_strength(ctx, sample, 1.0)
+    return base + _at_strength(ctx, sample) if operation == "add" else _at_strength(ctx, sample, base)
 
 
 def _written(ctx: TermContext, name: str, columns: Any, values: Any) -> TermContext:
@@ -322,7 +363,7 @@ def randomize_joint_offset(
     zero is off; the policy's observation is unchanged (it reads the true joint positions)."""
     ids = np.asarray(actuators.ids)
     offset = _sample(ctx, (ctx.num_envs, len(ids)), range, distribution)
-    return _written(ctx, "ctrl_offset", ids, offset)
+    return _written(ctx, "ctrl_offset", ids, _at_strength(ctx, offset))
 
 
 def observation_noise(
@@ -344,17 +385,20 @@ def observation_noise(
         noise = ctx.random.uniform(shape, -std, std)  # type: ignore[union-attr]
     else:
         noise = std * ctx.random.normal(shape)  # type: ignore[union-attr]
-    return _written(ctx, "obs_noise", terms.columns, noise)
+    return _written(ctx, "obs_noise", terms.columns, _at_strength(ctx, noise))
 
 
 def action_delay(ctx: TermContext, range: Range = Range(0.0, 0.0)) -> TermContext:  # noqa: A002
     """Draw each environment's action delay, a whole number of control steps in [low, high]: the actuators
-    get the action of that many steps ago (zeros before the episode's first)."""
+    get the action of that many steps ago (zeros before the episode's first). Below full strength the delay
+    is rounded up or down at random to a whole number whose mean is strength x the draw."""
     if range.low < 0 or range.low != int(range.low) or range.high != int(range.high):
         raise ValueError(f"the delay range must be whole numbers of steps >= 0, got [{range.low}, {range.high}]")
     draw = ctx.random.uniform((ctx.num_envs,), range.low, range.high + 1.0)  # type: ignore[union-attr]
-    delay = ctx.xp.minimum(ctx.xp.floor(draw), range.high).astype(ctx.params["action_delay"].dtype)
-    return ctx.replace(params={**ctx.params, "action_delay": delay})
+    delay = ctx.xp.minimum(ctx.xp.floor(draw), range.high)
+    if ctx.strength is not None:
+        delay = ctx.xp.floor(_at_strength(ctx, delay) + ctx.random.uniform((ctx.num_envs,)))  # type: ignore[union-attr]
+    return ctx.replace(params={**ctx.params, "action_delay": delay.astype(ctx.params["action_delay"].dtype)})
 
 
 def push_body(
@@ -366,10 +410,20 @@ def push_body(
         [ctx.random.uniform((ctx.num_envs, 3), span.low, span.high) for span in (force, torque)],  # type: ignore[union-attr]
         axis=1,
     )
-    return _written(ctx, "xfrc_applied", [body.id], wrench[:, None, :])
+    return _written(ctx, "xfrc_applied", [body.id], _at_strength(ctx, wrench)[:, None, :])
 
 
-EVENT_TERMS: dict[str, Callable[..., Any]] = {
+def randomization_strength(ctx: TermContext) -> Any:
+    """(N,) the strength each environment draws its events at (1 without a curriculum): the metric a
+    curriculum adds to its task, so that training reports how far the randomization has come."""
+    if ctx.strength is None:
+        return ctx.xp.ones(ctx.num_envs)
+    return ctx.strength
+
+
+CURRICULUM_METRIC = randomization_strength.__name__
+
+RANDOMIZATION_TERMS: dict[str, Callable[..., Any]] = {
     function.__name__: function
     for function in (
         randomize_geom_friction,
@@ -381,5 +435,6 @@ EVENT_TERMS: dict[str, Callable[..., Any]] = {
         observation_noise,
         action_delay,
         push_body,
+        randomization_strength,
     )
 }

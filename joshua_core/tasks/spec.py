@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from joshua_core.errors import ConfigError
+from joshua_core.tasks.randomization import CURRICULUM_METRIC, Curriculum
 
 
 class TermKind(enum.Enum):
@@ -91,6 +92,7 @@ class TaskSpec:
     commands: Mapping[str, int] = field(default_factory=dict)  # per-env task variables and their sizes
     keyframe: str = ""  # initial state; empty: the model's defaults
     action: ActionSpec = ActionSpec()
+    curriculum: Curriculum | None = None  # eases the events in on training environments; None: full strength
 
     def terms(self, kind: TermKind) -> tuple[TermSpec, ...]:
         return getattr(self, _FIELD_OF_KIND[kind])
@@ -149,7 +151,25 @@ def with_config(spec: TaskSpec, config: Any) -> TaskSpec:
     duplicates = sorted({name for name in names if names.count(name) > 1})
     if duplicates:
         raise ConfigError(f"task '{spec.name}': events {', '.join(map(repr, duplicates))} appear more than once")
+    if config.HasField("randomization_curriculum"):
+        changes["curriculum"] = _curriculum(spec, config.randomization_curriculum, changes)
+        changes["metrics"] += (TermSpec(CURRICULUM_METRIC),)
     return dataclasses.replace(spec, **changes)
+
+
+def _curriculum(spec: TaskSpec, config: Any, changes: dict[str, Any]) -> Curriculum:
+    """The Curriculum of a `joshua.RandomizationCurriculum`, checked against the task's events and metrics."""
+    where = f"task '{spec.name}': randomization_curriculum"
+    if not changes["events"]:
+        raise ConfigError(f"{where}: the task has no events to ease in; add events or remove the curriculum")
+    metrics = [term.key for term in changes["metrics"]]
+    if config.metric not in metrics:
+        raise ConfigError(f"{where}: metric '{config.metric}' is not one of the task's metrics: {', '.join(metrics)}")
+    given = {name: getattr(config, name) for name in ("start", "step_up", "step_down") if config.HasField(name)}
+    try:
+        return Curriculum(config.metric, **given)
+    except ValueError as error:
+        raise ConfigError(f"{where}: {error}") from None
 
 
 def _event(spec: TaskSpec, event: Any) -> EventSpec:

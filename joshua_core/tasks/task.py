@@ -76,6 +76,7 @@ class Task:
         self.metric_terms = terms[TermKind.METRIC]
         self.reset_events = tuple(term for term in terms[TermKind.EVENT] if term.mode == "reset")
         self.interval_events = tuple(term for term in terms[TermKind.EVENT] if term.mode == "interval")
+        self.curriculum = spec.curriculum  # how training environments ease the events in (None: full strength)
         delays = [term.params["range"].high for term in terms[TermKind.EVENT] if term.function is action_delay]
         self.max_action_delay = int(max(delays, default=0))
         self.commands = dict(spec.commands)

@@ -90,6 +90,7 @@ class EnvState(NamedTuple):
     params: dict[str, jax.Array]  # domain randomization: each environment's randomized quantities (task.param_fields)
     start_params: dict[str, jax.Array]  # those of each environment's next episode
     history: jax.Array  # (N, max delay + 1, nu) the last actions, newest first (action delay)
+    strength: jax.Array  # (N,) float32 each environment's event strength (the randomization curriculum's; else 1)
 
 
 class MjxEnv:
@@ -104,6 +105,7 @@ class MjxEnv:
         source: str | Path = "<model>",
         devices: list[jax.Device] | None = None,
         desync_episodes: bool = False,
+        curriculum: bool = False,
         physics: Physics | None = None,
     ) -> None:
         devices = list(devices or jax.devices())
@@ -138,6 +140,7 @@ class MjxEnv:
         self.randomization = ModelRandomization(task, model, self.mjx_model, local)
         self._overflow = OverflowCheck(physics, model)
         self.desync_episodes = desync_episodes
+        self.curriculum = task.curriculum if curriculum else None  # EnvSpec.curriculum
         self._draw_starts = jax.jit(self._fresh_episodes, in_shardings=self.sharding, out_shardings=self.sharding)
         self._split_keys = jax.jit(split_each, in_shardings=self.sharding, out_shardings=self.sharding)
         self._begin = jax.jit(self._begin_episodes, out_shardings=self.sharding)
@@ -149,11 +152,13 @@ class MjxEnv:
         """Every environment at the start of a fresh episode (reset terms drawn from `key`); the same
         draws are each environment's start state until `redraw_starts`."""
         keys, draw = self._split_keys(jax.random.split(key, self.num_envs))
-        data, commands, params = self._draw_starts(draw)
+        start = self.curriculum.start if self.curriculum else 1.0
+        strength = jax.device_put(jnp.full(self.num_envs, start, jnp.float32), self.sharding)
+        data, commands, params = self._draw_starts(draw, strength)
         steps = jnp.zeros(self.num_envs, jnp.int32)
         if self.desync_episodes:  # first episodes start at random steps (see EnvSpec.desync_episodes)
             steps = jax.random.randint(jax.random.fold_in(key, 1), (self.num_envs,), 0, self.task.episode_length)
-        return self._begin(data, commands, params, keys, steps)
+        return self._begin(data, commands, params, keys, steps, strength)
 
     def redraw_starts(self, state: EnvState) -> EnvState:
         """`state` with a new start state for every environment, drawn from its reset terms.
@@ -164,7 +169,7 @@ class MjxEnv:
         capacity overflow is reported (once, `joshua_mjx.impl.OverflowCheck`)."""
         self._overflow.watch(state.data)
         keys, draw = self._split_keys(state.key)
-        start, start_commands, start_params = self._draw_starts(draw)
+        start, start_commands, start_params = self._draw_starts(draw, state.strength)
         return state._replace(start=start, start_commands=start_commands, start_params=start_params, key=keys)
 
     def _begin_episodes(
@@ -174,6 +179,7 @@ class MjxEnv:
         params: dict[str, jax.Array],
         keys: jax.Array,
         episode_step: jax.Array,
+        strength: jax.Array,
     ) -> EnvState:
         """The environments at the step `episode_step` of episodes started from `data`, which are also their
         start states."""
@@ -181,7 +187,7 @@ class MjxEnv:
         zeros = jnp.zeros(n, jnp.float32)
         action = jnp.zeros((n, self.action_size), jnp.float32)
         observation, value_observation = self._observe(
-            self._context(data, data.qpos, action, action, episode_step, commands, params)
+            self._context(data, data.qpos, action, action, episode_step, commands, params, strength)
         )
         sums = EpisodeSums.zeros(jnp, self.task, n, jnp.float32)
         return EnvState(
@@ -205,6 +211,7 @@ class MjxEnv:
             params=params,
             start_params=params,
             history=jnp.zeros((n, self.task.max_action_delay + 1, self.action_size), jnp.float32),
+            strength=strength,
         )
 
     def _step(self, state: EnvState, action: jax.Array) -> EnvState:
@@ -229,14 +236,23 @@ class MjxEnv:
         params, key = state.params, state.key
         if task.interval_events or "xfrc_applied" in params:
             random = PerEnvRandom(key)
-            ctx = self._context(data, state.data.qpos, action, state.action, episode_step, state.commands, params)
+            ctx = self._context(
+                data, state.data.qpos, action, state.action, episode_step, state.commands, params, state.strength
+            )
             params, key = step_params(task, ctx.replace(random=random)), random.keys
             if self.randomization.derives_on_steps:
                 params = self.randomization.with_derived(params)
-        ctx = self._context(data, state.data.qpos, action, state.action, episode_step, state.commands, params)
+        ctx = self._context(
+            data, state.data.qpos, action, state.action, episode_step, state.commands, params, state.strength
+        )
         outcome = account_step(task, ctx, nonfinite(jnp, data.qpos, data.qvel), state.sums, jnp.float32)
         done = outcome.episode.done
         final_observation, final_value_observation = self._observe(ctx)
+        strength = state.strength
+        if self.curriculum:  # the next episodes draw their events at the strengths these episodes earned
+            strength = self.curriculum.next_strength(
+                jnp, strength, done, outcome.episode.metrics[self.curriculum.metric]
+            )
 
         data = self._autoreset(done, state.start, data)
         commands = where_env(done, state.start_commands, state.commands)
@@ -247,7 +263,7 @@ class MjxEnv:
         episode_step = jnp.where(done, 0, episode_step)
         previous_qpos = jnp.where(done[:, None], data.qpos, state.data.qpos)
         observation, value_observation = self._observe(
-            self._context(data, previous_qpos, action, previous_action, episode_step, commands, params)
+            self._context(data, previous_qpos, action, previous_action, episode_step, commands, params, strength)
         )
         return EnvState(
             data=data,
@@ -270,6 +286,7 @@ class MjxEnv:
             params=params,
             start_params=state.start_params,
             history=history,
+            strength=strength,
         )
 
     # --- pieces -------------------------------------------------------------------------------
@@ -321,11 +338,14 @@ class MjxEnv:
             data = data.replace(_impl=data._impl.replace(cfrc_ext=cfrc_ext))
         return data
 
-    def _fresh_episodes(self, keys: jax.Array) -> tuple[mjx.Data, dict[str, jax.Array], dict[str, jax.Array]]:
-        """New episodes, one per key: the task's initial state with its reset terms and reset events applied,
-        forward done."""
+    def _fresh_episodes(
+        self, keys: jax.Array, strength: jax.Array
+    ) -> tuple[mjx.Data, dict[str, jax.Array], dict[str, jax.Array]]:
+        """New episodes, one per key: the task's initial state with its reset terms and reset events applied
+        (at each environment's `strength`), forward done."""
         task, n = self.task, keys.shape[0]
         ctx = task.reset(task.reset_context(jnp, n, PerEnvRandom(keys)))
+        ctx = ctx.replace(strength=strength if self.curriculum else None)
         params = self.randomization.with_derived(episode_params(task, ctx))
         data = batch_data(self._initial_data, n)
         dtype = data.qpos.dtype
@@ -349,6 +369,7 @@ class MjxEnv:
         episode_step: jax.Array,
         commands: dict[str, jax.Array],
         params: dict[str, jax.Array],
+        strength: jax.Array,
     ) -> TermContext:
         derived = {name: getattr(data, name) for name in self._derived}
         if self._contact_forces:
@@ -366,6 +387,7 @@ class MjxEnv:
             commands=commands,
             params=params,
             defaults=self.task.defaults,
+            strength=strength if self.curriculum else None,
             **derived,
         )
 
@@ -416,5 +438,6 @@ def mjx_envs(spec: EnvSpec, plugins: PluginHost, physics: Physics | None = None)
         source=path,
         devices=spec.devices,
         desync_episodes=spec.desync_episodes,
+        curriculum=spec.curriculum,
         physics=physics or Physics.from_training(spec.training),
     )

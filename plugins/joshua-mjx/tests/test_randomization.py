@@ -125,3 +125,54 @@ def test_the_value_observation_is_the_observation_without_its_noise() -> None:
         np.testing.assert_allclose(np.asarray(states[1].observation) - clean, noise, rtol=1e-5, atol=1e-5)
         np.testing.assert_allclose(np.asarray(states[1].final_value_observation), clean, rtol=1e-5, atol=1e-5)
         assert 0.3 < noise.std() < 0.7
+
+
+@pytest.mark.slow  # compiles an MJX step: 40 s on 2 cores
+def test_training_environments_ease_the_events_in_as_their_episodes_succeed() -> None:
+    """The randomization curriculum inside the compiled step: strength 0 draws nothing, each successful episode
+    (here every one: the metric is `alive`) raises the environment's strength, evaluation draws at full strength."""
+    from joshua_core.interfaces import EnvKind, EnvSpec
+    from joshua_core.plugins import PluginHost
+
+    config = text_format.Parse(
+        """episode_length: 2
+        terms { name: "always" term: "alive" kind: METRIC }
+        events { name: "noise" term: "observation_noise" mode: INTERVAL interval_steps: 1
+                 params { key: "std" value: "0.1" } }
+        events { name: "damping" term: "randomize_joint_damping" mode: RESET params { key: "range" value: "[2, 3]" } }
+        randomization_curriculum { metric: "always" start: 0 step_up: 0.5 }""",
+        TaskConfig(),
+    )
+    plugins = PluginHost.discover()
+    mjx_backend = plugins.backend("mjx")
+
+    def envs(curriculum: bool) -> MjxEnv:
+        spec = EnvSpec("so_arm100_reach", 2, task_config=config, curriculum=curriculum)
+        return mjx_backend.create_envs(spec, EnvKind.JAX, plugins)
+
+    env = envs(curriculum=True)
+    default_damping = env.task.defaults["dof_damping"]
+    state = env.reset(jax.random.key(0))
+    # strength 0: the model's own damping, to float32 rounding (MJX's params are float32)
+    np.testing.assert_allclose(
+        state.params["dof_damping"], np.broadcast_to(default_damping, (2, env.model.nv)), rtol=1e-6
+    )
+    action = jnp.zeros((2, env.action_size))
+    noises, strengths = [], []
+    for _ in range(6):
+        state = env.step(state, action)
+        noises.append(float(jnp.abs(state.observation - state.value_observation).max()))
+        strengths.append(np.asarray(state.strength).tolist())
+    # an episode ends every 2 steps, each one a success (+0.5, capped at 1)
+    assert strengths == [[0.0, 0.0], [0.5, 0.5], [0.5, 0.5], [1.0, 1.0], [1.0, 1.0], [1.0, 1.0]]
+    # noise is drawn on each step after an episode's first observation: at strength 0, then 0.5 (std 0.05), then 1
+    assert noises[0] == 0.0 and noises[2] > 0.01 and noises[4] > 0.01, noises
+    assert np.asarray(state.episode.metrics["randomization_strength"]).tolist() == [1.0, 1.0]
+    state = env.redraw_starts(state)  # the next episodes' damping at strength 1: x U(2, 3)
+    ratio = np.asarray(state.start_params["dof_damping"])[:, default_damping > 0] / default_damping[default_damping > 0]
+    assert 2.0 <= ratio.min() and ratio.max() <= 3.0
+
+    evaluation = envs(curriculum=False).reset(jax.random.key(0))
+    assert np.asarray(evaluation.strength).tolist() == [1.0, 1.0]
+    ratio = np.asarray(evaluation.params["dof_damping"])[:, default_damping > 0] / default_damping[default_damping > 0]
+    assert 2.0 <= ratio.min() and ratio.max() <= 3.0

@@ -98,6 +98,7 @@ class BatchedSimulation:
         seed: int = 0,
         nthread: int | None = None,
         physics: BatchPhysics | None = None,
+        curriculum: bool = False,
     ) -> None:
         self.task = task
         self.model = model
@@ -117,6 +118,9 @@ class BatchedSimulation:
             name: np.array(value) for name, value in tiled(np, task.defaults, num_envs, task.param_fields).items()
         }
         self.model_fields = {name: self.physics.model_field(name) for name in task.param_fields if name in MODEL_FIELDS}
+        # each simulation's event strength under the task's randomization curriculum (None: full strength)
+        self.curriculum = task.curriculum if curriculum else None
+        self.strength = None if self.curriculum is None else np.full(num_envs, self.curriculum.start)
         self.xfrc_applied = self.physics.field("xfrc_applied") if "xfrc_applied" in self.params else None
         self.history = np.zeros((num_envs, task.max_action_delay + 1, task.action_size))
         self.seed(seed)
@@ -140,6 +144,7 @@ class BatchedSimulation:
             commands=self.commands,
             params=self.params,
             defaults=self.task.defaults,
+            strength=self.strength,
             **self.derived,
         )
 
@@ -153,6 +158,7 @@ class BatchedSimulation:
         return ctx.replace(
             commands={name: value[ids] for name, value in self.commands.items()},
             params={name: value[ids] for name, value in self.params.items()},
+            strength=None if self.strength is None else self.strength[ids],
             **arrays,
         )
 
@@ -165,7 +171,7 @@ class BatchedSimulation:
         self.qvel[ids] = state.qvel
         for name, value in self.commands.items():
             value[ids] = state.commands[name]
-        drawn = episode_params(task, state)
+        drawn = episode_params(task, state.replace(strength=None if self.strength is None else self.strength[ids]))
         for name, value in drawn.items():
             self.params[name][ids] = value
         self.ctrl[ids] = task.reset_ctrl(np, len(ids), drawn)
@@ -207,6 +213,12 @@ class BatchedSimulation:
         self.episode_step += 1
         self._step_events()
         return failed | nonfinite(np, self.qpos, self.qvel)
+
+    def follow_curriculum(self, ended: NDArray[np.bool_], metrics: dict[str, Any]) -> None:
+        """Move the event strengths of the simulations whose episodes `ended` by the curriculum's metric."""
+        if self.curriculum is not None and self.strength is not None:
+            metric = metrics[self.curriculum.metric]
+            self.strength = self.curriculum.next_strength(np, self.strength, ended, metric)
 
     def write_model(self, ids: NDArray[np.intp]) -> None:
         """Give the simulations `ids` their randomized model fields, and recompute what MuJoCo derives from
@@ -316,6 +328,7 @@ class BatchedVectorEnv(VectorEnv):
         observation = task.observe(ctx).astype(np.float32)
         outcome = account_step(task, ctx, failed, self._sums, np.float64)
         self._sums = outcome.sums
+        simulation.follow_curriculum(outcome.episode.done, outcome.episode.metrics)
         infos: dict[str, Any] = {"reward_terms": outcome.reward_terms, "metrics": outcome.metrics}
         episode = outcome.episode
         if episode.done.any():
@@ -401,7 +414,9 @@ def vector_envs(spec: EnvSpec, plugins: PluginHost, *, render_mode: str | None =
     """The BatchedVectorEnv an EnvSpec describes (the `mujoco` backend's EnvKind.NUMPY environments), reset
     with its seed."""
     built, model = load_task_model(spec.task, spec.model_path, plugins, spec.task_config)
-    simulation = BatchedSimulation(built, model, spec.num_envs, seed=spec.seed, nthread=spec.nthread)
+    simulation = BatchedSimulation(
+        built, model, spec.num_envs, seed=spec.seed, nthread=spec.nthread, curriculum=spec.curriculum
+    )
     env = BatchedVectorEnv(simulation, render_mode, desync_episodes=spec.desync_episodes)
     env.reset(seed=spec.seed)
     return env

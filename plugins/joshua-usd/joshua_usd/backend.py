@@ -74,7 +74,9 @@ def physx_envs(spec: EnvSpec, plugins: PluginHost) -> Any:
         if path.suffix.lower() not in USD_SUFFIXES:
             path = export_model(path, Path(folder) / f"{path.stem}.usda")
         physics = PhysxBatchPhysics(model, path, spec.num_envs, task.fields)
-    simulation = BatchedSimulation(task, model, spec.num_envs, seed=spec.seed, physics=physics)
+    simulation = BatchedSimulation(
+        task, model, spec.num_envs, seed=spec.seed, physics=physics, curriculum=spec.curriculum
+    )
     env = BatchedVectorEnv(simulation, desync_episodes=spec.desync_episodes)
     env.reset(seed=spec.seed)
     return env
