@@ -245,7 +245,13 @@ def train(
                 + f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}  "
                 f"kl {metrics['approx_kl']:.4f}  lr {metrics['learning_rate']:.2e}  "
                 f"vloss {metrics['value_loss']:.3g}  clip {metrics['clip_fraction']:.3f}  "
-                + " ".join(f"{key[7:]} {value:.1f}" for key, value in metrics.items() if key.startswith("reward/")),
+                + " ".join(f"{key[7:]} {value:.1f}" for key, value in metrics.items() if key.startswith("reward/"))
+                # the task's other metrics, e.g. a randomization curriculum's strength
+                + "".join(
+                    f"  {key[8:]} {value:.3g}"
+                    for key, value in metrics.items()
+                    if key.startswith("metrics/") and key != training_key
+                ),
                 flush=True,
             )
         if stopping or (snapshot_interval > 0 and report.iteration % snapshot_interval == 0):

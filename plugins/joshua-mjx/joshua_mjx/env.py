@@ -52,7 +52,7 @@ from joshua_core.tasks import (
 )
 from joshua_mjx.batch import STEP_INPUTS, PerEnvRandom, split_each, where_env
 from joshua_mjx.engine import mjx_variant
-from joshua_mjx.impl import WARP, OverflowCheck, Physics, batch_data
+from joshua_mjx.impl import WARP, CapturedGraphs, OverflowCheck, Physics, batch_data
 from joshua_mjx.physics import mjx
 from joshua_mjx.randomized import ModelRandomization
 from joshua_mujoco import compile_model
@@ -139,6 +139,7 @@ class MjxEnv:
         self._initial_data = physics.put_data(model, initial, local, num_envs)
         self.randomization = ModelRandomization(task, model, self.mjx_model, local)
         self._overflow = OverflowCheck(physics, model)
+        self._graphs = CapturedGraphs(physics, local)
         self.desync_episodes = desync_episodes
         self.curriculum = task.curriculum if curriculum else None  # EnvSpec.curriculum
         self._draw_starts = jax.jit(self._fresh_episodes, in_shardings=self.sharding, out_shardings=self.sharding)
@@ -166,8 +167,10 @@ class MjxEnv:
         Call it between rollouts (the PPO trainer does before every iteration): it runs `mjx.forward`
         once over the batch, which `step` would otherwise run on every step that ends an episode
         anywhere in the batch, and it stays out of the compiled rollout. With MuJoCo Warp it is also where a
-        capacity overflow is reported (once, `joshua_mjx.impl.OverflowCheck`)."""
+        capacity overflow is reported (once, `joshua_mjx.impl.OverflowCheck`) and where captured CUDA graphs are
+        cleared now and then (`joshua_mjx.impl.CapturedGraphs`)."""
         self._overflow.watch(state.data)
+        self._graphs.between_rollouts(state.data)
         keys, draw = self._split_keys(state.key)
         start, start_commands, start_params = self._draw_starts(draw, state.strength)
         return state._replace(start=start, start_commands=start_commands, start_params=start_params, key=keys)

@@ -36,6 +36,8 @@ JAX, WARP = "jax", "warp"
 # option that raises it; the others (the solver's iteration limits) are how a model with few iterations runs.
 _CAPACITY_BITS = {1 << 0: "njmax", 1 << 2: "nconmax", 1 << 3: "nconmax", 1 << 4: "nconmax"}
 _CAPACITY_MASK = sum(_CAPACITY_BITS)
+# Rollouts between two clears of MuJoCo Warp's captured CUDA graphs (`CapturedGraphs`)
+GRAPH_CLEAR_INTERVAL = 20
 _JAX_MEMORY_VARIABLES = (
     "XLA_PYTHON_CLIENT_PREALLOCATE",
     "XLA_PYTHON_CLIENT_MEM_FRACTION",
@@ -206,3 +208,28 @@ class OverflowCheck:
 
 
 _WHAT = {"nconmax": "contacts", "njmax": "constraint rows"}
+
+
+class CapturedGraphs:
+    """Keeps MuJoCo Warp's captured CUDA graphs from filling the GPU. On a GPU, Warp captures each call's kernels as
+    a CUDA graph per set of buffer addresses (JaxCallableGraphMode.WARP) and keeps up to 32 of them per callable,
+    each holding the work arrays it allocated while capturing. JAX hands the step new addresses now and then (an
+    evaluation or a snapshot allocates in between), so graphs piled up until Warp failed to allocate 170 s into
+    16384 randomized environments (bench/RESULTS.md). Clearing them every GRAPH_CLEAR_INTERVAL rollouts, once the
+    last one has finished, bounds that for one recapture per call site per interval."""
+
+    def __init__(self, physics: Physics, device: jax.Device) -> None:
+        self.enabled = physics.impl == WARP and device.platform == "gpu"
+        self._rollouts = 0
+
+    def between_rollouts(self, data: Any) -> None:
+        """Count a rollout; every GRAPH_CLEAR_INTERVAL-th, wait for `data` (the last rollout's result, so that no
+        graph is in flight) and clear every callable's graphs (`warp.clear_jax_callable_graph_cache`)."""
+        if not self.enabled:
+            return
+        self._rollouts += 1
+        if self._rollouts % GRAPH_CLEAR_INTERVAL == 0:
+            import warp as wp
+
+            jax.block_until_ready(data)
+            wp.clear_jax_callable_graph_cache()
