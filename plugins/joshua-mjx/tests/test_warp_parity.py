@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
@@ -60,9 +61,15 @@ def _unit_quaternions(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
     return qpos
 
 
-def _rollout(env: MjxEnv) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(qpos (STEPS, ENVS, nq), ctrl (STEPS, ENVS, nu), the first start's qpos and qvel) of `env` from key 0."""
+def _rollout(
+    env: MjxEnv, params: Callable[[dict[str, jax.Array]], dict[str, jax.Array]] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(qpos (STEPS, ENVS, nq), ctrl (STEPS, ENVS, nu), the first start's qpos and qvel) of `env` from key 0;
+    with `params`, its environments' drawn parameters replaced by what `params` makes of them."""
     state = env.reset(jax.random.PRNGKey(0))
+    if params is not None:  # laid out as reset's state, so that the step compiled for it serves this one too
+        replaced = params(state.params)
+        state = jax.device_put(state._replace(params=replaced, start_params=replaced), env.sharding)
     start = np.asarray(state.data.qpos[0]), np.asarray(state.data.qvel[0])
     qpos, ctrl = [], []
     for action in _actions(env):
@@ -125,7 +132,16 @@ def test_warp_steps_a_randomized_model_like_jax() -> None:
     jax_qpos, _, _, _ = _rollout(jax_env)
     warp_qpos, _, _, _ = _rollout(warp_env)
     np.testing.assert_allclose(warp_qpos, jax_qpos, atol=JAX_WARP_TOL)
-    plain_qpos, _, _, _ = _rollout(make_mjx_env("so_arm100_pick_place", ENVS))
+
+    def nominal(drawn: dict[str, jax.Array]) -> dict[str, jax.Array]:
+        """The model's own values in place of the draws (the same program: no second compile of the scene)."""
+        defaults = jax_env.task.defaults
+        plain = {
+            name: jnp.broadcast_to(defaults[name], value.shape) for name, value in drawn.items() if name in defaults
+        }
+        return jax_env.randomization.with_derived(plain)
+
+    plain_qpos, _, _, _ = _rollout(jax_env, nominal)
     # the randomization moved the arm by more than the tolerance (5.8e-3 against 2e-3 when measured): it can fail
     assert np.abs(plain_qpos - jax_qpos).max() > 2 * JAX_WARP_TOL
 

@@ -31,14 +31,14 @@ from joshua_ppo.trainer import PpoTrainer
 pytestmark = pytest.mark.slow  # every test here trains
 
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
-REACH = {  # 16 envs x 25 steps per iteration, 20 iterations: about 80 s on 2 cores after a 35 s compile
+REACH = {  # 16 envs x 25 steps per iteration, 15 iterations: about 60 s on 2 cores after a 35 s compile
     "num_envs": 16,
     "num_steps": 25,
     "num_epochs": 5,
     "minibatch_size": 100,
     "learning_rate": 1e-3,
     "gamma": 0.97,
-    "total_timesteps": 8000,
+    "total_timesteps": 6000,
     "seed": 1,
     "ppo": {"hidden_sizes": [64, 64], "run_name": "reach", "checkpoint_interval": 4000, "video_interval": -1},
 }
@@ -48,7 +48,7 @@ REACH = {  # 16 envs x 25 steps per iteration, 20 iterations: about 80 s on 2 co
 def reach_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     root = tmp_path_factory.mktemp("ppo")
     checkpoint = train_mjx(model_path="so_arm100/scene_mjx.xml", config=REACH, checkpoint_dir=root)
-    assert checkpoint == root / "reach_step_8000"
+    assert checkpoint == root / "reach_step_6000"
     return root
 
 
@@ -61,16 +61,18 @@ def test_reach_policy_learns_and_the_run_folder_is_complete(reach_run: Path) -> 
     whole = history[4:]
     returns = [record["mean_return"] for record in whole]
     distances = [record["metrics/distance"] for record in whole]
-    assert returns[-1] > returns[0] + 5.0, returns  # measured: -28.1 -> -0.5
+    # measured: -28.1 -> -12.4 (distance 0.27 -> 0.13) after 15 iterations, -0.5 after 20; every iteration from the
+    # 11th on passes both checks
+    assert returns[-1] > returns[0] + 5.0, returns
     assert distances[-1] < 0.75 * distances[0], distances
     assert [path.name for path in run_checkpoints(reach_run, "reach")] == [
         "reach_step_0",
         "reach_step_4000",
-        "reach_step_8000",
+        "reach_step_6000",
     ]
-    saved = from_bytes(None, (reach_run / "reach_step_8000" / "params.msgpack").read_bytes())  # as a user loads it
+    saved = from_bytes(None, (reach_run / "reach_step_6000" / "params.msgpack").read_bytes())  # as a user loads it
     assert set(saved) == {"params", "normalizer"} and saved["params"]["log_std"].shape == (6,)
-    config = json.loads((reach_run / "reach_step_8000" / "config.json").read_text())
+    config = json.loads((reach_run / "reach_step_6000" / "config.json").read_text())
     assert config["trainer"] == "ppo" and config["task"] == "so_arm100_reach" and config["seed"] == 1
     assert config["settings"]["optimization"]["minibatch_size"] == 100
     curves = cv2.imread(str(run / "training_curves.png"))
@@ -79,7 +81,7 @@ def test_reach_policy_learns_and_the_run_folder_is_complete(reach_run: Path) -> 
 
     events = EventAccumulator(str(run / "tensorboard"))
     events.Reload()
-    assert "mean_return" in events.Tags()["scalars"] and len(events.Scalars("loss")) == 20
+    assert "mean_return" in events.Tags()["scalars"] and len(events.Scalars("loss")) == 15
 
 
 def test_joshua_eval_reports_intervals_and_films_a_grid_of_episodes(reach_run: Path) -> None:
