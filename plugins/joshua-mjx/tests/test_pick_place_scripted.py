@@ -95,7 +95,14 @@ def test_pressing_on_the_cube_touches_both_pads_but_is_no_grasp() -> None:
 
 # The plain scene in 2 environments, as test_warp_parity's pick-and-place: the run's compilation cache then serves
 # their reset and step to whichever test runs second. The script drives the first; the second gets the same actions.
-@pytest.mark.parametrize(("preset", "envs"), [("so_arm100_pick_place_mjx", 2), ("so_arm100_pick_place_mjx_dr", 1)])
+@pytest.mark.parametrize(
+    ("preset", "envs"),
+    [
+        # the Warp pick-and-place parity test's programs: on its worker (conftest.py)
+        pytest.param("so_arm100_pick_place_mjx", 2, marks=pytest.mark.xdist_group("pick_place_2_envs")),
+        ("so_arm100_pick_place_mjx_dr", 1),
+    ],
+)
 @pytest.mark.slow
 def test_the_script_solves_the_mjx_scene(preset: str, envs: int) -> None:
     """The MJX scene, and the randomized preset's: friction, cube mass, servo gains, action delay, observation
