@@ -8,8 +8,11 @@ camera's axis (1 channel, 0 where nothing is hit), "segmentation" int32 geom ids
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
+
+import numpy as np
 
 from joshua_core.errors import ConfigError
 from joshua_core.tasks.handles import _lookup
@@ -17,7 +20,7 @@ from joshua_core.tasks.handles import _lookup
 CAMERA_KINDS = ("rgb", "depth", "segmentation")
 DEFAULT_SIZE = 64  # pixels on each side, where a camera gives no width or height
 _CHANNELS = {"rgb": 3, "depth": 1, "segmentation": 1}
-_ITEM_BYTES = {"rgb": 1, "depth": 4, "segmentation": 4}  # uint8, float32, int32
+_DTYPES = {"rgb": np.dtype(np.uint8), "depth": np.dtype(np.float32), "segmentation": np.dtype(np.int32)}
 
 
 @dataclass(frozen=True)
@@ -50,10 +53,14 @@ class Camera:
         return self.height, self.width, _CHANNELS[self.kind]
 
     @property
+    def dtype(self) -> np.dtype:
+        """The image's element type."""
+        return _DTYPES[self.kind]
+
+    @property
     def bytes_per_env(self) -> int:
         """Bytes of one environment's image."""
-        height, width, channels = self.shape
-        return height * width * channels * _ITEM_BYTES[self.kind]
+        return math.prod(self.shape) * self.dtype.itemsize
 
 
 def camera_spec(config: Any) -> CameraSpec:
