@@ -123,7 +123,7 @@ class TrainingConfig(_message.Message):
     def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., synchronized_episodes: _Optional[bool] = ..., nthread: _Optional[int] = ..., web: _Optional[str] = ...) -> None: ...
 
 class TaskConfig(_message.Message):
-    __slots__ = ("episode_length", "frame_skip", "terms", "keyframe", "events", "action", "randomization_curriculum")
+    __slots__ = ("episode_length", "frame_skip", "terms", "keyframe", "events", "action", "randomization_curriculum", "cameras")
     EPISODE_LENGTH_FIELD_NUMBER: _ClassVar[int]
     FRAME_SKIP_FIELD_NUMBER: _ClassVar[int]
     TERMS_FIELD_NUMBER: _ClassVar[int]
@@ -131,6 +131,7 @@ class TaskConfig(_message.Message):
     EVENTS_FIELD_NUMBER: _ClassVar[int]
     ACTION_FIELD_NUMBER: _ClassVar[int]
     RANDOMIZATION_CURRICULUM_FIELD_NUMBER: _ClassVar[int]
+    CAMERAS_FIELD_NUMBER: _ClassVar[int]
     episode_length: int
     frame_skip: int
     terms: _containers.RepeatedCompositeFieldContainer[TermOverride]
@@ -138,7 +139,32 @@ class TaskConfig(_message.Message):
     events: _containers.RepeatedCompositeFieldContainer[EventConfig]
     action: ActionConfig
     randomization_curriculum: RandomizationCurriculum
-    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ..., keyframe: _Optional[str] = ..., events: _Optional[_Iterable[_Union[EventConfig, _Mapping]]] = ..., action: _Optional[_Union[ActionConfig, _Mapping]] = ..., randomization_curriculum: _Optional[_Union[RandomizationCurriculum, _Mapping]] = ...) -> None: ...
+    cameras: _containers.RepeatedCompositeFieldContainer[CameraConfig]
+    def __init__(self, episode_length: _Optional[int] = ..., frame_skip: _Optional[int] = ..., terms: _Optional[_Iterable[_Union[TermOverride, _Mapping]]] = ..., keyframe: _Optional[str] = ..., events: _Optional[_Iterable[_Union[EventConfig, _Mapping]]] = ..., action: _Optional[_Union[ActionConfig, _Mapping]] = ..., randomization_curriculum: _Optional[_Union[RandomizationCurriculum, _Mapping]] = ..., cameras: _Optional[_Iterable[_Union[CameraConfig, _Mapping]]] = ...) -> None: ...
+
+class CameraConfig(_message.Message):
+    __slots__ = ("camera", "width", "height", "kind", "every_steps")
+    class Kind(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        KIND_UNSPECIFIED: _ClassVar[CameraConfig.Kind]
+        RGB: _ClassVar[CameraConfig.Kind]
+        DEPTH: _ClassVar[CameraConfig.Kind]
+        SEGMENTATION: _ClassVar[CameraConfig.Kind]
+    KIND_UNSPECIFIED: CameraConfig.Kind
+    RGB: CameraConfig.Kind
+    DEPTH: CameraConfig.Kind
+    SEGMENTATION: CameraConfig.Kind
+    CAMERA_FIELD_NUMBER: _ClassVar[int]
+    WIDTH_FIELD_NUMBER: _ClassVar[int]
+    HEIGHT_FIELD_NUMBER: _ClassVar[int]
+    KIND_FIELD_NUMBER: _ClassVar[int]
+    EVERY_STEPS_FIELD_NUMBER: _ClassVar[int]
+    camera: str
+    width: int
+    height: int
+    kind: CameraConfig.Kind
+    every_steps: int
+    def __init__(self, camera: _Optional[str] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., kind: _Optional[_Union[CameraConfig.Kind, str]] = ..., every_steps: _Optional[int] = ...) -> None: ...
 
 class RandomizationCurriculum(_message.Message):
     __slots__ = ("metric", "start", "step_up", "step_down")

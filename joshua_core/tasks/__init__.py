@@ -5,6 +5,7 @@ namespace `ctx.xp`), so the same task runs on numpy (joshua-mujoco) and inside `
 (joshua-mjx). See docs/tasks.md.
 """
 
+from joshua_core.tasks.cameras import CAMERA_KINDS, Camera, CameraSpec
 from joshua_core.tasks.context import (
     DERIVED_FIELDS,
     KINEMATIC_FIELDS,
@@ -31,6 +32,7 @@ from joshua_core.tasks.spec import ActionSpec, EventSpec, TaskSpec, TermKind, Te
 from joshua_core.tasks.task import BoundTerm, Task, build_task, load_task_spec
 
 __all__ = [
+    "CAMERA_KINDS",
     "DERIVED_FIELDS",
     "INERTIAL_FIELDS",
     "KINEMATIC_FIELDS",
@@ -41,6 +43,8 @@ __all__ = [
     "Bodies",
     "Body",
     "BoundTerm",
+    "Camera",
+    "CameraSpec",
     "Curriculum",
     "Episode",
     "EpisodeSums",

@@ -126,6 +126,7 @@ def _names(model: Any, kind: str) -> list[str]:
         "joint": model.njnt,
         "actuator": model.nu,
         "geom": model.ngeom,
+        "camera": model.ncam,
     }[kind]
     return [getattr(model, kind)(i).name for i in range(count)]
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from joshua_core.errors import ConfigError
+from joshua_core.tasks.cameras import CameraSpec, camera_spec
 from joshua_core.tasks.randomization import CURRICULUM_METRIC, Curriculum
 
 
@@ -93,6 +94,7 @@ class TaskSpec:
     keyframe: str = ""  # initial state; empty: the model's defaults
     action: ActionSpec = ActionSpec()
     curriculum: Curriculum | None = None  # eases the events in on training environments; None: full strength
+    cameras: tuple[CameraSpec, ...] = ()  # scene cameras rendered as image observations (joshua_core.tasks.cameras)
 
     def terms(self, kind: TermKind) -> tuple[TermSpec, ...]:
         return getattr(self, _FIELD_OF_KIND[kind])
@@ -129,7 +131,8 @@ def parse_param(text: str) -> Any:
 
 
 def with_config(spec: TaskSpec, config: Any) -> TaskSpec:
-    """`spec` with a `joshua.TaskConfig` message laid over it (episode length, frame skip, keyframe, term overrides)."""
+    """`spec` with a `joshua.TaskConfig` message laid over it (episode length, frame skip, keyframe, term overrides,
+    events, cameras added to the task's)."""
     changes: dict[str, Any] = {}
     if config.episode_length < 0 or config.frame_skip < 0:
         raise ConfigError(f"task '{spec.name}': episode_length and frame_skip must not be negative")
@@ -154,6 +157,7 @@ def with_config(spec: TaskSpec, config: Any) -> TaskSpec:
     if config.HasField("randomization_curriculum"):
         changes["curriculum"] = _curriculum(spec, config.randomization_curriculum, changes)
         changes["metrics"] += (TermSpec(CURRICULUM_METRIC),)
+    changes["cameras"] = spec.cameras + tuple(camera_spec(camera) for camera in config.cameras)
     return dataclasses.replace(spec, **changes)
 
 

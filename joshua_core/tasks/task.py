@@ -22,6 +22,7 @@ import numpy as np
 from joshua_core.errors import ConfigError, PluginLoadError, UsageError
 from joshua_core.kinds import Kind
 from joshua_core.tasks.actuation import action_mapping, initial_state, keyframe_id
+from joshua_core.tasks.cameras import resolve_cameras
 from joshua_core.tasks.context import STATE_FIELDS, NumpyRandom, TermContext
 from joshua_core.tasks.handles import HANDLE_TYPES, resolve_handle
 from joshua_core.tasks.randomization import (
@@ -77,6 +78,7 @@ class Task:
         self.reset_events = tuple(term for term in terms[TermKind.EVENT] if term.mode == "reset")
         self.interval_events = tuple(term for term in terms[TermKind.EVENT] if term.mode == "interval")
         self.curriculum = spec.curriculum  # how training environments ease the events in (None: full strength)
+        self.cameras = resolve_cameras(spec.name, spec.cameras, model)  # image observations, checked against the model
         delays = [term.params["range"].high for term in terms[TermKind.EVENT] if term.function is action_delay]
         self.max_action_delay = int(max(delays, default=0))
         self.commands = dict(spec.commands)

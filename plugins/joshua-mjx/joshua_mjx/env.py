@@ -16,6 +16,9 @@ with numpy, so rewards and observations match the `mujoco` backend's.
 - Rewards, terminations, truncations and the episode records follow `joshua_core.tasks.episodes`
   (the same code as the `mujoco` backend's): a simulation whose state becomes non-finite is
   terminated with zero reward, never propagated.
+- Cameras: where the task names cameras (joshua_core.tasks.cameras; MuJoCo Warp only), `state.images` holds
+  each camera's current frame, rendered inside `reset` and `step` (joshua_mjx.cameras); a camera-less task
+  compiles the same programs as before.
 - `MjxEnv.sharding` spreads the environments over every visible device (`jax.sharding`);
   `reset` returns a state laid out that way.
 """
@@ -51,6 +54,7 @@ from joshua_core.tasks import (
     step_params,
 )
 from joshua_mjx.batch import STEP_INPUTS, PerEnvRandom, split_each, where_env
+from joshua_mjx.cameras import Cameras
 from joshua_mjx.engine import mjx_variant
 from joshua_mjx.impl import WARP, CapturedGraphs, OverflowCheck, Physics, batch_data
 from joshua_mjx.physics import mjx
@@ -62,6 +66,10 @@ ENV_AXIS = "envs"  # name of the device-mesh axis the environments are spread ov
 # apart. After a step only the kinematics are recomputed (mjx.kinematics): sensordata is the last physics step's,
 # computed before its integration, where the `mujoco` backend recomputes sensors at the step's end.
 _DATA_FIELDS = tuple(name for name in DERIVED_FIELDS if name != "cfrc_ext")
+# What MuJoCo Warp's renderer reads of a Data besides the model (mjx.render), so what an autoreset takes from the
+# start state where cameras render: the poses of geoms and cameras, and of lights (in MJX's `_impl`)
+_RENDER_FIELDS = ("geom_xpos", "geom_xmat", "cam_xpos", "cam_xmat")
+_RENDER_IMPL_FIELDS = ("light_xpos", "light_xdir")
 
 
 class EnvState(NamedTuple):
@@ -91,6 +99,14 @@ class EnvState(NamedTuple):
     start_params: dict[str, jax.Array]  # those of each environment's next episode
     history: jax.Array  # (N, max delay + 1, nu) the last actions, newest first (action delay)
     strength: jax.Array  # (N,) float32 each environment's event strength (the randomization curriculum's; else 1)
+    # each camera's current frame by camera name, (N, height, width, channels): rgb uint8, depth float32 metres,
+    # segmentation int32 geom ids (joshua_core.tasks.cameras); MjxEnv.cameras.bytes_per_env bytes per
+    # environment. {} when the task names no camera. A camera rendering every k steps holds its frame in
+    # between, so after an autoreset it may still show the ended episode until its next render.
+    images: dict[str, jax.Array]
+    # (N,) int32 environment steps since reset modulo the cameras' common period, the same in every environment:
+    # a camera renders where it is a multiple of its `every`; None when the task names no camera
+    camera_step: jax.Array | None
 
 
 class MjxEnv:
@@ -132,13 +148,15 @@ class MjxEnv:
         self.observation_size = task.observation_size
         self.action_size = task.action_size
         self._derived = tuple(name for name in _DATA_FIELDS if name in task.fields)
-        self._kinematics_after_step = bool(KINEMATIC_FIELDS & task.fields)
+        # the renderer reads geom poses: recomputed for the positions the step ends at, as the task's terms see them
+        self._kinematics_after_step = bool(KINEMATIC_FIELDS & task.fields) or bool(task.cameras)
         initial = mujoco.MjData(model)
         if task.keyframe_id >= 0:
             mujoco.mj_resetDataKeyframe(model, initial, task.keyframe_id)
         self._initial_data = physics.put_data(model, initial, local, num_envs)
         self.randomization = ModelRandomization(task, model, self.mjx_model, local)
         self._overflow = OverflowCheck(physics, model)
+        self.cameras = Cameras(task.name, task.cameras, model, num_envs, physics) if task.cameras else None
         self._graphs = CapturedGraphs(physics, local)
         self.desync_episodes = desync_episodes
         self.curriculum = task.curriculum if curriculum else None  # EnvSpec.curriculum
@@ -193,6 +211,11 @@ class MjxEnv:
             self._context(data, data.qpos, action, action, episode_step, commands, params, strength)
         )
         sums = EpisodeSums.zeros(jnp, self.task, n, jnp.float32)
+        images, camera_step = {}, None
+        if self.cameras:
+            fields = self.randomization.model_params(params)
+            images, data = self.cameras.render(lambda f, d: self._physics(f, fields, d), data)
+            camera_step = jnp.zeros(n, jnp.int32)
         return EnvState(
             data=data,
             observation=observation,
@@ -215,6 +238,8 @@ class MjxEnv:
             start_params=params,
             history=jnp.zeros((n, self.task.max_action_delay + 1, self.action_size), jnp.float32),
             strength=strength,
+            images=images,
+            camera_step=camera_step,
         )
 
     def _step(self, state: EnvState, action: jax.Array) -> EnvState:
@@ -265,6 +290,11 @@ class MjxEnv:
         previous_action = jnp.where(done[:, None], 0.0, state.action)
         episode_step = jnp.where(done, 0, episode_step)
         previous_qpos = jnp.where(done[:, None], data.qpos, state.data.qpos)
+        images, camera_step = state.images, state.camera_step
+        if self.cameras:
+            camera_step = (camera_step + 1) % self.cameras.period
+            fields = self.randomization.model_params(params)
+            images, data = self.cameras.update(lambda f, d: self._physics(f, fields, d), data, camera_step, images)
         observation, value_observation = self._observe(
             self._context(data, previous_qpos, action, previous_action, episode_step, commands, params, strength)
         )
@@ -290,6 +320,8 @@ class MjxEnv:
             start_params=state.start_params,
             history=history,
             strength=strength,
+            images=images,
+            camera_step=camera_step,
         )
 
     # --- pieces -------------------------------------------------------------------------------
@@ -334,8 +366,14 @@ class MjxEnv:
         """`data` with the start state of every environment whose episode ended (`done`): of the start's Data only
         what the next mjx.step reads and what the task's terms read. The rest, which the step recomputes, keeps
         the ended episode's values until then, since copying all of it costs time (bench/RESULTS.md)."""
-        names = STEP_INPUTS + self._derived
+        names = STEP_INPUTS + self._derived + (_RENDER_FIELDS if self.cameras else ())
         data = data.replace(**{name: where_env(done, getattr(start, name), getattr(data, name)) for name in names})
+        if self.cameras:
+            lights = {
+                name: where_env(done, getattr(start._impl, name), getattr(data._impl, name))
+                for name in _RENDER_IMPL_FIELDS
+            }
+            data = data.replace(_impl=data._impl.replace(**lights))
         if self._contact_forces:
             cfrc_ext = where_env(done, start._impl.cfrc_ext, data._impl.cfrc_ext)
             data = data.replace(_impl=data._impl.replace(cfrc_ext=cfrc_ext))
