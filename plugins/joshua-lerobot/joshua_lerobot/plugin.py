@@ -1,5 +1,5 @@
-"""Entry point of joshua-lerobot: registers the "lerobot" trajectory reader, `joshua lerobot-export` and
-`joshua lerobot-units`."""
+"""Entry point of joshua-lerobot: registers the "lerobot" trajectory reader, `joshua lerobot-export`,
+`joshua lerobot-units` and `joshua demos`."""
 
 from __future__ import annotations
 
@@ -27,4 +27,10 @@ def joshua_register_commands(registry: Registrar) -> None:
         "lerobot-units",
         "joshua_lerobot.units_command:LeRobotUnitsCommand",
         "record which units (degrees or range, with the calibration) a LeRobot dataset's SO-100 values are in",
+    )
+    registry.add(
+        "demos",
+        "joshua_lerobot.demos:DemosCommand",
+        "roll the scripted pick-and-place out over randomized episodes and write the successful ones as a LeRobot "
+        "dataset with camera videos",
     )

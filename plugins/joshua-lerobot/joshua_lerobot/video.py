@@ -20,6 +20,11 @@ class Mp4Writer(VideoWriter):
     frame size and yuv420p cannot store an odd one unpadded."""
 
     def __init__(self, path: Path, fps: int, width: int, height: int) -> None:
-        if width % 2 or height % 2:
-            raise UsageError(f"camera videos need an even width and height (yuv420p), got {width}x{height}")
+        check_frame_size(width, height)
         super().__init__(path, fps, keyframe_interval=KEYFRAME_INTERVAL)
+
+
+def check_frame_size(width: int, height: int) -> None:
+    """A UsageError unless `width` x `height` can be a dataset's video: yuv420p stores only even sizes unpadded."""
+    if width % 2 or height % 2:
+        raise UsageError(f"camera videos need an even width and height (yuv420p), got {width}x{height}")

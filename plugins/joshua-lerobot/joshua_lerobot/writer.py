@@ -59,7 +59,7 @@ class DatasetEpisode:
 
 def write_dataset(
     path: Path,
-    episodes: Sequence[DatasetEpisode],
+    episodes: Iterable[DatasetEpisode],
     *,
     fps: int,
     joint_ranges: Mapping[str, tuple[float, float]],
@@ -68,111 +68,123 @@ def write_dataset(
     option: str = "--out",
 ) -> Path:
     """Write `episodes` (same joints and cameras each) as a LeRobot dataset folder at `path`; joint values are
-    converted to LeRobot's names and `units` (joshua_lerobot.joints), which info.json records. A folder there is
-    only replaced when joshua wrote it and `overwrite` is set (`joshua_core.outputs.output_folder`; `option` names
-    `path` in errors)."""
-    if not episodes:
-        raise UsageError("a LeRobot dataset needs at least one episode")
-    first = episodes[0]
-    for episode in episodes:
-        if episode.joint_names != first.joint_names or set(episode.cameras) != set(first.cameras):
-            raise UsageError("every episode of a dataset needs the same joints and cameras")
-    names, robot_type = feature_names(first.joint_names)
-    tasks = list(dict.fromkeys(episode.task for episode in episodes))
+    converted to LeRobot's names and `units` (joshua_lerobot.joints), which info.json records. The episodes are
+    taken one at a time, each encoded before the next is asked for, so an iterable that makes them as it goes
+    (a rollout) holds one episode's frames at a time. A folder there is only replaced when joshua wrote it and
+    `overwrite` is set (`joshua_core.outputs.output_folder`; `option` names `path` in errors); an error on the
+    way, the iterable's own included, leaves nothing there."""
     with output_folder(path, overwrite=overwrite, option=option) as folder:
-        layout = _Layout(folder, names, first.joint_names, joint_ranges, units, fps, tasks)
-        video_shapes = layout.write_videos(episodes)
-        layout.write_data(episodes)
-        recorded_units = units_metadata(units) if robot_type else None
-        info = _info(episodes, names, video_shapes, fps, robot_type, len(tasks), recorded_units)
-        atomic_write_json(folder / "meta/info.json", info)
-        atomic_write_json(folder / "meta/stats.json", statistics.as_json(layout.dataset_stats()))
-        _write_tasks(folder / "meta/tasks.parquet", tasks)
-        layout.write_episodes(episodes)
+        layout = _Layout(folder, joint_ranges, units, fps)
+        try:
+            for episode in episodes:
+                layout.add(episode)
+        finally:
+            layout.close_videos()
+        layout.finish()
     return path
 
 
 class _Layout:
-    """The files of one dataset being written, and the statistics gathered on the way."""
+    """The files of one dataset being written, episode by episode, and the statistics gathered on the way."""
 
-    def __init__(
-        self,
-        folder: Path,
-        names: list[str],
-        joints: tuple[str, ...],
-        joint_ranges: Mapping[str, tuple[float, float]],
-        units: LeRobotUnits,
-        fps: int,
-        tasks: list[str],
-    ) -> None:
-        self.folder, self.names, self.joints, self.ranges, self.units, self.fps, self.tasks = (
-            folder,
-            names,
-            joints,
-            joint_ranges,
-            units,
-            fps,
-            tasks,
-        )
+    def __init__(self, folder: Path, joint_ranges: Mapping[str, tuple[float, float]], units: LeRobotUnits, fps: int):
+        self.folder, self.ranges, self.units, self.fps = folder, joint_ranges, units, fps
+        self.first: DatasetEpisode | None = None
+        self.names: list[str] = []
+        self.robot_type: str | None = None
+        self.tasks: list[str] = []
+        self.lengths: list[int] = []
+        self.episode_tasks: list[str] = []
         self.episode_stats: list[dict[str, dict[str, NDArray[Any]]]] = []
         self.pixel_samples: dict[str, list[NDArray[np.float64]]] = {}
+        self.video_shapes: dict[str, tuple[int, int]] = {}
+        self.videos: dict[str, Mp4Writer] = {}
         self.columns: dict[str, list[NDArray[Any]]] = {}
+
+    def add(self, episode: DatasetEpisode) -> None:
+        """Encode `episode`'s frames after the earlier episodes' and keep its rows for the data file."""
+        if self.first is None:
+            self.first = episode
+            self.names, self.robot_type = feature_names(episode.joint_names)
+        elif episode.joint_names != self.first.joint_names or set(episode.cameras) != set(self.first.cameras):
+            raise UsageError("every episode of a dataset needs the same joints and cameras")
+        if episode.task not in self.tasks:
+            self.tasks.append(episode.task)
+        stats = self.add_videos(episode)
+        stats |= self.add_rows(episode)
+        self.episode_stats.append(stats)
+        self.lengths.append(episode.length)
+        self.episode_tasks.append(episode.task)
 
     def lerobot_values(self, values: NDArray[np.float64]) -> NDArray[np.float32]:
         """(frames, joints) model values in LeRobot's units, float32."""
+        assert self.first is not None
         columns = [
             self.units.from_model(name, values[:, i], self.ranges[joint])
-            for i, (name, joint) in enumerate(zip(self.names, self.joints, strict=True))
+            for i, (name, joint) in enumerate(zip(self.names, self.first.joint_names, strict=True))
         ]
         return np.stack(columns, axis=1).astype(np.float32)
 
-    def write_videos(self, episodes: Sequence[DatasetEpisode]) -> dict[str, tuple[int, int]]:
-        """Encode every camera's frames, episode after episode; per-episode pixel statistics on the way."""
-        shapes: dict[str, tuple[int, int]] = {}
-        per_episode: list[dict[str, dict[str, NDArray[Any]]]] = [{} for _ in episodes]
-        for camera in episodes[0].cameras:
+    def add_videos(self, episode: DatasetEpisode) -> dict[str, dict[str, NDArray[Any]]]:
+        """Encode every camera's frames of `episode`; its per-camera pixel statistics."""
+        stats = {}
+        for camera, frames in episode.cameras.items():
             key = CAMERA_PREFIX + camera
-            path = self.folder / VIDEO_PATH.format(video_key=key, **FIRST_FILE)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            writer: Mp4Writer | None = None
-            for index, episode in enumerate(episodes):
-                samples = []
-                for frame in episode.cameras[camera]:
-                    if writer is None:
-                        shapes[key] = frame.shape[:2]
-                        writer = Mp4Writer(path, self.fps, frame.shape[1], frame.shape[0])
-                    writer.write(frame)
-                    samples.append(statistics.image_sample(frame))
-                if len(samples) != episode.length:
-                    raise UsageError(f"camera '{camera}' gave {len(samples)} frames for {episode.length} rows")
-                per_episode[index][key] = statistics.image_stats(samples, len(samples))
-                self.pixel_samples.setdefault(key, []).extend(samples)
-            assert writer is not None
-            writer.close()
-        self.episode_stats = per_episode
-        return shapes
+            samples = []
+            for frame in frames:
+                writer = self.videos.get(key)
+                if writer is None:
+                    path = self.folder / VIDEO_PATH.format(video_key=key, **FIRST_FILE)
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                    self.video_shapes[key] = frame.shape[:2]
+                    writer = self.videos[key] = Mp4Writer(path, self.fps, frame.shape[1], frame.shape[0])
+                writer.write(frame)
+                samples.append(statistics.image_sample(frame))
+            if len(samples) != episode.length:
+                raise UsageError(f"camera '{camera}' gave {len(samples)} frames for {episode.length} rows")
+            stats[key] = statistics.image_stats(samples, len(samples))
+            self.pixel_samples.setdefault(key, []).extend(samples)
+        return stats
 
-    def write_data(self, episodes: Sequence[DatasetEpisode]) -> None:
+    def add_rows(self, episode: DatasetEpisode) -> dict[str, dict[str, NDArray[Any]]]:
+        """`episode`'s rows of the data file (one per frame); their statistics."""
+        length, start = episode.length, sum(self.lengths)
+        columns = {
+            STATE: self.lerobot_values(episode.states),
+            ACTION: self.lerobot_values(episode.actions),
+            "timestamp": episode.timestamps.astype(np.float32),
+            "frame_index": np.arange(length, dtype=np.int64),
+            "episode_index": np.full(length, len(self.lengths), dtype=np.int64),
+            "index": np.arange(start, start + length, dtype=np.int64),
+            "task_index": np.full(length, self.tasks.index(episode.task), dtype=np.int64),
+        }
+        for key, values in columns.items():
+            self.columns.setdefault(key, []).append(values)
+        return {key: statistics.vector_stats(values) for key, values in columns.items()}
+
+    def close_videos(self) -> None:
+        for writer in self.videos.values():
+            writer.close()
+
+    def finish(self) -> None:
+        """The data file and the metadata, once every episode is in."""
+        if self.first is None:
+            raise UsageError("a LeRobot dataset needs at least one episode")
+        self.write_data()
+        recorded_units = units_metadata(self.units) if self.robot_type else None
+        info = _info(
+            self.lengths, self.names, self.video_shapes, self.fps, self.robot_type, len(self.tasks), recorded_units
+        )
+        atomic_write_json(self.folder / "meta/info.json", info)
+        atomic_write_json(self.folder / "meta/stats.json", statistics.as_json(self.dataset_stats()))
+        _write_tasks(self.folder / "meta/tasks.parquet", self.tasks)
+        self.write_episodes()
+
+    def write_data(self) -> None:
         """data/chunk-000/file-000.parquet: one row per frame."""
         import pyarrow as pa
         import pyarrow.parquet as pq
 
-        start = 0
-        for index, episode in enumerate(episodes):
-            length = episode.length
-            columns = {
-                STATE: self.lerobot_values(episode.states),
-                ACTION: self.lerobot_values(episode.actions),
-                "timestamp": episode.timestamps.astype(np.float32),
-                "frame_index": np.arange(length, dtype=np.int64),
-                "episode_index": np.full(length, index, dtype=np.int64),
-                "index": np.arange(start, start + length, dtype=np.int64),
-                "task_index": np.full(length, self.tasks.index(episode.task), dtype=np.int64),
-            }
-            for key, values in columns.items():
-                self.columns.setdefault(key, []).append(values)
-                self.episode_stats[index][key] = statistics.vector_stats(values)
-            start += length
         joined = {key: np.concatenate(parts) for key, parts in self.columns.items()}
         width = len(self.names)
         arrays = {
@@ -186,38 +198,38 @@ class _Layout:
 
     def dataset_stats(self) -> dict[str, dict[str, NDArray[Any]]]:
         joined = {key: statistics.vector_stats(np.concatenate(parts)) for key, parts in self.columns.items()}
-        frames = len(np.concatenate(self.columns["index"]))
+        frames = sum(self.lengths)
         cameras = {key: statistics.image_stats(samples, frames) for key, samples in self.pixel_samples.items()}
         return joined | cameras
 
-    def write_episodes(self, episodes: Sequence[DatasetEpisode]) -> None:
+    def write_episodes(self) -> None:
         """meta/episodes/chunk-000/file-000.parquet: where each episode's rows and video span lie, its stats."""
         import pyarrow as pa
         import pyarrow.parquet as pq
 
         rows: list[dict[str, Any]] = []
         start = 0
-        for index, episode in enumerate(episodes):
+        for index, (length, task) in enumerate(zip(self.lengths, self.episode_tasks, strict=True)):
             row: dict[str, Any] = {
                 "episode_index": index,
-                "tasks": [episode.task],
-                "length": episode.length,
+                "tasks": [task],
+                "length": length,
                 "data/chunk_index": 0,
                 "data/file_index": 0,
                 "dataset_from_index": start,
-                "dataset_to_index": start + episode.length,
+                "dataset_to_index": start + length,
             }
             for key in self.pixel_samples:
                 row |= {
                     f"videos/{key}/chunk_index": 0,
                     f"videos/{key}/file_index": 0,
                     f"videos/{key}/from_timestamp": start / self.fps,
-                    f"videos/{key}/to_timestamp": (start + episode.length) / self.fps,
+                    f"videos/{key}/to_timestamp": (start + length) / self.fps,
                 }
             for feature, by_stat in self.episode_stats[index].items():
                 row |= {f"stats/{feature}/{stat}": value.tolist() for stat, value in by_stat.items()}
             rows.append(row | {"meta/episodes/chunk_index": 0, "meta/episodes/file_index": 0})
-            start += episode.length
+            start += length
         path = self.folder / EPISODES_PATH
         path.parent.mkdir(parents=True, exist_ok=True)
         pq.write_table(pa.Table.from_pylist(rows), path)
@@ -259,7 +271,7 @@ def _write_tasks(path: Path, tasks: list[str]) -> None:
 
 
 def _info(
-    episodes: Sequence[DatasetEpisode],
+    lengths: Sequence[int],
     names: list[str],
     video_shapes: Mapping[str, tuple[int, int]],
     fps: int,
@@ -292,14 +304,14 @@ def _info(
     return {
         "codebase_version": CODEBASE_VERSION,
         "robot_type": robot_type,
-        "total_episodes": len(episodes),
-        "total_frames": sum(episode.length for episode in episodes),
+        "total_episodes": len(lengths),
+        "total_frames": sum(lengths),
         "total_tasks": total_tasks,
         "chunks_size": CHUNKS_SIZE,
         "data_files_size_in_mb": DATA_FILE_MB,
         "video_files_size_in_mb": VIDEO_FILE_MB,
         "fps": fps,
-        "splits": {"train": f"0:{len(episodes)}"},
+        "splits": {"train": f"0:{len(lengths)}"},
         "data_path": DATA_PATH,
         "video_path": VIDEO_PATH if video_shapes else None,
         "features": features,

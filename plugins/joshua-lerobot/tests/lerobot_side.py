@@ -3,6 +3,9 @@ lerobot-requirements.txt first on PYTHONPATH (so they never change .venv). Print
 
     python lerobot_side.py load ROOT      LeRobotDataset(root=ROOT): every frame's state, action, timestamp,
                                           episode, and each camera's decoded frames (shape, mean per frame)
+    python lerobot_side.py delta ROOT     LeRobotDataset(root=ROOT, delta_timestamps=...): every frame with the state
+                                          of the frame before, the actions of this and the next two frames, each
+                                          camera's frame before and this one (decoded), and their padding masks
     python lerobot_side.py write ROOT     LeRobotDataset.create + add_frame + save_episode: two SO-100 episodes
                                           of known values with one camera; prints what it wrote
     python lerobot_side.py normalize FILE lerobot's `MotorsBus._normalize` of the SO-100 follower's motors, with
@@ -126,6 +129,32 @@ def load(root: Path) -> dict[str, Any]:
     }
 
 
+def delta(root: Path) -> dict[str, Any]:
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata
+
+    meta = LeRobotDatasetMetadata(REPO_ID, root=root)
+    step = 1 / meta.fps
+    deltas = {"observation.state": [-step, 0.0], "action": [0.0, step, 2 * step]}
+    deltas |= {key: [-step, 0.0] for key in meta.video_keys}
+    dataset = LeRobotDataset(REPO_ID, root=root, delta_timestamps=deltas)
+    frames = [dataset[i] for i in range(len(dataset))]
+    answer: dict[str, Any] = {"frames": len(dataset), "episodes": dataset.num_episodes, "fps": dataset.fps}
+    for key in ("observation.state", "action"):
+        answer[key] = [frame[key].tolist() for frame in frames]
+        answer[f"{key}_is_pad"] = [frame[f"{key}_is_pad"].tolist() for frame in frames]
+    answer["episode_index"] = [int(frame["episode_index"]) for frame in frames]
+    answer["task"] = sorted({frame["task"] for frame in frames})
+    answer["cameras"] = {
+        key: {
+            "shape": list(frames[0][key].shape),  # (2, 3, H, W): the frame before and this one
+            "mean": [[float(image.mean()) for image in frame[key]] for frame in frames],
+            "is_pad": [frame[f"{key}_is_pad"].tolist() for frame in frames],
+        }
+        for key in meta.video_keys
+    }
+    return answer
+
+
 def write(root: Path) -> dict[str, Any]:
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
@@ -159,4 +188,4 @@ def write(root: Path) -> dict[str, Any]:
 if __name__ == "__main__":
     _without_torchvision()
     command, folder = sys.argv[1], Path(sys.argv[2])
-    print(json.dumps({"load": load, "write": write, "normalize": normalize}[command](folder)))
+    print(json.dumps({"load": load, "delta": delta, "write": write, "normalize": normalize}[command](folder)))

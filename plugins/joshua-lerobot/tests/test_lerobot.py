@@ -1,14 +1,13 @@
 """LeRobot datasets against the real `lerobot` 0.4.4: ours load in `LeRobotDataset` (frames, values, decoded
 video), and one written by lerobot's own writer replays and validates through `load_trajectory` and PASSIVE.
 
-lerobot runs in a subprocess (tests/lerobot_side.py) over the pinned packages `./setup.sh --dev` installs in
-.cache/lerobot-site (tests/lerobot-requirements.txt): they must not change .venv.
+lerobot runs in a subprocess (tests/lerobot_side.py, started by tests/lerobot_harness.py) over the pinned packages
+`./setup.sh --dev` installs in .cache/lerobot-site (tests/lerobot-requirements.txt): they must not change .venv.
 """
 
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -17,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from lerobot_harness import lerobot
 
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import models_dir
@@ -27,28 +27,11 @@ from joshua_lerobot.writer import DatasetEpisode, write_dataset
 from joshua_modes import iter_offscreen_frames, model_joint_ranges
 from joshua_mujoco import compile_model
 
-REPO = Path(__file__).resolve().parents[3]
-LEROBOT_SITE = REPO / ".cache" / "lerobot-site"
-SIDE = Path(__file__).with_name("lerobot_side.py")
 MODEL = models_dir() / "so_arm100" / "scene.xml"
 JOINTS = tuple(f"joint_{i}" for i in range(1, 7))
 FPS = 10
 PLUGINS = PluginHost.discover()  # the installed plugins: their readers read the datasets
 WIDTH, HEIGHT = 64, 48
-
-
-def lerobot(command: str, root: Path, tmp_path: Path) -> dict[str, Any]:
-    """Run tests/lerobot_side.py COMMAND ROOT with the real lerobot; its JSON answer."""
-    if not (LEROBOT_SITE / "lerobot").is_dir():
-        pytest.fail(f"lerobot is not installed in {LEROBOT_SITE}: run ./setup.sh --dev")
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(LEROBOT_SITE), env.get("PYTHONPATH", "")])
-    env |= {"HF_HUB_OFFLINE": "1", "HF_HOME": str(tmp_path / "hf"), "HF_LEROBOT_HOME": str(tmp_path / "hf/lerobot")}
-    result = subprocess.run(
-        [sys.executable, str(SIDE), command, str(root)], env=env, capture_output=True, text=True, timeout=300
-    )
-    assert result.returncode == 0, result.stderr[-3000:]
-    return json.loads(result.stdout.strip().splitlines()[-1])
 
 
 @pytest.fixture(scope="module")

@@ -10,12 +10,11 @@ from typing import Any
 import jax
 import numpy as np
 import pytest
-from pick_place_script import JAW_CLOSED, Phase, PickPlaceScript
 
 from joshua_core.config import finalize, load_preset
 from joshua_core.options import LENIENT
 from joshua_mjx import make_mjx_env
-from joshua_mujoco import make_vector_env
+from joshua_mujoco import JAW_CLOSED, Phase, PickPlaceScript, make_vector_env
 
 TASK = "so_arm100_pick_place"
 # A stage has fired once its reward term exceeds this share of its weight.

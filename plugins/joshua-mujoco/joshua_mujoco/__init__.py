@@ -1,5 +1,6 @@
-"""JOSHUA's MuJoCo backend: `MuJoCoEngine`, one MuJoCo simulation behind the `Engine` API, and batched
-CPU environments of any task (`BatchedVectorEnv`, EnvKind.NUMPY).
+"""JOSHUA's MuJoCo backend: `MuJoCoEngine`, one MuJoCo simulation behind the `Engine` API, batched
+CPU environments of any task (`BatchedVectorEnv`, EnvKind.NUMPY), and a scripted pick-and-place controller
+(`PickPlaceScript`, inverse kinematics on a CPU model) for the SO-ARM100's pick-and-place task.
 
 The package itself stays light (the `joshua` entry point imports `joshua_mujoco.plugin`);
 mujoco is imported the first time one of the names below is used.
@@ -13,6 +14,7 @@ if TYPE_CHECKING:
     from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine
     from joshua_mujoco.models import compile_model, read_spec
     from joshua_mujoco.physics import BatchPhysics, MuJoCoBatchPhysics
+    from joshua_mujoco.scripted import JAW_CLOSED, JAW_OPEN, Phase, PickPlaceScript, pick_place_phases
     from joshua_mujoco.vector import (
         BatchedSimulation,
         BatchedVectorEnv,
@@ -33,6 +35,11 @@ __all__ = [
     "load_task_model",
     "make_vector_env",
     "vector_env_from_config",
+    "JAW_CLOSED",
+    "JAW_OPEN",
+    "Phase",
+    "PickPlaceScript",
+    "pick_place_phases",
 ]
 _MODULES = {
     "compile_model": "models",
@@ -41,6 +48,11 @@ _MODULES = {
     "MuJoCoEngine": "engine",
     "BatchPhysics": "physics",
     "MuJoCoBatchPhysics": "physics",
+    "JAW_CLOSED": "scripted",
+    "JAW_OPEN": "scripted",
+    "Phase": "scripted",
+    "PickPlaceScript": "scripted",
+    "pick_place_phases": "scripted",
 }
 
 

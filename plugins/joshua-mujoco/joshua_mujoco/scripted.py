@@ -1,6 +1,8 @@
-"""A hand-written pick-and-place controller for the SO-ARM100 task, in the task's own action space.
+"""A hand-written pick-and-place controller for the SO-ARM100 task (`so_arm100_pick_place`), in the task's own
+action space.
 
-It proves the task can be solved in a given physics: from the cube's and the goal's positions it plans
+It proves the task can be solved in a given physics (the backends' tests), and it records demonstrations
+(`joshua demos`): from the cube's and the goal's positions it plans
 waypoints for the gripper site (above the cube, down, close the jaw, lift, carry, lower, open),
 solves each with damped least squares on a CPU copy of the model (the gripper pointing straight down,
 its jaw closing along the world x axis, across two faces of the cube) and holds the servo targets for a
@@ -20,6 +22,8 @@ from numpy.typing import NDArray
 
 from joshua_core.tasks import Task
 
+__all__ = ["JAW_CLOSED", "JAW_OPEN", "Phase", "PickPlaceScript", "pick_place_phases"]
+
 ARM = ("joint_1", "joint_2", "joint_3", "joint_4", "joint_5")
 JAW_OPEN, JAW_CLOSED = 0.8, -0.17  # rad: wide open; the pads' closed angle, so the servo squeezes the cube
 ABOVE = 0.08  # m above the cube's centre when approaching and carrying
@@ -35,13 +39,15 @@ SAG_LIMIT = 0.1  # rad
 
 @dataclass(frozen=True)
 class Phase:
+    """One waypoint of a plan: the gripper site's target, the jaw's angle, and how long they are held."""
+
     name: str
     site: NDArray[np.float64]  # where the gripper site goes (world, m)
     jaw: float
     steps: int  # control steps to hold the targets
 
 
-def phases(cube: NDArray[np.float64], goal: NDArray[np.float64]) -> list[Phase]:
+def pick_place_phases(cube: NDArray[np.float64], goal: NDArray[np.float64]) -> list[Phase]:
     """The waypoints from the cube's centre to the goal's (both in the world, at the cube's height)."""
     up, grip = np.array([0.0, 0.0, ABOVE]), np.array([0.0, 0.0, GRIP_HEIGHT])
     return [
@@ -73,7 +79,7 @@ class PickPlaceScript:
         qpos: NDArray[np.float64],
         cube: NDArray[np.float64],
         goal: NDArray[np.float64],
-        plan: Callable[[NDArray[np.float64], NDArray[np.float64]], list[Phase]] = phases,
+        plan: Callable[[NDArray[np.float64], NDArray[np.float64]], list[Phase]] = pick_place_phases,
     ) -> Generator[tuple[str, NDArray[np.float64]], NDArray[np.float64], None]:
         """(phase name, action) for every control step of `plan` (pick and place by default), starting from joint
         positions `qpos`; send the joint positions after each step. An integral term on the arm's targets takes out

@@ -1,0 +1,192 @@
+"""`joshua demos`: demonstrations as a LeRobot dataset. A controller is rolled out over randomized episodes
+(`EpisodeProducer`; today the scripted pick-and-place on the CPU), the successful ones are kept and written, one
+at a time as they come, with camera videos, state and action in LeRobot's units (the SO-100's degrees and
+0-100 gripper by default)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from joshua_core.cli import add_config_arguments, load
+from joshua_core.config import finalize
+from joshua_core.defaults import DEFAULT_OUTPUT_DIR
+from joshua_core.errors import JoshuaError, UsageError
+from joshua_core.interfaces import Command
+from joshua_core.limits import MAX_FPS, MAX_IMAGE_SIDE, MIN_FPS, MIN_IMAGE_SIDE, cli_number
+from joshua_core.outputs import check_replaceable
+from joshua_core.plugins import PluginHost
+from joshua_core.progress import progress_bar
+from joshua_lerobot.export import DEFAULT_HEIGHT, DEFAULT_WIDTH
+from joshua_lerobot.joints import DEFAULT_UNITS, LeRobotUnits, add_units_arguments, units_from_arguments
+from joshua_lerobot.rollouts import EpisodeProducer
+from joshua_lerobot.video import check_frame_size
+from joshua_lerobot.writer import DatasetEpisode, write_dataset
+
+DEFAULT_PRESET = "so_arm100_pick_place_mjx_dr"  # the randomized pick-and-place: its events vary every episode
+DEFAULT_EPISODES = 50
+ATTEMPTS_PER_EPISODE = 2  # --max-attempts' default, per episode wanted: the script succeeds in most
+DEFAULT_NUM_ENVS = 8
+DEFAULT_FPS = 25  # every second control step of the 50 Hz pick-and-place
+DEFAULT_OUT = Path(DEFAULT_OUTPUT_DIR) / "demos"
+MAX_COUNT = 10**7  # episodes or attempts: more is a typo, not a dataset
+MAX_NUM_ENVS = 4096  # CPU environments of one batch, each holding an episode's frames
+
+
+@dataclass(frozen=True)
+class DemosReport:
+    """What a recording did: episodes kept (successful), attempts rolled out, frames written, wall seconds."""
+
+    kept: int
+    attempts: int
+    frames: int
+    seconds: float
+
+    @property
+    def episodes_per_minute(self) -> float:
+        return self.kept / self.seconds * 60.0 if self.seconds > 0 else 0.0
+
+
+class DemosCommand(Command):
+    """Rolls the scripted pick-and-place out over randomized episodes and writes the successful ones as a LeRobot
+    dataset."""
+
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        count = cli_number("--episodes", 1, MAX_COUNT, integer=True)
+        parser.add_argument(
+            "--episodes", type=count, default=DEFAULT_EPISODES, help=f"successful episodes wanted ({DEFAULT_EPISODES})"
+        )
+        parser.add_argument(
+            "--max-attempts",
+            type=cli_number("--max-attempts", 1, MAX_COUNT, integer=True),
+            help=f"episodes rolled out at most, failed ones included (default {ATTEMPTS_PER_EPISODE} per one wanted)",
+        )
+        parser.add_argument(
+            "--num-envs",
+            type=cli_number("--num-envs", 1, MAX_NUM_ENVS, integer=True),
+            default=DEFAULT_NUM_ENVS,
+            help=f"environments rolled out at once (default {DEFAULT_NUM_ENVS}); frames of one batch are held",
+        )
+        parser.add_argument(
+            "--camera",
+            action="append",
+            default=None,
+            help="a model camera recorded as observation.images.<camera> (repeatable; default: the model's first)",
+        )
+        for side, default in (("width", DEFAULT_WIDTH), ("height", DEFAULT_HEIGHT)):
+            parser.add_argument(
+                f"--{side}",
+                type=cli_number(f"--{side}", MIN_IMAGE_SIDE, MAX_IMAGE_SIDE, integer=True),
+                default=default,
+                help=f"video {side} (default {default}; even)",
+            )
+        parser.add_argument(
+            "--fps",
+            type=cli_number("--fps", MIN_FPS, MAX_FPS, integer=True),
+            default=DEFAULT_FPS,
+            help=f"dataset frames per second, a divisor of the task's control rate (default {DEFAULT_FPS})",
+        )
+        parser.add_argument("--seed", type=int, help="seed of the episodes' randomization (default: the config's)")
+        parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"dataset folder (default {DEFAULT_OUT})")
+        parser.add_argument(
+            "--overwrite", action="store_true", help="replace the --out folder when joshua wrote it (a dataset)"
+        )
+        parser.add_argument("--task", help="the episodes' task text (default: the task's own description)")
+        add_units_arguments(parser, what="the written")
+        add_config_arguments(
+            parser, verb=f"take the task, its model and its randomization from (default --preset {DEFAULT_PRESET})"
+        )
+
+    def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
+        from joshua_lerobot.scripted_rollouts import SCRIPTED_TASK, ScriptedMuJoCoProducer
+
+        check_frame_size(args.width, args.height)  # before any rollout, not at the first frame written
+        units = units_from_arguments(args)
+        check_replaceable(args.out, overwrite=args.overwrite, option="--out")
+        if not (args.preset or args.config):
+            args.preset = DEFAULT_PRESET
+        training = finalize(load(args, plugins.options())).training
+        if training.task != SCRIPTED_TASK:
+            raise UsageError(
+                f"the config's task is '{training.task}'; the scripted controller demonstrates '{SCRIPTED_TASK}'"
+            )
+        producer = ScriptedMuJoCoProducer(
+            num_envs=args.num_envs,
+            cameras=args.camera or [""],
+            size=(args.width, args.height),
+            fps=args.fps,
+            seed=training.seed if args.seed is None else args.seed,
+            plugins=plugins,
+            task_config=training.task_config if training.HasField("task_config") else None,
+        )
+        try:
+            report = record_demonstrations(
+                producer,
+                args.out,
+                episodes=args.episodes,
+                max_attempts=args.max_attempts or ATTEMPTS_PER_EPISODE * args.episodes,
+                fps=args.fps,
+                task=args.task or producer.task_text,
+                units=units,
+                overwrite=args.overwrite,
+            )
+        finally:
+            producer.close()
+        print(f"LeRobot dataset: {args.out} ({report.kept} episodes, {report.frames} frames)")
+        if report.kept < args.episodes:
+            print(f"kept {report.kept} of the {args.episodes} episodes wanted: --max-attempts reached", file=sys.stderr)
+        print(
+            f"{report.kept} of {report.attempts} attempts succeeded in {report.seconds:.1f} s: "
+            f"{report.episodes_per_minute:.1f} episodes/minute"
+        )
+        return 0
+
+
+def record_demonstrations(
+    producer: EpisodeProducer,
+    out: Path,
+    *,
+    episodes: int,
+    max_attempts: int,
+    fps: int,
+    task: str,
+    units: LeRobotUnits = DEFAULT_UNITS,
+    overwrite: bool = False,
+) -> DemosReport:
+    """Roll `producer` out until `episodes` attempts succeeded or `max_attempts` were made, and write the
+    successful ones to `out` as a LeRobot dataset at `fps` with the task text `task`, values in `units`; each is
+    encoded as it comes. No success at all is an error and leaves nothing at `out`."""
+    started = time.perf_counter()
+    counts = {"kept": 0, "attempts": 0, "frames": 0}
+
+    def kept() -> Iterator[DatasetEpisode]:
+        with progress_bar(episodes, description="demos", unit="episodes") as bar:
+            for rollout in producer.rollouts():
+                if counts["kept"] >= episodes or counts["attempts"] >= max_attempts:
+                    break
+                counts["attempts"] += 1
+                counts["kept"] += rollout.success
+                bar.set_postfix_str(f"{counts['kept']} of {counts['attempts']} attempts succeeded", refresh=False)
+                if not rollout.success:
+                    continue
+                counts["frames"] += rollout.length
+                yield DatasetEpisode(
+                    joint_names=producer.joint_names,
+                    timestamps=np.arange(rollout.length) / fps,
+                    states=rollout.states,
+                    actions=rollout.actions,
+                    task=task,
+                    cameras=rollout.frames,
+                )
+                bar.update(1)
+        if not counts["kept"]:
+            raise JoshuaError(f"none of {counts['attempts']} attempts succeeded; no dataset written")
+
+    write_dataset(out, kept(), fps=fps, joint_ranges=producer.joint_ranges, units=units, overwrite=overwrite)
+    return DemosReport(counts["kept"], counts["attempts"], counts["frames"], time.perf_counter() - started)

@@ -1,0 +1,31 @@
+"""The test side of the lerobot harness: run tests/lerobot_side.py with the real lerobot 0.4.4, which `./setup.sh
+--dev` installs in .cache/lerobot-site (tests/lerobot-requirements.txt) so that it never changes .venv."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[3]
+LEROBOT_SITE = REPO / ".cache" / "lerobot-site"
+SIDE = Path(__file__).with_name("lerobot_side.py")
+
+
+def lerobot(command: str, root: Path, tmp_path: Path) -> dict[str, Any]:
+    """Run tests/lerobot_side.py COMMAND ROOT with the real lerobot; its JSON answer."""
+    if not (LEROBOT_SITE / "lerobot").is_dir():
+        pytest.fail(f"lerobot is not installed in {LEROBOT_SITE}: run ./setup.sh --dev")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(LEROBOT_SITE), env.get("PYTHONPATH", "")])
+    env |= {"HF_HUB_OFFLINE": "1", "HF_HOME": str(tmp_path / "hf"), "HF_LEROBOT_HOME": str(tmp_path / "hf/lerobot")}
+    result = subprocess.run(
+        [sys.executable, str(SIDE), command, str(root)], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    return json.loads(result.stdout.strip().splitlines()[-1])

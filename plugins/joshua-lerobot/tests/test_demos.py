@@ -1,0 +1,141 @@
+"""`joshua demos` against the real lerobot 0.4.4 (tests/lerobot_side.py through tests/lerobot_harness.py) and against
+the simulation: the dataset loads with `delta_timestamps` and decodes, its rows are the simulated joint angles and
+the script's targets in LeRobot's units, and only the attempts that placed the cube are in it."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from lerobot_harness import lerobot
+
+from joshua_core.config import finalize, load_preset
+from joshua_core.options import LENIENT
+from joshua_mujoco import PickPlaceScript, make_vector_env
+
+JOSHUA = str(Path(sys.executable).parent / "joshua")
+TASK = "so_arm100_pick_place"
+PRESET = "so_arm100_pick_place_mjx_dr"
+# Seed 6 over 3 environments: the second attempt leaves the cube off its goal, the other two place it
+# (found by rolling seeds out; the test below checks that it still holds).
+SEED, NUM_ENVS, FPS, STRIDE = 6, 3, 5, 10  # 5 fps: every 10th step of the 50 Hz task
+WIDTH, HEIGHT = 64, 48
+SUCCESS_RADIUS = 0.02  # m: the task's success metric (body_command_within)
+JOINTS = tuple(f"joint_{i}" for i in range(1, 7))
+
+
+def demos(out: Path, *options: str) -> subprocess.CompletedProcess[str]:
+    command = [JOSHUA, "demos", "--out", str(out), *options]
+    return subprocess.run(command, capture_output=True, text=True, timeout=600)
+
+
+def simulated() -> list[dict[str, Any]]:
+    """The attempts `joshua demos --seed SEED --num-envs NUM_ENVS` makes first, rolled out here step by step:
+    per attempt the joint angles and the script's targets at every STRIDE-th step, each step's camera frame
+    mean, and the cube's final distance to its goal."""
+    task_config = finalize(load_preset(PRESET, LENIENT)).training.task_config
+    env = make_vector_env(TASK, NUM_ENVS, seed=SEED, task_config=task_config)
+    simulation = env.simulation
+    model = simulation.model
+    addresses = [model.joint(joint).qposadr[0] for joint in JOINTS]
+    cube = model.body("cube").id
+    scripts = [PickPlaceScript(model, simulation.task) for _ in range(NUM_ENVS)]
+    plans = [
+        script.actions(
+            simulation.qpos[i].copy(), simulation.derived["xpos"][i, cube].copy(), simulation.commands["goal"][i]
+        )
+        for i, script in enumerate(scripts)
+    ]
+    attempts = [{"state": [], "action": [], "brightness": []} for _ in range(NUM_ENVS)]
+    actions = [next(plan)[1] for plan in plans]
+    step = 0
+    while True:
+        if step % STRIDE == 0:
+            for i, attempt in enumerate(attempts):
+                attempt["state"].append(simulation.qpos[i, addresses].copy())
+                attempt["action"].append(scripts[i].in_force.copy())
+                attempt["brightness"].append(env.render_frame(i, None, WIDTH, HEIGHT).mean() / 255)
+        _, _, terminated, truncated, infos = env.step(np.stack(actions))
+        assert not (terminated.any() or truncated.any())
+        step += 1
+        try:
+            actions = [plan.send(simulation.qpos[i].copy())[1] for i, plan in enumerate(plans)]
+        except StopIteration:
+            break
+    for i, attempt in enumerate(attempts):
+        attempt["distance"] = float(infos["metrics"]["distance"][i])
+    ranges = [tuple(model.jnt_range[model.joint(joint).id]) for joint in JOINTS]
+    env.close()
+    for attempt in attempts:
+        for key in ("state", "action"):
+            values = np.array(attempt[key])
+            mids = np.array([(low + high) / 2 for low, high in ranges[:5]])
+            low, high = ranges[5]
+            attempt[key] = np.column_stack(
+                [np.degrees(values[:, :5] - mids), (values[:, 5] - low) / (high - low) * 100]
+            )
+    return attempts
+
+
+def test_demos_keep_the_successful_attempts_and_lerobot_loads_them(tmp_path: Path) -> None:
+    out = tmp_path / "demos"
+    done = demos(out, "--episodes", "2", "--num-envs", str(NUM_ENVS), "--seed", str(SEED), "--fps", str(FPS),
+                 "--width", str(WIDTH), "--height", str(HEIGHT), "--task", "place the cube")  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "2 of 3 attempts succeeded" in done.stdout and "episodes/minute" in done.stdout, done.stdout
+
+    attempts = simulated()
+    placed = [attempt["distance"] < SUCCESS_RADIUS for attempt in attempts]
+    assert placed == [True, False, True], [attempt["distance"] for attempt in attempts]  # the seed still has a miss
+    kept = [attempt for attempt, ok in zip(attempts, placed, strict=True) if ok]
+
+    loaded = lerobot("delta", out, tmp_path)
+    rows = len(kept[0]["state"])  # 300 control steps of the script, every 10th
+    assert rows == 30 and (loaded["frames"], loaded["episodes"], loaded["fps"]) == (2 * rows, 2, FPS)
+    assert loaded["episode_index"] == [0] * rows + [1] * rows and loaded["task"] == ["place the cube"]
+    state, action = np.array(loaded["observation.state"]), np.array(loaded["action"])
+    first = np.arange(2 * rows) % rows == 0
+    for episode, attempt in enumerate(kept):
+        span = slice(episode * rows, (episode + 1) * rows)
+        # degrees and percent of float32 values: 1e-3 is far below one encoder count (0.088 degrees)
+        assert np.allclose(state[span, 1], attempt["state"], rtol=0, atol=1e-3)
+        assert np.allclose(state[span, 0][1:], attempt["state"][:-1], rtol=0, atol=1e-3)  # the frame before
+        assert np.allclose(action[span, 0], attempt["action"], rtol=0, atol=1e-3)
+        assert np.allclose(action[span, 1][:-1], attempt["action"][1:], rtol=0, atol=1e-3)  # the next frame's
+    assert np.array(loaded["observation.state_is_pad"])[:, 0].tolist() == first.tolist()
+    assert np.array(loaded["action_is_pad"])[:, 2].tolist() == (np.arange(2 * rows) % rows >= rows - 2).tolist()
+
+    (camera,) = loaded["cameras"].values()
+    assert camera["shape"] == [2, 3, HEIGHT, WIDTH]
+    decoded = np.array(camera["mean"])[:, 1]  # this frame's
+    rendered = np.concatenate([attempt["brightness"] for attempt in kept])
+    assert np.allclose(decoded, rendered, rtol=0, atol=0.02)  # mean brightness in [0, 1], through H.264
+    assert np.array(camera["is_pad"])[:, 0].tolist() == first.tolist()
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (("--camera", "nowhere"), "no camera 'nowhere' in the model; cameras: overview, side"),
+        (("--fps", "30"), "--fps 30 does not divide the task's control rate of 50 steps per second"),
+        (("--width", "63"), "need an even width and height"),
+        (("--preset", "so_arm100_train_mjx"), "the scripted controller demonstrates 'so_arm100_pick_place'"),
+    ],
+)
+def test_user_errors_are_one_line_and_write_nothing(tmp_path: Path, options: tuple[str, ...], message: str) -> None:
+    done = demos(tmp_path / "demos", "--episodes", "1", *options)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1 and message in done.stderr, done.stderr
+    assert not (tmp_path / "demos").exists()
+
+
+def test_an_existing_out_is_refused_before_any_rollout(tmp_path: Path) -> None:
+    out = tmp_path / "demos"
+    out.mkdir()
+    (out / "notes.txt").write_text("keep")
+    done = demos(out, "--episodes", "1")
+    assert done.returncode == 2 and done.stderr.count("\n") == 1 and "was not written by joshua" in done.stderr
+    assert (out / "notes.txt").read_text() == "keep"
