@@ -172,7 +172,7 @@ class MjxEnv:
         draws are each environment's start state until `redraw_starts`."""
         keys, draw = self._split_keys(jax.random.split(key, self.num_envs))
         start = self.curriculum.start if self.curriculum else 1.0
-        strength = jax.device_put(jnp.full(self.num_envs, start, jnp.float32), self.sharding)
+        strength = jnp.full(self.num_envs, start, jnp.float32)  # laid out by _draw_starts and _begin
         data, commands, params = self._draw_starts(draw, strength)
         steps = jnp.zeros(self.num_envs, jnp.int32)
         if self.desync_episodes:  # first episodes start at random steps (see EnvSpec.desync_episodes)
