@@ -150,3 +150,33 @@ def test_desynchronised_first_episodes_end_in_every_stretch_of_steps() -> None:
         ended.append(count)
     assert all(count > 0 for count in ended), ended  # in lockstep all 16 would end together at step 40
     assert sum(ended) == 16
+
+
+def test_appearance_draws_reach_each_simulations_model_and_its_camera() -> None:
+    """On the CPU each simulation's model holds its colour, camera and light draw, and its kinematics place the
+    camera where the drawn pose puts it (cam_xpos = cam_pos for a camera of the world body)."""
+    env = env_with(
+        event("c", "randomize_geom_rgba", geoms='["cube"]', green="[0.0, 0.1]", brightness="[0.5, 1.0]")
+        + event("p", "randomize_camera_pose", cameras='["side"]', position="[-0.05, 0.05]", rotation="[-0.1, 0.1]")
+        + event("l", "randomize_light", lights='["key"]', direction="[-0.2, 0.2]", diffuse="[0.2, 0.5]")
+    )
+    simulation, defaults = env.simulation, env.task.defaults
+    cube, side, key = (
+        getattr(simulation.model, kind)(name).id
+        for kind, name in [("geom", "cube"), ("camera", "side"), ("light", "key")]
+    )
+    rgba = simulation.physics.batch.expanded("geom_rgba")[:, cube]
+    np.testing.assert_allclose(defaults["geom_rgba"][cube], simulation.model.mat_rgba[simulation.model.mat("cube").id])
+    assert np.all(rgba[:, 1] <= 0.1 * defaults["geom_rgba"][cube, 1] + 1e-12) and np.all(rgba[:, 0] < 0.85)
+    quat = simulation.physics.batch.expanded("cam_quat")[:, side]
+    np.testing.assert_allclose(np.linalg.norm(quat, axis=1), 1.0, atol=1e-12)
+    assert np.all(np.abs(simulation.physics.batch.expanded("cam_pos")[:, side] - defaults["cam_pos"][side]) <= 0.05)
+    direction = simulation.physics.batch.expanded("light_dir")[:, key]
+    np.testing.assert_allclose(
+        np.linalg.norm(direction, axis=1), np.linalg.norm(defaults["light_dir"][key]), atol=1e-12
+    )
+    assert len(np.unique(simulation.params["light_diffuse"][:, key, 0])) == simulation.num_envs
+    for index in range(simulation.num_envs):
+        model, data = simulation.physics.model_and_data(index)
+        np.testing.assert_allclose(data.cam_xpos[side], simulation.params["cam_pos"][index, side], atol=1e-12)
+        np.testing.assert_allclose(model.geom_rgba[cube], rgba[index])

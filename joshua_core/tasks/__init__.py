@@ -17,7 +17,19 @@ from joshua_core.tasks.context import (
     set_columns,
 )
 from joshua_core.tasks.episodes import Episode, EpisodeSums, StepOutcome, account_step, nonfinite
-from joshua_core.tasks.handles import Actuators, Bodies, Body, Geoms, Joint, Joints, Sensor, Site, Touch
+from joshua_core.tasks.handles import (
+    Actuators,
+    Bodies,
+    Body,
+    Geoms,
+    Joint,
+    Joints,
+    Lights,
+    SceneCameras,
+    Sensor,
+    Site,
+    Touch,
+)
 from joshua_core.tasks.randomization import (
     INERTIAL_FIELDS,
     MODEL_FIELDS,
@@ -53,9 +65,11 @@ __all__ = [
     "JaxRandom",
     "Joint",
     "Joints",
+    "Lights",
     "NumpyRandom",
     "RandomSource",
     "Range",
+    "SceneCameras",
     "Sensor",
     "Site",
     "StepOutcome",

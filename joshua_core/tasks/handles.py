@@ -115,7 +115,28 @@ class Geoms:
     ids: tuple[int, ...]
 
 
-HANDLE_TYPES = (Body, Site, Sensor, Touch, Joint, Joints, Actuators, Bodies, Geoms)
+@dataclass(frozen=True)
+class SceneCameras:
+    """Several of the scene's cameras by name (at least one): `ids` index cam_pos, cam_quat; `fixed`: whether
+    each is fixed in its body (MJCF mode "fixed"), so that cam_pos and cam_quat are its pose there."""
+
+    names: tuple[str, ...]
+    ids: tuple[int, ...]
+    fixed: tuple[bool, ...]
+
+
+@dataclass(frozen=True)
+class Lights:
+    """Several lights by name (at least one): `ids` index light_pos, light_dir, light_diffuse; `fixed`: whether
+    each is fixed in its body (MJCF mode "fixed"), so that light_pos and light_dir are its pose there."""
+
+    names: tuple[str, ...]
+    ids: tuple[int, ...]
+    fixed: tuple[bool, ...]
+
+
+HANDLE_TYPES = (Body, Site, Sensor, Touch, Joint, Joints, Actuators, Bodies, Geoms, SceneCameras, Lights)
+_FIXED_MODE = 0  # mjtCamLight.mjCAMLIGHT_FIXED: a camera or light that moves with its body
 
 
 def _names(model: Any, kind: str) -> list[str]:
@@ -127,6 +148,7 @@ def _names(model: Any, kind: str) -> list[str]:
         "actuator": model.nu,
         "geom": model.ngeom,
         "camera": model.ncam,
+        "light": model.nlight,
     }[kind]
     return [getattr(model, kind)(i).name for i in range(count)]
 
@@ -189,6 +211,14 @@ def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
         if not names:
             raise ValueError(f"name at least one {kind}")
         return handle_type(tuple(names), tuple(_lookup(model, kind, name) for name in names))
+    if handle_type in (SceneCameras, Lights):
+        kind = "camera" if handle_type is SceneCameras else "light"
+        names = _name_list(value, kind)
+        if not names:
+            raise ValueError(f"name at least one {kind}")
+        ids = tuple(_lookup(model, kind, name) for name in names)
+        modes = model.cam_mode if handle_type is SceneCameras else model.light_mode
+        return handle_type(tuple(names), ids, tuple(int(modes[i]) == _FIXED_MODE for i in ids))
     raise TypeError(f"not a model handle type: {handle_type!r}")
 
 

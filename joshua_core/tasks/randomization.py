@@ -11,6 +11,9 @@ joshua-mjx) then simulate each environment with its values:
   (nbody,), `body_inertia` (nbody, 3), `actuator_gainprm` / `actuator_biasprm` (nu, 10),
   `dof_damping`, `dof_armature` (nv,). Backends recompute what MuJoCo derives from them
   (mj_setConst: the inverse weights of bodies and dofs).
+- appearance, model fields that only rendering reads: `geom_rgba` (ngeom, 4), the colour each geom
+  shows (its material's where it has one and no colour of its own, the rule of MuJoCo's renderers),
+  `cam_pos` (ncam, 3), `cam_quat` (ncam, 4), `light_pos`, `light_dir`, `light_diffuse` (nlight, 3).
 - control fields: `ctrl_offset` (nu,) added to the actuator targets, `action_delay` () in control
   steps, `obs_noise` (observation size,) added to the observation, `xfrc_applied` (nbody, 6),
   an external force and torque applied for one control step (then cleared).
@@ -37,7 +40,7 @@ import numpy as np
 
 from joshua_core.errors import ConfigError
 from joshua_core.tasks.context import TermContext, set_columns
-from joshua_core.tasks.handles import Actuators, Bodies, Body, Geoms, Joints
+from joshua_core.tasks.handles import Actuators, Bodies, Body, Geoms, Joints, Lights, SceneCameras
 
 MODEL_FIELDS = (
     "geom_friction",
@@ -47,6 +50,12 @@ MODEL_FIELDS = (
     "actuator_biasprm",
     "dof_damping",
     "dof_armature",
+    "geom_rgba",
+    "cam_pos",
+    "cam_quat",
+    "light_pos",
+    "light_dir",
+    "light_diffuse",
 )
 # Model fields whose change makes mj_setConst's derived quantities (inverse weights) stale.
 INERTIAL_FIELDS = frozenset({"body_mass", "body_inertia", "dof_armature"})
@@ -156,11 +165,23 @@ class Curriculum:
 def default_params(model: Any, observation_size: int) -> dict[str, np.ndarray]:
     """The model's own value of every randomizable quantity (see the module docstring), unbatched."""
     values = {name: np.array(getattr(model, name), dtype=np.float64) for name in MODEL_FIELDS}
+    values["geom_rgba"] = _shown_rgba(model)
     values["ctrl_offset"] = np.zeros(model.nu)
     values["action_delay"] = np.zeros((), np.int32)
     values["obs_noise"] = np.zeros(observation_size)
     values["xfrc_applied"] = np.zeros((model.nbody, 6))
     return values
+
+
+def _shown_rgba(model: Any) -> np.ndarray:
+    """(ngeom, 4) the colour each geom shows: its material's where it has one and its own colour is MuJoCo's
+    default (0.5, 0.5, 0.5, 1), its own otherwise (the rule of MuJoCo's and MuJoCo Warp's renderers). Written
+    as the geom's own colour, it shows the same, and a drawn colour changes that geom alone."""
+    rgba = np.array(model.geom_rgba, dtype=np.float64)
+    material = np.asarray(model.geom_matid)
+    uses_material = (material >= 0) & np.all(rgba == np.float32([0.5, 0.5, 0.5, 1.0]), axis=1)
+    rgba[uses_material] = np.asarray(model.mat_rgba, dtype=np.float64)[material[uses_material]]
+    return rgba
 
 
 def tiled(xp: Any, defaults: Mapping[str, np.ndarray], num_envs: int, names: Any = None) -> dict[str, Any]:
@@ -350,6 +371,110 @@ def _drawn_dof_field(
     return _written(ctx, field, dofs, _drawn(ctx, ctx.defaults[field][dofs], range, distribution, operation))
 
 
+# --- appearance -------------------------------------------------------------------------------
+
+
+def randomize_geom_rgba(
+    ctx: TermContext,
+    geoms: Geoms,
+    red: Range = Range(1.0, 1.0),
+    green: Range = Range(1.0, 1.0),
+    blue: Range = Range(1.0, 1.0),
+    brightness: Range = Range(1.0, 1.0),
+    distribution: str = "uniform",
+    operation: str = "scale",
+) -> TermContext:
+    """Draw the colour of each named geom: its red, green and blue each drawn around the colour it shows (with
+    `operation`), then all three scaled by one `brightness` factor per geom, clipped to [0, 1]; alpha kept."""
+    ids = np.asarray(geoms.ids)
+    base = ctx.defaults["geom_rgba"][ids]
+    channels = [_drawn(ctx, base[:, c], span, distribution, operation) for c, span in enumerate((red, green, blue))]
+    factor = _at_strength(ctx, _sample(ctx, (ctx.num_envs, len(ids), 1), brightness, distribution), 1.0)
+    rgb = ctx.xp.clip(ctx.xp.stack(channels, axis=-1) * factor, 0.0, 1.0)
+    return _written(ctx, "geom_rgba", ids, ctx.xp.concatenate([rgb, ctx.params["geom_rgba"][:, ids, 3:]], axis=-1))
+
+
+def randomize_camera_pose(
+    ctx: TermContext,
+    cameras: SceneCameras,
+    position: Range = Range(0.0, 0.0),
+    rotation: Range = Range(0.0, 0.0),
+) -> TermContext:
+    """Move each named camera (fixed in its body) from its pose: an offset uniform in `position` (m) along each
+    axis of its body, and a turn by an angle uniform in `rotation` (rad) about each of its own axes (x, y, z
+    in turn), as a camera mounted slightly off."""
+    _check_fixed("camera", cameras, position, rotation)
+    ids = np.asarray(cameras.ids)
+    offset = _at_strength(ctx, ctx.random.uniform((ctx.num_envs, len(ids), 3), position.low, position.high))  # type: ignore[union-attr]
+    turn = _turn(ctx, (ctx.num_envs, len(ids)), rotation)
+    quat = _quat_mul(ctx.xp, ctx.defaults["cam_quat"][ids], turn)
+    return _written(_written(ctx, "cam_pos", ids, ctx.defaults["cam_pos"][ids] + offset), "cam_quat", ids, quat)
+
+
+def randomize_light(
+    ctx: TermContext,
+    lights: Lights,
+    position: Range = Range(0.0, 0.0),
+    direction: Range = Range(0.0, 0.0),
+    diffuse: Range = Range(1.0, 1.0),
+    distribution: str = "uniform",
+) -> TermContext:
+    """Draw each named light: its position moved by an offset uniform in `position` (m) along each axis of its
+    body, its direction turned by an angle uniform in `direction` (rad) about each of those axes (x, y, z in
+    turn), its diffuse colour scaled by one factor drawn from `diffuse` (brightness, colour kept)."""
+    _check_fixed("light", lights, position, direction)
+    ids = np.asarray(lights.ids)
+    shape = (ctx.num_envs, len(ids))
+    offset = _at_strength(ctx, ctx.random.uniform((*shape, 3), position.low, position.high))  # type: ignore[union-attr]
+    turned = _rotated(ctx.xp, _turn(ctx, shape, direction), ctx.xp.asarray(ctx.defaults["light_dir"][ids]))
+    factor = _at_strength(ctx, _sample(ctx, (*shape, 1), diffuse, distribution), 1.0)
+    ctx = _written(ctx, "light_pos", ids, ctx.defaults["light_pos"][ids] + offset)
+    ctx = _written(ctx, "light_dir", ids, turned)
+    return _written(ctx, "light_diffuse", ids, ctx.defaults["light_diffuse"][ids] * factor)
+
+
+def _check_fixed(kind: str, handle: SceneCameras | Lights, *spans: Range) -> None:
+    """ValueError where a pose is drawn for a camera or light that is not fixed in its body (one that tracks or
+    targets a body has its pose computed from it each step)."""
+    moving = [name for name, fixed in zip(handle.names, handle.fixed, strict=True) if not fixed]
+    if moving and any(span != Range(0.0, 0.0) for span in spans):
+        raise ValueError(f"the pose of {kind} {', '.join(moving)} is not fixed in its body (MJCF mode 'fixed')")
+
+
+def _turn(ctx: TermContext, shape: tuple[int, ...], span: Range) -> Any:
+    """(*shape, 4) unit quaternions: turns about the x, y then z axis, each by an angle uniform in `span` at each
+    environment's strength (exactly the identity at strength 0)."""
+    xp = ctx.xp
+    half = _at_strength(ctx, ctx.random.uniform((*shape, 3), span.low, span.high)) / 2  # type: ignore[union-attr]
+    cos, sin, zero = xp.cos(half), xp.sin(half), xp.zeros_like(half[..., 0])
+    quat = xp.stack([cos[..., 0], sin[..., 0], zero, zero], axis=-1)
+    quat = _quat_mul(xp, quat, xp.stack([cos[..., 1], zero, sin[..., 1], zero], axis=-1))
+    return _quat_mul(xp, quat, xp.stack([cos[..., 2], zero, zero, sin[..., 2]], axis=-1))
+
+
+def _quat_mul(xp: Any, a: Any, b: Any) -> Any:
+    """The Hamilton product a b of quaternions (..., 4), w first (MuJoCo's convention)."""
+    aw, ax, ay, az = (a[..., i] for i in range(4))
+    bw, bx, by, bz = (b[..., i] for i in range(4))
+    return xp.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        axis=-1,
+    )
+
+
+def _rotated(xp: Any, quat: Any, vector: Any) -> Any:
+    """`vector` (..., 3) rotated by the unit quaternions `quat` (..., 4): q v q*."""
+    vector = xp.broadcast_to(vector, (*quat.shape[:-1], 3))
+    pure = xp.concatenate([xp.zeros_like(vector[..., :1]), vector], axis=-1)
+    conjugate = quat * xp.asarray([1.0, -1.0, -1.0, -1.0])
+    return _quat_mul(xp, _quat_mul(xp, quat, pure), conjugate)[..., 1:]
+
+
 # --- control and observation ------------------------------------------------------------------
 
 
@@ -431,6 +556,9 @@ RANDOMIZATION_TERMS: dict[str, Callable[..., Any]] = {
         randomize_actuator_gains,
         randomize_joint_damping,
         randomize_joint_armature,
+        randomize_geom_rgba,
+        randomize_camera_pose,
+        randomize_light,
         randomize_joint_offset,
         observation_noise,
         action_delay,
