@@ -110,6 +110,7 @@ def _pixel_settings(options: options_pb2.PixelOptions) -> PixelSettings:
     pixels = PixelSettings(
         cameras=tuple(options.cameras),
         observation_terms=tuple(options.observation_terms),
+        commands=tuple(options.commands),
         **_given(
             channels=tuple(options.channels),
             kernel_sizes=tuple(options.kernel_sizes),

@@ -122,10 +122,10 @@ class _GaussianHead(nn.Module):
 
 
 class PixelActorCritic(nn.Module):
-    """A policy that sees camera images (one ImageEncoder per camera) and the flat observation's entries at
-    `observation_indices`, beside a value network of the whole flat observation (privileged: the cube's pose the
-    policy must find in the images). Without images only the value is computed (mean and log-std are None): the
-    value of a final or last observation needs no images."""
+    """A policy that sees camera images (one ImageEncoder per camera), the flat observation's entries at
+    `observation_indices` and the task's commands it names, beside a value network of the whole flat observation
+    (privileged: the cube's pose the policy must find in the images). Without views only the value is computed
+    (mean and log-std are None): the value of a final or last observation needs no images."""
 
     action_dim: int
     policy_hidden_sizes: tuple[int, ...]
@@ -137,17 +137,20 @@ class PixelActorCritic(nn.Module):
 
     @nn.compact
     def __call__(
-        self, x: jax.Array, value_x: jax.Array | None = None, images: dict[str, jax.Array] | None = None
+        self, x: jax.Array, value_x: jax.Array | None = None, views: dict[str, dict[str, jax.Array]] | None = None
     ) -> tuple[jax.Array | None, jax.Array | None, jax.Array]:
         """`x`: the normalised flat observation; `value_x`: what the value network sees instead (the observation
-        without its noise); `images`: each camera's images by name."""
+        without its noise); `views`: {"images": each camera's by name, "commands": each command by name}."""
         value_hidden = _Mlp(self.value_hidden_sizes, self.activation, name="value")(x if value_x is None else value_x)
         value = nn.Dense(1, name="value_out")(value_hidden)[..., 0]
-        if images is None:
+        if views is None:
             return None, None, value
+        images, commands = views["images"], views["commands"]
         features = [ImageEncoder(self.pixels, name=f"encoder_{name}")(images[name]) for name in self.pixels.cameras]
         flat = jnp.take(x, jnp.asarray(self.observation_indices, jnp.int32), axis=-1)
-        policy = _Mlp(self.policy_hidden_sizes, self.activation, name="policy")(jnp.concatenate([*features, flat], -1))
+        given = [commands[name].astype(x.dtype) for name in self.pixels.commands]
+        policy_input = jnp.concatenate([*features, flat, *given], axis=-1)
+        policy = _Mlp(self.policy_hidden_sizes, self.activation, name="policy")(policy_input)
         mean, log_std = _GaussianHead(self.action_dim, self.state_dependent_std, name="policy_head")(policy)
         return mean, log_std, value
 

@@ -77,20 +77,22 @@ class PpoOptions(_message.Message):
     def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., value_hidden_sizes: _Optional[_Iterable[int]] = ..., squash_actions: _Optional[bool] = ..., activation: _Optional[str] = ..., state_dependent_std: _Optional[bool] = ..., recompute_advantages: _Optional[bool] = ..., advantage: _Optional[_Union[PpoOptions.Advantage, str]] = ..., entropy_coef: _Optional[float] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., desired_kl: _Optional[float] = ..., anneal_learning_rate: _Optional[bool] = ..., disable_observation_normalization: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ..., distributed: _Optional[_Union[Distributed, _Mapping]] = ..., pixels: _Optional[_Union[PixelOptions, _Mapping]] = ...) -> None: ...
 
 class PixelOptions(_message.Message):
-    __slots__ = ("cameras", "observation_terms", "channels", "kernel_sizes", "strides", "feature_size")
+    __slots__ = ("cameras", "observation_terms", "commands", "channels", "kernel_sizes", "strides", "feature_size")
     CAMERAS_FIELD_NUMBER: _ClassVar[int]
     OBSERVATION_TERMS_FIELD_NUMBER: _ClassVar[int]
+    COMMANDS_FIELD_NUMBER: _ClassVar[int]
     CHANNELS_FIELD_NUMBER: _ClassVar[int]
     KERNEL_SIZES_FIELD_NUMBER: _ClassVar[int]
     STRIDES_FIELD_NUMBER: _ClassVar[int]
     FEATURE_SIZE_FIELD_NUMBER: _ClassVar[int]
     cameras: _containers.RepeatedScalarFieldContainer[str]
     observation_terms: _containers.RepeatedScalarFieldContainer[str]
+    commands: _containers.RepeatedScalarFieldContainer[str]
     channels: _containers.RepeatedScalarFieldContainer[int]
     kernel_sizes: _containers.RepeatedScalarFieldContainer[int]
     strides: _containers.RepeatedScalarFieldContainer[int]
     feature_size: int
-    def __init__(self, cameras: _Optional[_Iterable[str]] = ..., observation_terms: _Optional[_Iterable[str]] = ..., channels: _Optional[_Iterable[int]] = ..., kernel_sizes: _Optional[_Iterable[int]] = ..., strides: _Optional[_Iterable[int]] = ..., feature_size: _Optional[int] = ...) -> None: ...
+    def __init__(self, cameras: _Optional[_Iterable[str]] = ..., observation_terms: _Optional[_Iterable[str]] = ..., commands: _Optional[_Iterable[str]] = ..., channels: _Optional[_Iterable[int]] = ..., kernel_sizes: _Optional[_Iterable[int]] = ..., strides: _Optional[_Iterable[int]] = ..., feature_size: _Optional[int] = ...) -> None: ...
 
 class Distributed(_message.Message):
     __slots__ = ("coordinator", "num_processes", "process_id")

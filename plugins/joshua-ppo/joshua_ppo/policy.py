@@ -40,7 +40,8 @@ def make_network(env: JaxEnv, network: NetworkSettings) -> Network:
 
 
 def _observation_indices(env: JaxEnv, pixels: PixelSettings) -> tuple[int, ...]:
-    """The flat observation's entries the pixel policy sees (its observation terms'), after checking its cameras."""
+    """The flat observation's entries the pixel policy sees (its observation terms'), after checking its cameras
+    and commands."""
     cameras = {camera.name: camera for camera in env.task.cameras}
     for name in pixels.cameras:
         if name not in cameras:
@@ -51,6 +52,10 @@ def _observation_indices(env: JaxEnv, pixels: PixelSettings) -> tuple[int, ...]:
                 f"training.ppo.pixels: camera '{name}' is a {cameras[name].kind} camera; "
                 f"the policy reads {' or '.join(POLICY_CAMERA_KINDS)}"
             )
+    for name in pixels.commands:
+        if name not in env.task.commands:
+            known = ", ".join(env.task.commands) or "none"
+            raise ConfigError(f"training.ppo.pixels: command '{name}' is not one of the task's commands ({known})")
     layout = env.task.observation_layout
     starts = np.cumsum([0, *(width for _, width in layout)])
     spans = {name: range(start, start + width) for (name, width), start in zip(layout, starts, strict=False)}
@@ -63,11 +68,15 @@ def _observation_indices(env: JaxEnv, pixels: PixelSettings) -> tuple[int, ...]:
     return tuple(int(index) for name in names for index in spans[name])
 
 
-def policy_images(state: EnvState, network: NetworkSettings) -> dict[str, jax.Array] | None:
-    """The images of the environment state the policy sees (None for a policy without pixels)."""
+def policy_views(state: EnvState, network: NetworkSettings) -> dict[str, dict[str, jax.Array]] | None:
+    """What a pixel policy sees of the environment state beside the observation: {"images": by camera, "commands":
+    by command} (None for a policy without pixels)."""
     if network.pixels is None:
         return None
-    return {name: state.images[name] for name in network.pixels.cameras}
+    return {
+        "images": {name: state.images[name] for name in network.pixels.cameras},
+        "commands": {name: state.commands[name] for name in network.pixels.commands},
+    }
 
 
 def init_params(env: JaxEnv, network: NetworkSettings, key: jax.Array) -> Any:
@@ -75,9 +84,13 @@ def init_params(env: JaxEnv, network: NetworkSettings, key: jax.Array) -> Any:
     observation = jnp.zeros((1, env.observation_size))
     if network.pixels is None:
         return make_network(env, network).init(key, observation)["params"]
+    net = make_network(env, network)  # checks the cameras and commands first
     cameras = {camera.name: camera for camera in env.task.cameras}
-    images = {name: jnp.zeros((1, *cameras[name].shape), cameras[name].dtype) for name in network.pixels.cameras}
-    return make_network(env, network).init(key, observation, None, images)["params"]
+    views = {
+        "images": {name: jnp.zeros((1, *cameras[name].shape), cameras[name].dtype) for name in network.pixels.cameras},
+        "commands": {name: jnp.zeros((1, env.task.commands[name])) for name in network.pixels.commands},
+    }
+    return net.init(key, observation, None, views)["params"]
 
 
 def image_bytes_per_env(env: JaxEnv, network: NetworkSettings) -> int:
@@ -99,11 +112,11 @@ def policy_actions(
     stats: RunningStatistics,
     observation: jax.Array,
     network: NetworkSettings,
-    images: dict[str, jax.Array] | None = None,
+    views: dict[str, dict[str, jax.Array]] | None = None,
 ) -> jax.Array:
-    """The deterministic policy's actions (the Gaussian's mean, squashed when the policy squashes); `images`: those
-    a pixel policy sees (`policy_images`)."""
+    """The deterministic policy's actions (the Gaussian's mean, squashed when the policy squashes); `views`: what a
+    pixel policy sees beside the observation (`policy_views`)."""
     observation = normalize(stats, observation, network.normalize_observations)
-    inputs = (observation,) if images is None else (observation, None, images)
+    inputs = (observation,) if views is None else (observation, None, views)
     mean, _, _ = net.apply({"params": params}, *inputs)
     return env_actions(mean, network)

@@ -68,6 +68,7 @@ class PixelSettings:
 
     cameras: tuple[str, ...]  # the task's cameras (rgb or depth) the policy sees
     observation_terms: tuple[str, ...] = ()  # the observation terms it sees beside them; empty: all of them
+    commands: tuple[str, ...] = ()  # the task's commands it is given (e.g. the goal the images do not show)
     channels: tuple[int, ...] = (32, 64, 64)  # of each conv layer
     kernel_sizes: tuple[int, ...] = (8, 4, 3)
     strides: tuple[int, ...] = (4, 2, 1)

@@ -1,6 +1,6 @@
-"""A pixel policy (training.ppo.pixels): PPO trains a policy that sees a camera image and the arm's joint readings
-through a CNN encoder, beside a value network of the flat state; its checkpoint evaluates; bad options are one-line
-ConfigErrors.
+"""A pixel policy (training.ppo.pixels): PPO trains a policy that sees a camera image, the arm's joint readings and
+its goal through a CNN encoder, beside a value network of the flat state; its checkpoint evaluates; bad options
+are one-line ConfigErrors.
 
 MuJoCo Warp renders on the CPU here: pick-and-place with one 16x16 rgb camera, 4 environments, 2 iterations of
 4 steps, episodes of 20 steps.
@@ -42,6 +42,7 @@ NUM_ENVS, NUM_STEPS = 4, 4
 PIXELS = {
     "cameras": ["overview"],
     "observation_terms": ["joint_pos"],
+    "commands": ["goal"],
     "channels": [4, 8],
     "kernel_sizes": [3, 3],
     "strides": [2, 2],
@@ -67,6 +68,7 @@ CONFIG = {
     },
 }
 JOINTS = 6  # joint_pos: the arm's six joints
+GOAL = 3  # the goal command: a position
 
 
 @pytest.fixture(scope="module")
@@ -95,8 +97,8 @@ def test_a_pixel_run_trains_a_conv_encoder_and_states_its_image_memory(pixel_run
     assert np.shape(encoder["Conv_1"]["kernel"]) == (3, 3, 4, 8)
     # SAME padding, stride 2 twice: 16 -> 8 -> 4 pixels a side, 8 channels, into 16 features
     assert np.shape(encoder["Dense_0"]["kernel"]) == (4 * 4 * 8, 16)
-    # the policy sees the image's features and the joint readings; the value network the whole flat observation
-    assert np.shape(params["policy"]["Dense_0"]["kernel"]) == (16 + JOINTS, 16)
+    # the policy sees the image's features, the joint readings and the goal; the value network the flat observation
+    assert np.shape(params["policy"]["Dense_0"]["kernel"]) == (16 + JOINTS + GOAL, 16)
     run = pixel_run.parent / "pixels"
     document = json.loads((run / "config.json").read_text())
     assert document["rollout_image_bytes"] == NUM_STEPS * NUM_ENVS * SIZE * SIZE * 3
@@ -115,12 +117,16 @@ def test_the_policy_action_follows_the_image_not_the_unseen_state(pixel_run: Pat
     image = np.asarray(state.images["overview"])
     assert image.dtype == np.uint8 and image.std() > 0  # a rendered scene, not a blank frame
 
-    def act(observation: np.ndarray, picture: np.ndarray) -> np.ndarray:
-        return np.asarray(policy_actions(net, saved["params"], stats, observation, network, {"overview": picture}))
+    goal = np.asarray(state.commands["goal"])
+
+    def act(observation: np.ndarray, picture: np.ndarray, goal: np.ndarray = goal) -> np.ndarray:
+        views = {"images": {"overview": picture}, "commands": {"goal": goal}}
+        return np.asarray(policy_actions(net, saved["params"], stats, observation, network, views))
 
     observation = np.asarray(state.observation)
     base = act(observation, image)
     assert np.abs(act(observation, 255 - image) - base).max() > 1e-4  # another image: another action
+    assert np.abs(act(observation, image, goal + 0.1) - base).max() > 1e-4  # another goal: another action
     unseen = observation.copy()
     unseen[:, JOINTS:] += 1.0  # everything but joint_pos, the first term
     np.testing.assert_array_equal(act(unseen, image), base)  # the policy does not read the privileged state
@@ -160,6 +166,7 @@ def test_pixel_options_without_a_camera_or_with_unknown_names_are_one_line_confi
     for pixels, message in (
         ({"cameras": ["nowhere"]}, "camera 'nowhere' is not one of the task's cameras \\(overview\\)"),
         ({"cameras": ["overview"], "observation_terms": ["joint_angles"]}, "observation term 'joint_angles'"),
+        ({"cameras": ["overview"], "commands": ["target"]}, "command 'target' is not one of the task's commands"),
     ):
         with pytest.raises(ConfigError, match=message) as error:
             make_network(env, _settings({"pixels": pixels}).network)
