@@ -18,8 +18,10 @@ import pytest
 from flax.serialization import from_bytes
 from google.protobuf import text_format
 
+from joshua_core.config import finalize, load_preset
 from joshua_core.config_pb2 import TaskConfig, TrainingConfig
 from joshua_core.errors import ConfigError
+from joshua_core.interfaces import EnvKind
 from joshua_core.options import parse_dict
 from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
@@ -28,7 +30,7 @@ from joshua_ppo import train_mjx
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.iteration import make_iteration
 from joshua_ppo.normalizer import RunningStatistics
-from joshua_ppo.policy import make_network, policy_actions
+from joshua_ppo.policy import image_bytes_per_env, init_params, make_network, policy_actions
 from joshua_ppo.settings import OptimizationSettings, ReturnSettings, RolloutSettings
 from joshua_ppo.state import init_state
 from joshua_ppo.trainer import PpoTrainer
@@ -154,6 +156,26 @@ def test_whole_unrolls_carry_their_images_when_advantages_are_recomputed(env: Mj
     state, metrics = iteration(state)
     assert bool(metrics["params_finite"])
     assert np.abs(np.asarray(state.params["encoder_overview"]["Conv_0"]["kernel"]) - before).max() > 0
+
+
+def test_the_pixels_preset_validates_against_its_task() -> None:
+    """The preset's policy sees one 64x64 rgb camera, the joint readings and the goal; its value network the flat
+    state; its environments (2 here) render on MuJoCo Warp, and the network it describes builds against them."""
+    plugins = PluginHost.discover()
+    training = finalize(load_preset("so_arm100_pick_place_pixels", plugins.options())).training
+    settings = PpoSettings.from_config(training)
+    pixels = settings.network.pixels
+    assert pixels is not None and pixels.cameras == ("overview",) and pixels.commands == ("goal",)
+    assert settings.network.separate_value_network
+    env = RunContext(plugins, Path(training.checkpoint_dir)).create_envs(training, EnvKind.JAX, num_envs=2)
+    assert [(camera.name, camera.shape, camera.kind) for camera in env.task.cameras] == [
+        ("overview", (64, 64, 3), "rgb")
+    ]
+    params = init_params(env, settings.network, jax.random.PRNGKey(0))
+    # the policy's flat input: 6 joint positions, 6 velocities, 6 servo errors and 6 last actions, and the goal
+    assert np.shape(params["policy"]["Dense_0"]["kernel"]) == (pixels.feature_size + 24 + GOAL, 256)
+    assert np.shape(params["encoder_overview"]["Conv_0"]["kernel"]) == (8, 8, 3, 32)  # the Nature-CNN default
+    assert image_bytes_per_env(env, settings.network) == 64 * 64 * 3
 
 
 def test_pixel_options_without_a_camera_or_with_unknown_names_are_one_line_config_errors(env: MjxEnv) -> None:
