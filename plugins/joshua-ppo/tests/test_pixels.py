@@ -28,6 +28,7 @@ from joshua_core.run_context import RunContext
 from joshua_mjx import MjxEnv, Physics, make_mjx_env
 from joshua_ppo import train_mjx
 from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.export import mlp_policy
 from joshua_ppo.iteration import make_iteration
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.policy import image_bytes_per_env, init_params, make_network, policy_actions
@@ -141,6 +142,8 @@ def test_eval_runs_the_pixel_policy_from_its_checkpoint(pixel_run: Path, tmp_pat
     context = RunContext(PluginHost.discover(), tmp_path)
     results = PpoTrainer().evaluate(pixel_run, episodes=2, seed=0, video_path=None, context=context)
     assert results.lengths == [20, 20], results  # neither 20-step episode ends early by an error
+    with pytest.raises(ConfigError, match="sees camera images"):  # an MLP of the flat observation cannot hold it
+        mlp_policy(pixel_run, _settings(CONFIG["ppo"]).network)
 
 
 def test_whole_unrolls_carry_their_images_when_advantages_are_recomputed(env: MjxEnv) -> None:
