@@ -86,6 +86,7 @@ PLUGIN_PRESETS = {
     "ant_train_mjx_tuned",
     "trileg_train_mjx",
     "so_arm100_pick_place_mjx_dr",
+    "so_arm100_pick_place_pixels",
 }  # presets added with the plugins, beyond the first nine
 
 

@@ -2,7 +2,9 @@
 
 `value_observation` is what a separate value network sees: the observation without the noise the task adds
 to the policy's (an asymmetric actor-critic); None when the task adds none or the value network shares the
-policy's trunk, and the value network then sees `observation`.
+policy's trunk, and the value network then sees `observation`. `views` is what a pixel policy sees beside the
+observation (`joshua_ppo.policy.policy_views`: camera images, kept in their own dtype, so an rgb image costs its
+H x W x 3 bytes in the buffer, and commands); None for other policies.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ class Transition(NamedTuple):
 
     observation: jax.Array
     value_observation: jax.Array | None
+    views: dict[str, dict[str, jax.Array]] | None
     action: jax.Array
     log_prob: jax.Array
     value: jax.Array
@@ -31,6 +34,7 @@ class Sample(NamedTuple):
 
     observation: jax.Array
     value_observation: jax.Array | None
+    views: dict[str, dict[str, jax.Array]] | None
     action: jax.Array
     log_prob: jax.Array
     advantage: jax.Array
@@ -45,6 +49,7 @@ class Unroll(NamedTuple):
 
     observation: jax.Array
     value_observation: jax.Array | None
+    views: dict[str, dict[str, jax.Array]] | None
     action: jax.Array
     log_prob: jax.Array
     reward: jax.Array

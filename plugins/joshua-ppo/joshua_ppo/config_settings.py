@@ -12,7 +12,13 @@ from joshua_core.runs import checkpoint_interval
 from joshua_ppo import options_pb2
 from joshua_ppo.networks import ACTIVATIONS
 from joshua_ppo.options_pb2 import PpoOptions
-from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
+from joshua_ppo.settings import (
+    NetworkSettings,
+    OptimizationSettings,
+    PixelSettings,
+    ReturnSettings,
+    RolloutSettings,
+)
 
 DEFAULT_TOTAL_TIMESTEPS = 50_000_000
 
@@ -73,6 +79,7 @@ class PpoSettings:
             normalize_observations=not options.disable_observation_normalization,
             squash_actions=options.squash_actions,
             state_dependent_std=options.state_dependent_std,
+            pixels=_pixel_settings(options.pixels) if options.HasField("pixels") else None,
         )
         if network.activation not in ACTIVATIONS:
             raise ConfigError(f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}")
@@ -91,6 +98,38 @@ class PpoSettings:
             checkpoint_interval=checkpoint_interval(options.checkpoint_interval, total),
             seed=int(config.seed),
         )
+
+
+def _pixel_settings(options: options_pb2.PixelOptions) -> PixelSettings:
+    """The pixel policy's settings, checked: cameras named, one kernel size and stride per conv layer, sizes
+    positive (which cameras the task has is checked where the network meets the environments)."""
+    if not options.cameras:
+        raise ConfigError(
+            "training.ppo.pixels.cameras must name at least one of the task's cameras (task_config.cameras)"
+        )
+    pixels = PixelSettings(
+        cameras=tuple(options.cameras),
+        observation_terms=tuple(options.observation_terms),
+        commands=tuple(options.commands),
+        **_given(
+            channels=tuple(options.channels),
+            kernel_sizes=tuple(options.kernel_sizes),
+            strides=tuple(options.strides),
+            feature_size=options.feature_size,
+        ),
+    )
+    layers = {len(pixels.channels), len(pixels.kernel_sizes), len(pixels.strides)}
+    if len(layers) != 1:
+        raise ConfigError(
+            "training.ppo.pixels: channels, kernel_sizes and strides must have one entry per conv layer, got "
+            f"{list(pixels.channels)}, {list(pixels.kernel_sizes)}, {list(pixels.strides)}"
+        )
+    for name in ("channels", "kernel_sizes", "strides"):
+        if any(size <= 0 for size in getattr(pixels, name)):
+            raise ConfigError(f"training.ppo.pixels.{name} must be positive, got {list(getattr(pixels, name))}")
+    if pixels.feature_size < 0:
+        raise ConfigError(f"training.ppo.pixels.feature_size must be positive, got {pixels.feature_size}")
+    return pixels
 
 
 def _given(**values: Any) -> dict[str, Any]:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from joshua_core.errors import CorruptCheckpointError
+from joshua_core.errors import ConfigError, CorruptCheckpointError
 from joshua_core.policy import DenseLayer, MlpPolicy
 from joshua_ppo.checkpoints import PARAMS_FILE, NetworkMismatchError, _restore, payload_bytes
 from joshua_ppo.settings import OBSERVATION_CLIP, NetworkSettings
@@ -23,6 +23,10 @@ _NORMALIZER_EPSILON = 1e-8  # as joshua_ppo.normalizer.normalize
 
 def mlp_policy(checkpoint: Path, network: NetworkSettings) -> MlpPolicy:
     """The mean action of the policy saved in `checkpoint` (squashed when the network squashes), as an MLP."""
+    if network.pixels is not None:
+        raise ConfigError(
+            f"the policy of {checkpoint} sees camera images: only policies of the flat observation export as an MLP"
+        )
     path = checkpoint / PARAMS_FILE
     try:
         saved = _restore(path, payload_bytes(checkpoint, PARAMS_FILE), None)

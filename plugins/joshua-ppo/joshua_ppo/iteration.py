@@ -27,7 +27,7 @@ from joshua_ppo.losses import ppo_loss
 from joshua_ppo.networks import gaussian_log_prob
 from joshua_ppo.normalizer import RunningStatistics, normalize, update_statistics
 from joshua_ppo.optimizer import make_optimizer, scheduled_learning_rate
-from joshua_ppo.policy import env_actions, make_network
+from joshua_ppo.policy import env_actions, make_network, policy_views
 from joshua_ppo.settings import (
     NetworkSettings,
     OptimizationSettings,
@@ -85,31 +85,42 @@ class _Iteration:
         self.metric_terms = [term.name for term in env.task.metric_terms]
 
     def apply(
-        self, params: Any, stats: RunningStatistics, observation: jax.Array, value_observation: jax.Array | None
+        self,
+        params: Any,
+        stats: RunningStatistics,
+        observation: jax.Array,
+        value_observation: jax.Array | None,
+        views: dict[str, dict[str, jax.Array]] | None = None,
     ) -> tuple[jax.Array, ...]:
-        """(mean, log_std, value); the value of `value_observation` where given (one normaliser for both)."""
-        inputs = [x for x in (observation, value_observation) if x is not None]
-        return self.net.apply(
-            {"params": params}, *(normalize(stats, x, self.network.normalize_observations) for x in inputs)
-        )
+        """(mean, log_std, value); the value of `value_observation` where given (one normaliser for both). A pixel
+        policy sees `views` too; without them it gives the value alone (mean and log_std None)."""
+        inputs = [
+            None if x is None else normalize(stats, x, self.network.normalize_observations)
+            for x in (observation, value_observation)
+        ]
+        if self.network.pixels is not None:
+            return self.net.apply({"params": params}, *inputs, views)
+        return self.net.apply({"params": params}, *(x for x in inputs if x is not None))
 
     def value_view(self, value_observation: jax.Array | None) -> jax.Array | None:
         """What the value network sees apart from the policy: the environment's observation without noise, for
         a separate value network (a shared trunk sees the policy's observation)."""
-        return value_observation if self.network.value_hidden_sizes else None
+        return value_observation if self.network.separate_value_network else None
 
     def env_step(self, carry: Carry, key: jax.Array) -> tuple[Carry, tuple[Transition, Metrics]]:
         env_state, params, stats = carry
         # outputs never read (the policy on the final observation; with recompute_advantages, the value on the
         # observation) are dropped when JAX traces the iteration: tests/test_iteration_work.py counts the rest
         value_observation = self.value_view(env_state.value_observation)
-        mean, log_std, value = self.apply(params, stats, env_state.observation, value_observation)
+        views = policy_views(env_state, self.network)
+        mean, log_std, value = self.apply(params, stats, env_state.observation, value_observation, views)
         action = mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape)
         next_state = self.env.step(env_state, env_actions(action, self.network))
         final_value = self.final_values(params, stats, next_state)
         transition = Transition(
             observation=env_state.observation,
             value_observation=value_observation,
+            views=views,
             action=action,
             log_prob=gaussian_log_prob(action, mean, log_std),
             value=value,
@@ -151,7 +162,9 @@ class _Iteration:
             return carry, (Unroll(**batch_major, last_observation=last[0], last_value_observation=last[1]), sums)
         _, _, last_value = self.apply(params, stats, *last)
         advantage, target = estimate_advantages(self.returns, steps.value, last_value, steps)
-        sample = Sample(steps.observation, steps.value_observation, steps.action, steps.log_prob, advantage, target)
+        sample = Sample(
+            steps.observation, steps.value_observation, steps.views, steps.action, steps.log_prob, advantage, target
+        )
         return carry, (sample, sums)
 
     def current_advantages(
@@ -159,7 +172,7 @@ class _Iteration:
     ) -> tuple[jax.Array, jax.Array]:
         """A minibatch of unrolls' advantages and targets (batch-major) from the current value network."""
         _, _, last_value = self.apply(params, stats, batch.last_observation, batch.last_value_observation)
-        unrolled = batch._replace(last_observation=None, last_value_observation=None)
+        unrolled = batch._replace(views=None, last_observation=None, last_value_observation=None)
         time_major = jax.tree.map(lambda x: jnp.swapaxes(x, 0, 1), unrolled)
         advantage, target = estimate_advantages(self.returns, value.T, last_value, time_major)
         return jax.lax.stop_gradient((advantage.T, target.T))
@@ -167,7 +180,7 @@ class _Iteration:
     def loss(
         self, params: Any, stats: RunningStatistics, batch: Sample | Unroll, key: jax.Array
     ) -> tuple[jax.Array, Metrics]:
-        mean, log_std, value = self.apply(params, stats, batch.observation, batch.value_observation)
+        mean, log_std, value = self.apply(params, stats, batch.observation, batch.value_observation, batch.views)
         if self.recompute:
             advantage, target = self.current_advantages(params, stats, batch, value)
         else:

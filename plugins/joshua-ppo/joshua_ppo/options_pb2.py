@@ -25,7 +25,7 @@ _sym_db = _symbol_database.Default()
 from joshua_core import config_pb2 as joshua_dot_config__pb2
 
 
-DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x18joshua_ppo/options.proto\x12\njoshua_ppo\x1a\x13joshua/config.proto\"\xdb\x05\n\nPpoOptions\x12\x10\n\x08run_name\x18\x01 \x01(\t\x12\x0e\n\x06resume\x18\x02 \x01(\x08\x12\x1b\n\x13\x63heckpoint_interval\x18\x03 \x01(\x03\x12\x14\n\x0chidden_sizes\x18\x04 \x03(\x05\x12\x1a\n\x12value_hidden_sizes\x18\x0f \x03(\x05\x12\x16\n\x0esquash_actions\x18\x10 \x01(\x08\x12\x12\n\nactivation\x18\x11 \x01(\t\x12\x1b\n\x13state_dependent_std\x18\x12 \x01(\x08\x12\x1c\n\x14recompute_advantages\x18\x13 \x01(\x08\x12\x33\n\tadvantage\x18\x15 \x01(\x0e\x32 .joshua_ppo.PpoOptions.Advantage\x12\x14\n\x0c\x65ntropy_coef\x18\x05 \x01(\x02\x12\x16\n\x0ereward_scaling\x18\x06 \x01(\x02\x12\x1d\n\x15unrolls_per_iteration\x18\x07 \x01(\x05\x12\x15\n\rmax_grad_norm\x18\x08 \x01(\x02\x12\x12\n\ndesired_kl\x18\x14 \x01(\x02\x12\x1c\n\x14\x61nneal_learning_rate\x18\x16 \x01(\x08\x12)\n!disable_observation_normalization\x18\t \x01(\x08\x12\x12\n\nvalue_coef\x18\n \x01(\x02\x12\x16\n\x0evideo_interval\x18\x0b \x01(\x05\x12\x13\n\x0bvideo_steps\x18\x0c \x01(\x05\x12-\n\x06viewer\x18\r \x01(\x0e\x32\x1d.joshua_ppo.PpoOptions.Viewer\x12\x13\n\x0bviewer_envs\x18\x0e \x01(\x05\x12,\n\x0b\x64istributed\x18\x17 \x01(\x0b\x32\x17.joshua_ppo.Distributed\"\'\n\tAdvantage\x12\x07\n\x03GAE\x10\x00\x12\x11\n\rLAMBDA_RETURN\x10\x01\"#\n\x06Viewer\x12\x08\n\x04\x41UTO\x10\x00\x12\x07\n\x03OFF\x10\x01\x12\x06\n\x02ON\x10\x02\"M\n\x0b\x44istributed\x12\x13\n\x0b\x63oordinator\x18\x01 \x01(\t\x12\x15\n\rnum_processes\x18\x02 \x01(\x05\x12\x12\n\nprocess_id\x18\x03 \x01(\x05:<\n\x03ppo\x12\x16.joshua.TrainingConfig\x18\xfc\x07 \x01(\x0b\x32\x16.joshua_ppo.PpoOptionsB\x05\x92\x03\x02\x08\x02\x62\x08\x65\x64itionsp\xe8\x07')
+DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x18joshua_ppo/options.proto\x12\njoshua_ppo\x1a\x13joshua/config.proto\"\x85\x06\n\nPpoOptions\x12\x10\n\x08run_name\x18\x01 \x01(\t\x12\x0e\n\x06resume\x18\x02 \x01(\x08\x12\x1b\n\x13\x63heckpoint_interval\x18\x03 \x01(\x03\x12\x14\n\x0chidden_sizes\x18\x04 \x03(\x05\x12\x1a\n\x12value_hidden_sizes\x18\x0f \x03(\x05\x12\x16\n\x0esquash_actions\x18\x10 \x01(\x08\x12\x12\n\nactivation\x18\x11 \x01(\t\x12\x1b\n\x13state_dependent_std\x18\x12 \x01(\x08\x12\x1c\n\x14recompute_advantages\x18\x13 \x01(\x08\x12\x33\n\tadvantage\x18\x15 \x01(\x0e\x32 .joshua_ppo.PpoOptions.Advantage\x12\x14\n\x0c\x65ntropy_coef\x18\x05 \x01(\x02\x12\x16\n\x0ereward_scaling\x18\x06 \x01(\x02\x12\x1d\n\x15unrolls_per_iteration\x18\x07 \x01(\x05\x12\x15\n\rmax_grad_norm\x18\x08 \x01(\x02\x12\x12\n\ndesired_kl\x18\x14 \x01(\x02\x12\x1c\n\x14\x61nneal_learning_rate\x18\x16 \x01(\x08\x12)\n!disable_observation_normalization\x18\t \x01(\x08\x12\x12\n\nvalue_coef\x18\n \x01(\x02\x12\x16\n\x0evideo_interval\x18\x0b \x01(\x05\x12\x13\n\x0bvideo_steps\x18\x0c \x01(\x05\x12-\n\x06viewer\x18\r \x01(\x0e\x32\x1d.joshua_ppo.PpoOptions.Viewer\x12\x13\n\x0bviewer_envs\x18\x0e \x01(\x05\x12,\n\x0b\x64istributed\x18\x17 \x01(\x0b\x32\x17.joshua_ppo.Distributed\x12(\n\x06pixels\x18\x18 \x01(\x0b\x32\x18.joshua_ppo.PixelOptions\"\'\n\tAdvantage\x12\x07\n\x03GAE\x10\x00\x12\x11\n\rLAMBDA_RETURN\x10\x01\"#\n\x06Viewer\x12\x08\n\x04\x41UTO\x10\x00\x12\x07\n\x03OFF\x10\x01\x12\x06\n\x02ON\x10\x02\"\x9b\x01\n\x0cPixelOptions\x12\x0f\n\x07\x63\x61meras\x18\x01 \x03(\t\x12\x19\n\x11observation_terms\x18\x02 \x03(\t\x12\x10\n\x08\x63ommands\x18\x07 \x03(\t\x12\x10\n\x08\x63hannels\x18\x03 \x03(\x05\x12\x14\n\x0ckernel_sizes\x18\x04 \x03(\x05\x12\x0f\n\x07strides\x18\x05 \x03(\x05\x12\x14\n\x0c\x66\x65\x61ture_size\x18\x06 \x01(\x05\"M\n\x0b\x44istributed\x12\x13\n\x0b\x63oordinator\x18\x01 \x01(\t\x12\x15\n\rnum_processes\x18\x02 \x01(\x05\x12\x12\n\nprocess_id\x18\x03 \x01(\x05:<\n\x03ppo\x12\x16.joshua.TrainingConfig\x18\xfc\x07 \x01(\x0b\x32\x16.joshua_ppo.PpoOptionsB\x05\x92\x03\x02\x08\x02\x62\x08\x65\x64itionsp\xe8\x07')
 
 _globals = globals()
 _builder.BuildMessageAndEnumDescriptors(DESCRIPTOR, _globals)
@@ -34,11 +34,13 @@ if not _descriptor._USE_C_DESCRIPTORS:
   _globals['DESCRIPTOR']._loaded_options = None
   _globals['DESCRIPTOR']._serialized_options = b'\222\003\002\010\002'
   _globals['_PPOOPTIONS']._serialized_start=62
-  _globals['_PPOOPTIONS']._serialized_end=793
-  _globals['_PPOOPTIONS_ADVANTAGE']._serialized_start=717
-  _globals['_PPOOPTIONS_ADVANTAGE']._serialized_end=756
-  _globals['_PPOOPTIONS_VIEWER']._serialized_start=758
-  _globals['_PPOOPTIONS_VIEWER']._serialized_end=793
-  _globals['_DISTRIBUTED']._serialized_start=795
-  _globals['_DISTRIBUTED']._serialized_end=872
+  _globals['_PPOOPTIONS']._serialized_end=835
+  _globals['_PPOOPTIONS_ADVANTAGE']._serialized_start=759
+  _globals['_PPOOPTIONS_ADVANTAGE']._serialized_end=798
+  _globals['_PPOOPTIONS_VIEWER']._serialized_start=800
+  _globals['_PPOOPTIONS_VIEWER']._serialized_end=835
+  _globals['_PIXELOPTIONS']._serialized_start=838
+  _globals['_PIXELOPTIONS']._serialized_end=993
+  _globals['_DISTRIBUTED']._serialized_start=995
+  _globals['_DISTRIBUTED']._serialized_end=1072
 # @@protoc_insertion_point(module_scope)

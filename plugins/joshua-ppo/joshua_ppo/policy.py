@@ -1,4 +1,5 @@
-"""The policy: the actor-critic network its settings describe, and the actions the environment gets from it."""
+"""The policy: the actor-critic network its settings describe, its inputs, and the actions the environment gets
+from it."""
 
 from __future__ import annotations
 
@@ -6,21 +7,98 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
-from joshua_ppo.envs import JaxEnv
-from joshua_ppo.networks import ActorCritic, SeparateActorCritic
+from joshua_core.errors import ConfigError
+from joshua_ppo.envs import EnvState, JaxEnv
+from joshua_ppo.networks import ActorCritic, PixelActorCritic, SeparateActorCritic
 from joshua_ppo.normalizer import RunningStatistics, normalize
-from joshua_ppo.settings import NetworkSettings
+from joshua_ppo.settings import NetworkSettings, PixelSettings
+
+Network = ActorCritic | SeparateActorCritic | PixelActorCritic
+POLICY_CAMERA_KINDS = ("rgb", "depth")  # images an encoder reads as intensities (segmentation ids are labels)
 
 
-def make_network(env: JaxEnv, network: NetworkSettings) -> ActorCritic | SeparateActorCritic:
-    """The actor-critic network for the environment's action size."""
+def make_network(env: JaxEnv, network: NetworkSettings) -> Network:
+    """The actor-critic network for the environment's action size (and, for a pixel policy, its cameras and
+    observation terms: a ConfigError names one the task lacks)."""
     shape = {"activation": network.activation, "state_dependent_std": network.state_dependent_std}
+    if network.pixels is not None:
+        return PixelActorCritic(
+            env.action_size,
+            tuple(network.hidden_sizes),
+            tuple(network.value_hidden_sizes or network.hidden_sizes),
+            network.pixels,
+            _observation_indices(env, network.pixels),
+            **shape,
+        )
     if network.value_hidden_sizes:
         return SeparateActorCritic(
             env.action_size, tuple(network.hidden_sizes), tuple(network.value_hidden_sizes), **shape
         )
     return ActorCritic(action_dim=env.action_size, hidden_sizes=tuple(network.hidden_sizes), **shape)
+
+
+def _observation_indices(env: JaxEnv, pixels: PixelSettings) -> tuple[int, ...]:
+    """The flat observation's entries the pixel policy sees (its observation terms'), after checking its cameras
+    and commands."""
+    cameras = {camera.name: camera for camera in env.task.cameras}
+    for name in pixels.cameras:
+        if name not in cameras:
+            known = ", ".join(cameras) or "none: add them to task_config.cameras"
+            raise ConfigError(f"training.ppo.pixels: camera '{name}' is not one of the task's cameras ({known})")
+        if cameras[name].kind not in POLICY_CAMERA_KINDS:
+            raise ConfigError(
+                f"training.ppo.pixels: camera '{name}' is a {cameras[name].kind} camera; "
+                f"the policy reads {' or '.join(POLICY_CAMERA_KINDS)}"
+            )
+    for name in pixels.commands:
+        if name not in env.task.commands:
+            known = ", ".join(env.task.commands) or "none"
+            raise ConfigError(f"training.ppo.pixels: command '{name}' is not one of the task's commands ({known})")
+    layout = env.task.observation_layout
+    starts = np.cumsum([0, *(width for _, width in layout)])
+    spans = {name: range(start, start + width) for (name, width), start in zip(layout, starts, strict=False)}
+    for name in pixels.observation_terms:
+        if name not in spans:
+            raise ConfigError(
+                f"training.ppo.pixels: observation term '{name}' is not one of the task's ({', '.join(spans)})"
+            )
+    names = pixels.observation_terms or tuple(spans)
+    return tuple(int(index) for name in names for index in spans[name])
+
+
+def policy_views(state: EnvState, network: NetworkSettings) -> dict[str, dict[str, jax.Array]] | None:
+    """What a pixel policy sees of the environment state beside the observation: {"images": by camera, "commands":
+    by command} (None for a policy without pixels)."""
+    if network.pixels is None:
+        return None
+    return {
+        "images": {name: state.images[name] for name in network.pixels.cameras},
+        "commands": {name: state.commands[name] for name in network.pixels.commands},
+    }
+
+
+def init_params(env: JaxEnv, network: NetworkSettings, key: jax.Array) -> Any:
+    """Fresh parameters of the network for the environment's observation (and images)."""
+    observation = jnp.zeros((1, env.observation_size))
+    if network.pixels is None:
+        return make_network(env, network).init(key, observation)["params"]
+    net = make_network(env, network)  # checks the cameras and commands first
+    cameras = {camera.name: camera for camera in env.task.cameras}
+    views = {
+        "images": {name: jnp.zeros((1, *cameras[name].shape), cameras[name].dtype) for name in network.pixels.cameras},
+        "commands": {name: jnp.zeros((1, env.task.commands[name])) for name in network.pixels.commands},
+    }
+    return net.init(key, observation, None, views)["params"]
+
+
+def image_bytes_per_env(env: JaxEnv, network: NetworkSettings) -> int:
+    """Bytes of the images one environment's step adds to the rollout buffer (0 without pixels)."""
+    if network.pixels is None:
+        return 0
+    cameras = {camera.name: camera for camera in env.task.cameras}
+    return sum(cameras[name].bytes_per_env for name in network.pixels.cameras)
 
 
 def env_actions(sample: jax.Array, network: NetworkSettings) -> jax.Array:
@@ -29,12 +107,16 @@ def env_actions(sample: jax.Array, network: NetworkSettings) -> jax.Array:
 
 
 def policy_actions(
-    net: ActorCritic | SeparateActorCritic,
+    net: Network,
     params: Any,
     stats: RunningStatistics,
     observation: jax.Array,
     network: NetworkSettings,
+    views: dict[str, dict[str, jax.Array]] | None = None,
 ) -> jax.Array:
-    """The deterministic policy's actions (the Gaussian's mean, squashed when the policy squashes)."""
-    mean, _, _ = net.apply({"params": params}, normalize(stats, observation, network.normalize_observations))
+    """The deterministic policy's actions (the Gaussian's mean, squashed when the policy squashes); `views`: what a
+    pixel policy sees beside the observation (`policy_views`)."""
+    observation = normalize(stats, observation, network.normalize_observations)
+    inputs = (observation,) if views is None else (observation, None, views)
+    mean, _, _ = net.apply({"params": params}, *inputs)
     return env_actions(mean, network)

@@ -21,7 +21,7 @@ from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, 
 from joshua_core.statistics import SUCCESS_METRIC, SUCCESS_THRESHOLD
 from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics
-from joshua_ppo.policy import make_network, policy_actions
+from joshua_ppo.policy import make_network, policy_actions, policy_views
 from joshua_ppo.settings import NetworkSettings
 from joshua_render import GridVideoWriter, camera_id, create_renderer, episode_label, render_with_commands
 
@@ -50,7 +50,7 @@ def make_rollout(env: JaxEnv, network: NetworkSettings, steps: int, recorded: in
         state = env.reset(key)
 
         def step(state: Any, _: None) -> tuple[Any, dict[str, Any]]:
-            action = policy_actions(net, params, stats, state.observation, network)
+            action = policy_actions(net, params, stats, state.observation, network, policy_views(state, network))
             next_state = env.step(state, action)
             episode = next_state.episode
             record = {

@@ -26,6 +26,7 @@ from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import checkpoint_payloads, read_json, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv, environment
+from joshua_ppo.policy import image_bytes_per_env
 from joshua_ppo.rollout import collect, make_rollout, render_video
 from joshua_ppo.state import Progress, TrainingState
 from joshua_ppo.train import IterationReport
@@ -114,6 +115,11 @@ class Run:
             "seed": self.settings.seed,
             "observation_size": self.env.observation_size,
             "action_size": self.env.action_size,
+            # the camera images one iteration's rollout buffer holds (the epochs' shuffle copies it once more)
+            "rollout_image_bytes": image_bytes_per_env(self.env, self.settings.network)
+            * self.env.num_envs
+            * self.settings.rollout.num_steps
+            * self.settings.rollout.unrolls_per_iteration,
             "devices": [str(device) for device in jax.devices()],
             "processes": jax.process_count(),
             "settings": settings,

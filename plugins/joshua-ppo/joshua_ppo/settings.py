@@ -61,6 +61,21 @@ class ReturnSettings:
 
 
 @dataclass(frozen=True)
+class PixelSettings:
+    """A policy that sees camera images through a CNN encoder per camera (conv layers with ReLU and SAME padding,
+    then a dense layer of feature_size), beside some of the flat observation; defaults: the Nature-CNN encoder
+    (Mnih et al. 2015), as MuJoCo Playground's vision PPO uses."""
+
+    cameras: tuple[str, ...]  # the task's cameras (rgb or depth) the policy sees
+    observation_terms: tuple[str, ...] = ()  # the observation terms it sees beside them; empty: all of them
+    commands: tuple[str, ...] = ()  # the task's commands it is given (e.g. the goal the images do not show)
+    channels: tuple[int, ...] = (32, 64, 64)  # of each conv layer
+    kernel_sizes: tuple[int, ...] = (8, 4, 3)
+    strides: tuple[int, ...] = (4, 2, 1)
+    feature_size: int = 256  # features of each camera's encoder
+
+
+@dataclass(frozen=True)
 class NetworkSettings:
     """The actor-critic network, its input and its output."""
 
@@ -70,6 +85,13 @@ class NetworkSettings:
     squash_actions: bool = False  # tanh of the Gaussian sample goes to the env, rather than the sample clipped
     activation: str = "relu"  # of the hidden layers: a name in joshua_ppo.networks.ACTIVATIONS
     state_dependent_std: bool = False  # the policy network outputs the std too, rather than one learned vector
+    pixels: PixelSettings | None = None  # set: the policy sees camera images (the value network the flat state)
+
+    @property
+    def separate_value_network(self) -> bool:
+        """Whether the value network is its own (and sees the observation without its noise): a pixel policy's
+        always is, as the value network keeps the flat state."""
+        return bool(self.value_hidden_sizes) or self.pixels is not None
 
 
 def check_settings(

@@ -5,12 +5,11 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import jax
-import jax.numpy as jnp
 
 from joshua_ppo.envs import EnvState, JaxEnv
 from joshua_ppo.normalizer import RunningStatistics, fresh_statistics
 from joshua_ppo.optimizer import make_optimizer
-from joshua_ppo.policy import make_network
+from joshua_ppo.policy import init_params
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings
 
 
@@ -37,7 +36,7 @@ def init_state(
     """Fresh parameters, optimiser and normaliser, and freshly reset environments."""
     key = jax.random.PRNGKey(seed)
     key, init_key, reset_key = jax.random.split(key, 3)
-    params = make_network(env, network).init(init_key, jnp.zeros((1, env.observation_size)))["params"]
+    params = init_params(env, network, init_key)
     normalizer = fresh_statistics(env.observation_size)
     state = TrainingState(params, make_optimizer(optimization).init(params), normalizer, env.reset(reset_key), key)
     return jax.device_put(state, state_shardings(env))

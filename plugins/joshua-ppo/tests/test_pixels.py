@@ -1,0 +1,199 @@
+"""A pixel policy (training.ppo.pixels): PPO trains a policy that sees a camera image, the arm's joint readings and
+its goal through a CNN encoder, beside a value network of the flat state; its checkpoint evaluates; bad options
+are one-line ConfigErrors.
+
+MuJoCo Warp renders on the CPU here: pick-and-place with one 16x16 rgb camera, 4 environments, 2 iterations of
+4 steps, episodes of 20 steps.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import jax
+import numpy as np
+import pytest
+from flax.serialization import from_bytes
+from google.protobuf import text_format
+
+from joshua_core.config import finalize, load_preset
+from joshua_core.config_pb2 import TaskConfig, TrainingConfig
+from joshua_core.errors import ConfigError
+from joshua_core.interfaces import EnvKind
+from joshua_core.options import parse_dict
+from joshua_core.plugins import PluginHost
+from joshua_core.run_context import RunContext
+from joshua_mjx import MjxEnv, Physics, make_mjx_env
+from joshua_ppo import train_mjx
+from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.export import mlp_policy
+from joshua_ppo.iteration import make_iteration
+from joshua_ppo.normalizer import RunningStatistics
+from joshua_ppo.policy import image_bytes_per_env, init_params, make_network, policy_actions
+from joshua_ppo.settings import OptimizationSettings, ReturnSettings, RolloutSettings
+from joshua_ppo.state import init_state
+from joshua_ppo.trainer import PpoTrainer
+
+pytest.importorskip("mujoco_warp", reason="cameras need MJX-Warp: joshua-mjx[warp] (warp-lang, mujoco-warp)")
+pytestmark = pytest.mark.slow  # trains and renders with Warp on the CPU
+
+TASK = "so_arm100_pick_place"
+SIZE = 16
+NUM_ENVS, NUM_STEPS = 4, 4
+PIXELS = {
+    "cameras": ["overview"],
+    "observation_terms": ["joint_pos"],
+    "commands": ["goal"],
+    "channels": [4, 8],
+    "kernel_sizes": [3, 3],
+    "strides": [2, 2],
+    "feature_size": 16,
+}
+CONFIG = {
+    "task": TASK,
+    "num_envs": NUM_ENVS,
+    "num_steps": NUM_STEPS,
+    "num_epochs": 1,
+    "minibatch_size": 8,
+    "total_timesteps": 2 * NUM_ENVS * NUM_STEPS,  # 2 iterations
+    "seed": 0,
+    "mjx": {"impl": "WARP"},
+    "task_config": {"episode_length": 20, "cameras": [{"camera": "overview", "width": SIZE, "height": SIZE}]},
+    "ppo": {
+        "run_name": "pixels",
+        "hidden_sizes": [16],
+        "value_hidden_sizes": [16],
+        "video_interval": -1,
+        "checkpoint_interval": 2 * NUM_ENVS * NUM_STEPS,
+        "pixels": PIXELS,
+    },
+}
+JOINTS = 6  # joint_pos: the arm's six joints
+GOAL = 3  # the goal command: a position
+
+
+@pytest.fixture(scope="module")
+def pixel_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("pixels")
+    return train_mjx(model_path="so_arm100/pick_place_mjx.xml", config=CONFIG, checkpoint_dir=root)
+
+
+@pytest.fixture(scope="module")
+def env() -> MjxEnv:
+    cameras = text_format.Parse(f'cameras {{ camera: "overview" width: {SIZE} height: {SIZE} }}', TaskConfig())
+    return make_mjx_env(TASK, 2, task_config=cameras, physics=Physics("warp"))
+
+
+def _settings(ppo: dict[str, Any]) -> PpoSettings:
+    """The PPO settings of a config whose `ppo` options are `ppo`."""
+    config = TrainingConfig()
+    parse_dict({"ppo": ppo}, config, PluginHost.discover().options())
+    return PpoSettings.from_config(config)
+
+
+def test_a_pixel_run_trains_a_conv_encoder_and_states_its_image_memory(pixel_run: Path) -> None:
+    params = from_bytes(None, (pixel_run / "params.msgpack").read_bytes())["params"]
+    encoder = params["encoder_overview"]
+    assert np.shape(encoder["Conv_0"]["kernel"]) == (3, 3, 3, 4)  # rgb in, 4 channels out
+    assert np.shape(encoder["Conv_1"]["kernel"]) == (3, 3, 4, 8)
+    # SAME padding, stride 2 twice: 16 -> 8 -> 4 pixels a side, 8 channels, into 16 features
+    assert np.shape(encoder["Dense_0"]["kernel"]) == (4 * 4 * 8, 16)
+    # the policy sees the image's features, the joint readings and the goal; the value network the flat observation
+    assert np.shape(params["policy"]["Dense_0"]["kernel"]) == (16 + JOINTS + GOAL, 16)
+    run = pixel_run.parent / "pixels"
+    document = json.loads((run / "config.json").read_text())
+    assert document["rollout_image_bytes"] == NUM_STEPS * NUM_ENVS * SIZE * SIZE * 3
+    assert np.shape(params["value"]["Dense_0"]["kernel"]) == (document["observation_size"], 16)
+    history = json.loads((run / "metrics.json").read_text())["history"]
+    assert len(history) == 2 and all(np.isfinite(record["value_loss"]) for record in history), history
+    assert all(np.isfinite(np.asarray(leaf)).all() for leaf in jax.tree.leaves(params))
+
+
+def test_the_policy_action_follows_the_image_not_the_unseen_state(pixel_run: Path, env: MjxEnv) -> None:
+    saved = from_bytes(None, (pixel_run / "params.msgpack").read_bytes())
+    network = _settings(CONFIG["ppo"]).network
+    net = make_network(env, network)
+    stats = RunningStatistics(**{name: np.asarray(value) for name, value in saved["normalizer"].items()})
+    state = env.reset(jax.random.PRNGKey(0))
+    image = np.asarray(state.images["overview"])
+    assert image.dtype == np.uint8 and image.std() > 0  # a rendered scene, not a blank frame
+
+    goal = np.asarray(state.commands["goal"])
+
+    def act(observation: np.ndarray, picture: np.ndarray, goal: np.ndarray = goal) -> np.ndarray:
+        views = {"images": {"overview": picture}, "commands": {"goal": goal}}
+        return np.asarray(policy_actions(net, saved["params"], stats, observation, network, views))
+
+    observation = np.asarray(state.observation)
+    base = act(observation, image)
+    assert np.abs(act(observation, 255 - image) - base).max() > 1e-4  # another image: another action
+    assert np.abs(act(observation, image, goal + 0.1) - base).max() > 1e-4  # another goal: another action
+    unseen = observation.copy()
+    unseen[:, JOINTS:] += 1.0  # everything but joint_pos, the first term
+    np.testing.assert_array_equal(act(unseen, image), base)  # the policy does not read the privileged state
+    moved = observation.copy()
+    moved[:, :JOINTS] += 1.0
+    assert np.abs(act(moved, image) - base).max() > 1e-4  # but it reads the joints
+
+
+def test_eval_runs_the_pixel_policy_from_its_checkpoint(pixel_run: Path, tmp_path: Path) -> None:
+    context = RunContext(PluginHost.discover(), tmp_path)
+    results = PpoTrainer().evaluate(pixel_run, episodes=2, seed=0, video_path=None, context=context)
+    assert results.lengths == [20, 20], results  # neither 20-step episode ends early by an error
+    with pytest.raises(ConfigError, match="sees camera images"):  # an MLP of the flat observation cannot hold it
+        mlp_policy(pixel_run, _settings(CONFIG["ppo"]).network)
+
+
+def test_whole_unrolls_carry_their_images_when_advantages_are_recomputed(env: MjxEnv) -> None:
+    """Minibatches of whole unrolls (batch-major images) reach the loss: one iteration moves the encoder."""
+    network = _settings({"hidden_sizes": [8], "pixels": PIXELS}).network
+    optimization = OptimizationSettings(num_epochs=1, minibatch_size=4)
+    returns = ReturnSettings(recompute_advantages=True)
+    iteration = make_iteration(
+        env, rollout=RolloutSettings(num_steps=2), optimization=optimization, returns=returns, network=network
+    )
+    state = init_state(env, seed=0, network=network, optimization=optimization)
+    before = np.asarray(state.params["encoder_overview"]["Conv_0"]["kernel"])
+    state, metrics = iteration(state)
+    assert bool(metrics["params_finite"])
+    assert np.abs(np.asarray(state.params["encoder_overview"]["Conv_0"]["kernel"]) - before).max() > 0
+
+
+def test_the_pixels_preset_validates_against_its_task() -> None:
+    """The preset's policy sees one 64x64 rgb camera, the joint readings and the goal; its value network the flat
+    state; its environments (2 here) render on MuJoCo Warp, and the network it describes builds against them."""
+    plugins = PluginHost.discover()
+    training = finalize(load_preset("so_arm100_pick_place_pixels", plugins.options())).training
+    settings = PpoSettings.from_config(training)
+    pixels = settings.network.pixels
+    assert pixels is not None and pixels.cameras == ("overview",) and pixels.commands == ("goal",)
+    assert settings.network.separate_value_network
+    env = RunContext(plugins, Path(training.checkpoint_dir)).create_envs(training, EnvKind.JAX, num_envs=2)
+    assert [(camera.name, camera.shape, camera.kind) for camera in env.task.cameras] == [
+        ("overview", (64, 64, 3), "rgb")
+    ]
+    params = init_params(env, settings.network, jax.random.PRNGKey(0))
+    # the policy's flat input: 6 joint positions, 6 velocities, 6 servo errors and 6 last actions, and the goal
+    assert np.shape(params["policy"]["Dense_0"]["kernel"]) == (pixels.feature_size + 24 + GOAL, 256)
+    assert np.shape(params["encoder_overview"]["Conv_0"]["kernel"]) == (8, 8, 3, 32)  # the Nature-CNN default
+    assert image_bytes_per_env(env, settings.network) == 64 * 64 * 3
+
+
+def test_pixel_options_without_a_camera_or_with_unknown_names_are_one_line_config_errors(env: MjxEnv) -> None:
+    with pytest.raises(ConfigError, match="pixels.cameras must name at least one") as error:
+        _settings({"pixels": {"observation_terms": ["joint_pos"]}})
+    errors = [error.value]
+    with pytest.raises(ConfigError, match="one entry per conv layer") as error:
+        _settings({"pixels": {"cameras": ["overview"], "channels": [4, 8], "kernel_sizes": [3]}})
+    errors.append(error.value)
+    for pixels, message in (
+        ({"cameras": ["nowhere"]}, "camera 'nowhere' is not one of the task's cameras \\(overview\\)"),
+        ({"cameras": ["overview"], "observation_terms": ["joint_angles"]}, "observation term 'joint_angles'"),
+        ({"cameras": ["overview"], "commands": ["target"]}, "command 'target' is not one of the task's commands"),
+    ):
+        with pytest.raises(ConfigError, match=message) as error:
+            make_network(env, _settings({"pixels": pixels}).network)
+        errors.append(error.value)
+    assert all("\n" not in str(value) for value in errors), errors
