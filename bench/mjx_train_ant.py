@@ -250,7 +250,7 @@ def independent(args: argparse.Namespace, config: TrainingConfig) -> None:
 def run_workers(args: argparse.Namespace, machine: Machine, count: int) -> list[dict[str, Any]]:
     """Start `count` worker processes of this bench, one device each, and wait for them; their outcomes. Process 0
     prints to this one's output as it goes, the others to files shown if they fail."""
-    command = [sys.executable, __file__, *sys.argv[1:], "--worker", str(count)]
+    command = [sys.executable, str(Path(__file__).resolve()), *sys.argv[1:], "--worker", str(count)]
     with tempfile.TemporaryDirectory(prefix="mjx-train-ant-") as folder:
         started = []
         for index in range(count):
