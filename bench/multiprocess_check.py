@@ -10,7 +10,7 @@ What joshua-ppo's tests/test_distributed.py checks on virtual CPU devices, with 
    train` runs it; videos and the viewer off);
 2. two processes, devices 0-1 and 2-3 (CUDA_VISIBLE_DEVICES; on a CPU host 2 virtual devices each), joined by
    jax.distributed on a local coordinator, train the same run: both must end with the same parameters bit for
-   bit (one program on one replicated array), and within TOLERANCE of the single process's (another program,
+   bit (one program on one replicated array), and within --tolerance of the single process's (another program,
    whose all-reduces sum in another order);
 3. the two resume that run with a much longer budget, and once process 0's progress line shows an iteration's
    return, process 1 (the one that writes nothing) gets SIGTERM: both must stop after the same iteration with
@@ -36,7 +36,9 @@ from typing import Any
 import numpy as np
 from processes import Machine, cluster_environment, free_port, probe
 
-TOLERANCE = 1e-5  # joshua-ppo's tests/test_distributed.py: one process of 4 devices against two of 2
+# joshua-ppo's tests/test_distributed.py (slider_reach): one process of 4 devices against two of 2. Measured here on
+# CPU with --smoke Ant (contacts), 2 iterations: 1.3e-4, so the difference is printed either way (--tolerance)
+TOLERANCE = 1e-5
 RUN = "check"
 WAIT_SECONDS = 540.0  # for one step's processes: one device call is 10 minutes
 SIGTERM_STATUS = 128 + signal.SIGTERM
@@ -194,7 +196,8 @@ def check(args: argparse.Namespace) -> int:
     if all(path.exists() for path in ends.values()):
         checks(difference(ends[leader], ends[other]) == 0.0, "processes 0 and 1 hold the same parameters")
         gap = difference(ends[leader], ends[single])
-        checks(gap < TOLERANCE, f"2 x 2 devices against 1 x 4 within {TOLERANCE:g}", f"largest difference {gap:.3g}")
+        within = f"2 x 2 devices against 1 x 4 within {args.tolerance:g}"
+        checks(gap < args.tolerance, within, f"largest difference {gap:.3g}")
         checks(not (other / "runs").exists(), "process 1 wrote no run folder")
     else:
         checks(False, "every process wrote its parameters", [str(path) for path in ends.values() if not path.exists()])
@@ -231,6 +234,7 @@ def main() -> int:
     parser.add_argument("--preset", default="ant_train_mjx_tuned")
     parser.add_argument("--iterations", type=int, default=5, help="iterations of steps 1 and 2")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="override a preset field")
+    parser.add_argument("--tolerance", type=float, default=TOLERANCE, help="of the parameters, 2 x 2 against 1 x 4")
     parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU)")
     parser.add_argument("--out", type=Path, help="folder of the processes' folders")
     parser.add_argument("--worker", type=Path, help=argparse.SUPPRESS)  # a training process writing here
