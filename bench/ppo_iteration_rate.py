@@ -41,9 +41,9 @@ VARIANTS: dict[str, dict[str, str]] = {
 }
 
 
-def compiled_iteration(config: Any) -> tuple[Any, Any, Any, Any]:
-    """(env, settings, initial state, compiled iteration) of a training config on one device, as the trainer
-    compiles it."""
+def compiled_iteration(config: Any, devices: int = 1) -> tuple[Any, Any, Any, Any]:
+    """(env, settings, initial state, compiled iteration) of a training config on the first `devices` devices, as
+    the trainer compiles it."""
     import jax
     from mjx_time_to_target import environment
 
@@ -53,7 +53,7 @@ def compiled_iteration(config: Any) -> tuple[Any, Any, Any, Any]:
     from joshua_ppo.state import init_state
 
     settings = PpoSettings.from_config(config)
-    env = environment(config, PluginHost.discover(), None, jax.devices()[:1], True)
+    env = environment(config, PluginHost.discover(), None, jax.devices()[:devices], True)
     state = init_state(env, seed=0, network=settings.network, optimization=settings.optimization)
     iteration = make_iteration(env, **settings.groups)
     return env, settings, state, iteration.lower(state).compile()
