@@ -4,7 +4,8 @@
     python bench/ppo_profile.py --preset so_arm100_pick_place_mjx --out out/profile-pp    # GPU
     python bench/ppo_profile.py --preset ant_train_mjx_tuned --devices 4 --out out/profile-4   # 4 GPUs
     python bench/ppo_profile.py --smoke --out /tmp/profile                                # tiny, on CPU
-    XLA_FLAGS=--xla_force_host_platform_device_count=2 python bench/ppo_profile.py --smoke --devices 2 --preset ant_train_mjx_tuned --out /tmp/p2
+    XLA_FLAGS=--xla_force_host_platform_device_count=2 \
+        python bench/ppo_profile.py --smoke --devices 2 --preset ant_train_mjx_tuned --out /tmp/p2   # 2 on CPU
 
 Compiles a preset's training iteration on --devices devices (default 1; as the trainer does, the environments
 split over them, the preset's batch unchanged), runs --warmup iterations,
