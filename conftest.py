@@ -38,16 +38,6 @@ def pytest_configure(config: pytest.Config) -> None:
     _share_compiled_programs(config)
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Run the test files that hold slow tests first (a stable sort: files stay whole, so module fixtures are set
-    up once, and keep their order), so that pytest-xdist's workers start on the long tests and the short ones fill
-    the end of the run, instead of one worker finishing a long test alone. Tests that compile the same programs
-    share an `xdist_group`: with `--dist loadgroup` (.ci/run) they run on one worker, one after the other, so the
-    second finds the first's programs in the run's compilation cache."""
-    slow_files = {item.path for item in items if item.get_closest_marker("slow")}
-    items.sort(key=lambda item: item.path not in slow_files)
-
-
 def _share_compiled_programs(config: pytest.Config) -> None:
     """Let this run's tests and the processes they start reuse what JAX compiled for one another.
 

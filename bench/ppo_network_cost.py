@@ -43,11 +43,13 @@ def minibatch_shapes(steps: _Iteration, size: int, obs: int, act: int) -> Sample
         return jax.ShapeDtypeStruct(dims, dtype)
 
     if not steps.recompute:
-        return Sample(shape(size, obs), None, shape(size, act), shape(size), shape(size), shape(size))
+        return Sample(shape(size, obs), None, None, shape(size, act), shape(size), shape(size), shape(size))
     unrolls, length = size // steps.rollout.num_steps, steps.rollout.num_steps
     per_step, flags = shape(unrolls, length), shape(unrolls, length, dtype=jnp.bool_)
     observations, actions = shape(unrolls, length, obs), shape(unrolls, length, act)
-    return Unroll(observations, None, actions, per_step, per_step, flags, flags, per_step, shape(unrolls, obs), None)
+    return Unroll(
+        observations, None, None, actions, per_step, per_step, flags, flags, per_step, shape(unrolls, obs), None
+    )
 
 
 def main() -> None:

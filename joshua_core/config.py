@@ -222,6 +222,8 @@ def _merge_field(message: Message, field: FieldDescriptor, value: str, assignmen
         text_format.Merge(f"{name}: {value}", message)
     except text_format.ParseError as error:
         raise UsageError(f"--set {assignment}: {config_text.bare_message(error)}") from None
+    except ValueError as error:  # a number the parser read but the field cannot hold (an enum's 2**31)
+        raise UsageError(f"--set {assignment}: {error}") from None
 
 
 def finalize(loaded: LoadedConfig) -> JoshuaConfig:

@@ -97,8 +97,7 @@ def test_pressing_on_the_cube_touches_both_pads_but_is_no_grasp() -> None:
 @pytest.mark.parametrize(
     ("preset", "envs"),
     [
-        # the Warp pick-and-place parity test's programs: on its worker (conftest.py)
-        pytest.param("so_arm100_pick_place_mjx", 2, marks=pytest.mark.xdist_group("pick_place_2_envs")),
+        ("so_arm100_pick_place_mjx", 2),  # the Warp pick-and-place parity test's programs (the run's cache)
         ("so_arm100_pick_place_mjx_dr", 1),
     ],
 )

@@ -109,7 +109,6 @@ events { name: "noise" term: "observation_noise" mode: INTERVAL interval_steps: 
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("reach_2_envs")  # the Warp reach parity test's programs: on its worker (conftest.py)
 def test_the_value_observation_is_the_observation_without_its_noise() -> None:
     # the noise is a task-independent event: reach, whose programs compile in a fraction of pick-and-place's time;
     # 2 environments, as test_warp_parity's, whose plain reach programs the run's compilation cache then shares

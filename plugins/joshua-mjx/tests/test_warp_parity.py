@@ -102,9 +102,8 @@ MODELS = {"ant_locomotion": "ant/ant.xml"}
     [
         "ant_locomotion",
         pytest.param("trileg_locomotion", marks=pytest.mark.slow),
-        # each on the worker that runs the test reusing its compiled programs (conftest.py, `--dist loadgroup`)
-        pytest.param("so_arm100_reach", marks=[pytest.mark.slow, pytest.mark.xdist_group("reach_2_envs")]),
-        pytest.param("so_arm100_pick_place", marks=[pytest.mark.slow, pytest.mark.xdist_group("pick_place_2_envs")]),
+        pytest.param("so_arm100_reach", marks=pytest.mark.slow),
+        pytest.param("so_arm100_pick_place", marks=pytest.mark.slow),
     ],
 )
 def test_warp_steps_a_task_like_jax_and_mujoco(task: str) -> None:

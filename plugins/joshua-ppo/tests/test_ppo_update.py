@@ -164,6 +164,7 @@ def test_both_advantage_estimators_match_their_definitions() -> None:
     steps = Transition(
         observation=None,
         value_observation=None,
+        views=None,
         action=None,
         log_prob=None,
         value=value,
