@@ -1,6 +1,6 @@
 """Settings and fixtures for every test run, core and plugins alike: SIGINT for child processes, one JAX
-compilation cache per run, a real X server (Xvfb) with screenshots of it, for the tests of the viewers, and a
-headless chromium for the tests of the web display."""
+compilation cache per run, XLA's CPU compiler set for short programs, a real X server (Xvfb) with screenshots
+of it, for the tests of the viewers, and a headless chromium for the tests of the web display."""
 
 from __future__ import annotations
 
@@ -36,6 +36,22 @@ def pytest_configure(config: pytest.Config) -> None:
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     _share_compiled_programs(config)
+    _compile_for_short_programs()
+
+
+# XLA's CPU compiler set for short programs: the tests step a few small batches, so compiling is most of their
+# time. Measured on a reach MJX step (bench/RESULTS.md, 2026-11-28, test suite): the older LLVM fusion emitters and
+# LLVM's optimization level 1 compile its reset and step 32-40 % faster, and the step runs no slower.
+TEST_XLA_FLAGS = ("--xla_cpu_use_fusion_emitters=false", "--xla_backend_optimization_level=1")
+
+
+def _compile_for_short_programs() -> None:
+    """Add TEST_XLA_FLAGS to XLA_FLAGS for this process and the ones it starts (XLA reads it when JAX's backend
+    starts, after this); a flag the environment sets already is kept as it is."""
+    flags = os.environ.get("XLA_FLAGS", "")
+    given = {flag.split("=")[0] for flag in flags.split()}
+    added = [flag for flag in TEST_XLA_FLAGS if flag.split("=")[0] not in given]
+    os.environ["XLA_FLAGS"] = " ".join([flags, *added]).strip()
 
 
 def _share_compiled_programs(config: pytest.Config) -> None:

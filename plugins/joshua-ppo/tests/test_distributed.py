@@ -68,7 +68,7 @@ def start(folder: Path, config: dict[str, Any], *, devices: int, env: dict[str, 
     folder.mkdir(parents=True, exist_ok=True)
     environment = {
         **os.environ,
-        "XLA_FLAGS": f"--xla_force_host_platform_device_count={devices}",
+        "XLA_FLAGS": f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count={devices}",
         # a resume compiles what the first run did: from JAX's cache, shared by the test's workers
         "JAX_COMPILATION_CACHE_DIR": str(folder.parent / "compilation_cache"),
         "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0",
