@@ -25,7 +25,9 @@ from mjx_time_to_target import best_rate, environment, environment_rate, load_co
 
 from joshua_core.config_pb2 import CameraConfig
 from joshua_core.plugins import PluginHost
+from joshua_mjx import Physics
 from joshua_mjx.env import MjxEnv
+from joshua_mjx.impl import WARP
 
 
 def render_rate(env: MjxEnv, calls: int) -> float:
@@ -61,6 +63,7 @@ def main() -> int:
     if args.smoke:
         args.num_envs, args.sizes, args.steps = [4], [16], 2
     plugins = PluginHost.discover()
+    Physics(WARP).leave_memory_to_warp()  # before jax.devices() starts JAX's backends
     devices = jax.devices()[:1]  # MuJoCo Warp steps one device's environments
     results = []
     for num_envs in args.num_envs:

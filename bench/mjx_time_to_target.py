@@ -171,6 +171,9 @@ class SnapshotEvaluator:
         key = jax.eval_shape(lambda: jax.random.PRNGKey(1))
         # traced here, compiled in the thread (XLA's compilation is what takes the time)
         self.compiling = ThreadPoolExecutor(1).submit(rollout.lower(shapes.params, shapes.normalizer, key).compile)
+        # the compiled rollout does not hold the env, but reads the Warp buffers of its cameras' render contexts,
+        # which go with the env: kept alive here (else "FFI callback error: KeyError" at the first snapshot)
+        self.env = env
         self.value_key, self.target = value_key, target
         self.seconds = 0.0
         self.results: list[dict[str, Any]] = []
