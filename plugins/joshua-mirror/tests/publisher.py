@@ -2,8 +2,10 @@
 
 Plan: {"wait_for": TOPIC, "messages": [{"topic": T, "value": V} | {"topic": T, "names": [...], "positions":
 [...]} | {"topic": T, "type": "Float32" | "String", "value": V} | {"sleep": S} | {"topic": T, "burst": [V, ...]}
-| {"await": LINE}, ...]}. Values may be "nan"/"inf". A burst publishes its Float64 values back to back, as fast
-as it can; "await" prints LINE and waits for a line on stdin (the test's go-ahead). It first waits until TOPIC
+| {"await": LINE} | {"topic": T, "value": V, "until_read": LINE}, ...]}. Values may be "nan"/"inf". A burst
+publishes its Float64 values back to back, as fast as it can; "await" prints LINE and waits for a line on stdin
+(the test's go-ahead); "until_read" publishes its message, prints LINE and publishes it again for every "again"
+line on stdin, until an empty line. It first waits until TOPIC
 has a subscriber (the mirror), so no message is published before the mirror listens. With "hold": true instead
 of "wait_for" it creates the publishers, prints "ready" and stays until SIGINT (for publishers of a type the
 mirror does not read, which no subscriber ever matches).
@@ -74,6 +76,11 @@ def main() -> None:
         else:
             ros_message = Float64(data=float(message["value"]))
         publishers[message["topic"]].publish(ros_message)
+        while "until_read" in message:
+            print(message["until_read"], flush=True)
+            if sys.stdin.readline().strip() != "again":
+                break
+            publishers[message["topic"]].publish(ros_message)
         time.sleep(GAP_S)
     time.sleep(0.2)
     node.destroy_node()
