@@ -145,9 +145,11 @@ class Checks:
     def __init__(self) -> None:
         self.failed = 0
 
-    def __call__(self, passed: bool, what: str, detail: Any = "") -> None:
+    def __call__(self, passed: bool, what: str, detail: Any = "") -> bool:
+        """Print the check; whether it passed."""
         self.failed += not passed
         print(f"  {'ok  ' if passed else 'FAIL'} {what}" + (f": {detail}" if detail != "" else ""), flush=True)
+        return passed
 
 
 def tail(folder: Path, name: str, lines: int = 15) -> str:
@@ -215,7 +217,10 @@ def check(args: argparse.Namespace) -> int:
         time.sleep(0.2)
     resuming[other].send_signal(signal.SIGTERM)
     statuses = wait(resuming)
-    checks(list(statuses.values()) == [SIGTERM_STATUS] * 2, f"exit statuses {list(statuses.values())} (143: SIGTERM)")
+    if not checks(
+        list(statuses.values()) == [SIGTERM_STATUS] * 2, f"exit statuses {list(statuses.values())} (143: SIGTERM)"
+    ):
+        print(tail(leader, "stderr") + "\n" + tail(other, "stderr"), flush=True)  # what each was doing when it ended
     said = [line for line in (leader / "stdout").read_text().splitlines() if line.startswith("ppo: stopped at")]
     checks(bool(said), "process 0 says where it stopped", said[0] if said else tail(leader, "stderr"))
     last_error = ((other / "stderr").read_text().strip().splitlines() or [""])[-1]
