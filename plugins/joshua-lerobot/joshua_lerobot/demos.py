@@ -19,11 +19,11 @@ from joshua_core.config import finalize
 from joshua_core.defaults import DEFAULT_OUTPUT_DIR
 from joshua_core.errors import JoshuaError, UsageError
 from joshua_core.interfaces import Command
-from joshua_core.limits import MAX_FPS, MAX_IMAGE_SIDE, MIN_FPS, MIN_IMAGE_SIDE, cli_number
+from joshua_core.limits import MAX_FPS, MIN_FPS, cli_number
 from joshua_core.outputs import check_replaceable
 from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
-from joshua_lerobot.export import DEFAULT_HEIGHT, DEFAULT_WIDTH
+from joshua_lerobot.export import add_camera_arguments
 from joshua_lerobot.joints import DEFAULT_UNITS, LeRobotUnits, add_units_arguments, units_from_arguments
 from joshua_lerobot.rollouts import EpisodeProducer
 from joshua_lerobot.video import check_frame_size
@@ -73,19 +73,7 @@ class DemosCommand(Command):
             default=DEFAULT_NUM_ENVS,
             help=f"environments rolled out at once (default {DEFAULT_NUM_ENVS}); frames of one batch are held",
         )
-        parser.add_argument(
-            "--camera",
-            action="append",
-            default=None,
-            help="a model camera recorded as observation.images.<camera> (repeatable; default: the model's first)",
-        )
-        for side, default in (("width", DEFAULT_WIDTH), ("height", DEFAULT_HEIGHT)):
-            parser.add_argument(
-                f"--{side}",
-                type=cli_number(f"--{side}", MIN_IMAGE_SIDE, MAX_IMAGE_SIDE, integer=True),
-                default=default,
-                help=f"video {side} (default {default}; even)",
-            )
+        add_camera_arguments(parser)
         parser.add_argument(
             "--fps",
             type=cli_number("--fps", MIN_FPS, MAX_FPS, integer=True),

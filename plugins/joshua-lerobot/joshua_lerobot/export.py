@@ -37,6 +37,24 @@ DEFAULT_TASK = "replay"
 DEFAULT_OUT = Path(DEFAULT_OUTPUT_DIR) / "lerobot_dataset"
 
 
+def add_camera_arguments(parser: argparse.ArgumentParser) -> None:
+    """The dataset's cameras and video size, as every command that writes a LeRobot dataset takes them: `--camera`
+    (repeatable; None: the model's first), `--width` and `--height` (even: yuv420p, `video.check_frame_size`)."""
+    parser.add_argument(
+        "--camera",
+        action="append",
+        default=None,
+        help="a model camera recorded as observation.images.<camera> (repeatable; default: the model's first)",
+    )
+    for side, default in (("width", DEFAULT_WIDTH), ("height", DEFAULT_HEIGHT)):
+        parser.add_argument(
+            f"--{side}",
+            type=cli_number(f"--{side}", MIN_IMAGE_SIDE, MAX_IMAGE_SIDE, integer=True),
+            default=default,
+            help=f"video {side} (default {default}; even)",
+        )
+
+
 class LeRobotExportCommand(Command):
     """Writes a rendered replay of a trajectory as a LeRobot dataset."""
 
@@ -55,20 +73,8 @@ class LeRobotExportCommand(Command):
             default=DEFAULT_FPS,
             help=f"frames per second (default {DEFAULT_FPS})",
         )
-        parser.add_argument(
-            "--camera",
-            action="append",
-            default=None,
-            help="a model camera to record as observation.images.<camera> (repeatable; default: the model's first)",
-        )
+        add_camera_arguments(parser)
         parser.add_argument("--no-video", action="store_true", help="write joint data only, no camera video")
-        for side, default in (("width", DEFAULT_WIDTH), ("height", DEFAULT_HEIGHT)):
-            parser.add_argument(
-                f"--{side}",
-                type=cli_number(f"--{side}", MIN_IMAGE_SIDE, MAX_IMAGE_SIDE, integer=True),
-                default=default,
-                help=f"video {side} (default {default})",
-            )
         parser.add_argument(
             "--task",
             action="append",
