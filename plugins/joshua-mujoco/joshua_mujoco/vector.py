@@ -158,9 +158,13 @@ class BatchedSimulation:
         return ctx.replace(
             commands={name: value[ids] for name, value in self.commands.items()},
             params={name: value[ids] for name, value in self.params.items()},
-            strength=None if self.strength is None else self.strength[ids],
+            strength=self.strengths(ids),
             **arrays,
         )
+
+    def strengths(self, ids: NDArray[np.intp]) -> NDArray[np.float64] | None:
+        """The randomization strengths of the environments `ids`; None without a curriculum."""
+        return None if self.strength is None else self.strength[ids]
 
     def reset(self, ids: NDArray[np.intp]) -> NDArray[np.float64]:
         """Reset the environments `ids` (initial state, then the task's reset terms); return their observations."""
@@ -171,7 +175,7 @@ class BatchedSimulation:
         self.qvel[ids] = state.qvel
         for name, value in self.commands.items():
             value[ids] = state.commands[name]
-        drawn = episode_params(task, state.replace(strength=None if self.strength is None else self.strength[ids]))
+        drawn = episode_params(task, state.replace(strength=self.strengths(ids)))
         for name, value in drawn.items():
             self.params[name][ids] = value
         self.ctrl[ids] = task.reset_ctrl(np, len(ids), drawn)
