@@ -5,10 +5,10 @@ Plan: {"wait_for": TOPIC, "messages": [{"topic": T, "value": V} | {"topic": T, "
 | {"await": LINE} | {"topic": T, "value": V, "until_read": LINE}, ...]}. Values may be "nan"/"inf". A burst
 publishes its Float64 values back to back, as fast as it can; "await" prints LINE and waits for a line on stdin
 (the test's go-ahead); "until_read" publishes its message, prints LINE and publishes it again for every "again"
-line on stdin, until an empty line. It first waits until TOPIC
-has a subscriber (the mirror), so no message is published before the mirror listens. With "hold": true instead
-of "wait_for" it creates the publishers, prints "ready" and stays until SIGINT (for publishers of a type the
-mirror does not read, which no subscriber ever matches).
+line on stdin, until an empty line. It first waits until TOPIC has a subscriber (the mirror), so no message is
+published before the mirror listens. With "hold": true instead of "wait_for" it creates the publishers, prints
+"ready" and stays until SIGINT (for publishers of a type the mirror does not read, which no subscriber ever
+matches).
 """
 
 from __future__ import annotations
