@@ -8,6 +8,7 @@ import jax
 import numpy as np
 import pytest
 from stable_baselines3 import PPO
+from stable_baselines3.common.logger import Logger
 
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import EnvKind, EnvSpec
@@ -49,16 +50,18 @@ def test_jax_vec_env_reports_episodes_as_sb3_expects(ant_jax) -> None:  # type: 
     np.testing.assert_allclose(observation, first, atol=1e-5)  # no reset noise: the next episode starts alike
 
 
-def test_ppo_trains_on_the_jax_vec_env(ant_jax) -> None:  # type: ignore[no-untyped-def]
+def test_ppo_trains_on_the_jax_vec_env(ant_jax, silent_logger: Logger) -> None:  # type: ignore[no-untyped-def]
     model = PPO("MlpPolicy", JaxVecEnv(ant_jax), n_steps=8, batch_size=12, n_epochs=1, device="cpu", seed=0)
+    model.set_logger(silent_logger)
     model.learn(total_timesteps=2 * 8 * NUM_ENVS)
     assert model.num_timesteps == 2 * 8 * NUM_ENVS and len(model.ep_info_buffer) >= NUM_ENVS
 
 
-def test_ant_env_on_the_cpu_trains_with_sb3_ppo() -> None:
+def test_ant_env_on_the_cpu_trains_with_sb3_ppo(silent_logger: Logger) -> None:
     env = AntEnv(num_envs=4, device="cpu", model_path=MODELS["isaac_ant_locomotion"])
     assert (env.num_envs, env.observation_space.shape, env.action_space.shape) == (4, (60,), (8,))
     model = PPO("MlpPolicy", env, n_steps=64, batch_size=64, n_epochs=2, device="cpu", seed=0)
+    model.set_logger(silent_logger)
     before = [parameter.detach().clone() for parameter in model.policy.parameters()]
     model.learn(total_timesteps=512)
     assert model.num_timesteps == 512

@@ -6,6 +6,7 @@ import gymnasium
 import numpy as np
 import pytest
 from stable_baselines3 import PPO
+from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.vec_env import DummyVecEnv, VecCheckNan, VecMonitor, VecNormalize
 
 from joshua_sb3.vec_env import SameStepVecEnv
@@ -56,9 +57,10 @@ def test_matches_dummy_vec_env_step_for_step(env_id: str, kwargs: dict[str, obje
     assert episodes_checked[expected_kind] >= NUM_ENVS
 
 
-def test_sb3_wrappers_and_algorithms_run_on_it() -> None:
+def test_sb3_wrappers_and_algorithms_run_on_it(silent_logger: Logger) -> None:
     env = VecNormalize(VecCheckNan(SameStepVecEnv(same_step_vector_env("Pendulum-v1")), raise_exception=True))
     model = PPO("MlpPolicy", env, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    model.set_logger(silent_logger)
     model.learn(total_timesteps=4 * NUM_ENVS * 32)
     assert model.num_timesteps == 4 * NUM_ENVS * 32
     assert len(model.ep_info_buffer) == 0  # Pendulum's episodes last 200 steps: none finished in 128
