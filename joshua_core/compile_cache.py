@@ -14,11 +14,14 @@ Backends and trainers that compile call `use_compile_cache()` before their first
 from __future__ import annotations
 
 import argparse
+import contextlib
+import fcntl
 import functools
 import importlib.util
 import os
 import sys
 from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,6 +29,7 @@ from joshua_core.outputs import user_cache_dir
 
 NO_CACHE_ENV_VAR = "JOSHUA_NO_CACHE"
 WARP_CACHE_ENV_VAR = "WARP_CACHE_PATH"  # Warp's own setting, read by warp.init()
+BUILD_LOCK = "joshua-build.lock"  # the file `building_into` locks in a cache folder
 ENTRY_SUFFIX = "-cache"  # how JAX names a cached program's file
 # Every program is kept: JAX keeps only programs that took 1 s to compile by default, but a run compiles dozens
 # that take less (resets, the normaliser, evaluation rollouts), and together they make up the warm start.
@@ -95,6 +99,31 @@ def use_compile_cache() -> CompileCache:
     path = Path(folder)
     programs = sum(1 for _ in path.glob(f"*{ENTRY_SUFFIX}")) if path.is_dir() else 0
     return CompileCache(path, programs)
+
+
+@contextlib.contextmanager
+def building_into(folder: Path | None, what: str) -> Iterator[None]:
+    """Hold this host's lock on the cache `folder` while building into it (None: no cache, no lock).
+
+    Runs started together on one host (a seed per GPU) compile the same programs: each alone takes every core,
+    so side by side they took 79-85 s where one took 30 s (bench/RESULTS.md). Under the lock one builds while the
+    others wait, then read what it built. A folder the lock cannot be made in is built into without it."""
+    if folder is None:
+        yield
+        return
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        lock = (folder / BUILD_LOCK).open("a")
+    except OSError:
+        yield
+        return
+    with lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            print(f"joshua: waiting for another process on this host building {what} into {folder}", flush=True)
+            fcntl.flock(lock, fcntl.LOCK_EX)
+        yield  # the lock goes with the file's closing
 
 
 def cache_reads() -> tuple[int, int]:

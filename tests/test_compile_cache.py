@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from joshua_core.cli import build_parser
-from joshua_core.compile_cache import NO_CACHE_ENV_VAR, apply_no_cache, cache_enabled
+from joshua_core.compile_cache import NO_CACHE_ENV_VAR, apply_no_cache, building_into, cache_enabled
 from joshua_core.evaluation import EvalCommand
 from joshua_core.outputs import user_cache_dir
 
@@ -164,3 +164,38 @@ def test_no_cache_on_the_command_line_sets_the_variable(monkeypatch: pytest.Monk
     monkeypatch.delenv(NO_CACHE_ENV_VAR)
     apply_no_cache(build_parser().parse_args([]))
     assert cache_enabled()
+
+
+# builds under the lock of the folder argv[1], after saying whether it had to wait
+BUILDER = """
+import sys
+from pathlib import Path
+from joshua_core.compile_cache import building_into
+with building_into(Path(sys.argv[1]), "test programs"):
+    print("built", flush=True)
+"""
+
+
+def test_a_second_process_building_into_a_cache_folder_waits_for_the_first(tmp_path: Path) -> None:
+    folder = tmp_path / "cache"
+    with building_into(folder, "test programs"):
+        builder = subprocess.Popen(
+            [sys.executable, "-c", BUILDER, str(folder)], stdout=subprocess.PIPE, text=True, env=dict(os.environ)
+        )
+        assert builder.stdout is not None
+        first = builder.stdout.readline()  # the builder found the lock held: it says so, then waits
+        assert first.startswith("joshua: waiting for another process on this host building test programs"), first
+    rest, _ = builder.communicate(timeout=120)
+    assert builder.returncode == 0 and rest.splitlines() == ["built"]
+    # once free, the lock is taken without waiting
+    alone = subprocess.run([sys.executable, "-c", BUILDER, str(folder)], capture_output=True, text=True, timeout=120)
+    assert alone.stdout.splitlines() == ["built"], alone.stderr
+
+
+def test_a_cache_folder_that_cannot_be_made_is_built_into_without_the_lock(tmp_path: Path) -> None:
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    entered = []
+    with building_into(blocker / "cache", "test programs"):
+        entered.append(True)
+    assert entered == [True] and blocker.read_text() == "not a folder"

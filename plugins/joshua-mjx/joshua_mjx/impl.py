@@ -24,6 +24,7 @@ import jax
 import jax.numpy as jnp
 import mujoco
 
+from joshua_core.compile_cache import building_into
 from joshua_core.errors import ConfigError, ModelError
 from joshua_mjx.engine import put_model as put_jax_model
 from joshua_mjx.physics import mjx
@@ -146,12 +147,16 @@ def _load_warp_kernels(device: jax.Device) -> None:
     Left to Warp, each module compiles when a step first launches it, one after another: on an H100 host that
     was 102 s of a cold start of pick-and-place, against 49 s for this and 12 s left at the first step
     (bench/RESULTS.md). On the CPU, where compiling is Warp's development path, only what a step uses is built.
+    Processes on one host take turns (`building_into`): the first builds on every core, the others then load.
     """
     if device.platform != "gpu":
         return
     import warp as wp
 
-    wp.force_load(device=f"cuda:{device.local_hardware_id}", max_workers=os.cpu_count() or 1)
+    wp.init()  # resolves the kernel cache folder
+    folder = Path(wp.config.kernel_cache_dir) if wp.config.cache_kernels else None
+    with building_into(folder, "MuJoCo Warp's kernels"):
+        wp.force_load(device=f"cuda:{device.local_hardware_id}", max_workers=os.cpu_count() or 1)
 
 
 def _require_warp() -> None:
