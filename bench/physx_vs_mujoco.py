@@ -1,13 +1,21 @@
-"""CPU PhysX against mujoco.batch: env steps/s of the Isaac Ant task on the usd backend, same cores, one run.
+"""PhysX against MuJoCo: env steps/s of the Isaac Ant task on the usd backend, every engine in one run.
 
-Also rolls the same open-loop controls on both engines from the same start and prints how far the joint
-trajectories drift apart (sim-to-sim). Usage: python bench/physx_vs_mujoco.py [--envs 256] [--steps 200]
+    python bench/physx_vs_mujoco.py                                   # CPU: PhysX and mujoco.batch, 256 envs
+    python bench/physx_vs_mujoco.py --engines physx mjx-jax mjx-warp --envs 4096 8192   # GPU machine
+
+Engines: `mujoco` (mujoco.batch on the CPU's cores) and `physx` (ovphysx: CPU PhysX here, GPU PhysX where
+CUDA is present) are the usd backend's NUMPY environments, stepped from Python with open-loop controls; `mjx-jax`
+and `mjx-warp` are its JAX environments (MJX with either implementation), stepped in a compiled loop of the same
+controls, so they pay no host round trip per step. Every rate is after the first steps (compilation, warm-up).
+At the first size, with both `mujoco` and `physx`, it also prints how far their joint trajectories drift apart
+under the same controls from the same start (sim-to-sim).
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from typing import Any
 
 import numpy as np
 
@@ -19,11 +27,20 @@ from joshua_mujoco.vector import task_config_from_options
 from joshua_usd.options_pb2 import UsdOptions, usd
 
 NO_RESET_NOISE = {"reset_joints_uniform": {"weight": 0}, "reset_qvel_normal": {"weight": 0}}
+ENGINES = ("mujoco", "physx", "mjx-jax", "mjx-warp")
+WARMUP_STEPS = 10  # stepped before timing: PhysX's first steps and the compiled loop's first call
 
 
-def make(plugins: PluginHost, physics: int, num_envs: int):  # type: ignore[no-untyped-def]
+def make(plugins: PluginHost, engine: str, num_envs: int) -> Any:
+    """The Isaac Ant environments of `engine` (see the module docstring), `num_envs` of them."""
     training = TrainingConfig()
-    training.Extensions[usd].physics = physics
+    if engine == "physx":
+        training.Extensions[usd].physics = UsdOptions.PHYSX
+    if engine.startswith("mjx-"):
+        from joshua_mjx.options_pb2 import MjxOptions
+        from joshua_mjx.options_pb2 import mjx as mjx_options
+
+        training.Extensions[mjx_options].impl = MjxOptions.Impl.Value(engine[4:].upper())
     spec = EnvSpec(
         "isaac_ant_locomotion",
         num_envs,
@@ -31,33 +48,75 @@ def make(plugins: PluginHost, physics: int, num_envs: int):  # type: ignore[no-u
         task_config=task_config_from_options({"terms": NO_RESET_NOISE}),
         training=training,
     )
-    return plugins.backend("usd").create_envs(spec, EnvKind.NUMPY, plugins)
+    kind = EnvKind.JAX if engine.startswith("mjx-") else EnvKind.NUMPY
+    return plugins.backend("usd").create_envs(spec, kind, plugins)
+
+
+def controls(steps: int, num_envs: int) -> np.ndarray:
+    """(steps, num_envs, 8) open-loop controls: a sine per joint, the same in every environment."""
+    return np.sin(np.arange(steps)[:, None, None] * 0.2 + np.arange(8)) * np.ones((1, num_envs, 1))
+
+
+def step_numpy(env: Any, actions: np.ndarray) -> tuple[float, np.ndarray]:
+    """Env steps/s of `actions` after WARMUP_STEPS of them, and environment 0's joint angles at every step."""
+    env.reset(seed=0)
+    joints = []
+    for action in actions[:WARMUP_STEPS]:
+        env.step(action)
+        joints.append(env.qpos[0, 7:].copy())
+    start = time.perf_counter()
+    for action in actions[WARMUP_STEPS:]:
+        env.step(action)
+        joints.append(env.qpos[0, 7:].copy())
+    seconds = time.perf_counter() - start
+    return (len(actions) - WARMUP_STEPS) * actions.shape[1] / seconds, np.array(joints)
+
+
+def step_jax(env: Any, actions: np.ndarray) -> float:
+    """Env steps/s of `actions` stepped in one compiled loop (timed on its second call)."""
+    import jax
+
+    def run(state: Any, sequence: jax.Array) -> Any:
+        return jax.lax.scan(lambda s, a: (env.step(s, a), None), state, sequence)[0]
+
+    loop = jax.jit(run)
+    state = env.reset(jax.random.PRNGKey(0))
+    sequence = jax.numpy.asarray(actions, dtype=jax.numpy.float32)
+    jax.block_until_ready(loop(state, sequence))  # compiles
+    start = time.perf_counter()
+    jax.block_until_ready(loop(state, sequence))
+    return actions.shape[0] * actions.shape[1] / (time.perf_counter() - start)
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--envs", type=int, default=256)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--engines", nargs="+", choices=ENGINES, default=["mujoco", "physx"])
+    parser.add_argument("--envs", type=int, nargs="+", default=[256])
     parser.add_argument("--steps", type=int, default=200)
     args = parser.parse_args()
     plugins = PluginHost.discover()
-    controls = np.sin(np.arange(args.steps)[:, None, None] * 0.2 + np.arange(8)) * np.ones((1, args.envs, 1))
-    results = {}
-    for name, physics in (("mujoco", UsdOptions.MUJOCO), ("physx", UsdOptions.PHYSX)):
-        env = make(plugins, physics, args.envs)
-        env.reset(seed=0)
-        joints = []
-        start = time.perf_counter()
-        for action in controls:
-            env.step(action)
-            joints.append(env.qpos[0, 7:].copy())
-        seconds = time.perf_counter() - start
-        results[name] = np.array(joints)
-        print(f"{name}: {args.envs * args.steps / seconds:.0f} env steps/s ({args.envs} envs, {args.steps} steps)")
-        env.close()
-    gap = np.abs(results["physx"] - results["mujoco"])
-    for t in (9, 49, args.steps - 1):
-        if t < args.steps:
-            print(f"step {t + 1}: joint gap mean {gap[t].mean():.3f} rad, max {gap[t].max():.3f} rad")
+    for size_index, num_envs in enumerate(args.envs):
+        actions = controls(args.steps, num_envs)
+        trajectories = {}
+        for engine in args.engines:
+            try:
+                env = make(plugins, engine, num_envs)
+                start = time.perf_counter()
+                if engine.startswith("mjx-"):
+                    rate = step_jax(env, actions)
+                else:
+                    rate, trajectories[engine] = step_numpy(env, actions)
+                    env.close()
+            except Exception as error:  # one engine failing (e.g. no CUDA build) leaves the others' figures
+                print(f"{engine}: {num_envs} envs failed: {type(error).__name__}: {error}", flush=True)
+                continue
+            seconds = time.perf_counter() - start
+            print(f"{engine}: {rate:,.0f} env steps/s ({num_envs} envs, {args.steps} steps, {seconds:.1f} s in all)")
+        if size_index == 0 and {"mujoco", "physx"} <= trajectories.keys():
+            gap = np.abs(trajectories["physx"] - trajectories["mujoco"])
+            for t in (9, 49, args.steps - 1):
+                if t < args.steps:
+                    print(f"step {t + 1}: joint gap mean {gap[t].mean():.3f} rad, max {gap[t].max():.3f} rad")
 
 
 if __name__ == "__main__":
