@@ -297,10 +297,13 @@ def train(
 def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snapshot]) -> list[dict[str, Any]]:
     """Each snapshot's evaluation (`joshua_core.statistics.summarize`: mean return and length, final metrics,
     success rate, 95 % intervals) over one episode per environment of `env`, under the policy's mean (no
-    exploration noise): all snapshots in one rollout, vmapped over them."""
+    exploration noise): all snapshots in one compiled program, one after another (`lax.map`). Not vmapped:
+    that multiplies the worlds of every physics call, and MuJoCo Warp's contact arrays, sized for the env's
+    worlds, then overflow (Ant's deterministic episodes on Warp ended after 6 steps)."""
     rollout = make_rollout(env, settings.network, env.task.episode_length)
-    params, normalizer = jax.tree.map(lambda *leaves: np.stack(leaves), *snapshots)
-    raw = jax.device_get(jax.jit(jax.vmap(rollout, in_axes=(0, 0, None)))(params, normalizer, jax.random.PRNGKey(1)))
+    stacked = jax.tree.map(lambda *leaves: np.stack(leaves), *snapshots)
+    key = jax.random.PRNGKey(1)
+    raw = jax.device_get(jax.jit(lambda s: jax.lax.map(lambda p: rollout(p[0], p[1], key), s))(stacked))
     return [summarize(episode_results(collect(jax.tree.map(lambda x, i=i: x[i], raw)))) for i in range(len(snapshots))]
 
 

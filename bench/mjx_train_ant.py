@@ -13,7 +13,7 @@ training throughput scales over devices.
 Training stops when the training return (episodes that ended in the iteration, with exploration
 noise) reaches the target, or at --max-seconds or --iterations. The policy is snapshotted (copied to
 the host) every --snapshot-interval iterations and at the end; afterwards every snapshot is evaluated
-at once (one rollout vmapped over the snapshots) on the deterministic policy's mean return over
+at once (one compiled rollout, snapshot after snapshot) on the deterministic policy's mean return over
 --eval-envs whole 1000-step episodes. The time to the target is the wall time of the first snapshot
 that reaches it: the training time, without the evaluations (Brax's PPO leaves them out of its
 training walltime too).
