@@ -160,6 +160,18 @@ class Task:
             target = target + params["ctrl_offset"]
         return xp.clip(target, self.ctrl_low, self.ctrl_high)
 
+    def action_for_ctrl(self, xp: Any, target: Any, params: Mapping[str, Any] | None = None, ctrl: Any = None) -> Any:
+        """The actions (N, nu) whose controls come nearest `target` (N, nu) in one step: `action_to_ctrl`
+        inverted and clipped to [-1, 1], so a target beyond one step's reach is approached at full speed. "delta"
+        steps from `ctrl`, the controls in force; the other modes from the offset (with `params`' randomized one)."""
+        if self.delta_actions:
+            if ctrl is None:
+                raise ValueError(f"task '{self.name}' has delta actions: action_for_ctrl needs the controls in force")
+            base = ctrl
+        else:
+            base = self.ctrl_offset + (params["ctrl_offset"] if params is not None and "ctrl_offset" in params else 0.0)
+        return xp.clip((target - base) / self.ctrl_scale, -1.0, 1.0)
+
     def reset_ctrl(self, xp: Any, num_envs: int, params: Mapping[str, Any] | None = None) -> Any:
         """The controls an episode starts with, (N, nu): the initial ctrl, where zero offsets are drawn
         (`ctrl_offset`) shifted by them, clipped to ctrlrange (what a zero action commands in "offset" mode)."""

@@ -103,10 +103,8 @@ class PickPlaceScript:
 
     def _action(self, targets: NDArray[np.float64]) -> NDArray[np.float64]:
         """The action that brings the servo targets nearest to `targets` in one step."""
-        task = self.task
-        base = self.in_force if task.delta_actions else task.ctrl_offset
-        action = np.clip((targets - base) / task.ctrl_scale, -1.0, 1.0)
-        self.in_force = task.action_to_ctrl(np, action[None], ctrl=self.in_force[None])[0]
+        action = self.task.action_for_ctrl(np, targets[None], ctrl=self.in_force[None])[0]
+        self.in_force = self.task.action_to_ctrl(np, action[None], ctrl=self.in_force[None])[0]
         return action
 
     def _grasp_point(self) -> NDArray[np.float64]:
