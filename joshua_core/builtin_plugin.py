@@ -40,5 +40,6 @@ def joshua_register_commands(registry: Registrar) -> None:
     registry.add(
         "eval",
         "joshua_core.evaluation:EvalCommand",
-        "roll out a trained policy: mean return, task metrics and an MP4 (joshua eval RUN_FOLDER)",
+        "roll out a trained policy: mean return, task metrics and an MP4 (joshua eval RUN_FOLDER, or a policy folder "
+        "of a registered format)",
     )

@@ -186,6 +186,7 @@ def run_plugin_command(host: PluginHost, name: str, argv: list[str]) -> int:
     command = host.command(name)
     parser = argparse.ArgumentParser(prog=f"joshua {name}", description=host.component(Kind.COMMAND, name).summary)
     command.add_arguments(parser)
+    command.add_plugin_arguments(parser, host)
     return command.run(parser.parse_args(argv), host)
 
 

@@ -5,11 +5,16 @@ the trainer plugin that wrote it; the command loads that trainer and calls `Trai
 every trainer (sb3, ppo, a third party's) plugs into the same command. The trainer returns each episode's
 outcome; the statistics (success rate and mean return with 95 % intervals) are computed here, the same for all,
 printed and written as JSON.
+
+A folder no JOSHUA trainer wrote (its `config.json` has no `trainer` entry, or there is none) goes to the first
+registered `PolicyFormat` that accepts it (e.g. joshua-lerobot's `lerobot`: a LeRobot pretrained-policy folder);
+each format declares its own options on this command (`add_plugin_arguments`), and the statistics are the same.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -17,10 +22,11 @@ from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.cli import writable_file
 from joshua_core.compile_cache import add_no_cache_argument, apply_no_cache
 from joshua_core.errors import UsageError
-from joshua_core.interfaces import Command
+from joshua_core.interfaces import Command, EpisodeResults, PolicyFormat
+from joshua_core.kinds import Kind
 from joshua_core.limits import cli_number
 from joshua_core.run_context import RunContext
-from joshua_core.runs import add_checkpoint_arguments, read_run_config
+from joshua_core.runs import CONFIG_FILE, add_checkpoint_arguments, read_run_config
 from joshua_core.statistics import report_lines, summarize
 
 if TYPE_CHECKING:
@@ -52,29 +58,70 @@ class EvalCommand(Command):
         parser.add_argument("--json", type=Path, help="JSON of the results to write (default: RUN/eval.json)")
         add_no_cache_argument(parser)
 
+    def add_plugin_arguments(self, parser: argparse.ArgumentParser, plugins: PluginHost) -> None:
+        for name in plugins.names(Kind.POLICY_FORMAT):
+            plugins.create(Kind.POLICY_FORMAT, name, PolicyFormat).add_arguments(parser)
+
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
         apply_no_cache(args)
         if not 1 <= args.grid <= args.episodes:
             raise UsageError(f"--grid must be between 1 and --episodes ({args.episodes}), got {args.grid}")
         run_dir: Path = args.run
-        trainer_name = read_run_config(run_dir)["trainer"]
-        trainer = plugins.trainer(trainer_name)
+        policy_format = None if _trainer_run(run_dir) else _policy_format(run_dir, plugins)
+        trainer_name = read_run_config(run_dir)["trainer"] if policy_format is None else ""
         video_path = None if args.no_video else writable_file(args.video or run_dir / "eval.mp4", "--video")
         json_path = writable_file(args.json or run_dir / "eval.json", "--json")
-        results = trainer.evaluate(
-            run_dir,
-            episodes=args.episodes,
-            seed=args.seed,
-            video_path=video_path,
-            context=RunContext(plugins, run_dir),
-            trust_checkpoint=args.trust_checkpoint,
-            video_grid=args.grid,
-        )
+        context = RunContext(plugins, run_dir)
+        source: dict[str, str]
+        results: EpisodeResults
+        if policy_format is None:
+            results = plugins.trainer(trainer_name).evaluate(
+                run_dir,
+                episodes=args.episodes,
+                seed=args.seed,
+                video_path=video_path,
+                context=context,
+                trust_checkpoint=args.trust_checkpoint,
+                video_grid=args.grid,
+            )
+            source = {"trainer": trainer_name}
+        else:
+            name, found = policy_format
+            results = found.evaluate(
+                run_dir,
+                args,
+                episodes=args.episodes,
+                seed=args.seed,
+                video_path=video_path,
+                video_grid=args.grid,
+                context=context,
+            )
+            source = {"policy_format": name}
         summary = summarize(results)
         print("\n".join(report_lines(summary)))
         per_episode = {"return": results.returns, "length": results.lengths} | dict(results.metrics)
-        document = {"run": str(run_dir), "trainer": trainer_name, "seed": args.seed} | summary
+        document = {"run": str(run_dir)} | source | {"seed": args.seed} | summary
         document["per_episode"] = {name: [float(value) for value in values] for name, values in per_episode.items()}
         atomic_write_json(json_path, json_safe(document))
         print(f"results: {json_path}")
         return 0
+
+
+def _trainer_run(run_dir: Path) -> bool:
+    """Whether `run_dir` looks like a JOSHUA run or checkpoint folder: its config.json names a trainer (or it is
+    no folder with a config.json at all, so that `read_run_config` says what is wrong)."""
+    path = run_dir / CONFIG_FILE
+    try:
+        document = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return True
+    return not run_dir.is_dir() or (isinstance(document, dict) and "trainer" in document)
+
+
+def _policy_format(run_dir: Path, plugins: PluginHost) -> tuple[str, PolicyFormat] | None:
+    """The first registered policy format that accepts the folder `run_dir` (name and instance), or None."""
+    for name in plugins.names(Kind.POLICY_FORMAT):
+        policy_format = plugins.create(Kind.POLICY_FORMAT, name, PolicyFormat)
+        if policy_format.accepts(run_dir):
+            return name, policy_format
+    return None

@@ -125,3 +125,14 @@ def joshua_register_trajectory_readers(registry: Registrar) -> None:
     its path; `joshua_core.trajectory_sources.load_trajectory` asks each registered reader whether it `accepts` a
     folder it is given. The CSV reader is built in and not registered.
     """
+
+
+@hookspec
+def joshua_register_policy_formats(registry: Registrar) -> None:
+    """Register formats of saved policies that no JOSHUA trainer wrote (e.g. LeRobot's pretrained-policy folders):
+    `registry.add(name, target, summary)`.
+
+    Called by PluginHost when it is built. `target` is a `joshua_core.interfaces.PolicyFormat` subclass or its
+    path; `joshua eval FOLDER` declares each registered format's options and, for a folder without a JOSHUA run's
+    `trainer` entry, asks each format whether it `accepts` the folder.
+    """

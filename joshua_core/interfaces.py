@@ -257,12 +257,48 @@ class EpisodeResults:
     metrics: dict[str, Sequence[float]]  # each task metric's value on the episode's last step (e.g. "success")
 
 
+class PolicyFormat(ABC):
+    """A format of saved policies that no JOSHUA trainer wrote (e.g. a LeRobot pretrained-policy folder), which
+    `joshua eval FOLDER` rolls out in a JOSHUA task. Registered under a format name; importing the class must stay
+    light (it is created to declare its options and to ask `accepts`)."""
+
+    @abstractmethod
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        """Declare this format's own `joshua eval` options (named so that they cannot clash with another format's,
+        e.g. `--lerobot-python`); they are ignored for folders of other formats."""
+
+    @abstractmethod
+    def accepts(self, path: Path) -> bool:
+        """Whether the existing folder `path` holds a policy of this format; cheap, loads no policy."""
+
+    @abstractmethod
+    def evaluate(
+        self,
+        path: Path,
+        args: argparse.Namespace,
+        *,
+        episodes: int,
+        seed: int,
+        video_path: Path | None,
+        video_grid: int,
+        context: RunContext,
+    ) -> EpisodeResults:
+        """Roll the policy in `path` out for `episodes` episodes (environments seeded from `seed`), with this
+        format's options from `args`; as `Trainer.evaluate`, the outcome of each episode and, when `video_path` is
+        given, an MP4 of the first `video_grid` episodes."""
+
+
 class Command(ABC):
     """A `joshua NAME ...` subcommand registered by a plugin; loaded only when NAME is on the command line."""
 
     @abstractmethod
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         """Declare the subcommand's arguments on its own parser."""
+
+    def add_plugin_arguments(self, parser: argparse.ArgumentParser, plugins: PluginHost) -> None:
+        """Declare the arguments other plugins' registrations bring (`joshua eval`: each policy format's options);
+        called after `add_arguments`. Most commands have none."""
+        return None
 
     @abstractmethod
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:

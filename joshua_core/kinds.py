@@ -18,6 +18,7 @@ class Kind(enum.Enum):
     OPTIONS = "option"
     READER = "reader"
     TRAJECTORY_READER = "trajectory_reader"
+    POLICY_FORMAT = "policy_format"
 
     @property
     def hook_name(self) -> str:
