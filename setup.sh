@@ -72,11 +72,15 @@ if [[ -n $option ]]; then
   echo "setup: installing joshua-usd[physx] (ovphysx, ovstage, physx-usd-schemas) into .venv"
   .venv/bin/pip install -q -c constraints.txt --no-deps ovphysx ovstage physx-usd-schemas
 fi
-if [[ $option == --dev && ! -d .cache/lerobot-site/lerobot ]]; then
-  # the real lerobot for joshua-lerobot's tests, beside .venv, not in it: its pins (torch<2.11 ...) must not change .venv
+LEROBOT_REQUIREMENTS=plugins/joshua-lerobot/tests/lerobot-requirements.txt
+if [[ $option == --dev ]] && ! cmp -s $LEROBOT_REQUIREMENTS .cache/lerobot-site/requirements.txt; then
+  # the real lerobot for joshua-lerobot's tests, beside .venv, not in it: its pins (torch<2.11 ...) must not change .venv;
+  # reinstalled whole when the pins change (the site keeps a copy of the requirements it was installed from)
   echo "setup: installing lerobot (tests only) into .cache/lerobot-site"
   rm -rf .cache/lerobot-site.partial
-  .venv/bin/pip install -q --no-deps --target .cache/lerobot-site.partial -r plugins/joshua-lerobot/tests/lerobot-requirements.txt
+  .venv/bin/pip install -q --no-deps --target .cache/lerobot-site.partial -r $LEROBOT_REQUIREMENTS
+  cp $LEROBOT_REQUIREMENTS .cache/lerobot-site.partial/requirements.txt
+  rm -rf .cache/lerobot-site
   mv .cache/lerobot-site.partial .cache/lerobot-site
 fi
 echo "setup: done; run .venv/bin/joshua --help"

@@ -1,5 +1,5 @@
 """Entry point of joshua-lerobot: registers the "lerobot" trajectory reader, `joshua lerobot-export`,
-`joshua lerobot-units` and `joshua demos`."""
+`joshua lerobot-units`, `joshua demos` and the "lerobot" policy format (`joshua eval` of a LeRobot policy folder)."""
 
 from __future__ import annotations
 
@@ -33,4 +33,14 @@ def joshua_register_commands(registry: Registrar) -> None:
         "joshua_lerobot.demos:DemosCommand",
         "roll the scripted pick-and-place out over randomized episodes and write the successful ones as a LeRobot "
         "dataset with camera videos",
+    )
+
+
+@hookimpl
+def joshua_register_policy_formats(registry: Registrar) -> None:
+    registry.add(
+        "lerobot",
+        "joshua_lerobot.policy_eval:LeRobotPolicyFormat",
+        "LeRobot pretrained-policy folders (config.json with a policy type, model.safetensors), run by a Python "
+        "with lerobot (--lerobot-python) on the task's rendered cameras and joint state",
     )

@@ -46,7 +46,7 @@ class ScriptedMuJoCoProducer(EpisodeProducer):
         model, task = simulation.model, simulation.task
         try:
             self.stride = frame_stride(task.dt, fps)
-            self.cameras = tuple(_camera_name(model, name) for name in cameras)
+            self.cameras = tuple(camera_name(model, name) for name in cameras)
             steps = sum(phase.steps for phase in pick_place_phases(np.zeros(3), np.zeros(3)))
             if steps > task.episode_length:
                 raise UsageError(
@@ -56,7 +56,7 @@ class ScriptedMuJoCoProducer(EpisodeProducer):
         except UsageError:
             self.env.close()
             raise
-        joints = [_actuated_joint(model, actuator) for actuator in range(model.nu)]
+        joints = [actuated_joint(model, actuator) for actuator in range(model.nu)]
         self.joint_names = tuple(model.joint(joint).name for joint in joints)
         self.joint_ranges = model_joint_ranges(model)
         self.qpos_addresses = np.array([model.jnt_qposadr[joint] for joint in joints])
@@ -110,7 +110,7 @@ class ScriptedMuJoCoProducer(EpisodeProducer):
         self.env.close()
 
 
-def _camera_name(model: Any, name: str) -> str:
+def camera_name(model: Any, name: str) -> str:
     """The model camera `name` ("": the model's first); one the model lacks is a UsageError listing its cameras."""
     from joshua_render import camera_id
 
@@ -119,7 +119,7 @@ def _camera_name(model: Any, name: str) -> str:
     return str(model.camera(camera_id(model, name or None)).name)
 
 
-def _actuated_joint(model: Any, actuator: int) -> int:
+def actuated_joint(model: Any, actuator: int) -> int:
     """The joint an actuator drives (its control is that joint's target, in the joint's units)."""
     import mujoco
 

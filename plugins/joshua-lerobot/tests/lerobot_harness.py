@@ -15,17 +15,40 @@ import pytest
 REPO = Path(__file__).resolve().parents[3]
 LEROBOT_SITE = REPO / ".cache" / "lerobot-site"
 SIDE = Path(__file__).with_name("lerobot_side.py")
+NO_TORCHVISION = Path(__file__).with_name("no_torchvision")  # its sitecustomize.py stands in for torchvision
+
+
+def lerobot_environment(tmp_path: Path) -> dict[str, str]:
+    """This process's environment with the real lerobot (and the torchvision placeholder) first on PYTHONPATH,
+    Hugging Face offline and its caches in `tmp_path`."""
+    if not (LEROBOT_SITE / "lerobot").is_dir():
+        pytest.fail(f"lerobot is not installed in {LEROBOT_SITE}: run ./setup.sh --dev")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(LEROBOT_SITE), str(NO_TORCHVISION), env.get("PYTHONPATH", "")])
+    env |= {"HF_HUB_OFFLINE": "1", "HF_HOME": str(tmp_path / "hf"), "HF_LEROBOT_HOME": str(tmp_path / "hf/lerobot")}
+    return env
+
+
+def lerobot_python(tmp_path: Path) -> Path:
+    """An executable that runs this Python with `lerobot_environment`: a user's LeRobot Python, for
+    `joshua eval --lerobot-python`, while `joshua` itself runs without lerobot."""
+    script = tmp_path / "lerobot-python"
+    env = lerobot_environment(tmp_path)
+    wanted = [name for name in sorted(env) if name.startswith(("HF_", "PYTHONPATH"))]
+    exports = "".join(f"export {name}='{env[name]}'\n" for name in wanted)
+    script.write_text(f"#!/bin/sh\n{exports}exec '{sys.executable}' \"$@\"\n")
+    script.chmod(0o755)
+    return script
 
 
 def lerobot(command: str, root: Path, tmp_path: Path) -> dict[str, Any]:
     """Run tests/lerobot_side.py COMMAND ROOT with the real lerobot; its JSON answer."""
-    if not (LEROBOT_SITE / "lerobot").is_dir():
-        pytest.fail(f"lerobot is not installed in {LEROBOT_SITE}: run ./setup.sh --dev")
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(LEROBOT_SITE), env.get("PYTHONPATH", "")])
-    env |= {"HF_HUB_OFFLINE": "1", "HF_HOME": str(tmp_path / "hf"), "HF_LEROBOT_HOME": str(tmp_path / "hf/lerobot")}
     result = subprocess.run(
-        [sys.executable, str(SIDE), command, str(root)], env=env, capture_output=True, text=True, timeout=300
+        [sys.executable, str(SIDE), command, str(root)],
+        env=lerobot_environment(tmp_path),
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert result.returncode == 0, result.stderr[-3000:]
     return json.loads(result.stdout.strip().splitlines()[-1])

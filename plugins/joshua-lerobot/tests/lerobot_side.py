@@ -11,18 +11,15 @@ lerobot-requirements.txt first on PYTHONPATH (so they never change .venv). Print
     python lerobot_side.py normalize FILE lerobot's `MotorsBus._normalize` of the SO-100 follower's motors, with
                                           FILE's calibration, on FILE's ticks: per motor, the values with
                                           use_degrees=True and with use_degrees=False
+    python lerobot_side.py sac FILE       a small SACPolicy with FILE's input features and action range, saved with
+                                          its pre/post-processors (save_pretrained) in FILE's "out" folder
 
-pyserial and deepdiff (which the motor bus imports, for the serial port and for comparing calibrations) are not
-installed either: `normalize` puts placeholders in their place whose use raises.
-
-torchvision is not installed (its PyPI wheels for torch 2.13 are CUDA builds): lerobot.datasets imports it
-but uses it only for PIL-image features and its pyav decoder, so a placeholder module stands in whose every
-attribute raises, and the test fails loudly should lerobot use it on the paths tested here.
+torchvision is not installed (its PyPI wheels for torch 2.13 are CUDA builds): tests/no_torchvision/sitecustomize.py
+puts placeholders in its place whose use raises.
 """
 
 from __future__ import annotations
 
-import importlib.machinery
 import json
 import sys
 import types
@@ -45,21 +42,6 @@ FRAMES_PER_EPISODE = (45, 30)
 IMAGE_SHAPE = (48, 64, 3)
 
 
-class _Unavailable(types.ModuleType):
-    def __getattr__(self, name: str) -> Any:
-        if name.startswith("__"):
-            raise AttributeError(name)
-        raise RuntimeError(f"lerobot used {self.__name__}.{name}, which this test environment does not have")
-
-
-def _without_torchvision() -> None:
-    for name in ("torchvision", "torchvision.transforms"):
-        module = _Unavailable(name)
-        module.__spec__ = importlib.machinery.ModuleSpec(name, None)
-        sys.modules[name] = module
-    sys.modules["torchvision"].transforms = sys.modules["torchvision.transforms"]  # type: ignore[attr-defined]
-
-
 def known_state(episode: int, frame: int) -> np.ndarray:
     """The SO-100 state written for a frame: degrees for the arm (within +-90), 0..100 for the gripper."""
     t = frame / FPS
@@ -69,14 +51,6 @@ def known_state(episode: int, frame: int) -> np.ndarray:
 
 def normalize(request: Path) -> dict[str, Any]:
     """What lerobot's motor bus reads for each of `request`'s ticks, as SOFollower builds its bus."""
-    for name, attribute in (("serial", "Serial"), ("deepdiff", "DeepDiff")):
-        module = types.ModuleType(name)
-
-        def unavailable(*args: Any, _name: str = name, **kwargs: Any) -> Any:
-            raise RuntimeError(f"lerobot used {_name}, which this test environment does not have")
-
-        setattr(module, attribute, unavailable)
-        sys.modules[name] = module
     from lerobot.motors.feetech.tables import MODEL_RESOLUTION
     from lerobot.motors.motors_bus import Motor, MotorCalibration, MotorNormMode, MotorsBus
 
@@ -185,7 +159,52 @@ def write(root: Path) -> dict[str, Any]:
     return {"fps": FPS, "names": SO100_NAMES, "episodes": written}
 
 
+def sac(request: Path) -> dict[str, Any]:
+    """A SACPolicy (lerobot's own class, no torchvision in it: ACT's backbone is torchvision's ResNet) taking
+    `request`'s "inputs" ({key: shape}, images channels first) with an action of `len(action_min)` values, small
+    enough to load and run in a moment, saved in `request`'s "out" with its pre/post-processors. The action is
+    unnormalized from [-1, 1] over the dataset statistics' [action_min, action_max] (MIN_MAX): where the two are
+    equal, the policy commands exactly that action whatever it sees."""
+    import torch
+    from lerobot.configs.types import FeatureType, PolicyFeature
+    from lerobot.policies.factory import make_pre_post_processors
+    from lerobot.policies.sac.configuration_sac import SACConfig
+    from lerobot.policies.sac.modeling_sac import SACPolicy
+    from lerobot.utils.constants import ACTION, OBS_STATE
+
+    spec = json.loads(request.read_text())
+    inputs = {
+        key: PolicyFeature(FeatureType.STATE if key == OBS_STATE else FeatureType.VISUAL, tuple(shape))
+        for key, shape in spec["inputs"].items()
+    }
+    low, high = (torch.tensor(spec[key], dtype=torch.float32) for key in ("action_min", "action_max"))
+    stats = {ACTION: {"min": low, "max": high}}
+    for key, feature in inputs.items():
+        if feature.type is FeatureType.STATE:
+            stats[key] = {"min": torch.full(feature.shape, -180.0), "max": torch.full(feature.shape, 180.0)}
+        else:
+            stats[key] = {"mean": torch.full((3, 1, 1), 0.5), "std": torch.full((3, 1, 1), 0.25)}
+    config = SACConfig(
+        device="cpu",
+        input_features=inputs,
+        output_features={ACTION: PolicyFeature(FeatureType.ACTION, (len(low),))},
+        dataset_stats=None,
+        image_encoder_hidden_dim=4,
+        latent_dim=8,
+        state_encoder_hidden_dim=8,
+        image_embedding_pooling_dim=2,
+        use_torch_compile=False,
+    )
+    torch.manual_seed(0)
+    policy = SACPolicy(config)
+    preprocessor, postprocessor = make_pre_post_processors(config, dataset_stats=stats)
+    out = Path(spec["out"])
+    for saved in (policy, preprocessor, postprocessor):
+        saved.save_pretrained(out)
+    return {"type": config.type, "files": sorted(path.name for path in out.iterdir())}
+
+
 if __name__ == "__main__":
-    _without_torchvision()
     command, folder = sys.argv[1], Path(sys.argv[2])
-    print(json.dumps({"load": load, "delta": delta, "write": write, "normalize": normalize}[command](folder)))
+    commands = {"load": load, "delta": delta, "write": write, "normalize": normalize, "sac": sac}
+    print(json.dumps(commands[command](folder)))

@@ -1,0 +1,137 @@
+"""`joshua eval` of a LeRobot policy: a real lerobot 0.4.4 policy (SACPolicy: it loads and runs without
+torchvision, which ACT's ResNet backbone needs; see tests/no_torchvision/sitecustomize.py), saved with
+`save_pretrained` with the features a `joshua demos` dataset has, run by a "LeRobot Python" (tests/lerobot_harness.py)
+while `joshua` runs without lerobot; its actions drive the simulated arm, and bad input is one line, exit 2."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from lerobot_harness import lerobot, lerobot_python
+
+from joshua_core.config_pb2 import TaskConfig
+from joshua_core.plugins import PluginHost
+from joshua_core.run_context import RunContext
+from joshua_lerobot.joints import DEFAULT_UNITS
+from joshua_lerobot.policy_eval import evaluate_policy
+from joshua_lerobot.policy_process import PolicyProcess
+
+JOSHUA = str(Path(sys.executable).parent / "joshua")
+TASK = "so_arm100_pick_place"
+WIDTH, HEIGHT = 64, 48
+# The commanded pose in LeRobot's SO-100 units (degrees from each joint's mid-range, gripper percent), far from the
+# task's start pose: the policy's action range is this one point, so it commands it whatever it sees.
+POSE = [30.0, -20.0, 25.0, 30.0, 20.0, 60.0]
+SHORT = ("--set", "training.task_config.episode_length=50")  # 1 s episodes: the test is about the loop, not success
+
+
+def save_policy(folder: Path, tmp_path: Path, inputs: dict[str, list[int]]) -> Path:
+    request = tmp_path / f"{folder.name}.json"
+    request.write_text(json.dumps({"inputs": inputs, "action_min": POSE, "action_max": POSE, "out": str(folder)}))
+    assert lerobot("sac", request, tmp_path)["type"] == "sac"
+    return folder
+
+
+@pytest.fixture(scope="module")
+def lerobot_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("lerobot")
+
+
+@pytest.fixture(scope="module")
+def policy(lerobot_folder: Path) -> Path:
+    """A SACPolicy taking the joint state and the overview camera, as a `joshua demos --camera overview` dataset."""
+    inputs = {"observation.state": [6], "observation.images.overview": [3, HEIGHT, WIDTH]}
+    return save_policy(lerobot_folder / "policy", lerobot_folder, inputs)
+
+
+def joshua_eval(folder: Path, *options: str, python: Path | str) -> subprocess.CompletedProcess[str]:
+    command = [JOSHUA, "eval", str(folder), "--lerobot-python", str(python), *options]
+    return subprocess.run(command, capture_output=True, text=True, timeout=300)
+
+
+def test_joshua_eval_reports_a_lerobot_policys_success_rate_with_intervals(
+    policy: Path, lerobot_folder: Path, tmp_path: Path
+) -> None:
+    results, video = tmp_path / "eval.json", tmp_path / "eval.mp4"
+    done = joshua_eval(policy, "--episodes", "3", "--num-envs", "2", "--json", str(results), "--video", str(video),
+                       "--grid", "2", *SHORT, python=lerobot_python(lerobot_folder))  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert "success rate 0.000 (0 of 3 episodes)" in done.stdout and "Wilson" in done.stdout, done.stdout
+    document = json.loads(results.read_text())
+    assert document["policy_format"] == "lerobot" and "trainer" not in document
+    assert document["episodes"] == 3 and document["successes"] == 0
+    low, high = document["success_rate_ci95"]
+    assert abs(low) < 1e-9 and 0.4 < high < 0.8 and document["mean_return_ci95"] is not None  # Wilson at n = 3
+    per_episode = document["per_episode"]
+    assert per_episode["length"] == [50.0] * 3 and len(per_episode["return"]) == 3 and len(per_episode["success"]) == 3
+    assert video.stat().st_size > 0
+
+
+def test_the_policys_actions_drive_the_arm(policy: Path, lerobot_folder: Path) -> None:
+    plugins = PluginHost.discover()
+    with PolicyProcess(str(lerobot_python(lerobot_folder)), policy, "cpu") as process:
+        assert process.description.type == "sac"
+        evaluation = evaluate_policy(
+            process,
+            TASK,
+            episodes=2,
+            num_envs=2,
+            seed=3,
+            fps=25,
+            units=DEFAULT_UNITS,
+            context=RunContext(plugins, policy),
+            task_config=TaskConfig(episode_length=100),
+        )
+    # 2 s of targets held at the pose: every joint there within a few degrees (the servos sag under gravity)
+    reached = evaluation.last_states
+    assert reached.shape == (2, 6)
+    np.testing.assert_allclose(reached[:, :5], np.tile(POSE[:5], (2, 1)), atol=4.0)
+    np.testing.assert_allclose(reached[:, 5], POSE[5], atol=10.0)  # the gripper closes on nothing
+
+
+@pytest.mark.parametrize(
+    ("case", "message"),
+    [
+        ("missing", "does not exist"),
+        ("empty", "is not a run folder: it has no config.json"),
+        ("no_lerobot", "lerobot cannot be imported by"),
+        ("no_python", "--lerobot-python /nonexistent/python: cannot run it"),
+        ("broken", "cannot load the policy"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(
+    case: str, message: str, policy: Path, lerobot_folder: Path, tmp_path: Path
+) -> None:
+    folder, python = policy, str(lerobot_python(lerobot_folder))
+    if case == "missing":
+        folder = tmp_path / "nowhere"
+    elif case == "empty":
+        folder = tmp_path
+    elif case == "no_lerobot":
+        python = sys.executable  # JOSHUA's own Python: no lerobot
+    elif case == "no_python":
+        python = "/nonexistent/python"
+    else:
+        folder = tmp_path / "broken"
+        folder.mkdir()
+        (folder / "config.json").write_text(json.dumps({"type": "sac", "input_features": 3}))
+        (folder / "model.safetensors").write_bytes(b"not a model")
+    done = joshua_eval(folder, "--no-video", *SHORT, python=python)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1 and message in done.stderr, done.stderr
+
+
+def test_a_policy_taking_a_camera_the_task_lacks_is_refused_naming_it(lerobot_folder: Path, tmp_path: Path) -> None:
+    inputs = {"observation.state": [6], "observation.images.wrist": [3, HEIGHT, WIDTH]}
+    folder = save_policy(tmp_path / "wrist", tmp_path, inputs)
+    done = joshua_eval(folder, "--no-video", *SHORT, python=lerobot_python(lerobot_folder))
+    expected = (
+        "the sac policy takes observation.images.wrist, which the task does not provide (it provides "
+        "observation.state, observation.images.overview, observation.images.side)"
+    )
+    assert done.returncode == 2 and done.stderr.count("\n") == 1 and expected in done.stderr, done.stderr
+    assert not (folder / "eval.json").exists()
