@@ -432,7 +432,6 @@ def test_delta_actions_move_the_controls_in_force_and_start_from_the_keyframe(pl
     np.testing.assert_allclose(zero_action, absolute.reset_ctrl(np, 2, offsets))
 
 
-
 def test_action_for_ctrl_inverts_action_to_ctrl_in_both_modes(plugins: PluginHost) -> None:
     offsets = {"ctrl_offset": np.array([[0.1, 0, 0, 0, 0, 0], [0.0] * 6])}
     for config in ('action { mode: "delta" scale: 0.1 }', ""):
@@ -445,6 +444,7 @@ def test_action_for_ctrl_inverts_action_to_ctrl_in_both_modes(plugins: PluginHos
         assert np.all(task.action_for_ctrl(np, far, offsets, ctrl) == 1.0), config
     with pytest.raises(ValueError, match="delta actions: action_for_ctrl needs the controls in force"):
         build_reach(plugins, 'action { mode: "delta" }').action_for_ctrl(np, near)
+
 
 def test_servo_error_is_each_target_minus_its_joint(plugins: PluginHost) -> None:
     task = build_reach(plugins, 'terms { name: "servo" term: "servo_error" kind: OBSERVATION }')
