@@ -27,16 +27,13 @@ from joshua_core.errors import UsageError
 from joshua_core.interfaces import EpisodeResults, PolicyFormat
 from joshua_core.limits import MAX_FPS, MIN_FPS, cli_number
 from joshua_core.run_context import RunContext
+from joshua_lerobot.demos import DEFAULT_FPS, DEFAULT_NUM_ENVS, DEFAULT_PRESET, MAX_NUM_ENVS
 from joshua_lerobot.joints import LeRobotUnits, add_units_arguments, feature_names, units_from_arguments
 from joshua_lerobot.writer import ACTION, CAMERA_PREFIX, STATE
 
 if TYPE_CHECKING:
     from joshua_lerobot.policy_process import PolicyDescription, PolicyProcess
 
-DEFAULT_PRESET = "so_arm100_pick_place_mjx_dr"  # as `joshua demos`: the task its datasets come from
-DEFAULT_FPS = 25  # as `joshua demos`
-DEFAULT_NUM_ENVS = 8
-MAX_NUM_ENVS = 4096
 POLICY_FILES = ("config.json", "model.safetensors")  # what LeRobot's save_pretrained writes for every policy
 
 
@@ -89,7 +86,8 @@ class LeRobotPolicyFormat(PolicyFormat):
         )
         add_units_arguments(parser, what="a LeRobot policy's")
         add_config_arguments(
-            parser, verb=f"evaluate a LeRobot policy in the task of (default --preset {DEFAULT_PRESET})"
+            parser,
+            verb=f"for a LeRobot policy, take the task and its randomization from (default --preset {DEFAULT_PRESET})",
         )
 
     def accepts(self, path: Path) -> bool:
