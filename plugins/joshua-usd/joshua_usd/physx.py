@@ -42,6 +42,7 @@ FIELDS = frozenset({"qpos", "qvel", "ctrl", "xpos", "xquat", "cfrc_ext"})
 PHYSX_MISSING = (
     "backend usd, physics PHYSX: needs NVIDIA's ovphysx, which is not installed; pip install 'joshua-usd[physx]'"
 )
+PHYSX_NOT_LOADING = "backend usd, physics PHYSX: ovphysx is installed but its native library does not load"
 _schemas_registered = False
 
 
@@ -52,14 +53,19 @@ def _ovphysx() -> Any:
     try:
         import ovphysx
         import ovstage
+
+        physx = ovphysx.PhysX  # ovphysx loads its native library at the first use of its API
     except ModuleNotFoundError as error:
         if error.name not in ("ovphysx", "ovstage"):
             raise
         raise ConfigError(PHYSX_MISSING) from None
+    except OSError as error:
+        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise ConfigError(f"{PHYSX_NOT_LOADING}: {reason}") from None
     from ovphysx.samples.python_samples.schema_support import physx_schema_paths
 
     if not _schemas_registered:
-        ovphysx.PhysX.set_cpu_mode(not _cuda_present())
+        physx.set_cpu_mode(not _cuda_present())
         ovstage.population.register_usd_schemas([str(path) for path in physx_schema_paths()])
         _schemas_registered = True
     return ovphysx, ovstage

@@ -15,6 +15,7 @@ from joshua_core.cli import main
 from joshua_core.interfaces import EpisodeResults
 from joshua_core.statistics import summarize
 from joshua_sb3.run_folder import KEY_ENV_VAR
+from joshua_usd.physx import PHYSX_NOT_LOADING
 from joshua_usd.sim2sim import RESULTS_FILE, table_lines
 
 JOSHUA = Path(sys.executable).parent / "joshua"
@@ -81,6 +82,36 @@ def test_bad_physics_is_one_line_exit_2(
     error = capsys.readouterr().err
     assert error.startswith(f"joshua: error: {message}") and error.count("\n") == 1, error
     assert not (tmp_path / RESULTS_FILE).exists()
+
+
+# builds the Isaac Ant's PhysX environments through the usd backend; prints the ConfigError's message
+BUILD_PHYSX_ENVS = """
+from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.errors import ConfigError
+from joshua_core.interfaces import EnvKind, EnvSpec
+from joshua_core.plugins import PluginHost
+from joshua_core.resources import resolve_data_path
+from joshua_usd.options_pb2 import UsdOptions, usd
+training = TrainingConfig()
+training.Extensions[usd].physics = UsdOptions.PHYSX
+spec = EnvSpec("isaac_ant_locomotion", 2, model_path=resolve_data_path("isaac/ant.usd"), training=training)
+plugins = PluginHost.discover()
+try:
+    plugins.backend("usd").create_envs(spec, EnvKind.NUMPY, plugins)
+except ConfigError as error:
+    print(error)
+"""
+
+
+def test_physx_whose_native_library_does_not_load_is_a_config_error(tmp_path: Path) -> None:
+    # a fresh process, so that ovphysx is imported anew, with its library pointed at a file that is not there
+    broken = dict(os.environ, OVPHYSX_LIB=str(tmp_path / "missing" / "libovphysx.so"))
+    result = subprocess.run(
+        [sys.executable, "-c", BUILD_PHYSX_ENVS], env=broken, capture_output=True, text=True, timeout=300
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith(f"{PHYSX_NOT_LOADING}: Failed to load OVPHYSX_LIB="), result.stdout
+    assert result.stdout.count("\n") == 1  # one line, which the CLI reports with exit 2
 
 
 def test_the_table_shows_success_where_the_task_has_it() -> None:
