@@ -14,7 +14,16 @@ if TYPE_CHECKING:
     from joshua_mujoco.engine import MuJoCoBackend, MuJoCoEngine
     from joshua_mujoco.models import compile_model, read_spec
     from joshua_mujoco.physics import BatchPhysics, MuJoCoBatchPhysics
-    from joshua_mujoco.scripted import JAW_CLOSED, JAW_OPEN, Phase, PickPlaceScript, pick_place_phases
+    from joshua_mujoco.scripted import (
+        JAW_CLOSED,
+        JAW_OPEN,
+        Phase,
+        PickPlaceScript,
+        ScriptPlan,
+        corrected_targets,
+        integrate_sag,
+        pick_place_phases,
+    )
     from joshua_mujoco.vector import (
         BatchedSimulation,
         BatchedVectorEnv,
@@ -40,6 +49,9 @@ __all__ = [
     "Phase",
     "PickPlaceScript",
     "pick_place_phases",
+    "ScriptPlan",
+    "corrected_targets",
+    "integrate_sag",
 ]
 _MODULES = {
     "compile_model": "models",
@@ -53,6 +65,9 @@ _MODULES = {
     "Phase": "scripted",
     "PickPlaceScript": "scripted",
     "pick_place_phases": "scripted",
+    "ScriptPlan": "scripted",
+    "corrected_targets": "scripted",
+    "integrate_sag": "scripted",
 }
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Generator
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -22,7 +23,16 @@ from numpy.typing import NDArray
 
 from joshua_core.tasks import Task
 
-__all__ = ["JAW_CLOSED", "JAW_OPEN", "Phase", "PickPlaceScript", "pick_place_phases"]
+__all__ = [
+    "JAW_CLOSED",
+    "JAW_OPEN",
+    "Phase",
+    "PickPlaceScript",
+    "ScriptPlan",
+    "corrected_targets",
+    "integrate_sag",
+    "pick_place_phases",
+]
 
 ARM = ("joint_1", "joint_2", "joint_3", "joint_4", "joint_5")
 JAW_OPEN, JAW_CLOSED = 0.8, -0.17  # rad: wide open; the pads' closed angle, so the servo squeezes the cube
@@ -61,6 +71,36 @@ def pick_place_phases(cube: NDArray[np.float64], goal: NDArray[np.float64]) -> l
     ]
 
 
+@dataclass(frozen=True)
+class ScriptPlan:
+    """A plan solved for every control step: the phase's name, the arm's joint targets the inverse kinematics gave
+    (steps, 5) and the jaw's (steps,). It depends only on where the arm, the cube and the goal start; what the
+    servos measure on the way only corrects it (`corrected_targets`, `integrate_sag`)."""
+
+    phases: tuple[str, ...]
+    arm: NDArray[np.float64]
+    jaw: NDArray[np.float64]
+
+    @property
+    def steps(self) -> int:
+        return len(self.phases)
+
+
+def corrected_targets(xp: Any, arm: Any, jaw: Any, sag: Any) -> Any:
+    """The servo targets (..., 6) of one step: the planned arm targets (..., 5) plus the sag correction, then the
+    jaw's (...). `xp`: numpy or jax.numpy, so that a batch of plans can run inside a compiled rollout."""
+    return xp.concatenate([arm + sag, jaw[..., None]], axis=-1)
+
+
+def integrate_sag(xp: Any, sag: Any, arm: Any, measured: Any) -> Any:
+    """The sag correction after a step whose planned arm targets were `arm` and after which the arm's joints are at
+    `measured` (both (..., 5)): an integral term that takes out the servos' sag under gravity, which is a few
+    centimetres at the far end of the workspace, without winding up while the arm is still moving there."""
+    error = arm - measured
+    settled = xp.abs(error) < SAG_LIMIT
+    return xp.clip(sag + SAG_GAIN * error * settled, -SAG_LIMIT, SAG_LIMIT)
+
+
 class PickPlaceScript:
     """Actions for one environment of the task on `model` (a CPU MjModel of the scene being simulated)."""
 
@@ -82,24 +122,37 @@ class PickPlaceScript:
         plan: Callable[[NDArray[np.float64], NDArray[np.float64]], list[Phase]] = pick_place_phases,
     ) -> Generator[tuple[str, NDArray[np.float64]], NDArray[np.float64], None]:
         """(phase name, action) for every control step of `plan` (pick and place by default), starting from joint
-        positions `qpos`; send the joint positions after each step. An integral term on the arm's targets takes out
-        the servos' sag under gravity, which is a few centimetres at the far end of the workspace."""
+        positions `qpos`; send the joint positions after each step (they correct the servos' sag)."""
+        solved = self.plan(qpos, cube, goal, plan)
+        sag = np.zeros(len(ARM))
+        for phase, arm, jaw in zip(solved.phases, solved.arm, solved.jaw, strict=True):
+            measured = yield phase, self._action(corrected_targets(np, arm, jaw, sag))
+            sag = integrate_sag(np, sag, arm, measured[self.qpos_addresses])
+
+    def plan(
+        self,
+        qpos: NDArray[np.float64],
+        cube: NDArray[np.float64],
+        goal: NDArray[np.float64],
+        plan: Callable[[NDArray[np.float64], NDArray[np.float64]], list[Phase]] = pick_place_phases,
+    ) -> ScriptPlan:
+        """The joint targets of every control step of `plan`, the inverse kinematics solved from joint positions
+        `qpos` on; `actions` follows them, and a batched rollout can (`ScriptPlan`)."""
         self.data.qpos[:] = qpos  # the IK starts from here and from each solution after
         mujoco.mj_kinematics(self.model, self.data)
         # the jaw closes along +x or -x, whichever the gripper is nearer to now: no half turn of the wrist
         self.across = np.array([np.copysign(1.0, self.data.site_xmat[self.site][2]), 0.0, 0.0])
-        sag = np.zeros(len(ARM))
         start = self._grasp_point()
+        names, arms, jaws = [], [], []
         for phase in plan(cube, goal):
             for step in range(phase.steps):
                 # the target moves in a straight line over the first half of the phase: no sweeping through the cube
                 share = min(1.0, (step + 1) / (phase.steps / 2))
-                arm = self._solve(start + share * (phase.site - start))
-                measured = yield phase.name, self._action(np.append(arm + sag, phase.jaw))
-                error = arm - measured[self.qpos_addresses]
-                settled = np.abs(error) < SAG_LIMIT  # no wind-up while the arm is still moving there
-                sag = np.clip(sag + SAG_GAIN * error * settled, -SAG_LIMIT, SAG_LIMIT)
+                names.append(phase.name)
+                arms.append(self._solve(start + share * (phase.site - start)))
+                jaws.append(phase.jaw)
             start = phase.site
+        return ScriptPlan(tuple(names), np.array(arms).reshape(-1, len(ARM)), np.array(jaws, dtype=np.float64))
 
     def _action(self, targets: NDArray[np.float64]) -> NDArray[np.float64]:
         """The action that brings the servo targets nearest to `targets` in one step."""
