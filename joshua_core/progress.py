@@ -27,6 +27,11 @@ def progress_bar(total: float, *, description: str, unit: str, initial: float = 
     )
 
 
+def status_line(text: str) -> None:
+    """Print `text` as a line of its own on stderr, also while a progress bar is showing (e.g. "compiling ...")."""
+    tqdm.write(text, file=sys.stderr)
+
+
 class _Bar(tqdm):
     """A tqdm bar whose total grows when the work overshoots it (a trainer's last batch can end past the
     requested steps), so the last line reads 100% with the true count."""

@@ -11,9 +11,9 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from joshua_mjx.backend import MjxBackend
-    from joshua_mjx.engine import MJX_SUFFIX, MjxEngine
+    from joshua_mjx.engine import MJX_SUFFIX, MjxEngine, mjx_variant
     from joshua_mjx.env import EnvState, MjxEnv, make_mjx_env
-    from joshua_mjx.impl import Physics
+    from joshua_mjx.impl import WARP, Physics
 
 __all__ = [
     "MJX_SUFFIX",
@@ -22,7 +22,9 @@ __all__ = [
     "EnvState",
     "MjxEnv",
     "make_mjx_env",
+    "mjx_variant",
     "Physics",
+    "WARP",
 ]
 _HOME = {
     "EnvState": "env",
@@ -30,6 +32,7 @@ _HOME = {
     "make_mjx_env": "env",
     "MjxBackend": "backend",
     "Physics": "impl",
+    "WARP": "impl",
 }  # else engine.py
 
 

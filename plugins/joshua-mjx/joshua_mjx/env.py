@@ -193,6 +193,22 @@ class MjxEnv:
         start, start_commands, start_params = self._draw_starts(draw, state.strength)
         return state._replace(start=start, start_commands=start_commands, start_params=start_params, key=keys)
 
+    def metrics(self, state: EnvState) -> dict[str, jax.Array]:
+        """The task's metrics (its METRIC terms, e.g. "success"), (N,) each by name, of the environments' current
+        state, as the CPU backend reports them in infos["metrics"]; a term that reads the previous step's positions
+        or action sees the current ones. A pure function: jit it or call it inside a compiled one."""
+        ctx = self._context(
+            state.data,
+            state.data.qpos,
+            state.action,
+            state.action,
+            state.episode_step,
+            state.commands,
+            state.params,
+            state.strength,
+        )
+        return self.task.metrics(ctx)
+
     def _begin_episodes(
         self,
         data: mjx.Data,
