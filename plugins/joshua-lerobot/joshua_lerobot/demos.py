@@ -1,7 +1,7 @@
 """`joshua demos`: demonstrations as a LeRobot dataset. A controller is rolled out over randomized episodes
-(`EpisodeProducer`; today the scripted pick-and-place on the CPU), the successful ones are kept and written, one
-at a time as they come, with camera videos, state and action in LeRobot's units (the SO-100's degrees and
-0-100 gripper by default)."""
+(`EpisodeProducer`: the scripted pick-and-place on the CPU, or on a GPU with MuJoCo Warp through joshua-mjx,
+`--physics`), the successful ones are kept and written, one at a time as they come, with camera videos, state and
+action in LeRobot's units (the SO-100's degrees and 0-100 gripper by default)."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ import numpy as np
 
 from joshua_core.cli import add_config_arguments, load
 from joshua_core.config import finalize
+from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.defaults import DEFAULT_OUTPUT_DIR
 from joshua_core.errors import JoshuaError, UsageError
 from joshua_core.interfaces import Command
@@ -37,6 +38,7 @@ DEFAULT_FPS = 25  # every second control step of the 50 Hz pick-and-place
 DEFAULT_OUT = Path(DEFAULT_OUTPUT_DIR) / "demos"
 MAX_COUNT = 10**7  # episodes or attempts: more is a typo, not a dataset
 MAX_NUM_ENVS = 4096  # CPU environments of one batch, each holding an episode's frames
+AUTO, CPU, GPU = "auto", "cpu", "gpu"  # --physics
 
 
 @dataclass(frozen=True)
@@ -80,6 +82,13 @@ class DemosCommand(Command):
             default=DEFAULT_FPS,
             help=f"dataset frames per second, a divisor of the task's control rate (default {DEFAULT_FPS})",
         )
+        parser.add_argument(
+            "--physics",
+            choices=(AUTO, CPU, GPU),
+            default=AUTO,
+            help="where the episodes are simulated and rendered: cpu (mujoco.batch, the CPU scene), gpu (MuJoCo Warp "
+            "through joshua-mjx, the MJX scene); auto (default): gpu where joshua-mjx, Warp and a GPU are there",
+        )
         parser.add_argument("--seed", type=int, help="seed of the episodes' randomization (default: the config's)")
         parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"dataset folder (default {DEFAULT_OUT})")
         parser.add_argument(
@@ -92,7 +101,7 @@ class DemosCommand(Command):
         )
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
-        from joshua_lerobot.scripted_rollouts import SCRIPTED_TASK, ScriptedMuJoCoProducer
+        from joshua_lerobot.scripted_rollouts import SCRIPTED_TASK
 
         check_frame_size(args.width, args.height)  # before any rollout, not at the first frame written
         units = units_from_arguments(args)
@@ -104,15 +113,7 @@ class DemosCommand(Command):
             raise UsageError(
                 f"the config's task is '{training.task}'; the scripted controller demonstrates '{SCRIPTED_TASK}'"
             )
-        producer = ScriptedMuJoCoProducer(
-            num_envs=args.num_envs,
-            cameras=args.camera or [""],
-            size=(args.width, args.height),
-            fps=args.fps,
-            seed=training.seed if args.seed is None else args.seed,
-            plugins=plugins,
-            task_config=training.task_config if training.HasField("task_config") else None,
-        )
+        producer = make_producer(args, training, plugins)
         try:
             report = record_demonstrations(
                 producer,
@@ -134,6 +135,53 @@ class DemosCommand(Command):
             f"{report.episodes_per_minute:.1f} episodes/minute"
         )
         return 0
+
+
+def make_producer(args: argparse.Namespace, training: TrainingConfig, plugins: PluginHost) -> EpisodeProducer:
+    """The scripted pick-and-place producer `--physics` asks for (auto: the GPU's where it runs here)."""
+    physics = args.physics
+    if physics == GPU and (missing := gpu_physics_missing()):
+        raise UsageError(f"--physics gpu needs {missing}: pip install 'joshua-mjx[warp]' (warp-lang, mujoco-warp)")
+    if physics == AUTO:
+        physics = GPU if not gpu_physics_missing() and gpu_present() else CPU
+    common = {
+        "num_envs": args.num_envs,
+        "cameras": args.camera or [""],
+        "size": (args.width, args.height),
+        "fps": args.fps,
+        "seed": training.seed if args.seed is None else args.seed,
+        "plugins": plugins,
+    }
+    if physics == GPU:
+        from joshua_lerobot.mjx_rollouts import ScriptedMjxProducer
+
+        return ScriptedMjxProducer(training=training, **common)
+    from joshua_lerobot.scripted_rollouts import ScriptedMuJoCoProducer
+
+    task_config = training.task_config if training.HasField("task_config") else None
+    return ScriptedMuJoCoProducer(task_config=task_config, **common)
+
+
+def gpu_physics_missing() -> str:
+    """What the GPU producer needs and this Python lacks: "joshua-mjx", "MuJoCo Warp", or "" (nothing)."""
+    try:
+        from joshua_mjx import Physics  # noqa: F401  (only whether it is there)
+    except ImportError:
+        return "joshua-mjx"
+    from mujoco.mjx import warp  # joshua-mjx's dependency
+
+    return "" if warp.WARP_INSTALLED else "MuJoCo Warp"
+
+
+def gpu_present() -> bool:
+    """Whether JAX runs on a GPU here. JAX starts its backends to tell, so Warp's share of the GPU's memory is left
+    to it first (`Physics.leave_memory_to_warp`)."""
+    import jax
+
+    from joshua_mjx import WARP, Physics
+
+    Physics(WARP).leave_memory_to_warp()
+    return jax.default_backend() == "gpu"
 
 
 def record_demonstrations(
