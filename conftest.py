@@ -45,6 +45,14 @@ def pytest_configure(config: pytest.Config) -> None:
 TEST_XLA_FLAGS = ("--xla_cpu_use_fusion_emitters=false", "--xla_backend_optimization_level=1")
 
 
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Run the test files that hold slow tests first, each file's tests together and in their order. xdist hands
+    the tests out in this order and queues a few on each worker ahead: slow tests last in the order left one
+    worker running them while the other idled (a clean clone's pytest took 1594 s for 2614 test-seconds)."""
+    slow_files = {item.path for item in items if item.get_closest_marker("slow")}
+    items.sort(key=lambda item: item.path not in slow_files)  # stable: the order within each group is kept
+
+
 def _compile_for_short_programs() -> None:
     """Add TEST_XLA_FLAGS to XLA_FLAGS for this process and the ones it starts (XLA reads it when JAX's backend
     starts, after this); a flag the environment sets already is kept as it is."""

@@ -14,8 +14,8 @@ import mujoco
 import numpy as np
 import pytest
 from lerobot_harness import lerobot
-from test_demos import demos
 
+from joshua_core.cli import main
 from joshua_core.config import finalize, load_preset
 from joshua_core.errors import UsageError
 from joshua_core.options import LENIENT
@@ -26,6 +26,7 @@ from joshua_lerobot.rollouts import Rollout
 from joshua_mujoco import PickPlaceScript
 
 pytest.importorskip("mujoco_warp", reason="the GPU producer needs MJX-Warp: joshua-mjx[warp]")
+pytestmark = pytest.mark.slow  # compiles and rolls out MuJoCo Warp on the CPU: about a minute on 2 busy cores
 
 PRESET = "so_arm100_pick_place_mjx_dr"
 SEED, NUM_ENVS, FPS, STRIDE = 0, 2, 25, 2  # 25 fps: every 2nd step of the 50 Hz task
@@ -118,12 +119,17 @@ def test_frames_show_the_cube_at_its_start_and_at_its_goal(
             assert np.linalg.norm(at_goal - at_start) > 2 * PIXEL_TOL  # so the two checks differ
 
 
-def test_demos_on_the_gpu_producer_load_in_lerobot(attempts: list[Rollout], tmp_path: Path) -> None:
+def test_demos_on_the_gpu_producer_load_in_lerobot(
+    attempts: list[Rollout], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # in this process, where the producer's programs are compiled already (a subprocess spent 10-40 s redoing it)
     out = tmp_path / "demos"
-    done = demos(out, "--physics", "gpu", "--episodes", "1", "--num-envs", str(NUM_ENVS), "--seed", str(SEED),
-                 "--fps", str(FPS), "--width", str(WIDTH), "--height", str(HEIGHT), "--preset", PRESET)  # fmt: skip
-    assert done.returncode == 0, done.stderr[-3000:]
-    assert "compiling the rollout" in done.stderr and "1 of 1 attempts succeeded" in done.stdout, done
+    status = main(["demos", "--out", str(out), "--physics", "gpu", "--episodes", "1", "--num-envs", str(NUM_ENVS),
+                   "--seed", str(SEED), "--fps", str(FPS), "--width", str(WIDTH), "--height", str(HEIGHT),
+                   "--preset", PRESET])  # fmt: skip
+    printed = capsys.readouterr()
+    assert status == 0, printed.err[-3000:]
+    assert "compiling the rollout" in printed.err and "1 of 1 attempts succeeded" in printed.out, printed
     kept = next(attempt for attempt in attempts if attempt.success)  # the same seed: the same first attempt
     loaded = lerobot("delta", out, tmp_path)
     assert (loaded["frames"], loaded["episodes"], loaded["fps"]) == (ROWS, 1, FPS)
