@@ -37,7 +37,7 @@ from joshua_core.plugins import PluginHost
 from joshua_core.progress import status_line
 from joshua_core.resources import resolve_data_path
 from joshua_lerobot.rollouts import EpisodeProducer, Rollout, frame_stride
-from joshua_lerobot.scripted_rollouts import SCRIPTED_TASK, actuated_joint, camera_name
+from joshua_lerobot.scripted_rollouts import SCRIPTED_TASK, actuated_joints, camera_name, script_steps
 
 CHUNK_BYTES = 256 * 2**20  # frames a compiled chunk keeps on the device before they are pulled
 MAX_BATCH_BYTES = 16 * 2**30  # frames of one batch on the host
@@ -63,8 +63,7 @@ class ScriptedMjxProducer(EpisodeProducer):
 
         from joshua_core.tasks import build_task, load_task_spec
         from joshua_mjx import WARP, MjxEnv, Physics, mjx_variant
-        from joshua_modes import model_joint_ranges
-        from joshua_mujoco import PickPlaceScript, compile_model, pick_place_phases
+        from joshua_mujoco import PickPlaceScript, compile_model
 
         physics = replace(Physics.from_training(training), impl=WARP)  # cameras render on Warp only
         physics.leave_memory_to_warp()
@@ -75,12 +74,7 @@ class ScriptedMjxProducer(EpisodeProducer):
         self.stride = frame_stride(build_task(spec, model, plugins, task_config).dt, fps)
         self.cameras = tuple(camera_name(model, name) for name in cameras)
         task = build_task(spec, model, plugins, with_cameras(task_config, self.cameras, size, self.stride))
-        self.steps = sum(phase.steps for phase in pick_place_phases(np.zeros(3), np.zeros(3)))
-        if self.steps > task.episode_length:
-            raise UsageError(
-                f"the scripted controller needs {self.steps} control steps, the task's episodes end after "
-                f"{task.episode_length}: raise training.task_config.episode_length"
-            )
+        self.steps = script_steps(task.episode_length)
         self.rows = -(-self.steps // self.stride)
         frame_bytes = size[0] * size[1] * 3 * len(self.cameras)
         if num_envs * self.rows * frame_bytes > MAX_BATCH_BYTES:
@@ -93,10 +87,7 @@ class ScriptedMjxProducer(EpisodeProducer):
         self.chunks = -(-self.rows // self.chunk_rows)
         self.device = jax.devices()[0]  # Warp steps one device's environments
         self.env = MjxEnv(task, model, num_envs, source=path, devices=[self.device], physics=physics)
-        joints = [actuated_joint(model, actuator) for actuator in range(model.nu)]
-        self.joint_names = tuple(model.joint(joint).name for joint in joints)
-        self.joint_ranges = model_joint_ranges(model)
-        self.qpos_addresses = np.array([model.jnt_qposadr[joint] for joint in joints])
+        self.joint_names, self.joint_ranges, self.qpos_addresses = actuated_joints(model)
         self.script = PickPlaceScript(model, task)  # plans on the host, one attempt after another
         self.cube = model.body("cube").id
         self.num_envs, self.size, self.seed = num_envs, size, seed

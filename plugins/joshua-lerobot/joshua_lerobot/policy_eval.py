@@ -202,15 +202,11 @@ class _Rollout:
     """One vector environment and the policy: the joint and camera mapping between them, checked once."""
 
     def __init__(self, env: Any, policy: PolicyProcess, fps: int, units: LeRobotUnits, task_text: str | None):
-        from joshua_lerobot.scripted_rollouts import actuated_joint
-        from joshua_modes import model_joint_ranges
+        from joshua_lerobot.scripted_rollouts import actuated_joints
 
         model = env.simulation.model
-        joints = [actuated_joint(model, actuator) for actuator in range(model.nu)]
-        self.joint_names = tuple(model.joint(joint).name for joint in joints)
+        self.joint_names, self.ranges, self.qpos_addresses = actuated_joints(model)
         self.names, _ = feature_names(self.joint_names)
-        self.ranges = model_joint_ranges(model)
-        self.qpos_addresses = np.array([model.jnt_qposadr[joint] for joint in joints])
         cameras = [str(model.camera(i).name) for i in range(model.ncam)]
         self.inputs = check_features(policy.description, len(self.names), cameras)
         self.env, self.policy, self.fps, self.units = env, policy, fps, units

@@ -13,6 +13,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import UsageError
@@ -38,8 +39,7 @@ class ScriptedMuJoCoProducer(EpisodeProducer):
         plugins: PluginHost,
         task_config: TaskConfig | None = None,
     ) -> None:
-        from joshua_modes import model_joint_ranges
-        from joshua_mujoco import make_vector_env, pick_place_phases
+        from joshua_mujoco import make_vector_env
 
         self.env = make_vector_env(SCRIPTED_TASK, num_envs, seed=seed, task_config=task_config, plugins=plugins)
         simulation = self.env.simulation
@@ -47,19 +47,11 @@ class ScriptedMuJoCoProducer(EpisodeProducer):
         try:
             self.stride = frame_stride(task.dt, fps)
             self.cameras = tuple(camera_name(model, name) for name in cameras)
-            steps = sum(phase.steps for phase in pick_place_phases(np.zeros(3), np.zeros(3)))
-            if steps > task.episode_length:
-                raise UsageError(
-                    f"the scripted controller needs {steps} control steps, the task's episodes end after "
-                    f"{task.episode_length}: raise training.task_config.episode_length"
-                )
+            script_steps(task.episode_length)
         except UsageError:
             self.env.close()
             raise
-        joints = [actuated_joint(model, actuator) for actuator in range(model.nu)]
-        self.joint_names = tuple(model.joint(joint).name for joint in joints)
-        self.joint_ranges = model_joint_ranges(model)
-        self.qpos_addresses = np.array([model.jnt_qposadr[joint] for joint in joints])
+        self.joint_names, self.joint_ranges, self.qpos_addresses = actuated_joints(model)
         self.num_envs, self.size, self.seed = num_envs, size, seed
         self.cube = model.body("cube").id
         self.task_text = task.spec.summary
@@ -126,3 +118,26 @@ def actuated_joint(model: Any, actuator: int) -> int:
     if int(model.actuator_trntype[actuator]) != int(mujoco.mjtTrn.mjTRN_JOINT):
         raise UsageError(f"actuator '{model.actuator(actuator).name}' drives no joint: its target is no joint value")
     return int(model.actuator_trnid[actuator, 0])
+
+
+def actuated_joints(model: Any) -> tuple[tuple[str, ...], dict[str, tuple[float, float]], NDArray[np.intp]]:
+    """The joints the model's actuators drive, in actuator order: their names, the model's joint ranges by name (the
+    LeRobot units map onto them) and their qpos addresses."""
+    from joshua_modes import model_joint_ranges
+
+    joints = [actuated_joint(model, actuator) for actuator in range(model.nu)]
+    names = tuple(model.joint(joint).name for joint in joints)
+    return names, model_joint_ranges(model), np.array([model.jnt_qposadr[joint] for joint in joints])
+
+
+def script_steps(episode_length: int) -> int:
+    """Control steps of the scripted pick-and-place; a UsageError when the task's episodes end before it does."""
+    from joshua_mujoco import pick_place_phases
+
+    steps = sum(phase.steps for phase in pick_place_phases(np.zeros(3), np.zeros(3)))
+    if steps > episode_length:
+        raise UsageError(
+            f"the scripted controller needs {steps} control steps, the task's episodes end after "
+            f"{episode_length}: raise training.task_config.episode_length"
+        )
+    return steps
