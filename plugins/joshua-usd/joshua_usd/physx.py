@@ -23,6 +23,7 @@ Anything else a term reads (sites, sensors, model fields) is refused when the en
 
 from __future__ import annotations
 
+import logging
 import tempfile
 import warnings
 from pathlib import Path
@@ -37,6 +38,17 @@ from joshua_mujoco import BatchPhysics
 
 CONTACTS_PER_LINK = 16  # room for contact points per link and read; grown when a step reports more
 ENV_SPACING = 20.0  # metres between the lanes of the clones: further than a robot walks in an episode
+# GPU PhysX's buffers (PhysxSceneAPI, ovphysx docs/population/PhysxSceneAPI.md): (per clone, schema default), the
+# larger of default and per clone x clones authored. With the defaults, 4096 and 8192 Ants on an H200 logged
+# "needs to increase totalAggregatePairsCapacity to 1025-2047 / foundLostAggregatePairsCapacity to 5845, otherwise
+# the simulation will miss interactions" (each articulation is an aggregate): 8 pairs per clone leaves room.
+GPU_CAPACITIES = {
+    "gpuTotalAggregatePairsCapacity": (8, 1024),
+    "gpuFoundLostAggregatePairsCapacity": (8, 1024),
+    "gpuFoundLostPairsCapacity": (64, 262144),
+    "gpuMaxRigidContactCount": (128, 524288),
+    "gpuMaxRigidPatchCount": (32, 81920),
+}
 # The state fields this physics gives (BatchPhysics.field).
 FIELDS = frozenset({"qpos", "qvel", "ctrl", "xpos", "xquat", "cfrc_ext"})
 PHYSX_MISSING = (
@@ -46,10 +58,25 @@ PHYSX_NOT_LOADING = "backend usd, physics PHYSX: ovphysx is installed but its na
 _schemas_registered = False
 
 
+class _Warnings(logging.Handler):
+    """The first warning logged while it is attached, on one line."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.first = ""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.first = self.first or " ".join(record.getMessage().split())
+
+
 def _ovphysx() -> Any:
     """ovphysx and ovstage, set up once per process before the first PhysX instance: CPU PhysX unless CUDA is
     present (a process-wide startup setting), the PhysX USD schemas registered (ovphysx SKILLS.md)."""
     global _schemas_registered
+    # ovphysx logs why its bundled library failed and then raises about the fallback it tried next (the
+    # system's library path): the logged reason is the one that names the missing piece
+    logged = _Warnings()
+    logging.getLogger("ovphysx").addHandler(logged)
     try:
         import ovphysx
         import ovstage
@@ -60,8 +87,10 @@ def _ovphysx() -> Any:
             raise
         raise ConfigError(PHYSX_MISSING) from None
     except OSError as error:
-        reason = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        reason = logged.first or (str(error).strip().splitlines() or [type(error).__name__])[0]
         raise ConfigError(f"{PHYSX_NOT_LOADING}: {reason}") from None
+    finally:
+        logging.getLogger("ovphysx").removeHandler(logged)
     from ovphysx.samples.python_samples.schema_support import physx_schema_paths
 
     if not _schemas_registered:
@@ -98,17 +127,25 @@ def _articulation_root(stage_path: Path) -> str:
     return roots[0]
 
 
-def _with_contact_reports(stage_path: Path, root: str, folder: Path) -> Path:
-    """A copy of the stage whose articulation links report every contact (PhysxContactReportAPI, threshold 0, as
-    the exporter authors it on contact-sensor bodies), in `folder`."""
+def _prepared_stage(stage_path: Path, root: str, folder: Path, num_envs: int, contacts: bool, gpu: bool) -> Path:
+    """The stage to open, in `folder`: a copy whose articulation links report every contact (PhysxContactReportAPI,
+    threshold 0, as the exporter authors it on contact-sensor bodies) when `contacts`, and whose PhysicsScene's GPU
+    buffers are sized for `num_envs` clones when `gpu` (`GPU_CAPACITIES`); `stage_path` itself when neither."""
+    if not (contacts or gpu):
+        return stage_path
     from pxr import Sdf, Usd, UsdPhysics
 
     from joshua_usd.exporter.context import set_physx
 
     stage = Usd.Stage.Open(str(stage_path))
-    for prim in Usd.PrimRange(stage.GetPrimAtPath(root)):
-        if prim.HasAPI(UsdPhysics.RigidBodyAPI):
-            set_physx(prim, "PhysxContactReportAPI", "threshold", Sdf.ValueTypeNames.Float, 0.0)
+    if contacts:
+        for prim in Usd.PrimRange(stage.GetPrimAtPath(root)):
+            if prim.HasAPI(UsdPhysics.RigidBodyAPI):
+                set_physx(prim, "PhysxContactReportAPI", "threshold", Sdf.ValueTypeNames.Float, 0.0)
+    if gpu:
+        for scene in (prim for prim in stage.Traverse() if prim.IsA(UsdPhysics.Scene)):
+            for name, (per_env, default) in GPU_CAPACITIES.items():
+                set_physx(scene, "PhysxSceneAPI", name, Sdf.ValueTypeNames.UInt, max(default, per_env * num_envs))
     path = folder / "stage.usda"
     stage.Export(str(path))
     return path
@@ -136,8 +173,8 @@ class PhysxBatchPhysics(BatchPhysics):
 
         root = _articulation_root(stage_path)
         self._folder = tempfile.TemporaryDirectory(prefix="joshua-physx-")
-        if "cfrc_ext" in fields:
-            stage_path = _with_contact_reports(stage_path, root, Path(self._folder.name))
+        folder, contacts = Path(self._folder.name), "cfrc_ext" in fields
+        stage_path = _prepared_stage(stage_path, root, folder, num_envs, contacts, gpu=_cuda_present())
         self._physx = physx = ovphysx.PhysX()
         self._stage = ovstage.Stage(f"joshua-physx-{id(self)}")
         ovstage.population.open_usd(self._stage, str(stage_path), ordinal=1, domains=ovstage.PopulationDomain.ALL)

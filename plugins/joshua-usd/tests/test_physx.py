@@ -4,9 +4,12 @@ cloned, independent NUMPY environments under the same task terms as on MuJoCo; c
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
+from pxr import Usd
 
 from joshua_core.config import apply_override, load_preset
 from joshua_core.config_pb2 import TrainingConfig
@@ -15,8 +18,10 @@ from joshua_core.interfaces import EnvKind, EnvSpec
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_mujoco.vector import load_task_model, task_config_from_options
+from joshua_usd import physx_schema
 from joshua_usd.backend import uses_physx
 from joshua_usd.options_pb2 import UsdOptions, usd
+from joshua_usd.physx import GPU_CAPACITIES, _articulation_root, _prepared_stage
 
 pytest.importorskip("ovphysx")
 
@@ -170,3 +175,19 @@ def test_cfrc_ext_torques_are_about_the_robots_centre_of_mass(physics: int, plug
             assert torque[0, 0] > 0.5 and torque[0, 1] < -0.5, torque
     finally:
         env.close()
+
+
+def test_the_gpu_scene_is_sized_for_its_clones_with_the_schemas_types(tmp_path: Path) -> None:
+    source = resolve_data_path("isaac/ant.usd")
+    root = _articulation_root(source)
+    assert _prepared_stage(source, root, tmp_path, 8192, contacts=False, gpu=False) == source  # nothing to author
+    stage = Usd.Stage.Open(str(_prepared_stage(source, root, tmp_path, 8192, contacts=False, gpu=True)))
+    scene = stage.GetPrimAtPath("/PhysicsScene")
+    authored = {
+        name: scene.GetAttribute(physx_schema.attribute_name("PhysxSceneAPI", name)).Get() for name in GPU_CAPACITIES
+    }
+    assert authored["gpuTotalAggregatePairsCapacity"] == 8 * 8192  # 1025-2047 needed by 8192 Ants on an H200
+    assert authored["gpuFoundLostAggregatePairsCapacity"] >= 5845  # the most an H200 run asked for
+    assert all(value >= default for value, (_, default) in zip(authored.values(), GPU_CAPACITIES.values(), strict=True))
+    if physx_schema.registered():
+        assert physx_schema.check_stage(stage) == []  # names and types as the PhysX schemas declare them
