@@ -330,19 +330,29 @@ class EmptyLeaves(NamedTuple):
         return jax.tree.unflatten(self.treedef, leaves)
 
 
+COUNTED = "counted:"  # prefix of a sum's own episode count in `_episode_sums`, where it is not all episodes'
+
+
 def _episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[str]) -> Metrics:
     """Per-environment sums of the statistics of the episodes that ended on this step."""
     episode = state.episode
     done = episode.done.astype(jnp.float32)
     sums = {"episodes": done, "return": episode.return_ * done, "length": episode.length * done}
     sums |= {f"reward/{name}": episode.reward_terms[name] * done for name in reward_terms}
-    sums |= {f"metrics/{name}": episode.metrics[name] * done for name in metric_terms}
+    for name in metric_terms:
+        # a simulation that failed (non-finite state) ends its episode with metrics that are no numbers: each
+        # metric is averaged over the episodes where it is one (else one blow-up made the mean NaN)
+        value = episode.metrics[name]
+        counted = episode.done & jnp.isfinite(value)
+        sums[f"metrics/{name}"] = jnp.where(counted, value, 0.0)
+        sums[f"{COUNTED}metrics/{name}"] = counted.astype(jnp.float32)
     return sums
 
 
 def _episode_metrics(sums: Metrics) -> Metrics:
-    """Means over the ended episodes (NaN when none ended)."""
+    """Means over the ended episodes (NaN when none ended); each metric over those where it is finite."""
     count = sums.pop("episodes")
-    means = {name: value / count for name, value in sums.items()}
+    counts = {name.removeprefix(COUNTED): sums.pop(name) for name in list(sums) if name.startswith(COUNTED)}
+    means = {name: value / counts.get(name, count) for name, value in sums.items()}
     means["mean_return"], means["mean_length"] = means.pop("return"), means.pop("length")
     return {"episodes": count, **means}

@@ -12,14 +12,16 @@ from __future__ import annotations
 
 import re
 from collections import Counter
+from types import SimpleNamespace
 
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from joshua_core.config_pb2 import TaskConfig
+from joshua_core.tasks.episodes import Episode
 from joshua_mjx.env import MjxEnv, make_mjx_env
-from joshua_ppo.iteration import _Iteration, make_iteration
+from joshua_ppo.iteration import _episode_metrics, _episode_sums, _Iteration, make_iteration
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
 from joshua_ppo.state import abstract_state, init_state
 
@@ -91,3 +93,19 @@ def test_final_values_are_the_value_network_s_where_episodes_were_truncated(env:
     expected = steps.apply(state.params, state.normalizer, *final)[2]
     got = steps.final_values(state.params, state.normalizer, stepped)
     np.testing.assert_allclose(np.where(mask, got, 0.0), np.where(mask, expected, 0.0), rtol=1e-5, atol=1e-6)
+
+
+def test_a_failed_simulations_metrics_leave_the_means_finite() -> None:
+    # three episodes end; the second's simulation failed (non-finite state), so its distance is not a number
+    episode = Episode(
+        done=jnp.array([True, True, True, False]),
+        return_=jnp.array([1.0, 0.0, 3.0, 9.0]),
+        length=jnp.array([10, 4, 10, 7]),
+        reward_terms={},
+        metrics={"distance": jnp.array([0.2, jnp.nan, 0.4, jnp.nan]), "success": jnp.array([1.0, 0.0, 0.0, 1.0])},
+    )
+    sums = _episode_sums(SimpleNamespace(episode=episode), [], ["distance", "success"])  # type: ignore[arg-type]
+    means = _episode_metrics({name: value.sum() for name, value in sums.items()})
+    assert float(means["episodes"]) == 3 and float(means["mean_return"]) == pytest.approx(4.0 / 3)
+    assert float(means["metrics/distance"]) == pytest.approx(0.3)  # over the two episodes where it is a number
+    assert float(means["metrics/success"]) == pytest.approx(1.0 / 3)  # the failed one counted as a failure
