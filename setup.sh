@@ -51,6 +51,22 @@ PYTHON=${PYTHON:-python3.11}
 command -v "$PYTHON" >/dev/null || PYTHON=python3
 [[ -x .venv/bin/python ]] || "$PYTHON" -m venv .venv
 export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
+# --no-compile: Python byte-compiles each module at its first import instead of pip compiling every file of every
+# wheel now (torch, jax, scipy ... hold thousands that JOSHUA never imports)
+pip_install=(.venv/bin/pip install -q --no-compile)
+
+LEROBOT_REQUIREMENTS=plugins/joshua-lerobot/tests/lerobot-requirements.txt
+lerobot_site=
+if [[ $option == --dev ]] && ! cmp -s $LEROBOT_REQUIREMENTS .cache/lerobot-site/requirements.txt; then
+  # the real lerobot for joshua-lerobot's tests, beside .venv, not in it: its pins (torch<2.11 ...) must not change .venv;
+  # reinstalled whole when the pins change (the site keeps a copy of the requirements it was installed from). It needs
+  # nothing from .venv but its pip, so it installs while .venv's packages do (downloads and unpacking overlap).
+  echo "setup: installing lerobot (tests only) into .cache/lerobot-site, beside .venv's packages"
+  rm -rf .cache/lerobot-site.partial
+  "${pip_install[@]}" --no-deps --target .cache/lerobot-site.partial -r $LEROBOT_REQUIREMENTS &
+  lerobot_site=$!
+  trap 'kill $lerobot_site 2>/dev/null || true' EXIT  # a setup that stops early stops it too
+fi
 
 requirements=(-e . -e plugins/joshua-render -e plugins/joshua-mujoco -e plugins/joshua-modes)
 if [[ -n $option ]]; then
@@ -58,27 +74,22 @@ if [[ -n $option ]]; then
   requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e 'plugins/joshua-mjx[warp]' -e plugins/joshua-ppo -e plugins/joshua-usd -e plugins/joshua-sysid -e plugins/joshua-export -e plugins/joshua-lerobot)
   # torch first, pinned to its CPU wheel: then stable-baselines3 finds it installed and pulls no CUDA packages
   echo "setup: installing torch (CPU) into .venv"
-  .venv/bin/pip install -q -c constraints.txt torch
+  "${pip_install[@]}" -c constraints.txt torch
 fi
 if [[ $option == --dev ]]; then
   requirements=(-e ".[dev,plots]" "${requirements[@]:2}" "gymnasium[mujoco]")
 fi
 echo "setup: installing ${requirements[*]} into .venv"
-.venv/bin/pip install -q -c constraints.txt "${requirements[@]}"
+"${pip_install[@]}" -c constraints.txt "${requirements[@]}"
 if [[ -n $option ]]; then
   # joshua-usd[physx] without dependencies: ovphysx pins packaging<24, pytest 9 and hatchling need packaging>=24, and
   # ovphysx runs with packaging 25. Its other requirements are here: ovstage (installed with it) and warp-lang
   # (joshua-mjx[warp], in ovphysx's range); physx-usd-schemas has none. So `pip check` reports that pin alone.
   echo "setup: installing joshua-usd[physx] (ovphysx, ovstage, physx-usd-schemas) into .venv"
-  .venv/bin/pip install -q -c constraints.txt --no-deps ovphysx ovstage physx-usd-schemas
+  "${pip_install[@]}" -c constraints.txt --no-deps ovphysx ovstage physx-usd-schemas
 fi
-LEROBOT_REQUIREMENTS=plugins/joshua-lerobot/tests/lerobot-requirements.txt
-if [[ $option == --dev ]] && ! cmp -s $LEROBOT_REQUIREMENTS .cache/lerobot-site/requirements.txt; then
-  # the real lerobot for joshua-lerobot's tests, beside .venv, not in it: its pins (torch<2.11 ...) must not change .venv;
-  # reinstalled whole when the pins change (the site keeps a copy of the requirements it was installed from)
-  echo "setup: installing lerobot (tests only) into .cache/lerobot-site"
-  rm -rf .cache/lerobot-site.partial
-  .venv/bin/pip install -q --no-deps --target .cache/lerobot-site.partial -r $LEROBOT_REQUIREMENTS
+if [[ -n $lerobot_site ]]; then
+  wait $lerobot_site  # its failure fails the setup (set -e)
   cp $LEROBOT_REQUIREMENTS .cache/lerobot-site.partial/requirements.txt
   rm -rf .cache/lerobot-site
   mv .cache/lerobot-site.partial .cache/lerobot-site
