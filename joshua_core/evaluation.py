@@ -40,6 +40,9 @@ class EvalCommand(Command):
     """`joshua eval RUN`: success rate and mean return of a trained policy with 95 % intervals, as text and JSON,
     and an MP4 of a grid of episodes."""
 
+    def __init__(self) -> None:
+        self.format_options: dict[str, list[argparse.Action]] = {}  # each policy format's options (refused for others)
+
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         add_checkpoint_arguments(parser)
         parser.add_argument(
@@ -60,7 +63,9 @@ class EvalCommand(Command):
 
     def add_plugin_arguments(self, parser: argparse.ArgumentParser, plugins: PluginHost) -> None:
         for name in plugins.names(Kind.POLICY_FORMAT):
+            before = len(parser._actions)
             plugins.create(Kind.POLICY_FORMAT, name, PolicyFormat).add_arguments(parser)
+            self.format_options[name] = parser._actions[before:]
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
         apply_no_cache(args)
@@ -69,6 +74,7 @@ class EvalCommand(Command):
         run_dir: Path = args.run
         policy_format = None if _trainer_run(run_dir) else _policy_format(run_dir, plugins)
         trainer_name = read_run_config(run_dir)["trainer"] if policy_format is None else ""
+        self._refuse_other_formats_options(args, policy_format and policy_format[0], run_dir)
         video_path = None if args.no_video else writable_file(args.video or run_dir / "eval.mp4", "--video")
         json_path = writable_file(args.json or run_dir / "eval.json", "--json")
         context = RunContext(plugins, run_dir)
@@ -105,6 +111,14 @@ class EvalCommand(Command):
         atomic_write_json(json_path, json_safe(document))
         print(f"results: {json_path}")
         return 0
+
+    def _refuse_other_formats_options(self, args: argparse.Namespace, used: str | None, run_dir: Path) -> None:
+        """A policy format's option given for a folder it does not evaluate would be ignored: a usage error."""
+        for name, actions in self.format_options.items():
+            given = [action for action in actions if name != used and getattr(args, action.dest) != action.default]
+            if given:
+                what = "a JOSHUA run folder" if used is None else f"a {used} policy folder"
+                raise UsageError(f"{given[0].option_strings[0]} applies to {name} policy folders; {run_dir} is {what}")
 
 
 def _trainer_run(run_dir: Path) -> bool:

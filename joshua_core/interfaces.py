@@ -265,7 +265,7 @@ class PolicyFormat(ABC):
     @abstractmethod
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         """Declare this format's own `joshua eval` options (named so that they cannot clash with another format's,
-        e.g. `--lerobot-python`); they are ignored for folders of other formats."""
+        e.g. `--lerobot-python`); given for a folder of another format or a JOSHUA run, they are a usage error."""
 
     @abstractmethod
     def accepts(self, path: Path) -> bool:

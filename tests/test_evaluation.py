@@ -11,7 +11,7 @@ import pytest
 from joshua_core import hookimpl
 from joshua_core.errors import PluginNotFoundError, UsageError
 from joshua_core.evaluation import EvalCommand
-from joshua_core.interfaces import Trainer
+from joshua_core.interfaces import PolicyFormat, Trainer
 from joshua_core.plugins import PluginHost, PluginInfo
 
 
@@ -83,3 +83,42 @@ def test_cli_prints_one_line(run_joshua, tmp_path: Path) -> None:
         result.stderr.strip()
         == f"joshua: error: '{tmp_path}' is not a run folder: it has no config.json (training runs write one)"
     )
+
+
+class NeverFormat(PolicyFormat):
+    """A policy format that accepts no folder, with one option of its own."""
+
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("--never-python", type=Path, help="the format's own option")
+
+    def accepts(self, path: Path) -> bool:
+        return False
+
+    def evaluate(self, path, args, **kwargs):  # type: ignore[no-untyped-def]
+        raise AssertionError("not called")
+
+
+class NeverFormatPlugin:
+    @hookimpl
+    def joshua_register_policy_formats(self, registry):  # type: ignore[no-untyped-def]
+        registry.add("never", f"{__name__}:NeverFormat", "test")
+
+
+def test_a_policy_formats_option_for_a_joshua_run_is_refused_not_ignored(tmp_path: Path) -> None:
+    write_config(tmp_path / "run", {"trainer": "train_only"})
+    command = EvalCommand()
+    parser = argparse.ArgumentParser()
+    command.add_arguments(parser)
+    host = PluginHost(
+        [
+            (PluginInfo("train_only", "joshua-train-only", "0.1", "test"), TrainOnlyPlugin()),
+            (PluginInfo("never", "joshua-never", "0.1", "test"), NeverFormatPlugin()),
+        ]
+    )
+    command.add_plugin_arguments(parser, host)
+    args = parser.parse_args([str(tmp_path / "run"), "--no-video", "--never-python", "/usr/bin/python3"])
+    with pytest.raises(UsageError, match="--never-python applies to never policy folders; .* is a JOSHUA run folder"):
+        command.run(args, host)
+    # without the option the run goes on to its trainer (which here cannot evaluate)
+    with pytest.raises(UsageError, match="trainer TrainOnlyTrainer cannot evaluate a run"):
+        command.run(parser.parse_args([str(tmp_path / "run"), "--no-video"]), host)
