@@ -22,6 +22,7 @@ import numpy as np
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError, JoshuaError
+from joshua_core.interrupts import StopRequest
 from joshua_ppo import options_pb2
 
 T = TypeVar("T")
@@ -88,6 +89,16 @@ class Cluster:
     def largest(self, value: int) -> int:
         """The largest of every process's `value` (e.g. the signal of a stop request that reached only one)."""
         return int(_allgather(np.array([value], np.int32)).max()) if self.several else value
+
+    def agreed_stop(self, stop: StopRequest) -> bool:
+        """Whether every process stops after this iteration: a signal to any of them stops them all, decided on
+        the value they agreed on alone (recorded in `stop` where the signal did not land). A signal that lands
+        after the collective is seen by all at the next one; answering from `stop` itself let the signalled
+        process stop an iteration before the others, which then waited on it forever."""
+        agreed = self.largest(stop.signum or 0)
+        if agreed:
+            stop.signum = stop.signum or agreed
+        return bool(agreed)
 
     def broadcast_bytes(self, data: bytes | None) -> bytes:
         """Process 0's `data` on every process (the others pass None)."""

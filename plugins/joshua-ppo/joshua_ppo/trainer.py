@@ -116,16 +116,11 @@ class PpoTrainer(Trainer):
         elif run is not None:
             atomic_write_json(run.folder / CONFIG_FILE, run.config_document())
 
-        def should_stop() -> bool:  # asked after every iteration, on every process alike
-            signum = cluster.largest(stop.signum or 0)  # a signal to any process stops them all
-            stop.signum = stop.signum or signum or None
-            return stop.requested
-
         # From here a signal only asks the run to stop: it ends after an iteration, with a checkpoint.
         with stop_requests() as stop:
             if run is not None:
                 run.open_monitors(state[1].env_steps if state else 0)
-            progress = self._run(settings, env, run, state, should_stop)
+            progress = self._run(settings, env, run, state, lambda: cluster.agreed_stop(stop))  # every iteration
         newest = str(run.run_folder.checkpoints()[-1]).encode() if run is not None else None
         checkpoint = Path(cluster.broadcast_bytes(newest).decode())  # process 0's, on every process
         if stop.requested:

@@ -28,9 +28,10 @@ from flax.serialization import msgpack_restore
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
+from joshua_core.interrupts import StopRequest
 from joshua_core.options import parse_dict
 from joshua_core.plugins import PluginHost
-from joshua_ppo.distributed import ENV_COORDINATOR, ENV_NUM_PROCESSES, ENV_PROCESS_ID, join
+from joshua_ppo.distributed import ENV_COORDINATOR, ENV_NUM_PROCESSES, ENV_PROCESS_ID, Cluster, join
 
 WORKER = Path(__file__).with_name("distributed_worker.py")
 DEADLINE = 240.0  # seconds for one group of processes; measured: 55 s for the first on a loaded 2-core machine
@@ -255,3 +256,21 @@ def test_an_error_of_process_0_stops_the_others_with_its_message(tmp_path: Path)
         f"joshua: error: {missing}",
         f"joshua: error: process 0 stopped: {missing}",
     ]
+
+
+def test_a_signal_landing_after_the_stop_vote_waits_for_the_next_one(monkeypatch: pytest.MonkeyPatch) -> None:
+    # process 1 of 2; the other process never got a signal
+    cluster, stop = Cluster(process_id=1, num_processes=2), StopRequest()
+
+    def vote_then_signal(_: Cluster, value: int) -> int:
+        stop.signum = signal.SIGTERM  # lands just after the values were exchanged: the others were told `value`
+        return value
+
+    monkeypatch.setattr(Cluster, "largest", vote_then_signal)
+    assert not cluster.agreed_stop(stop)  # so this process trains one more iteration with them
+    monkeypatch.setattr(Cluster, "largest", lambda _, value: value)
+    assert cluster.agreed_stop(stop)  # and at the next vote all stop
+    # the other side: a process the signal did not reach learns it from the vote, to report the same signal
+    quiet = StopRequest()
+    monkeypatch.setattr(Cluster, "largest", lambda _, value: max(value, signal.SIGTERM))
+    assert cluster.agreed_stop(quiet) and quiet.signum == signal.SIGTERM
