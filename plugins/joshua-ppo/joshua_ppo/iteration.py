@@ -22,6 +22,7 @@ from jax.sharding import PartitionSpec
 
 from joshua_ppo.advantages import estimate_advantages
 from joshua_ppo.batches import Sample, Transition, Unroll
+from joshua_ppo.collectives import ordered_mean
 from joshua_ppo.envs import EnvState, JaxEnv, env_axis
 from joshua_ppo.losses import ppo_loss
 from joshua_ppo.networks import gaussian_log_prob
@@ -201,9 +202,9 @@ class _Iteration:
     def gradient_step(self, carry: Carry, batch_and_key: tuple[Sample | Unroll, jax.Array]) -> tuple[Carry, Metrics]:
         params, opt_state, stats = carry
         grads, losses = jax.grad(self.loss, has_aux=True)(params, stats, *batch_and_key)
-        grads = jax.lax.pmean(grads, self.axis)
-        # the KL before this step, as every device sees it
-        kl = jax.lax.pmean(losses["approx_kl"], self.axis) if self.optimization.desired_kl > 0 else None
+        grads = ordered_mean(grads, self.axis)
+        # the KL before this step, as every device sees it (it sets the learning rate)
+        kl = ordered_mean(losses["approx_kl"], self.axis) if self.optimization.desired_kl > 0 else None
         with jax.named_scope("optimizer"):
             opt_state = scheduled_learning_rate(opt_state, kl, self.optimization, self.env_steps_per_gradient_step)
             updates, opt_state = self.optimizer.update(grads, opt_state, params)

@@ -7,6 +7,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
+from joshua_ppo.collectives import ordered_sum
 from joshua_ppo.settings import OBSERVATION_CLIP
 
 
@@ -47,9 +48,9 @@ def update_statistics(stats: RunningStatistics, observations: jax.Array, axis: s
     bound = OBSERVATION_CLIP * _std(stats)  # not 0 where every observation so far was the same
     clipped = jnp.clip(observations, stats.mean - bound, stats.mean + bound)
     observations = jnp.where(stats.count > 0, clipped, observations)
-    batch_count = jax.lax.psum(jnp.asarray(observations.shape[0], jnp.float32), axis)
-    batch_mean = jax.lax.psum(observations.sum(axis=0), axis) / batch_count
-    batch_variance = jax.lax.psum(jnp.square(observations - batch_mean).sum(axis=0), axis) / batch_count
+    batch_count = ordered_sum(jnp.asarray(observations.shape[0], jnp.float32), axis)
+    batch_mean = ordered_sum(observations.sum(axis=0), axis) / batch_count
+    batch_variance = ordered_sum(jnp.square(observations - batch_mean).sum(axis=0), axis) / batch_count
     total = stats.count + batch_count
     delta = batch_mean - stats.mean
     mean = stats.mean + delta * batch_count / total
