@@ -13,7 +13,9 @@ moves at most `scale` per step and the script's lines are followed at that speed
 
 from __future__ import annotations
 
+import multiprocessing
 from collections.abc import Callable, Generator
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,6 +30,7 @@ __all__ = [
     "JAW_OPEN",
     "Phase",
     "PickPlaceScript",
+    "PlannerPool",
     "ScriptPlan",
     "corrected_targets",
     "integrate_sag",
@@ -101,33 +104,17 @@ def integrate_sag(xp: Any, sag: Any, arm: Any, measured: Any) -> Any:
     return xp.clip(sag + SAG_GAIN * error * settled, -SAG_LIMIT, SAG_LIMIT)
 
 
-class PickPlaceScript:
-    """Actions for one environment of the task on `model` (a CPU MjModel of the scene being simulated)."""
+class ScriptPlanner:
+    """The script's joint targets for attempts on `model` (a CPU MjModel of the scene being simulated): its
+    inverse kinematics, which needs the model alone."""
 
-    def __init__(self, model: mujoco.MjModel, task: Task) -> None:
+    def __init__(self, model: mujoco.MjModel) -> None:
         self.model = model
-        self.task = task
-        self.in_force = task.reset_ctrl(np, 1)[0]  # the targets the servos have, as the environment keeps them
         self.data = mujoco.MjData(model)
         self.site = model.site("gripper").id
         joints = [model.joint(name) for name in ARM]
         self.qpos_addresses = [int(joint.qposadr[0]) for joint in joints]
         self.dofs = [int(joint.dofadr[0]) for joint in joints]
-
-    def actions(
-        self,
-        qpos: NDArray[np.float64],
-        cube: NDArray[np.float64],
-        goal: NDArray[np.float64],
-        plan: Callable[[NDArray[np.float64], NDArray[np.float64]], list[Phase]] = pick_place_phases,
-    ) -> Generator[tuple[str, NDArray[np.float64]], NDArray[np.float64], None]:
-        """(phase name, action) for every control step of `plan` (pick and place by default), starting from joint
-        positions `qpos`; send the joint positions after each step (they correct the servos' sag)."""
-        solved = self.plan(qpos, cube, goal, plan)
-        sag = np.zeros(len(ARM))
-        for phase, arm, jaw in zip(solved.phases, solved.arm, solved.jaw, strict=True):
-            measured = yield phase, self._action(corrected_targets(np, arm, jaw, sag))
-            sag = integrate_sag(np, sag, arm, measured[self.qpos_addresses])
 
     def plan(
         self,
@@ -154,12 +141,6 @@ class PickPlaceScript:
             start = phase.site
         return ScriptPlan(tuple(names), np.array(arms).reshape(-1, len(ARM)), np.array(jaws, dtype=np.float64))
 
-    def _action(self, targets: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The action that brings the servo targets nearest to `targets` in one step."""
-        action = self.task.action_for_ctrl(np, targets[None], ctrl=self.in_force[None])[0]
-        self.in_force = self.task.action_to_ctrl(np, action[None], ctrl=self.in_force[None])[0]
-        return action
-
     def _grasp_point(self) -> NDArray[np.float64]:
         """Where a held cube's centre is for `self.data`'s joints: GRASP_OFFSET along the site's z axis."""
         mujoco.mj_kinematics(self.model, self.data)
@@ -185,3 +166,69 @@ class PickPlaceScript:
             step = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + 1e-4 * np.eye(9), error)
             data.qpos[self.qpos_addresses] += step
         return data.qpos[self.qpos_addresses].copy()
+
+
+class PlannerPool:
+    """`ScriptPlanner.plan` of many attempts at once on `workers` processes, each with its own planner of `model`
+    (the inverse kinematics is Python and small numpy calls: threads would take turns on the GIL). Spawned, not
+    forked: the caller may run JAX, whose threads a fork does not carry."""
+
+    def __init__(self, model: mujoco.MjModel, workers: int) -> None:
+        self._pool = ProcessPoolExecutor(
+            workers, mp_context=multiprocessing.get_context("spawn"), initializer=_start_planner, initargs=(model,)
+        )
+        self.workers = workers
+        self.qpos_addresses = ScriptPlanner(model).qpos_addresses  # the arm joints' the plans' columns are
+
+    def plans(
+        self, qpos: NDArray[np.float64], cubes: NDArray[np.float64], goals: NDArray[np.float64]
+    ) -> list[ScriptPlan]:
+        """One plan per row of `qpos`, `cubes` and `goals` (as `ScriptPlanner.plan`), in order."""
+        chunk = max(1, len(qpos) // (4 * self.workers))  # a few chunks per worker: the attempts' costs differ
+        return list(self._pool.map(_plan_attempt, qpos, cubes, goals, chunksize=chunk))
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+_worker_planner: ScriptPlanner | None = None  # the planner of a PlannerPool's worker process
+
+
+def _start_planner(model: mujoco.MjModel) -> None:
+    global _worker_planner
+    _worker_planner = ScriptPlanner(model)
+
+
+def _plan_attempt(qpos: NDArray[np.float64], cube: NDArray[np.float64], goal: NDArray[np.float64]) -> ScriptPlan:
+    assert _worker_planner is not None, "called outside a PlannerPool's worker"
+    return _worker_planner.plan(qpos, cube, goal)
+
+
+class PickPlaceScript(ScriptPlanner):
+    """Actions for one environment of the task on `model` (a CPU MjModel of the scene being simulated)."""
+
+    def __init__(self, model: mujoco.MjModel, task: Task) -> None:
+        super().__init__(model)
+        self.task = task
+        self.in_force = task.reset_ctrl(np, 1)[0]  # the targets the servos have, as the environment keeps them
+
+    def actions(
+        self,
+        qpos: NDArray[np.float64],
+        cube: NDArray[np.float64],
+        goal: NDArray[np.float64],
+        plan: Callable[[NDArray[np.float64], NDArray[np.float64]], list[Phase]] = pick_place_phases,
+    ) -> Generator[tuple[str, NDArray[np.float64]], NDArray[np.float64], None]:
+        """(phase name, action) for every control step of `plan` (pick and place by default), starting from joint
+        positions `qpos`; send the joint positions after each step (they correct the servos' sag)."""
+        solved = self.plan(qpos, cube, goal, plan)
+        sag = np.zeros(len(ARM))
+        for phase, arm, jaw in zip(solved.phases, solved.arm, solved.jaw, strict=True):
+            measured = yield phase, self._action(corrected_targets(np, arm, jaw, sag))
+            sag = integrate_sag(np, sag, arm, measured[self.qpos_addresses])
+
+    def _action(self, targets: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The action that brings the servo targets nearest to `targets` in one step."""
+        action = self.task.action_for_ctrl(np, targets[None], ctrl=self.in_force[None])[0]
+        self.in_force = self.task.action_to_ctrl(np, action[None], ctrl=self.in_force[None])[0]
+        return action
