@@ -178,7 +178,7 @@ class PlannerPool:
             workers, mp_context=multiprocessing.get_context("spawn"), initializer=_start_planner, initargs=(model,)
         )
         self.workers = workers
-        self.qpos_addresses = ScriptPlanner(model).qpos_addresses  # the arm joints' the plans' columns are
+        self.qpos_addresses = ScriptPlanner(model).qpos_addresses  # the arm joints', in the plans' column order
 
     def plans(
         self, qpos: NDArray[np.float64], cubes: NDArray[np.float64], goals: NDArray[np.float64]
@@ -195,11 +195,13 @@ _worker_planner: ScriptPlanner | None = None  # the planner of a PlannerPool's w
 
 
 def _start_planner(model: mujoco.MjModel) -> None:
+    """A PlannerPool worker's start: its own planner of `model`."""
     global _worker_planner
     _worker_planner = ScriptPlanner(model)
 
 
 def _plan_attempt(qpos: NDArray[np.float64], cube: NDArray[np.float64], goal: NDArray[np.float64]) -> ScriptPlan:
+    """One attempt's plan, in a PlannerPool worker."""
     assert _worker_planner is not None, "called outside a PlannerPool's worker"
     return _worker_planner.plan(qpos, cube, goal)
 
