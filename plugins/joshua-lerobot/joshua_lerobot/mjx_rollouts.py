@@ -97,7 +97,7 @@ class ScriptedMjxProducer(EpisodeProducer):
         self.task_text = task.spec.summary
         self._chunk = jax.jit(self._rollout_chunk)
         self._success = jax.jit(lambda state, running: running & (self.env.metrics(state)["success"] > 0))
-        self._planner = ThreadPoolExecutor(max_workers=1, thread_name_prefix="demos-plans")  # one batch ahead
+        self._plans_ahead = ThreadPoolExecutor(max_workers=1, thread_name_prefix="demos-plans")  # one batch ahead
 
     def rollouts(self) -> Iterator[Rollout]:
         import jax
@@ -105,7 +105,7 @@ class ScriptedMjxProducer(EpisodeProducer):
         key = jax.random.PRNGKey(self.seed)
         key, draw = jax.random.split(key)
         state = self.env.reset(draw)
-        plans = self._planner.submit(self._plan, state)
+        plans = self._plans_ahead.submit(self._plan, state)
         status_line(
             f"demos: compiling the rollout of {self.num_envs} MuJoCo Warp environments on {self.device} "
             "(the first batch waits for it)"
@@ -114,13 +114,13 @@ class ScriptedMjxProducer(EpisodeProducer):
             arm, jaw, live = plans.result()
             key, draw = jax.random.split(key)
             upcoming = self.env.reset(draw)  # queued before this batch's chunks: the planner reads it meanwhile
-            plans = self._planner.submit(self._plan, upcoming)
+            plans = self._plans_ahead.submit(self._plan, upcoming)
             yield from self._batch(state, arm, jaw, live)
             state = upcoming
 
     def close(self) -> None:
         self.planner.close()  # first: the batch being planned stops at its running chunks
-        self._planner.shutdown(wait=True, cancel_futures=True)
+        self._plans_ahead.shutdown(wait=True, cancel_futures=True)
 
     def _plan(self, state: Any) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.bool_]]:
         """The script's arm and jaw targets for every environment of the freshly reset `state`, laid out as the

@@ -23,6 +23,7 @@ Anything else a term reads (sites, sensors, model fields) is refused when the en
 
 from __future__ import annotations
 
+import functools
 import logging
 import tempfile
 import warnings
@@ -437,8 +438,10 @@ class PhysxBatchPhysics(BatchPhysics):
         self._folder.cleanup()
 
 
+@functools.cache
 def _cuda_present() -> bool:
-    """Whether a CUDA device is visible (GPU PhysX); CPU PhysX otherwise."""
+    """Whether a CUDA device is visible (GPU PhysX); CPU PhysX otherwise. Asked once per process: PhysX's mode is
+    a process-wide setting (`_ovphysx`), and every scene's GPU buffers follow the same answer."""
     import warp
 
     warp.config.quiet = True
