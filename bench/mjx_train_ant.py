@@ -5,7 +5,7 @@ training throughput scales over devices.
     python bench/mjx_train_ant.py --preset ant_train_mjx --max-seconds 300
     python bench/mjx_train_ant.py --scaling             # throughput on 1, 2, 4... devices: the same batch split
     python bench/mjx_train_ant.py --scaling --weak      # ... each device with the 1-device batch
-    python bench/mjx_train_ant.py --scaling --impl warp # MJX-Warp: one process per GPU (below)
+    python bench/mjx_train_ant.py --scaling --impl warp # the same on MuJoCo Warp
     python bench/mjx_train_ant.py --set training.ppo.reward_scaling=1   # a variant of the preset
     python bench/mjx_train_ant.py --max-seconds 180 --snapshot-interval 10   # denser snapshots
     XLA_FLAGS=--xla_force_host_platform_device_count=4 python bench/mjx_train_ant.py --scaling --smoke   # CPU
@@ -37,16 +37,14 @@ steps/s, speed-up over the first row, efficiency: speed-up / devices), so a run 
 still shows what it measured. Goals on one host (tuned Ant): weak >= 1.9x on 2 GPUs and >= 3.7x on 4,
 strong >= 1.7x on 2 and >= 3.0x on 4.
 
-MJX-JAX spreads the environments over a process's devices and averages the gradients across them: its rows
-are one process with that many devices. MJX-Warp steps one device's environments per process, and its Data
-cannot be spread over a mesh of several devices (it shares its contact arrays among the environments, which a
-split along the environments' axis cannot divide: `joshua_mjx.impl.Physics.check_devices`), neither within a
-process nor over processes joined by jax.distributed. So `--independent` (implied by `--impl warp`) measures N
-devices as N processes started together, one device each (CUDA_VISIBLE_DEVICES; on a CPU host one virtual
-device each), every one training its own copy on its own share of the batch, without the gradient average:
-the row is the sum of their rates, an upper bound on data-parallel training over those devices, and says how
-much their steady iterations overlapped in time (below 80 % the sum overstates it). The MJX-JAX rows of
-`--independent` against those without it show what the gradient average and the one program over several
+Both physics implementations spread the environments over a process's devices and average the gradients across
+them: a row is one process with that many devices (MuJoCo Warp's Data shares its contact arrays among the
+environments it steps together, so each device steps its own share: `joshua_mjx.env.MjxEnv._on_each_device`).
+`--independent` measures N devices as N processes started together instead, one device each
+(CUDA_VISIBLE_DEVICES; on a CPU host one virtual device each), every one training its own copy on its own share
+of the batch, without the gradient average: the row is the sum of their rates, an upper bound on data-parallel
+training over those devices, and says how much their steady iterations overlapped in time (below 80 % the sum
+overstates it). Rows with and without it show what the gradient average and the one program over several
 devices cost.
 """
 
@@ -299,7 +297,7 @@ def main() -> None:
     parser.add_argument(
         "--independent",
         action="store_true",
-        help="with --scaling: N devices as N processes, one device each, training on their own (--impl warp: always)",
+        help="with --scaling: N devices as N processes, one device each, training on their own",
     )
     parser.add_argument(
         "--no-physics", dest="physics", action="store_false", help="leave out the raw physics rates (their compiles)"
@@ -323,7 +321,7 @@ def main() -> None:
     assignments = (SMOKE if args.smoke else []) + args.set + impl_assignment(args.impl)
     config = load_config(args.preset, assignments, args.num_envs, plugins.options())
     args.impl = Physics.from_training(config).impl  # the summary names it
-    args.independent = args.scaling and (args.independent or args.impl == "warp")
+    args.independent = args.scaling and args.independent
     if args.worker:
         worker(args, config, plugins)
     elif args.independent:

@@ -168,8 +168,7 @@ def check(args: argparse.Namespace) -> int:
     from joshua_core.plugins import PluginHost
     from joshua_ppo.config_settings import PpoSettings
 
-    # MJX-JAX: MuJoCo Warp (the tuned Ant preset's physics) runs one device per process, not a process's four
-    base = (SMOKE if args.smoke else []) + ["training.mjx.impl=JAX"] + args.set
+    base = (SMOKE if args.smoke else []) + args.set  # the preset's physics; --set training.mjx.impl=... the other
     config = load_config(args.preset, base, None, PluginHost.discover().options())
     rollout = PpoSettings.from_config(config).rollout
     per_iteration = config.num_envs * rollout.num_steps * rollout.unrolls_per_iteration

@@ -104,8 +104,7 @@ def device_times(trace_dir: Path, module: str) -> dict[str, Counter[str]]:
 def profile(args: argparse.Namespace) -> dict:
     """Compile, warm up, trace; per device, the time per group and per instruction."""
     options = PluginHost.discover().options()
-    spread = ["training.mjx.impl=JAX"] if args.devices > 1 else []  # MuJoCo Warp runs on one device per process
-    config = load_config(args.preset, (SMOKE if args.smoke else []) + spread + args.set, args.num_envs, options)
+    config = load_config(args.preset, (SMOKE if args.smoke else []) + args.set, args.num_envs, options)
     env, settings, state, compiled = compiled_iteration(config, args.devices)
     groups = instruction_groups(compiled.as_text())
     for _ in range(args.warmup):

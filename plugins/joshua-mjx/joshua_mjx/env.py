@@ -25,6 +25,7 @@ with numpy, so rewards and observations match the `mujoco` backend's.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -136,12 +137,18 @@ class MjxEnv:
         self.model = model
         self.source = Path(source)
         self.num_envs = num_envs
+        if task.cameras and physics.impl == WARP and len(devices) > 1:
+            raise ConfigError(
+                f"task '{task.name}' renders cameras: their renderer runs on one device, not {len(devices)}; "
+                "set CUDA_VISIBLE_DEVICES to one GPU"
+            )
         # the model and the initial state are constants of the compiled functions: on a device of this process
-        local = next((device for device in devices if device.process_index == jax.process_index()), None)
-        local = local or jax.local_devices()[0]
+        locals_ = [device for device in devices if device.process_index == jax.process_index()]
+        locals_ = locals_ or jax.local_devices()[:1]
+        local = locals_[0]
         self._contact_forces = "cfrc_ext" in task.fields
         # Warp computes cfrc_ext within its step when asked to; MJX-JAX by rne_postconstraint (_external_forces)
-        self.mjx_model = physics.put_model(model, source, local, run_rne_postconstraint=self._contact_forces)
+        self.mjx_model = physics.put_model(model, source, locals_, run_rne_postconstraint=self._contact_forces)
         self.mesh = Mesh(np.array(devices), (ENV_AXIS,))
         self.sharding = NamedSharding(self.mesh, PartitionSpec(ENV_AXIS))
         self.replicated = NamedSharding(self.mesh, PartitionSpec())
@@ -153,7 +160,7 @@ class MjxEnv:
         initial = mujoco.MjData(model)
         if task.keyframe_id >= 0:
             mujoco.mj_resetDataKeyframe(model, initial, task.keyframe_id)
-        self._initial_data = physics.put_data(model, initial, local, num_envs)
+        self._initial_data = physics.put_data(model, initial, local, num_envs // len(devices))
         self.randomization = ModelRandomization(task, model, self.mjx_model, local)
         self._overflow = OverflowCheck(physics, model)
         self.cameras = Cameras(task.name, task.cameras, model, num_envs, physics) if task.cameras else None
@@ -347,8 +354,24 @@ class MjxEnv:
         "physics" in profiles (bench/ppo_profile.py)."""
         with jax.named_scope("physics"):
             if not fields:
-                return jax.vmap(function, (None, 0))(self.mjx_model, data)
-            return jax.vmap(lambda f, d: function(self.randomization.model(f), d))(fields, data)
+                return self._on_each_device(lambda d: jax.vmap(function, (None, 0))(self.mjx_model, d))(data)
+            return self._on_each_device(jax.vmap(lambda f, d: function(self.randomization.model(f), d)))(fields, data)
+
+    def _on_each_device(self, function: Callable[..., Any]) -> Callable[..., Any]:
+        """`function` of a batch of environments, run by each device on its own slice where MuJoCo Warp steps
+        several devices' environments and the caller is not one device's slice already (inside `jax.shard_map`,
+        as the PPO iteration is). Warp's Data shares one contact array and its counters among the environments
+        it steps together, which the compiler cannot split along the environments' axis: each device holds its
+        own (`_initial_batch`), and its own calls read and write them. Otherwise `function` itself."""
+        if self.physics.impl != WARP or self.mesh.size == 1 or ENV_AXIS in jax.sharding.get_abstract_mesh().manual_axes:
+            return function
+        split = PartitionSpec(ENV_AXIS)
+        return jax.shard_map(function, mesh=self.mesh, in_specs=split, out_specs=split, check_vma=False)
+
+    def _initial_batch(self, n: int) -> mjx.Data:
+        """`n` environments' initial Data; where MuJoCo Warp steps several devices' environments, each device makes
+        its own share, with its own contact arrays and counters (see `_on_each_device`)."""
+        return self._on_each_device(lambda rows: batch_data(self._initial_data, rows.shape[0]))(jnp.zeros(n))
 
     def _advance(self, fields: dict[str, jax.Array], data: mjx.Data) -> mjx.Data:
         """`data` after frame_skip physics steps. Only MuJoCo's integration state goes from one to the next: what
@@ -404,7 +427,7 @@ class MjxEnv:
         ctx = task.reset(task.reset_context(jnp, n, PerEnvRandom(keys)))
         ctx = ctx.replace(strength=strength if self.curriculum else None)
         params = self.randomization.with_derived(episode_params(task, ctx))
-        data = batch_data(self._initial_data, n)
+        data = self._initial_batch(n)
         dtype = data.qpos.dtype
         data = data.replace(
             qpos=ctx.qpos.astype(dtype),

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import jax
 import jax.numpy as jnp
 import mujoco
+import numpy as np
 
 from joshua_core.compile_cache import building_into
 from joshua_core.errors import ConfigError, ModelError
@@ -36,7 +37,6 @@ JAX, WARP = "jax", "warp"
 # Of MuJoCo Warp's overflow bits (mujoco_warp OverflowType), those that mean a capacity was too small, with the
 # option that raises it; the others (the solver's iteration limits) are how a model with few iterations runs.
 _CAPACITY_BITS = {1 << 0: "njmax", 1 << 2: "nconmax", 1 << 3: "nconmax", 1 << 4: "nconmax"}
-_CAPACITY_MASK = sum(_CAPACITY_BITS)
 # Rollouts between two clears of MuJoCo Warp's captured CUDA graphs (`CapturedGraphs`)
 GRAPH_CLEAR_INTERVAL = 20
 _JAX_MEMORY_VARIABLES = (
@@ -71,16 +71,12 @@ class Physics:
         return cls(MjxOptions.Impl.Name(options.impl).lower(), options.nconmax, options.njmax)
 
     def check_devices(self, devices: list[jax.Device]) -> None:
-        """Warp steps one device's environments per call: refuse several devices, or one Warp cannot run on."""
+        """Refuse a device Warp cannot run on (Warp runs on CUDA GPUs and the CPU)."""
         if self.impl != WARP:
             return
-        if len(devices) > 1:
-            raise ConfigError(
-                f"training.mjx.impl WARP runs on one device, not {len(devices)}: set CUDA_VISIBLE_DEVICES to one "
-                "GPU, or use impl JAX to spread the environments over several"
-            )
-        if devices[0].platform not in ("cpu", "gpu", "cuda"):
-            raise ConfigError(f"training.mjx.impl WARP runs on a CUDA GPU or the CPU, not {devices[0]}")
+        for device in devices:
+            if device.platform not in ("cpu", "gpu", "cuda"):
+                raise ConfigError(f"training.mjx.impl WARP runs on a CUDA GPU or the CPU, not {device}")
 
     def leave_memory_to_warp(self) -> None:
         """MuJoCo Warp allocates its work arrays outside JAX's memory pool, and JAX takes 75 % of a GPU up front by
@@ -102,9 +98,13 @@ class Physics:
                 file=sys.stderr,
             )
 
-    def put_model(self, model: mujoco.MjModel, source: str | Path, device: jax.Device, **warp_options: Any) -> Any:
-        """`mjx.put_model` of this implementation on `device`; a feature it does not support is one ModelError
+    def put_model(
+        self, model: mujoco.MjModel, source: str | Path, devices: list[jax.Device], **warp_options: Any
+    ) -> Any:
+        """`mjx.put_model` of this implementation on the first of `devices` (this process's devices the
+        environments run on; Warp's kernels are loaded on each); a feature it does not support is one ModelError
         naming it. `warp_options`: MuJoCo Warp options to set (e.g. run_rne_postconstraint)."""
+        device = devices[0]
         if self.impl == JAX:
             return put_jax_model(model, source, device)
         _require_warp()
@@ -114,14 +114,16 @@ class Physics:
             raise ModelError(
                 f"{source}: MuJoCo Warp does not support {_feature(error)}; use training.mjx.impl JAX"
             ) from None
-        _load_warp_kernels(device)
+        for each in devices:
+            _load_warp_kernels(each)
         # warn_overflow 0: no message from every kernel of every step; `OverflowCheck` reports capacities once
         settings = {"warn_overflow": 0, **warp_options}
         return mjx_model.replace(opt=mjx_model.opt.replace(_impl=mjx_model.opt._impl.replace(**settings)))
 
     def put_data(self, model: mujoco.MjModel, data: mujoco.MjData, device: jax.Device, num_envs: int) -> Any:
-        """`data` on `device` for this implementation, one environment's of `num_envs` (Warp: with the contact
-        capacity of all of them, which share one contact array, and the constraint rows of each)."""
+        """`data` on `device` for this implementation, one environment's of the `num_envs` one device steps (Warp:
+        with the contact capacity of all of them, which share one contact array, and the constraint rows of each;
+        a batch of several devices' environments is made on each device, `MjxEnv._initial_batch`)."""
         if self.impl == JAX:
             return mjx.put_data(model, data, device=device, impl=JAX)
         nconmax, njmax = self.capacities(model)
@@ -187,14 +189,17 @@ class OverflowCheck:
         self.capacities = physics.capacities(model) if self.enabled else (0, 0)
         self._pending: jax.Array | None = None
         self._reported = False
-        self._reduce = jax.jit(lambda bits: jnp.bitwise_or.reduce(bits & _CAPACITY_MASK, axis=None))
+        # each capacity bit's maximum over the environments, a sum over devices that every backend's collectives
+        # have (the CPU's have no bitwise or)
+        bits = jnp.asarray(sorted(_CAPACITY_BITS), jnp.int32)
+        self._reduce = jax.jit(lambda overflow: jnp.max(overflow.reshape(-1, 1) & bits, axis=0))
 
     def watch(self, data: Any) -> None:
         """Report what the previous call queued, then queue `data`'s overflow bits (a batch of Warp Data)."""
         if not self.enabled or self._reported:
             return
         if self._pending is not None:
-            self.report(int(self._pending))
+            self.report(int(np.bitwise_or.reduce(np.asarray(self._pending))))
         self._pending = self._reduce(data._impl.overflow)
 
     def report(self, bits: int) -> None:

@@ -3,10 +3,10 @@ devices, and the `mjx` engine tracks the CPU engine."""
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import textwrap
+from collections.abc import Callable
 from pathlib import Path
 
 import jax
@@ -197,7 +197,9 @@ def test_physics_steps_pass_on_only_the_integration_state(noisy_ant_env) -> None
 
 
 @pytest.mark.slow
-def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> None:
+def test_environments_shard_over_two_devices_with_the_same_results_as_one(
+    on_two_cpu_devices: Callable[[str], subprocess.CompletedProcess[str]],
+) -> None:
     script = textwrap.dedent(
         """
         import re, jax, jax.numpy as jnp, numpy as np
@@ -240,10 +242,7 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one() -> N
             print("error:", error)
         """
     )
-    flags = f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2"  # and the suite's flags
-    env = {**os.environ, "XLA_FLAGS": flags, "JAX_PLATFORMS": "cpu"}
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=600)
-    assert done.returncode == 0, done.stderr[-3000:]
+    done = on_two_cpu_devices(script)
     lines = done.stdout.splitlines()
     assert "devices 1" in lines and "devices 2" in lines, done.stdout
     difference = float(next(line for line in lines if line.startswith("max difference")).split()[-1])

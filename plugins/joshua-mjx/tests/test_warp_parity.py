@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import textwrap
 from collections.abc import Callable
 
 import jax
@@ -144,6 +145,53 @@ def test_warp_steps_a_randomized_model_like_jax() -> None:
     plain_qpos, _, _, _ = _rollout(jax_env, nominal)
     # the randomization moved the arm by more than the tolerance (5.8e-3 against 2e-3 when measured): it can fail
     assert np.abs(plain_qpos - jax_qpos).max() > 2 * JAX_WARP_TOL
+
+
+@pytest.mark.slow
+def test_warp_spreads_environments_over_two_devices_like_one(
+    on_two_cpu_devices: Callable[[str], subprocess.CompletedProcess[str]],
+) -> None:
+    """Each device steps its own share with its own contact arrays and counters (MjxEnv._on_each_device): the
+    same states as on one device, PPO trains, and an overflow on either device is reported once."""
+    script = textwrap.dedent(
+        """
+        import jax, jax.numpy as jnp, numpy as np
+        from joshua_mjx import Physics, make_mjx_env
+        from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
+        from joshua_ppo.train import train_ppo
+        assert len(jax.devices()) == 2
+        def run(devices, physics, steps):
+            env = make_mjx_env("ant_locomotion", 4, model_path="ant/ant_mjx.xml", devices=devices, physics=physics)
+            state = env.reset(jax.random.PRNGKey(3))
+            for _ in range(steps):  # Ant lands on its feet after about 8 steps
+                state = env.redraw_starts(jax.device_put(env.step(state, jnp.full((4, 8), 0.3)), env.sharding))
+            # nothing left running at exit: an unfinished Warp call on the CPU can hang the interpreter's exit
+            return env, jax.block_until_ready(state)
+        qpos = []
+        for devices in (jax.devices()[:1], jax.devices()):
+            env, state = run(devices, Physics("warp"), 3)
+            qpos.append(np.asarray(state.data.qpos))
+            print("contact counters", state.data._impl.nacon.shape, flush=True)
+        print("max difference", float(np.abs(qpos[0] - qpos[1]).max()), flush=True)
+        reports = []
+        train_ppo(env, rollout=RolloutSettings(5, 1), returns=ReturnSettings(),
+                  optimization=OptimizationSettings(num_epochs=1, minibatch_size=10),
+                  network=NetworkSettings(hidden_sizes=(16,)), total_timesteps=40,
+                  on_progress=lambda report, state: reports.append(report))
+        print("losses finite", all(np.isfinite(r.metrics["loss"]) for r in reports), len(reports), flush=True)
+        _, state = run(jax.devices(), Physics("warp", nconmax=1), 12)  # 1 contact per environment: too few
+        print("most contacts", int(np.asarray(state.data._impl.nacon).max()), flush=True)
+        """
+    )
+    done = on_two_cpu_devices(script)
+    lines = done.stdout.splitlines()
+    assert "contact counters (1,)" in lines and "contact counters (2,)" in lines, done.stdout
+    difference = float(next(line for line in lines if line.startswith("max difference")).split()[-1])
+    assert difference < 1e-5, done.stdout
+    assert "losses finite True 2" in lines, done.stdout
+    assert "most contacts 2" in lines, done.stdout  # each device's 2 environments filled their shared capacity
+    warnings = [line for line in done.stderr.splitlines() if "MuJoCo Warp dropped contacts" in line]
+    assert len(warnings) == 1 and "raise training.mjx.nconmax (now 1)" in warnings[0], done.stderr[-3000:]
 
 
 MEMORY_PROBE = """
