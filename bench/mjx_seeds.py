@@ -6,8 +6,9 @@
 Each seed trains in its own process on its own GPU (CUDA_VISIBLE_DEVICES), as many at once as `nvidia-smi -L`
 lists GPUs (none: one at a time on the default device), with `--set training.seed=N --out OUT/seed_N` added to
 the arguments after `--`; its output goes to OUT/seed_N.log. Afterwards one line per seed (the time to the
-target, the best and the last deterministic value) and how many seeds reached the target: a learning result
-should hold on every seed, not on the best of several. Seeds on one host share its CPUs, which compile.
+target, the best and the last deterministic value), how many seeds reached the target, and every seed's curve in
+OUT/curves.png: a learning result should hold on every seed, not on the best of several. Seeds on one host share
+its CPUs, which compile. `--report` summarises an OUT that earlier runs (another machine's, say) filled.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from time_to_target_report import METRICS
+from time_to_target_report import METRICS, plot_curves
 
 BENCH = Path(__file__).with_name("mjx_time_to_target.py")
 
@@ -58,14 +59,16 @@ def run_seeds(seeds: list[int], out: Path, arguments: list[str]) -> dict[int, in
 
 
 def summary(seeds: list[int], out: Path, status: dict[int, int]) -> list[str]:
-    """One line per seed from its time_to_target.json, then how many reached the target."""
-    lines, reached = [], 0
+    """One line per seed from its time_to_target.json, then how many reached the target; every seed's curve in
+    out/curves.png."""
+    lines, reached, curves = [], 0, {}
     for seed in seeds:
         result_file = out / f"seed_{seed}" / "time_to_target.json"
         if status[seed] != 0 or not result_file.is_file():
             lines.append(f"seed {seed}: failed (exit {status[seed]}; see {out / f'seed_{seed}.log'})")
             continue
         result = json.loads(result_file.read_text())
+        curves[f"seed {seed}"] = result["snapshots"]
         value_key = METRICS[result["metric"]][1]
         values = [(entry[value_key], entry["wall"]) for entry in result["snapshots"]]
         best, last = max(values), values[-1]
@@ -76,6 +79,10 @@ def summary(seeds: list[int], out: Path, status: dict[int, int]) -> list[str]:
             f"seed {seed}: {first}; best {best[0]:.4g} at {best[1]:.0f} s, last {last[0]:.4g} at {last[1]:.0f} s"
         )
     lines.append(f"{reached} of {len(seeds)} seeds reached the target")
+    if curves:
+        title = f"{result['preset']}: {len(curves)} seeds, {result['num_envs']} envs"
+        (out / "curves.png").write_bytes(plot_curves(curves, result["metric"], result["target"], title))
+        lines.append(f"wrote {out / 'curves.png'}")
     return lines
 
 
@@ -83,10 +90,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, nargs="+", required=True)
     parser.add_argument("--out", type=Path, required=True, help="folder for each seed's results and log")
+    parser.add_argument("--report", action="store_true", help="summarise OUT's results without running anything")
     parser.add_argument("arguments", nargs=argparse.REMAINDER, help="-- then bench/mjx_time_to_target.py's arguments")
     args = parser.parse_args()
     arguments = args.arguments[1:] if args.arguments[:1] == ["--"] else args.arguments
-    status = run_seeds(args.seeds, args.out, arguments)
+    status = dict.fromkeys(args.seeds, 0) if args.report else run_seeds(args.seeds, args.out, arguments)
     print("\n".join(summary(args.seeds, args.out, status)))
 
 

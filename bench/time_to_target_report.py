@@ -16,17 +16,26 @@ METRICS = {
 
 def plot_curve(snapshots: list[dict[str, Any]], metric: str, target: float, title: str) -> bytes:
     """PNG of the snapshots' deterministic value of `metric` and its 95 % interval against training wall time."""
+    return plot_curves({f"deterministic {metric}": snapshots}, metric, target, title)
+
+
+def plot_curves(runs: dict[str, list[dict[str, Any]]], metric: str, target: float, title: str) -> bytes:
+    """PNG of several runs' snapshots (label: snapshots), each as `plot_curve` draws one: every seed of a
+    preset in one picture, so that none is left out of the comparison."""
     import matplotlib
 
     matplotlib.use("Agg")
     from matplotlib import pyplot
 
     _, value_key, interval_key = METRICS[metric]
-    wall = [entry["wall"] for entry in snapshots]
     figure, axis = pyplot.subplots(figsize=(7, 3.5), layout="constrained")
-    axis.plot(wall, [entry[value_key] for entry in snapshots], marker=".", label=f"deterministic {metric}")
-    bands = [entry[interval_key] or [np.nan, np.nan] for entry in snapshots]
-    axis.fill_between(wall, [b[0] for b in bands], [b[1] for b in bands], alpha=0.25, label="95 % interval")
+    for label, snapshots in runs.items():
+        wall = [entry["wall"] for entry in snapshots]
+        (line,) = axis.plot(wall, [entry[value_key] for entry in snapshots], marker=".", label=label)
+        bands = [entry[interval_key] or [np.nan, np.nan] for entry in snapshots]
+        alpha = 0.25 if len(runs) == 1 else 0.12
+        axis.fill_between(wall, [b[0] for b in bands], [b[1] for b in bands], alpha=alpha, color=line.get_color())
+    axis.fill_between([], [], [], alpha=0.25, color="grey", label="95 % interval")
     axis.axhline(target, color="grey", linestyle="--", label=f"target {target:g}")
     axis.set_xlabel("training wall time, compile included (s)")
     axis.set_ylabel(metric)
