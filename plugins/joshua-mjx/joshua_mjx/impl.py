@@ -201,8 +201,8 @@ class OverflowCheck:
         self.capacities = physics.capacities(model) if self.enabled else (0, 0)
         self._pending: jax.Array | None = None
         self._reported = False
-        # each capacity bit's maximum over the environments, a sum over devices that every backend's collectives
-        # have (the CPU's have no bitwise or)
+        # each capacity bit's maximum over the environments: across devices a max-reduce, which every backend's
+        # collectives have (the CPU's have no bitwise or)
         bits = jnp.asarray(sorted(_CAPACITY_BITS), jnp.int32)
         self._reduce = jax.jit(lambda overflow: jnp.max(overflow.reshape(-1, 1) & bits, axis=0))
 
