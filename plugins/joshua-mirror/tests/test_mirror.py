@@ -197,7 +197,8 @@ def test_a_flood_the_mirror_cannot_read_is_reported_as_lost(tmp_path: Path, ros_
     the loss, is waited for in the status line ("rejected 5"), so every message that was not lost was read.
     The mirror reads best effort, so a message sent before its reader has matched the publisher is dropped
     unseen (the publisher sees only its own side match): the first message is sent again when the mirror's
-    next STATUS_LINES status lines still show no reading."""
+    next STATUS_LINES status lines still show no reading. The numbering starts at whichever of those copies the
+    mirror saw first, and a copy it read late (a loaded machine) counts too: the count is exact within them."""
     topic = "/encoder/joint_1"
     burst = [0.1 + index * 1e-5 for index in range(5000)]
     tail = [5.0] * 5  # outside joint_1's range: rejected, which the status line counts
@@ -209,12 +210,14 @@ def test_a_flood_the_mirror_cannot_read_is_reported_as_lost(tmp_path: Path, ros_
         env=ros_env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
     )  # fmt: skip
     assert publisher.stdin is not None and publisher.stdout is not None
+    firsts = 1  # copies of the first message sent
     try:
         assert publisher.stdout.readline() == "first sent\n"
         while not joint_1_read(mirror):
             publisher.stdin.write("again\n")
             publisher.stdin.flush()
             assert publisher.stdout.readline() == "first sent\n"
+            firsts += 1
         mirror.send_signal(signal.SIGSTOP)
         try:
             publisher.stdin.write("\n")
@@ -235,7 +238,8 @@ def test_a_flood_the_mirror_cannot_read_is_reported_as_lost(tmp_path: Path, ros_
     report = json.loads((tmp_path / "joshua_output" / "mirror_report.json").read_text())
     lost = report["lost_messages"][topic]
     received = report["joints"]["joint_1"]["received"]
-    assert lost > 0 and received + lost == 1 + len(burst) + len(tail), (received, lost)
+    counted = received + lost  # every message from the first one the mirror saw
+    assert lost > 0 and 1 <= counted - len(burst) - len(tail) <= firsts, (received, lost, firsts)
     assert f"{topic} " in warning and status.rstrip().endswith(f"| lost {lost}")
     assert f"{lost} messages lost" in summary
     assert not any(count for name, count in report["lost_messages"].items() if name != topic)
