@@ -29,9 +29,11 @@ def plot_curves(runs: dict[str, list[dict[str, Any]]], metric: str, target: floa
 
     _, value_key, interval_key = METRICS[metric]
     figure, axis = pyplot.subplots(figsize=(7, 3.5), layout="constrained")
-    for label, snapshots in runs.items():
+    colours = pyplot.get_cmap("tab10" if len(runs) <= 10 else "tab20").colors  # a colour per run, up to 20
+    for index, (label, snapshots) in enumerate(runs.items()):
         wall = [entry["wall"] for entry in snapshots]
-        (line,) = axis.plot(wall, [entry[value_key] for entry in snapshots], marker=".", label=label)
+        values = [entry[value_key] for entry in snapshots]
+        (line,) = axis.plot(wall, values, marker=".", label=label, color=colours[index % len(colours)])
         bands = [entry[interval_key] or [np.nan, np.nan] for entry in snapshots]
         alpha = 0.25 if len(runs) == 1 else 0.12
         axis.fill_between(wall, [b[0] for b in bands], [b[1] for b in bands], alpha=alpha, color=line.get_color())
