@@ -38,10 +38,12 @@ TRAININGS = {
     ),
     "ppo": (
         "so_arm100_train_mjx",
-        # 8 environments x 10 steps per iteration, a tiny network; episodes end within every iteration
+        # 8 environments x 10 steps per iteration, a tiny network; episodes end within every iteration; MuJoCo Warp's
+        # physics, whose iteration compiles in seconds (MJX-JAX's took about 2 minutes on 2 busy cores)
         [
             f"training.{name}={value}"
             for name, value in {
+                "mjx.impl": "WARP",
                 "num_envs": 8,
                 "num_steps": 10,
                 "num_epochs": 1,
@@ -53,7 +55,7 @@ TRAININGS = {
                 "ppo.video_interval": -1,
             }.items()
         ],  # fmt: skip
-        300.0,  # the first iteration compiles before the page shows anything (about 2 minutes on 2 busy cores)
+        300.0,  # the first iteration compiles before the page shows anything (Warp's kernels too, in a cold cache)
     ),
 }
 
@@ -101,7 +103,7 @@ def training(
         yield url, process, page_s
 
 
-@pytest.mark.slow  # trains with a browser watching: 40-90 s (SB3) and about 2 minutes (PPO) on 2 cores
+@pytest.mark.slow  # trains with a browser watching: 40-90 s on 2 cores
 def test_page_shows_the_training_arms_and_the_return_curve(
     training: tuple[str, subprocess.Popen[str], float], browser: Any
 ) -> None:

@@ -1,6 +1,8 @@
 """Domain randomization on both backends: the same sampled parameters give the same trajectories on the CPU
-(mujoco.batch, per-simulation model fields + mj_setConst) and on MJX (a batched mjx.Model, on jax's CPU),
-and MJX recomputes the inverse weights that mj_setConst derives from masses and armature."""
+(mujoco.batch, per-simulation model fields + mj_setConst) and on MJX (a batched mjx.Model, on jax's CPU), with
+MJX-JAX's and MuJoCo Warp's physics alike, and MJX recomputes the inverse weights that mj_setConst derives from
+masses and armature. Tests of what does not depend on the physics (observation noise, the curriculum) step
+MuJoCo Warp, whose steps compile in seconds where MJX-JAX's take tens of seconds on 2 cores."""
 
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ import pytest
 from google.protobuf import text_format
 
 from joshua_core.config_pb2 import TaskConfig
-from joshua_mjx import EnvState, MjxEnv, make_mjx_env
+from joshua_mjx import EnvState, MjxEnv, Physics, make_mjx_env
 from joshua_mujoco import make_vector_env
 
 TASK, MODEL, ENVS, STEPS = "so_arm100_pick_place", "so_arm100/pick_place_mjx.xml", 3, 10
@@ -36,6 +38,8 @@ events { name: "armature" term: "randomize_joint_armature" mode: RESET params { 
 # the backends part more (1.8e-2 by step 20 even without randomization: contacts, solver), so the check
 # stops at 10 steps.
 PARITY_TOLERANCE = 1e-2
+# rad, MJX-JAX against MuJoCo Warp with the same drawn parameters, both float32 (tests/test_warp_parity.py's)
+JAX_WARP_TOLERANCE = 2e-3
 
 
 def _config() -> TaskConfig:
@@ -79,6 +83,7 @@ def _mjx_run(env: MjxEnv, params: dict[str, np.ndarray]) -> np.ndarray:
 
 @pytest.mark.slow
 def test_same_parameters_give_the_same_trajectories_on_both_backends() -> None:
+    pytest.importorskip("mujoco_warp", reason="MJX-Warp needs joshua-mjx[warp] (warp-lang, mujoco-warp)")
     params, cpu, _ = _cpu_run()
     env = make_mjx_env(TASK, ENVS, model_path=MODEL, task_config=_config())
     arm = slice(0, 6)
@@ -86,6 +91,9 @@ def test_same_parameters_give_the_same_trajectories_on_both_backends() -> None:
     error = np.abs(randomized[..., arm] - cpu[..., arm]).max()
     print(f"max joint difference CPU vs MJX, same parameters: {error:.2e} rad")
     assert error < PARITY_TOLERANCE
+    # MuJoCo Warp's model takes the same per-environment values (with their derived inverse weights) as MJX-JAX's
+    warp = _mjx_run(make_mjx_env(TASK, ENVS, model_path=MODEL, task_config=_config(), physics=Physics("warp")), params)
+    np.testing.assert_allclose(warp, randomized, atol=JAX_WARP_TOLERANCE)
     # MJX with the model's own values: the parameters do move the arm, far more than the tolerance
     defaults = {name: np.broadcast_to(env.task.defaults[name], value.shape) for name, value in params.items()}
     nominal = _mjx_run(env, defaults)
@@ -110,10 +118,11 @@ events { name: "noise" term: "observation_noise" mode: INTERVAL interval_steps: 
 
 @pytest.mark.slow
 def test_the_value_observation_is_the_observation_without_its_noise() -> None:
-    # the noise is a task-independent event: reach, whose programs compile in a fraction of pick-and-place's time;
-    # 2 environments, as test_warp_parity's, whose plain reach programs the run's compilation cache then shares
-    plain = make_mjx_env("so_arm100_reach", 2)
-    noisy = make_mjx_env("so_arm100_reach", 2, task_config=text_format.Parse(NOISE, TaskConfig()))
+    # the noise is a task- and physics-independent event: reach on MuJoCo Warp, whose steps compile in seconds
+    pytest.importorskip("mujoco_warp", reason="MJX-Warp needs joshua-mjx[warp] (warp-lang, mujoco-warp)")
+    noise = text_format.Parse(NOISE, TaskConfig())
+    plain = make_mjx_env("so_arm100_reach", 2, physics=Physics("warp"))
+    noisy = make_mjx_env("so_arm100_reach", 2, task_config=noise, physics=Physics("warp"))
     states = [env.reset(jax.random.PRNGKey(3)) for env in (plain, noisy)]
     assert states[0].value_observation is None and states[0].final_value_observation is None  # nothing to hide
     for action in _actions(2):
@@ -129,12 +138,17 @@ def test_the_value_observation_is_the_observation_without_its_noise() -> None:
         assert 0.3 < noise.std() < 0.7
 
 
-@pytest.mark.slow  # compiles an MJX step: 40 s on 2 cores
+@pytest.mark.slow
 def test_training_environments_ease_the_events_in_as_their_episodes_succeed() -> None:
     """The randomization curriculum inside the compiled step: strength 0 draws nothing, each successful episode
     (here every one: the metric is `alive`) raises the environment's strength, evaluation draws at full strength."""
+    from joshua_core.config_pb2 import TrainingConfig
     from joshua_core.interfaces import EnvKind, EnvSpec
     from joshua_core.plugins import PluginHost
+    from joshua_mjx.options_pb2 import MjxOptions
+    from joshua_mjx.options_pb2 import mjx as mjx_options
+
+    pytest.importorskip("mujoco_warp", reason="MJX-Warp needs joshua-mjx[warp] (warp-lang, mujoco-warp)")
 
     config = text_format.Parse(
         """episode_length: 2
@@ -147,9 +161,11 @@ def test_training_environments_ease_the_events_in_as_their_episodes_succeed() ->
     )
     plugins = PluginHost.discover()
     mjx_backend = plugins.backend("mjx")
+    training = TrainingConfig()
+    training.Extensions[mjx_options].impl = MjxOptions.WARP  # the curriculum does not depend on the physics
 
     def envs(curriculum: bool) -> MjxEnv:
-        spec = EnvSpec("so_arm100_reach", 2, task_config=config, curriculum=curriculum)
+        spec = EnvSpec("so_arm100_reach", 2, task_config=config, curriculum=curriculum, training=training)
         return mjx_backend.create_envs(spec, EnvKind.JAX, plugins)
 
     env = envs(curriculum=True)

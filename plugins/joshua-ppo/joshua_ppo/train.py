@@ -8,6 +8,7 @@ loop only redraws the episodes' starts, checks the losses stay finite and report
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable
@@ -106,35 +107,38 @@ def train_ppo(
     # device need not wait while the host reports; the last interval reads short (see bench/RESULTS.md)
     pending = _queue(env, compiled, state) if iterations else None
     last_read = time.perf_counter()
-    for number in range(iterations):
-        state, metrics = pending  # the previous state is let go before the next iteration's outputs are made
-        if number + 1 < iterations:  # the next iteration takes this state's buffers: the callbacks get a copy
-            state, pending = _copy(state), _queue(env, compiled, state)  # the copy is queued first
-        values = {name: float(value) for name, value in jax.device_get(metrics).items()}
-        _check_finite(values, progress)
-        read = time.perf_counter()
-        elapsed, last_read = read - last_read, read
-        progress = Progress(progress.iteration + 1, progress.env_steps + steps_per_iteration)
-        report = IterationReport(
-            iteration=progress.iteration,
-            env_steps=progress.env_steps,
-            total_steps=total_steps,
-            iteration_seconds=elapsed,
-            steps_per_second=steps_per_iteration / elapsed,
-            wall_seconds=time.perf_counter() - started,
-            compile_seconds=compile_seconds,
-            metrics=values,
-        )
-        if on_progress is not None:
-            on_progress(report, state)
-        due = next_checkpoint is not None and progress.env_steps >= next_checkpoint
-        stopping = should_stop is not None and should_stop()
-        if on_checkpoint is not None and (due or stopping or progress.env_steps >= total_steps):
-            on_checkpoint(state, progress, report)
-            while next_checkpoint is not None and next_checkpoint <= progress.env_steps:
-                next_checkpoint += checkpoint_interval
-        if stopping:
-            break
+    try:
+        for number in range(iterations):
+            state, metrics = pending  # the previous state is let go before the next iteration's outputs are made
+            if number + 1 < iterations:  # the next iteration takes this state's buffers: the callbacks get a copy
+                state, pending = _copy(state), _queue(env, compiled, state)  # the copy is queued first
+            values = {name: float(value) for name, value in jax.device_get(metrics).items()}
+            _check_finite(values, progress)
+            read = time.perf_counter()
+            elapsed, last_read = read - last_read, read
+            progress = Progress(progress.iteration + 1, progress.env_steps + steps_per_iteration)
+            report = IterationReport(
+                iteration=progress.iteration,
+                env_steps=progress.env_steps,
+                total_steps=total_steps,
+                iteration_seconds=elapsed,
+                steps_per_second=steps_per_iteration / elapsed,
+                wall_seconds=time.perf_counter() - started,
+                compile_seconds=compile_seconds,
+                metrics=values,
+            )
+            if on_progress is not None:
+                on_progress(report, state)
+            due = next_checkpoint is not None and progress.env_steps >= next_checkpoint
+            stopping = should_stop is not None and should_stop()
+            if on_checkpoint is not None and (due or stopping or progress.env_steps >= total_steps):
+                on_checkpoint(state, progress, report)
+                while next_checkpoint is not None and next_checkpoint <= progress.env_steps:
+                    next_checkpoint += checkpoint_interval
+            if stopping:
+                break
+    finally:
+        _finish(pending)
     return state, progress
 
 
@@ -146,6 +150,16 @@ def _queue(env: JaxEnv, compiled: Callable, state: TrainingState) -> tuple[Train
     """Queue an iteration from `state` (whose buffers it takes) on the device; every iteration's episodes start
     from fresh draws of the task's reset terms."""
     return compiled(state._replace(env_state=env.redraw_starts(state.env_state)))
+
+
+def _finish(queued: tuple[TrainingState, dict[str, jax.Array]] | None) -> None:
+    """Wait for an iteration still queued when training ends early (a stop, an error), discarding its results and
+    any error it meets: no computation outlives training. A MuJoCo Warp step runs Python callbacks on XLA's threads;
+    one still queued when the interpreter finalized could never take the interpreter lock, and the process hung at
+    exit (a Ctrl-C while the web page watched a Warp training on the CPU)."""
+    if queued is not None:
+        with contextlib.suppress(Exception):
+            jax.block_until_ready(queued)
 
 
 def _check_finite(values: dict[str, float], progress: Progress) -> None:

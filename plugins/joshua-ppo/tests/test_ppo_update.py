@@ -10,7 +10,7 @@ import pytest
 
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import ConfigError
-from joshua_mjx.env import MjxEnv, make_mjx_env
+from joshua_mjx import MjxEnv, Physics, make_mjx_env
 from joshua_ppo.advantages import estimate_advantages
 from joshua_ppo.batches import Transition
 from joshua_ppo.iteration import make_iteration
@@ -33,8 +33,11 @@ LOSSES = ("policy_loss", "value_loss", "approx_kl")
 
 @pytest.fixture(scope="module")
 def env() -> MjxEnv:
-    # 3-step episodes: unrolls of 5 steps cross truncations, so the final-observation bootstrap counts too
-    return make_mjx_env("ant_locomotion", 4, model_path="ant/ant_mjx.xml", task_config=TaskConfig(episode_length=3))
+    # 3-step episodes: unrolls of 5 steps cross truncations, so the final-observation bootstrap counts too; on
+    # MuJoCo Warp, whose steps compile in seconds (each test compiles an iteration; MJX-JAX's took 25-50 s each)
+    pytest.importorskip("mujoco_warp", reason="MJX-Warp needs joshua-mjx[warp] (warp-lang, mujoco-warp)")
+    config = TaskConfig(episode_length=3)
+    return make_mjx_env("ant_locomotion", 4, model_path="ant/ant_mjx.xml", task_config=config, physics=Physics("warp"))
 
 
 def update_losses(env: MjxEnv, recompute: bool, num_epochs: int) -> np.ndarray:

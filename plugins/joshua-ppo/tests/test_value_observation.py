@@ -9,7 +9,7 @@ import pytest
 from google.protobuf import text_format
 
 from joshua_core.config_pb2 import TaskConfig
-from joshua_mjx import MjxEnv, make_mjx_env
+from joshua_mjx import MjxEnv, Physics, make_mjx_env
 from joshua_ppo.iteration import _Iteration, make_iteration
 from joshua_ppo.normalizer import fresh_statistics
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
@@ -25,8 +25,10 @@ SEPARATE = NetworkSettings(hidden_sizes=(16,), value_hidden_sizes=(16,))
 
 @pytest.fixture(scope="module")
 def env() -> MjxEnv:
+    # on MuJoCo Warp, whose steps compile in seconds (each test compiles iterations; MJX-JAX's took 14-40 s each)
+    pytest.importorskip("mujoco_warp", reason="MJX-Warp needs joshua-mjx[warp] (warp-lang, mujoco-warp)")
     config = text_format.Parse(NOISE, TaskConfig(episode_length=50))
-    return make_mjx_env("ant_locomotion", 8, model_path="ant/ant_mjx.xml", task_config=config)
+    return make_mjx_env("ant_locomotion", 8, model_path="ant/ant_mjx.xml", task_config=config, physics=Physics("warp"))
 
 
 def test_the_separate_value_network_sees_the_observation_without_noise(env: MjxEnv) -> None:
