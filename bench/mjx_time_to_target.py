@@ -55,6 +55,7 @@ from joshua_ppo.envs import environment as ppo_environment
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.rollout import collect, episode_results, make_rollout
 from joshua_ppo.state import Progress, TrainingState, abstract_state
+from joshua_ppo.teacher import Teacher, load_teacher
 from joshua_ppo.train import IterationReport, train_ppo
 
 # --smoke: a tiny run that exercises every stage on a CPU in a minute or two (the figures mean nothing).
@@ -200,6 +201,7 @@ def train(
     evaluator: SnapshotEvaluator | None = None,
     resume: Resumed | None = None,
     keep: Keep | None = None,
+    teacher: Teacher | None = None,
 ) -> tuple[dict, list[tuple[dict, Snapshot]]]:
     """Train until the training value of `metric` reaches `target` (the stopping value), the time limit, the
     iteration limit or (with an evaluator) the first snapshot whose deterministic value reaches its target.
@@ -208,7 +210,8 @@ def train(
     end, each with its step and wall seconds (evaluations left out), for `evaluate_snapshots` where no
     evaluator has evaluated them. `resume` continues an earlier run (its wall time counted, its compile added);
     `keep` gets the training state, its counters and the wall and compile seconds at every snapshot (after its
-    evaluation), so that a run stopped from outside (a time limit) can be resumed from its last snapshot."""
+    evaluation), so that a run stopped from outside (a time limit) can be resumed from its last snapshot; `teacher`:
+    the policy the config's training.ppo.teacher names, loaded."""
     training_key = METRICS[metric][0]
     started = time.perf_counter()
     earlier = resume.outcome if resume else {"wall_seconds": 0.0, "compile_seconds": 0.0}
@@ -278,6 +281,7 @@ def train(
             seed=settings.seed,
             resume=resume and (resume.state, resume.progress),
             on_progress=on_progress,
+            teacher=teacher,
         )
     except TargetReached:
         pass
@@ -369,6 +373,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
     evaluator = SnapshotEvaluator(settings, environment(config, plugins, eval_envs, devices), value_key, args.target)
     resume = resume_from(args.resume, env, settings) if args.resume else None
+    teacher = settings.teacher and load_teacher(settings.teacher, env, config.task, plugins.options(), settings.network)
     outcome, snapshots = train(
         settings,
         env,
@@ -380,6 +385,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         evaluator,
         resume,
         keep=keeper(args.out, evaluator, resume),
+        teacher=teacher,
     )
     raw = raw_physics_rate(env)
     outcome |= {

@@ -30,6 +30,7 @@ from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings
 from joshua_ppo.state import Progress, TrainingState, abstract_state
 
+RUN_FORMAT = "joshua-ppo-run/1"  # the "format" of a run's and its checkpoints' config.json
 PARAMS_FILE = "params.msgpack"
 TRAIN_STATE_FILE = "train_state.msgpack"
 RESUME_FILES = (PARAMS_FILE, TRAIN_STATE_FILE)  # what resuming reads from a checkpoint

@@ -18,6 +18,7 @@ from joshua_ppo.settings import (
     PixelSettings,
     ReturnSettings,
     RolloutSettings,
+    TeacherSettings,
 )
 
 DEFAULT_TOTAL_TIMESTEPS = 50_000_000
@@ -35,6 +36,7 @@ class PpoSettings:
     total_timesteps: int
     checkpoint_interval: int
     seed: int
+    teacher: TeacherSettings | None = None  # loaded with the environments: joshua_ppo.teacher.load_teacher
 
     @property
     def groups(self) -> dict[str, Any]:
@@ -97,7 +99,17 @@ class PpoSettings:
             total_timesteps=total,
             checkpoint_interval=checkpoint_interval(options.checkpoint_interval, total),
             seed=int(config.seed),
+            teacher=_teacher_settings(options.teacher) if options.HasField("teacher") else None,
         )
+
+
+def _teacher_settings(options: options_pb2.Teacher) -> TeacherSettings:
+    """The teacher's settings, checked: a run named, a weight that is not negative (0: the default)."""
+    if not options.run:
+        raise ConfigError("training.ppo.teacher.run must name the teacher's run folder or checkpoint folder")
+    if options.weight < 0:
+        raise ConfigError(f"training.ppo.teacher.weight must not be negative, got {options.weight}")
+    return TeacherSettings(options.run, **_given(weight=options.weight))
 
 
 def _pixel_settings(options: options_pb2.PixelOptions) -> PixelSettings:

@@ -24,7 +24,7 @@ from joshua_ppo.advantages import estimate_advantages
 from joshua_ppo.batches import Sample, Transition, Unroll
 from joshua_ppo.collectives import ordered_mean
 from joshua_ppo.envs import EnvState, JaxEnv, env_axis
-from joshua_ppo.losses import ppo_loss
+from joshua_ppo.losses import imitation_loss, ppo_loss
 from joshua_ppo.networks import gaussian_log_prob
 from joshua_ppo.normalizer import RunningStatistics, normalize, update_statistics
 from joshua_ppo.optimizer import make_optimizer, scheduled_learning_rate
@@ -38,6 +38,7 @@ from joshua_ppo.settings import (
     check_settings,
 )
 from joshua_ppo.state import TrainingState, state_shardings
+from joshua_ppo.teacher import Teacher
 
 # XLA runs the kernels of a loop body as one CUDA graph (a command buffer), by default one after another; here
 # only their data dependencies order them, since a gradient step's policy and value passes are two chains of small
@@ -57,6 +58,7 @@ class _Iteration:
         optimization: OptimizationSettings,
         returns: ReturnSettings,
         network: NetworkSettings,
+        teacher: Teacher | None = None,
     ) -> None:
         check_advantage(returns)
         self.env, self.rollout, self.optimization, self.returns, self.network = (
@@ -66,6 +68,7 @@ class _Iteration:
             returns,
             network,
         )
+        self.teacher = teacher
         self.axis = env_axis(env)
         self.devices = env.mesh.size
         self.recompute = returns.recompute_advantages
@@ -186,7 +189,7 @@ class _Iteration:
             advantage, target = self.current_advantages(params, stats, batch, value)
         else:
             advantage, target = batch.advantage, batch.target
-        return ppo_loss(
+        loss, metrics = ppo_loss(
             mean,
             log_std,
             value,
@@ -198,6 +201,12 @@ class _Iteration:
             optimization=self.optimization,
             squash_actions=self.network.squash_actions,
         )
+        if self.teacher is None:
+            return loss, metrics
+        # the teacher sees the flat observation the policy's rollout saw (noise included, as in its own training)
+        imitation = imitation_loss(mean, log_std, *self.teacher.distribution(batch.observation))
+        loss = loss + self.teacher.weight * imitation
+        return loss, metrics | {"loss": loss, "teacher_kl": imitation}
 
     def gradient_step(self, carry: Carry, batch_and_key: tuple[Sample | Unroll, jax.Array]) -> tuple[Carry, Metrics]:
         params, opt_state, stats = carry
@@ -272,9 +281,11 @@ def make_iteration(
     optimization: OptimizationSettings,
     returns: ReturnSettings,
     network: NetworkSettings,
+    teacher: Teacher | None = None,
 ) -> Callable[[TrainingState], tuple[TrainingState, Metrics]]:
-    """The compiled training iteration: state -> (next state, metrics as scalars)."""
-    steps = _Iteration(env, rollout, optimization, returns, network)
+    """The compiled training iteration: state -> (next state, metrics as scalars); with a `teacher`, the loss adds
+    its imitation term (its parameters are constants of the program)."""
+    steps = _Iteration(env, rollout, optimization, returns, network, teacher)
     replicated, split = PartitionSpec(), PartitionSpec(steps.axis)
     sharded = jax.shard_map(
         steps.local,

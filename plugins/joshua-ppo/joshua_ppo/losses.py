@@ -1,4 +1,5 @@
-"""The PPO loss (clipped surrogate, value regression, entropy bonus) and the policy's entropy, as plain functions.
+"""The PPO loss (clipped surrogate, value regression, entropy bonus), a teacher's imitation term and the policy's
+entropy, as plain functions.
 
 They take the network's outputs on a minibatch and what was saved when it was collected; applying the
 network and estimating the advantages is the compiled iteration's job (`joshua_ppo.iteration`).
@@ -54,3 +55,17 @@ def ppo_loss(
         "approx_kl": ((ratio - 1.0) - log_ratio).mean(),
         "clip_fraction": (jnp.abs(ratio - 1.0) > optimization.clip_epsilon).mean(),
     }
+
+
+def imitation_loss(
+    mean: jax.Array, log_std: jax.Array, teacher_mean: jax.Array, teacher_log_std: jax.Array
+) -> jax.Array:
+    """KL(teacher || policy) of the two diagonal Gaussians, summed over action dimensions, averaged over the
+    minibatch: the policy's mean is pulled to the teacher's, and its std to the teacher's where the teacher is sure."""
+    kl = (
+        log_std
+        - teacher_log_std
+        + 0.5 * (jnp.exp(2.0 * (teacher_log_std - log_std)) + jnp.square((teacher_mean - mean) * jnp.exp(-log_std)))
+        - 0.5
+    )
+    return kl.sum(axis=-1).mean()

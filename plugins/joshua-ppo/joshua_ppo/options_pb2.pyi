@@ -11,7 +11,7 @@ PPO_FIELD_NUMBER: _ClassVar[int]
 ppo: _descriptor.FieldDescriptor
 
 class PpoOptions(_message.Message):
-    __slots__ = ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "value_hidden_sizes", "squash_actions", "activation", "state_dependent_std", "recompute_advantages", "advantage", "entropy_coef", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "desired_kl", "anneal_learning_rate", "disable_observation_normalization", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs", "distributed", "pixels")
+    __slots__ = ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "value_hidden_sizes", "squash_actions", "activation", "state_dependent_std", "recompute_advantages", "advantage", "entropy_coef", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "desired_kl", "anneal_learning_rate", "disable_observation_normalization", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs", "distributed", "pixels", "teacher")
     class Advantage(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         GAE: _ClassVar[PpoOptions.Advantage]
@@ -50,6 +50,7 @@ class PpoOptions(_message.Message):
     VIEWER_ENVS_FIELD_NUMBER: _ClassVar[int]
     DISTRIBUTED_FIELD_NUMBER: _ClassVar[int]
     PIXELS_FIELD_NUMBER: _ClassVar[int]
+    TEACHER_FIELD_NUMBER: _ClassVar[int]
     run_name: str
     resume: bool
     checkpoint_interval: int
@@ -74,7 +75,8 @@ class PpoOptions(_message.Message):
     viewer_envs: int
     distributed: Distributed
     pixels: PixelOptions
-    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., value_hidden_sizes: _Optional[_Iterable[int]] = ..., squash_actions: _Optional[bool] = ..., activation: _Optional[str] = ..., state_dependent_std: _Optional[bool] = ..., recompute_advantages: _Optional[bool] = ..., advantage: _Optional[_Union[PpoOptions.Advantage, str]] = ..., entropy_coef: _Optional[float] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., desired_kl: _Optional[float] = ..., anneal_learning_rate: _Optional[bool] = ..., disable_observation_normalization: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ..., distributed: _Optional[_Union[Distributed, _Mapping]] = ..., pixels: _Optional[_Union[PixelOptions, _Mapping]] = ...) -> None: ...
+    teacher: Teacher
+    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., value_hidden_sizes: _Optional[_Iterable[int]] = ..., squash_actions: _Optional[bool] = ..., activation: _Optional[str] = ..., state_dependent_std: _Optional[bool] = ..., recompute_advantages: _Optional[bool] = ..., advantage: _Optional[_Union[PpoOptions.Advantage, str]] = ..., entropy_coef: _Optional[float] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., desired_kl: _Optional[float] = ..., anneal_learning_rate: _Optional[bool] = ..., disable_observation_normalization: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ..., distributed: _Optional[_Union[Distributed, _Mapping]] = ..., pixels: _Optional[_Union[PixelOptions, _Mapping]] = ..., teacher: _Optional[_Union[Teacher, _Mapping]] = ...) -> None: ...
 
 class PixelOptions(_message.Message):
     __slots__ = ("cameras", "observation_terms", "commands", "channels", "kernel_sizes", "strides", "feature_size")
@@ -93,6 +95,14 @@ class PixelOptions(_message.Message):
     strides: _containers.RepeatedScalarFieldContainer[int]
     feature_size: int
     def __init__(self, cameras: _Optional[_Iterable[str]] = ..., observation_terms: _Optional[_Iterable[str]] = ..., commands: _Optional[_Iterable[str]] = ..., channels: _Optional[_Iterable[int]] = ..., kernel_sizes: _Optional[_Iterable[int]] = ..., strides: _Optional[_Iterable[int]] = ..., feature_size: _Optional[int] = ...) -> None: ...
+
+class Teacher(_message.Message):
+    __slots__ = ("run", "weight")
+    RUN_FIELD_NUMBER: _ClassVar[int]
+    WEIGHT_FIELD_NUMBER: _ClassVar[int]
+    run: str
+    weight: float
+    def __init__(self, run: _Optional[str] = ..., weight: _Optional[float] = ...) -> None: ...
 
 class Distributed(_message.Message):
     __slots__ = ("coordinator", "num_processes", "process_id")

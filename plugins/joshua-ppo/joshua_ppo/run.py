@@ -23,7 +23,7 @@ from joshua_core.progress import progress_bar
 from joshua_core.run_context import RunContext
 from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
 from joshua_ppo import options_pb2
-from joshua_ppo.checkpoints import checkpoint_payloads, read_json, write_checkpoint
+from joshua_ppo.checkpoints import RUN_FORMAT, checkpoint_payloads, read_json, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.policy import image_bytes_per_env
@@ -34,7 +34,6 @@ from joshua_ppo.viewer import open_page, open_viewer
 from joshua_render import LiveViewer, TrainingPage
 
 TRAINER_NAME = "ppo"
-RUN_FORMAT = "joshua-ppo-run/1"
 # metrics/success: the task's success metric on the last step of the episodes that ended in the iteration,
 # i.e. the success rate per iteration (tasks without one leave the panel out)
 CURVE_SERIES = (

@@ -76,6 +76,17 @@ class PixelSettings:
 
 
 @dataclass(frozen=True)
+class TeacherSettings:
+    """A trained policy of the same task that sees the flat observation, which the policy imitates beside its PPO
+    loss: each minibatch adds `weight` x the KL divergence from the teacher's action distribution to the policy's,
+    on the policy's own rollouts (on-policy distillation, as in Kickstarting, Schmitt et al. 2018, and DAgger).
+    A pixel policy learns from it where the reward alone reaches it slowly (docs/training-mjx.md#pixel-policies)."""
+
+    run: str  # its run folder (its newest checkpoint) or a checkpoint folder
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
 class NetworkSettings:
     """The actor-critic network, its input and its output."""
 

@@ -23,6 +23,7 @@ from joshua_ppo.envs import JaxEnv
 from joshua_ppo.iteration import make_iteration
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
 from joshua_ppo.state import Progress, TrainingState, abstract_state, init_state
+from joshua_ppo.teacher import Teacher
 
 
 @dataclass
@@ -68,6 +69,7 @@ def train_ppo(
     on_progress: ProgressCallback | None = None,
     on_checkpoint: CheckpointCallback | None = None,
     should_stop: Callable[[], bool] | None = None,
+    teacher: Teacher | None = None,
 ) -> tuple[TrainingState, Progress]:
     """Train until `total_timesteps` environment steps (rounded up to whole iterations).
 
@@ -75,6 +77,7 @@ def train_ppo(
     `checkpoint_interval` environment steps (0: never), before the first iteration of a new run
     (the untrained policy) and at the end. `resume` continues from a saved state and its counters.
     `should_stop` is asked after every iteration: True ends training there, with a checkpoint (Ctrl-C).
+    `teacher`: a trained policy the policy imitates beside its PPO loss (`joshua_ppo.teacher`).
     Raises TrainingDiverged, without calling `on_checkpoint`, when a loss or parameter stops being finite.
     """
     if resume is not None and resume[0].env_state.observation.shape[0] != env.num_envs:
@@ -82,7 +85,9 @@ def train_ppo(
             f"the saved state has {resume[0].env_state.observation.shape[0]} environments, not {env.num_envs}"
         )
     started = time.perf_counter()
-    iteration = make_iteration(env, rollout=rollout, optimization=optimization, returns=returns, network=network)
+    iteration = make_iteration(
+        env, rollout=rollout, optimization=optimization, returns=returns, network=network, teacher=teacher
+    )
     abstract = abstract_state(env, network=network, optimization=optimization)
     # the iteration compiles while the environments reset (which compiles mjx.forward): both take seconds
     # of XLA compilation, which runs without holding the GIL. It is traced here, before the reset traces: traced

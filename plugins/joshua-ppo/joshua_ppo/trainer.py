@@ -30,15 +30,16 @@ from joshua_core.runs import (
     saved_training,
 )
 from joshua_ppo import options_pb2
-from joshua_ppo.checkpoints import RESUME_FILES, load_params, load_state, resume_payloads
+from joshua_ppo.checkpoints import RESUME_FILES, RUN_FORMAT, load_params, load_state, resume_payloads
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.distributed import Cluster, join
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.export import mlp_policy
 from joshua_ppo.rollout import collect, episode_results, make_rollout, render_video
-from joshua_ppo.run import RUN_FORMAT, TRAINER_NAME, Run
+from joshua_ppo.run import TRAINER_NAME, Run
 from joshua_ppo.settings import check_settings
 from joshua_ppo.state import Progress, TrainingState
+from joshua_ppo.teacher import Teacher, load_teacher
 from joshua_ppo.train import train_ppo
 
 OPTIONS = "training.ppo"  # where the run options live, for hints
@@ -91,6 +92,9 @@ class PpoTrainer(Trainer):
         if run_name := options_of(config, options_pb2.ppo).run_name:
             check_run_name(run_name, f"{OPTIONS}.run_name")  # before the environments are built
         env = environment(config, context, training_envs=True)
+        teacher = None
+        if settings.teacher is not None:  # checked before anything is written
+            teacher = load_teacher(settings.teacher, env, config.task, context.plugins.options(), settings.network)
         # a bad batch layout is a config error before anything is written
         recompute = settings.returns.recompute_advantages
         check_settings(settings.rollout, settings.optimization, env.num_envs, env.mesh.size, whole_unrolls=recompute)
@@ -98,14 +102,20 @@ class PpoTrainer(Trainer):
         check_one_iteration(settings.total_timesteps, env.num_envs, rollout.num_steps, rollout.unrolls_per_iteration)
         opened = cluster.on_leader(lambda: _open_run(config, context.output_dir, cluster.num_processes))
         if opened is None:  # another process than 0: it trains alongside and writes nothing
-            return self._train(settings, env, cluster, None, _shared_resume(cluster, None))
+            return self._train(settings, env, teacher, cluster, None, _shared_resume(cluster, None))
         folder, resume = opened
         with folder:  # locked while training
             run = Run(config, settings, env, context, folder, cache)
-            return self._train(settings, env, cluster, run, _shared_resume(cluster, resume))
+            return self._train(settings, env, teacher, cluster, run, _shared_resume(cluster, resume))
 
     def _train(
-        self, settings: PpoSettings, env: JaxEnv, cluster: Cluster, run: Run | None, resume: Resume | None
+        self,
+        settings: PpoSettings,
+        env: JaxEnv,
+        teacher: Teacher | None,
+        cluster: Cluster,
+        run: Run | None,
+        resume: Resume | None,
     ) -> Path:
         """Train on every process; `run` (process 0's, None on the others) records and reports."""
         state = None
@@ -120,7 +130,7 @@ class PpoTrainer(Trainer):
         with stop_requests() as stop:
             if run is not None:
                 run.open_monitors(state[1].env_steps if state else 0)
-            progress = self._run(settings, env, run, state, lambda: cluster.agreed_stop(stop))  # every iteration
+            progress = self._run(settings, env, teacher, run, state, lambda: cluster.agreed_stop(stop))
         newest = str(run.run_folder.checkpoints()[-1]).encode() if run is not None else None
         checkpoint = Path(cluster.broadcast_bytes(newest).decode())  # process 0's, on every process
         if stop.requested:
@@ -142,9 +152,10 @@ class PpoTrainer(Trainer):
     def _run(
         settings: PpoSettings,
         env: JaxEnv,
+        teacher: Teacher | None,
         run: Run | None,
         resume: tuple[TrainingState, Progress] | None,
-        should_stop: Callable[[], bool],
+        should_stop: Callable[[], bool],  # asked every iteration
     ) -> Progress:
         """`train_ppo` with the run's callbacks; the progress bar, logs and viewer are closed however it ends."""
         try:
@@ -158,6 +169,7 @@ class PpoTrainer(Trainer):
                 on_progress=run.on_progress if run is not None else None,
                 on_checkpoint=run.on_checkpoint if run is not None else None,
                 should_stop=should_stop,
+                teacher=teacher,
             )
         finally:
             if run is not None:

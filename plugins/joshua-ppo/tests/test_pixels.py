@@ -1,6 +1,6 @@
 """A pixel policy (training.ppo.pixels): PPO trains a policy that sees a camera image, the arm's joint readings and
-its goal through a CNN encoder, beside a value network of the flat state; its checkpoint evaluates; bad options
-are one-line ConfigErrors.
+its goal through a CNN encoder, beside a value network of the flat state; its checkpoint evaluates; it learns beside
+a teacher of the flat observation (training.ppo.teacher); bad options are one-line ConfigErrors.
 
 MuJoCo Warp renders on the CPU here: pick-and-place with one 16x16 rgb camera, 4 environments, 2 iterations of
 4 steps, episodes of 20 steps.
@@ -8,6 +8,7 @@ MuJoCo Warp renders on the CPU here: pick-and-place with one 16x16 rgb camera, 4
 
 from __future__ import annotations
 
+import copy
 import json
 from pathlib import Path
 from typing import Any
@@ -34,6 +35,7 @@ from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.policy import image_bytes_per_env, init_params, make_network, policy_actions
 from joshua_ppo.settings import OptimizationSettings, ReturnSettings, RolloutSettings
 from joshua_ppo.state import init_state
+from joshua_ppo.teacher import load_teacher
 from joshua_ppo.trainer import PpoTrainer
 
 pytest.importorskip("mujoco_warp", reason="cameras need MJX-Warp: joshua-mjx[warp] (warp-lang, mujoco-warp)")
@@ -91,6 +93,48 @@ def _settings(ppo: dict[str, Any]) -> PpoSettings:
     config = TrainingConfig()
     parse_dict({"ppo": ppo}, config, PluginHost.discover().options())
     return PpoSettings.from_config(config)
+
+
+@pytest.fixture(scope="module")
+def teacher_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A policy of the flat observation (no cameras), 2 iterations at a high learning rate: a teacher unlike the
+    student's fresh policy."""
+    config = copy.deepcopy(CONFIG) | {"learning_rate": 1e-2}
+    del config["task_config"]["cameras"], config["ppo"]["pixels"]
+    config["ppo"]["run_name"] = "teacher"
+    root = tmp_path_factory.mktemp("teacher")
+    return train_mjx(model_path="so_arm100/pick_place_mjx.xml", config=config, checkpoint_dir=root)
+
+
+def test_a_pixel_policy_trains_beside_its_teacher(teacher_run: Path, tmp_path: Path) -> None:
+    """The teacher's imitation term (the KL from its action distribution, on the student's rollouts) enters the
+    loss with its weight, in every minibatch."""
+    weight = 10.0
+    config = copy.deepcopy(CONFIG)
+    config["ppo"] |= {"run_name": "student", "teacher": {"run": str(teacher_run.parent / "teacher"), "weight": weight}}
+    train_mjx(model_path="so_arm100/pick_place_mjx.xml", config=config, checkpoint_dir=tmp_path)
+    history = json.loads((tmp_path / "student" / "metrics.json").read_text())["history"]
+    optimization = _settings(config["ppo"]).optimization
+    assert len(history) == 2
+    for record in history:
+        assert np.isfinite(record["teacher_kl"]) and record["teacher_kl"] > 1e-3, record  # the policies differ
+        ppo = record["policy_loss"] + optimization.value_coef * record["value_loss"]
+        ppo -= optimization.entropy_coef * record["entropy"]
+        assert record["loss"] == pytest.approx(ppo + weight * record["teacher_kl"], rel=1e-4), record
+
+
+def test_a_teacher_must_see_the_flat_observation_of_the_same_task(pixel_run: Path, env: MjxEnv) -> None:
+    options, network = PluginHost.discover().options(), _settings(CONFIG["ppo"]).network
+    teacher = _settings({"teacher": {"run": str(pixel_run)}}).teacher
+    assert teacher is not None and teacher.weight == 1.0  # the default weight
+    with pytest.raises(ConfigError, match="a policy that sees camera images; the teacher must see the flat"):
+        load_teacher(teacher, env, TASK, options, network)
+    with pytest.raises(ConfigError, match="a policy of task 'so_arm100_pick_place', not 'so_arm100_reach'"):
+        load_teacher(teacher, env, "so_arm100_reach", options, network)
+    with pytest.raises(ConfigError, match="teacher.run must name"):
+        _settings({"teacher": {"weight": 2.0}})
+    with pytest.raises(ConfigError, match="teacher.weight must not be negative"):
+        _settings({"teacher": {"run": "runs/x", "weight": -1.0}})
 
 
 def test_a_pixel_run_trains_a_conv_encoder_and_states_its_image_memory(pixel_run: Path) -> None:

@@ -4,6 +4,7 @@ and differ once it has learned; the adaptive learning rate follows the KL diverg
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from joshua_mjx import MjxEnv, Physics, make_mjx_env
 from joshua_ppo.advantages import estimate_advantages
 from joshua_ppo.batches import Transition
 from joshua_ppo.iteration import make_iteration
+from joshua_ppo.losses import imitation_loss
 from joshua_ppo.optimizer import adapt_learning_rate
 from joshua_ppo.settings import (
     LEARNING_RATE_BOUNDS,
@@ -202,3 +204,22 @@ def test_an_unknown_advantage_estimator_is_a_config_error(env: MjxEnv) -> None:
             returns=ReturnSettings(advantage="vtrace"),
             network=NETWORK,
         )
+
+
+def test_the_imitation_term_is_the_kl_from_the_teacher_and_pulls_the_policy_to_it() -> None:
+    rng = np.random.default_rng(0)
+    mean, teacher_mean = rng.normal(size=(2, 5, 3)).astype(np.float32)
+    log_std, teacher_log_std = rng.normal(scale=0.5, size=(2, 5, 3)).astype(np.float32)
+    # KL(N(m1, s1) || N(m2, s2)) = log(s2 / s1) + (s1^2 + (m1 - m2)^2) / (2 s2^2) - 1/2, per dimension
+    s1, s2 = np.exp(teacher_log_std), np.exp(log_std)
+    expected = (np.log(s2 / s1) + (s1**2 + (teacher_mean - mean) ** 2) / (2 * s2**2) - 0.5).sum(-1).mean()
+    assert float(imitation_loss(mean, log_std, teacher_mean, teacher_log_std)) == pytest.approx(expected, rel=1e-5)
+    assert float(imitation_loss(mean, log_std, mean, log_std)) == pytest.approx(0.0, abs=1e-6)
+    # gradient descent on the policy's outputs alone reaches the teacher's
+    grad = jax.jit(jax.grad(imitation_loss, argnums=(0, 1)))
+    outputs = (jnp.asarray(mean), jnp.asarray(log_std))
+    for _ in range(2000):
+        steps = grad(*outputs, teacher_mean, teacher_log_std)
+        outputs = tuple(value - 0.5 * step for value, step in zip(outputs, steps, strict=True))
+    np.testing.assert_allclose(outputs[0], teacher_mean, atol=1e-3)
+    np.testing.assert_allclose(outputs[1], teacher_log_std, atol=1e-3)
