@@ -23,11 +23,20 @@ snapshot it keeps the training state in OUT/state and the snapshots so far in th
 continues in a later run, also after a run stopped from outside (for targets further away than one sitting:
 its wall times go on from the first run's, and the second compilation counts).
 bench/mjx_train_ant.py is this bench for Ant, with its own figures (and throughput scaling over devices).
+
+With --teacher-preset P, a teacher is trained first (`joshua --preset P`, --teacher-steps env steps, into
+OUT/teacher) and the run learns beside it (training.ppo.teacher); the JSON and the summary then give the time to
+the target with the teacher's whole wall time (its start-up and compile included) added, as a user waits for both:
+
+    python bench/mjx_time_to_target.py --preset so_arm100_pick_place_pixels --target 0.8 \
+        --teacher-preset so_arm100_pick_place_mjx --teacher-steps 70000000 --out out/pixels
 """
 
 from __future__ import annotations
 
 import argparse
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -353,6 +362,27 @@ def stop_at(args: argparse.Namespace) -> float:
     return args.target if args.metric == "return" else float("inf")
 
 
+def train_teacher(args: argparse.Namespace) -> float:
+    """Train the teacher with `joshua --preset` into OUT/teacher, point the run's training.ppo.teacher at it (an
+    added --set) and return its wall seconds, start-up included. With --smoke it trains 32 steps of 4 envs."""
+    folder = (args.out / "teacher").resolve()
+    steps = 32 if args.smoke else args.teacher_steps
+    overrides = {"total_timesteps": steps, "checkpoint_dir": folder, "ppo.run_name": "teacher"}
+    overrides |= {"ppo.video_interval": -1, "ppo.viewer": "OFF"}
+    if args.smoke:
+        overrides |= {"num_envs": 4, "num_steps": 4, "minibatch_size": 8}
+    command = [sys.executable, "-m", "joshua_core.cli", "--preset", args.teacher_preset]
+    command += [argument for name, value in overrides.items() for argument in ("--set", f"training.{name}={value}")]
+    started = time.perf_counter()
+    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    seconds = time.perf_counter() - started
+    if done.returncode != 0:
+        raise SystemExit(f"the teacher's training failed (exit {done.returncode}): {done.stderr.strip()[-500:]}")
+    print(done.stdout.strip().splitlines()[-1], flush=True)  # its summary line
+    args.set.append(f"training.ppo.teacher.run={folder / 'teacher'}")
+    return seconds
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """Train, measure raw physics, evaluate the snapshots; the outcome as one JSON-ready dict."""
     plugins = PluginHost.discover()
@@ -438,16 +468,29 @@ def main() -> int:
     parser.add_argument("--smoke", action="store_true", help="tiny sizes (CPU): 8 envs, 2 iterations, 4 episodes")
     parser.add_argument("--out", type=Path, required=True, help="folder for time_to_target.json and .png")
     parser.add_argument("--resume", type=Path, help="continue the run an earlier --out holds (its state/ and JSON)")
+    parser.add_argument("--teacher-preset", help="train a teacher with this preset first (training.ppo.teacher)")
+    parser.add_argument("--teacher-steps", type=int, default=70_000_000, help="the teacher's env steps")
     args = parser.parse_args()
     if args.smoke:
         args.iterations, args.eval_envs, args.snapshot_interval = args.iterations or 2, 4, 1
+    teacher_seconds = train_teacher(args) if args.teacher_preset else None
     outcome = run(args)
+    if teacher_seconds is not None:
+        reached = outcome["reached_target_at_seconds"]
+        outcome |= {
+            "teacher_seconds": teacher_seconds,
+            "reached_target_with_teacher_seconds": reached and reached + teacher_seconds,
+        }
     args.out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(args.out / "time_to_target.json", json_safe(outcome))
     title = f"{args.preset}: PPO on MJX, {outcome['num_envs']} envs, {outcome['devices']} device(s)"
     curve = plot_curve(outcome["snapshots"], args.metric, args.target, title)
     atomic_write_bytes(args.out / "time_to_target.png", curve)
     print("\n".join(summary_lines(outcome, args.metric, args.target)))
+    if teacher_seconds is not None:
+        reached = outcome["reached_target_with_teacher_seconds"]
+        when = f"{args.metric} >= {args.target:g} at {reached:.1f} s with it" if reached else "target not reached"
+        print(f"teacher {args.teacher_preset}: {teacher_seconds:.1f} s; {when}")
     print(f"wrote {args.out / 'time_to_target.json'} and {args.out / 'time_to_target.png'}")
     return 0
 
