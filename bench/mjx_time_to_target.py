@@ -363,8 +363,9 @@ def stop_at(args: argparse.Namespace) -> float:
 
 
 def train_teacher(args: argparse.Namespace) -> float:
-    """Train the teacher with `joshua --preset` into OUT/teacher, point the run's training.ppo.teacher at it (an
-    added --set) and return its wall seconds, start-up included. With --smoke it trains 32 steps of 4 envs."""
+    """Train the teacher with `joshua --preset` into OUT/teacher, with the run's training.seed (a seed stands for the
+    whole recipe), point the run's training.ppo.teacher at it (an added --set) and return its wall seconds, start-up
+    included. With --smoke it trains 32 steps of 4 envs."""
     folder = (args.out / "teacher").resolve()
     steps = 32 if args.smoke else args.teacher_steps
     overrides = {"total_timesteps": steps, "checkpoint_dir": folder, "ppo.run_name": "teacher"}
@@ -373,6 +374,7 @@ def train_teacher(args: argparse.Namespace) -> float:
         overrides |= {"num_envs": 4, "num_steps": 4, "minibatch_size": 8}
     command = [sys.executable, "-m", "joshua_core.cli", "--preset", args.teacher_preset]
     command += [argument for name, value in overrides.items() for argument in ("--set", f"training.{name}={value}")]
+    command += [argument for item in args.set if item.startswith("training.seed=") for argument in ("--set", item)]
     started = time.perf_counter()
     done = subprocess.run(command, capture_output=True, text=True, check=False)
     seconds = time.perf_counter() - started
