@@ -26,12 +26,15 @@ from joshua_core.config import finalize
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import EpisodeResults, PolicyFormat
 from joshua_core.limits import MAX_FPS, MIN_FPS, cli_number
+from joshua_core.progress import progress_bar
 from joshua_core.run_context import RunContext
 from joshua_lerobot.demos import DEFAULT_FPS, DEFAULT_NUM_ENVS, DEFAULT_PRESET, MAX_NUM_ENVS
 from joshua_lerobot.joints import LeRobotUnits, add_units_arguments, feature_names, units_from_arguments
 from joshua_lerobot.writer import ACTION, CAMERA_PREFIX, STATE
 
 if TYPE_CHECKING:
+    from tqdm import tqdm
+
     from joshua_lerobot.policy_process import PolicyDescription, PolicyProcess
 
 POLICY_FILES = ("config.json", "model.safetensors")  # what LeRobot's save_pretrained writes for every policy
@@ -173,16 +176,18 @@ def evaluate_policy(
         lengths: list[float] = []
         metrics: dict[str, list[float]] = {}
         last_states = []
+        bar = progress_bar(episodes * env.simulation.task.spec.episode_length, description="eval", unit="env steps")
         while len(returns) < episodes:
             if returns:
                 env.reset()  # the next draws of the same random stream
-            batch = rollout.batch(stride, video if not returns else None)
             wanted = min(num_envs, episodes - len(returns))
+            batch = rollout.batch(stride, video if not returns else None, bar, wanted)
             returns += batch.returns[:wanted].tolist()
             lengths += batch.lengths[:wanted].tolist()
             for name, values in batch.metrics.items():
                 metrics.setdefault(name, []).extend(values[:wanted].tolist())
             last_states.append(batch.last_states[:wanted])
+        bar.close()
         if video is not None:
             video.close()
     finally:
@@ -229,13 +234,16 @@ class _Rollout:
         ]
         return np.stack(columns, axis=1)
 
-    def batch(self, stride: int, video: Any) -> _Batch:
-        """Roll every environment's episode out from its reset; tiles of the first episodes go to `video`."""
+    def batch(self, stride: int, video: Any, bar: tqdm, wanted: int) -> _Batch:
+        """Roll every environment's episode out from its reset; tiles of the first episodes go to `video`. `bar`
+        (over the `wanted` episodes' steps) moves on every control step, since a batch of a CPU scene with cameras
+        can take minutes; an episode that ends early counts its whole length once the batch ends."""
         from joshua_render import episode_label
 
         env, simulation = self.env, self.env.simulation
         task, n = simulation.task, env.num_envs
         self.policy.reset()
+        start = bar.n
         running = np.ones(n, dtype=bool)
         returns, lengths = np.zeros(n), np.zeros(n)
         metrics: dict[str, NDArray[np.float64]] = {}
@@ -262,7 +270,9 @@ class _Rollout:
             for name, values in infos["metrics"].items():
                 metrics.setdefault(name, np.zeros(n))[ended] = np.asarray(values)[ended]
             running &= ~ended
+            bar.update(int(running[:wanted].sum()))
             step += 1
+        bar.update(start + wanted * task.spec.episode_length - bar.n)
         return _Batch(returns, lengths, metrics, last_states)
 
 

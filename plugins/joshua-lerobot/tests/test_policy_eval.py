@@ -62,6 +62,7 @@ def test_joshua_eval_reports_a_lerobot_policys_success_rate_with_intervals(
                        "--grid", "2", *SHORT, python=lerobot_python(lerobot_folder))  # fmt: skip
     assert done.returncode == 0, done.stderr[-3000:]
     assert "success rate 0.000 (0 of 3 episodes)" in done.stdout and "Wilson" in done.stdout, done.stdout
+    assert "eval: 100%" in done.stderr and "150/150 env steps" in done.stderr, done.stderr[-2000:]  # 3 x 50 steps
     document = json.loads(results.read_text())
     assert document["policy_format"] == "lerobot" and "trainer" not in document
     assert document["episodes"] == 3 and document["successes"] == 0
