@@ -29,7 +29,7 @@ OUT/teacher) and the run learns beside it (training.ppo.teacher); the JSON and t
 the target with the teacher's whole wall time (its start-up and compile included) added, as a user waits for both:
 
     python bench/mjx_time_to_target.py --preset so_arm100_pick_place_pixels --target 0.8 \
-        --teacher-preset so_arm100_pick_place_mjx --teacher-steps 70000000 --out out/pixels
+        --teacher-preset so_arm100_pick_place_mjx --teacher-steps 160000000 --out out/pixels
 """
 
 from __future__ import annotations
@@ -260,6 +260,7 @@ def train(
                 + f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}  "
                 f"kl {metrics['approx_kl']:.4f}  lr {metrics['learning_rate']:.2e}  "
                 f"vloss {metrics['value_loss']:.3g}  clip {metrics['clip_fraction']:.3f}  "
+                + (f"teacher_kl {metrics['teacher_kl']:.3f}  " if "teacher_kl" in metrics else "")
                 + " ".join(f"{key[7:]} {value:.1f}" for key, value in metrics.items() if key.startswith("reward/"))
                 # the task's other metrics, e.g. a randomization curriculum's strength
                 + "".join(
@@ -471,7 +472,12 @@ def main() -> int:
     parser.add_argument("--out", type=Path, required=True, help="folder for time_to_target.json and .png")
     parser.add_argument("--resume", type=Path, help="continue the run an earlier --out holds (its state/ and JSON)")
     parser.add_argument("--teacher-preset", help="train a teacher with this preset first (training.ppo.teacher)")
-    parser.add_argument("--teacher-steps", type=int, default=70_000_000, help="the teacher's env steps")
+    parser.add_argument(
+        "--teacher-steps",
+        type=int,
+        default=160_000_000,  # 70 M left one pick-and-place seed's teacher, and its pixel student, short of grasping
+        help="the teacher's env steps",
+    )
     args = parser.parse_args()
     if args.smoke:
         args.iterations, args.eval_envs, args.snapshot_interval = args.iterations or 2, 4, 1

@@ -10,8 +10,8 @@ import jax
 import jax.numpy as jnp
 
 from joshua_core.errors import ConfigError
-from joshua_core.runs import saved_training
-from joshua_ppo.checkpoints import RUN_FORMAT, load_params
+from joshua_core.runs import METRICS_FILE, saved_training
+from joshua_ppo.checkpoints import RUN_FORMAT, load_params, read_json
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics, normalize
@@ -27,6 +27,7 @@ class Teacher(NamedTuple):
     normalizer: RunningStatistics
     network: NetworkSettings
     weight: float
+    description: str  # its checkpoint and how far it had learned, for the run's log
 
     def distribution(self, observation: jax.Array) -> tuple[jax.Array, jax.Array]:
         """The teacher's Gaussian (mean, log_std, before any squashing) for raw flat observations; constants to the
@@ -50,4 +51,16 @@ def load_teacher(settings: TeacherSettings, env: JaxEnv, task: str, options: Any
     if network.squash_actions != student.squash_actions:
         raise ConfigError(f"{where}: squash_actions {network.squash_actions}, the policy's {student.squash_actions}")
     params, normalizer = load_params(checkpoint, env, network)
-    return Teacher(make_network(env, network), params, normalizer, network, settings.weight)
+    return Teacher(make_network(env, network), params, normalizer, network, settings.weight, _described(checkpoint))
+
+
+def _described(checkpoint: Path) -> str:
+    """The checkpoint with its training's last record: a teacher that had not learned the task yet teaches a
+    policy that does not either (a pick-and-place teacher at a mean return of 955 left its pixel student at 0.09
+    success), and the student's log is where that shows first."""
+    record = (read_json(checkpoint / METRICS_FILE).get("history") or [{}])[-1]
+    learned = [f"mean return {record['mean_return']:.4g}"] if record.get("mean_return") is not None else []
+    if record.get("metrics/success") is not None:
+        learned.append(f"success {record['metrics/success']:.3f}")
+    last = f"; its last iteration: {', '.join(learned)}" if learned else ""
+    return f"{checkpoint} ({record.get('step', 0):,} env steps{last})"

@@ -104,6 +104,8 @@ class PpoTrainer(Trainer):
         if opened is None:  # another process than 0: it trains alongside and writes nothing
             return self._train(settings, env, teacher, cluster, None, _shared_resume(cluster, None))
         folder, resume = opened
+        if teacher is not None:
+            print(f"ppo: imitating the teacher {teacher.description}")
         with folder:  # locked while training
             run = Run(config, settings, env, context, folder, cache)
             return self._train(settings, env, teacher, cluster, run, _shared_resume(cluster, resume))

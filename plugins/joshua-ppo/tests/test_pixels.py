@@ -101,18 +101,26 @@ def teacher_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     student's fresh policy."""
     config = copy.deepcopy(CONFIG) | {"learning_rate": 1e-2}
     del config["task_config"]["cameras"], config["ppo"]["pixels"]
+    config["task_config"]["episode_length"] = NUM_STEPS  # episodes end, so its history records a return and success
     config["ppo"]["run_name"] = "teacher"
     root = tmp_path_factory.mktemp("teacher")
     return train_mjx(model_path="so_arm100/pick_place_mjx.xml", config=config, checkpoint_dir=root)
 
 
-def test_a_pixel_policy_trains_beside_its_teacher(teacher_run: Path, tmp_path: Path) -> None:
+def test_a_pixel_policy_trains_beside_its_teacher(
+    teacher_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """The teacher's imitation term (the KL from its action distribution, on the student's rollouts) enters the
-    loss with its weight, in every minibatch."""
+    loss with its weight, in every minibatch; the run's log names the teacher and how far it had learned."""
     weight = 10.0
     config = copy.deepcopy(CONFIG)
     config["ppo"] |= {"run_name": "student", "teacher": {"run": str(teacher_run.parent / "teacher"), "weight": weight}}
     train_mjx(model_path="so_arm100/pick_place_mjx.xml", config=config, checkpoint_dir=tmp_path)
+    taught = json.loads((teacher_run / "metrics.json").read_text())["history"][-1]
+    assert (
+        f"ppo: imitating the teacher {teacher_run} ({taught['step']:,} env steps; its last iteration: mean return "
+        f"{taught['mean_return']:.4g}, success {taught['metrics/success']:.3f})"
+    ) in capsys.readouterr().out
     history = json.loads((tmp_path / "student" / "metrics.json").read_text())["history"]
     optimization = _settings(config["ppo"]).optimization
     assert len(history) == 2
