@@ -31,6 +31,10 @@ from joshua_ppo.trainer import PpoTrainer
 pytestmark = pytest.mark.slow  # every test here trains
 
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
+# The resume and divergence tests' Ant runs step MuJoCo Warp: it compiles in seconds on the CPU where MJX-JAX takes
+# tens (the resume test: 32 s in the suite against 66 s). The other runs stay on MJX-JAX, cheaper for them in the
+# suite: other tests compile the same programs into the run's cache, and long rollouts step faster there.
+WARP = {"impl": "WARP"}
 REACH = {  # 16 envs x 25 steps per iteration, 15 iterations: about 60 s on 2 cores after a 35 s compile
     "num_envs": 16,
     "num_steps": 25,
@@ -135,7 +139,7 @@ ANT = {
 
 
 def test_training_resumes_from_the_newest_checkpoint_with_its_optimizer(tmp_path: Path) -> None:
-    filmed = {**ANT, "ppo": {**ANT["ppo"], "video_interval": 2, "video_steps": 12}}
+    filmed = {**ANT, "mjx": WARP, "ppo": {**ANT["ppo"], "video_interval": 2, "video_steps": 12}}
     train_mjx(model_path="ant/ant_mjx.xml", config=filmed, checkpoint_dir=tmp_path)
     videos = sorted(path.name for path in (tmp_path / "ant" / "videos").iterdir())
     assert videos == ["step_80.mp4"], videos  # every 2nd iteration
@@ -143,7 +147,7 @@ def test_training_resumes_from_the_newest_checkpoint_with_its_optimizer(tmp_path
     frames = [frame for ok, frame in iter(capture.read, (False, None)) if ok]
     assert len(frames) >= 12 and frames[0].shape == (480, 640, 3) and frames[0].std() > 10, len(frames)
     first = from_bytes(None, (tmp_path / "ant_step_80" / "train_state.msgpack").read_bytes())
-    resumed = {**ANT, "total_timesteps": 160, "ppo": {**ANT["ppo"], "resume": True}}
+    resumed = {**filmed, "total_timesteps": 160, "ppo": {**ANT["ppo"], "resume": True}}
     checkpoint = train_mjx(model_path="ant/ant_mjx.xml", config=resumed, checkpoint_dir=tmp_path)
     assert checkpoint.name == "ant_step_160"
     second = from_bytes(None, (checkpoint / "train_state.msgpack").read_bytes())
@@ -155,7 +159,7 @@ def test_training_resumes_from_the_newest_checkpoint_with_its_optimizer(tmp_path
 
 
 def test_diverging_training_stops_with_a_clear_message_and_keeps_the_last_good_checkpoint(tmp_path: Path) -> None:
-    config = {**ANT, "learning_rate": 1e30, "ppo": {**ANT["ppo"], "run_name": "nan", "max_grad_norm": -1}}
+    config = {**ANT, "mjx": WARP, "learning_rate": 1e30, "ppo": {**ANT["ppo"], "run_name": "nan", "max_grad_norm": -1}}
     with pytest.raises(TrainingDiverged, match="diverged in iteration"):
         train_mjx(model_path="ant/ant_mjx.xml", config=config, checkpoint_dir=tmp_path)
     kept = run_checkpoints(tmp_path, "nan")
