@@ -11,6 +11,7 @@ import jax.numpy as jnp
 
 from joshua_core.errors import ConfigError
 from joshua_core.runs import METRICS_FILE, saved_training
+from joshua_core.statistics import SUCCESS_METRIC
 from joshua_ppo.checkpoints import RUN_FORMAT, load_params, read_json
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv
@@ -60,7 +61,8 @@ def _described(checkpoint: Path) -> str:
     success), and the student's log is where that shows first."""
     record = (read_json(checkpoint / METRICS_FILE).get("history") or [{}])[-1]
     learned = [f"mean return {record['mean_return']:.4g}"] if record.get("mean_return") is not None else []
-    if record.get("metrics/success") is not None:
-        learned.append(f"success {record['metrics/success']:.3f}")
+    success = record.get(f"metrics/{SUCCESS_METRIC}")  # as the iteration logs the task's metrics
+    if success is not None:
+        learned.append(f"success {success:.3f}")
     last = f"; its last iteration: {', '.join(learned)}" if learned else ""
     return f"{checkpoint} ({record.get('step', 0):,} env steps{last})"

@@ -147,7 +147,7 @@ def test_training_resumes_from_the_newest_checkpoint_with_its_optimizer(tmp_path
     frames = [frame for ok, frame in iter(capture.read, (False, None)) if ok]
     assert len(frames) >= 12 and frames[0].shape == (480, 640, 3) and frames[0].std() > 10, len(frames)
     first = from_bytes(None, (tmp_path / "ant_step_80" / "train_state.msgpack").read_bytes())
-    resumed = {**filmed, "total_timesteps": 160, "ppo": {**ANT["ppo"], "resume": True}}
+    resumed = {**ANT, "mjx": WARP, "total_timesteps": 160, "ppo": {**ANT["ppo"], "resume": True}}
     checkpoint = train_mjx(model_path="ant/ant_mjx.xml", config=resumed, checkpoint_dir=tmp_path)
     assert checkpoint.name == "ant_step_160"
     second = from_bytes(None, (checkpoint / "train_state.msgpack").read_bytes())
