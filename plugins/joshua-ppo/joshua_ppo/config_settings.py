@@ -54,8 +54,9 @@ class PpoSettings:
         for name in ("hidden_sizes", "value_hidden_sizes"):
             if any(size <= 0 for size in getattr(options, name)):
                 raise ConfigError(f"training.ppo.{name} must be positive, got {list(getattr(options, name))}")
-        if options.desired_kl < 0:
-            raise ConfigError(f"training.ppo.desired_kl must not be negative, got {options.desired_kl}")
+        for name in ("desired_kl", "max_kl"):
+            if getattr(options, name) < 0:
+                raise ConfigError(f"training.ppo.{name} must not be negative, got {getattr(options, name)}")
         for name in ("num_steps", "num_epochs", "minibatch_size", "total_timesteps"):  # num_envs: by EnvSpec
             if getattr(config, name) < 0:
                 raise ConfigError(f"training.{name} must not be negative")
@@ -71,6 +72,7 @@ class PpoSettings:
             ),
             entropy_coef=options.entropy_coef,
             desired_kl=options.desired_kl,
+            max_kl=options.max_kl,
             anneal_steps=total if options.anneal_learning_rate else 0,
         )
         if optimization.max_grad_norm is not None and optimization.max_grad_norm < 0:  # negative: no clipping

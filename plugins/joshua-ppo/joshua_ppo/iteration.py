@@ -44,8 +44,17 @@ from joshua_ppo.teacher import Teacher
 # only their data dependencies order them, since a gradient step's policy and value passes are two chains of small
 # kernels that fill a GPU only together (measured in bench/RESULTS.md)
 GPU_COMPILER_OPTIONS = {"xla_gpu_command_buffer_scheduling_mode": "CONCURRENT"}
-Carry = tuple[Any, Any, RunningStatistics]  # (environments or optimiser state, params, normaliser) in scans
+Carry = tuple[Any, Any, RunningStatistics]  # (environments, params, normaliser) in the rollout's scans
 Metrics = dict[str, jax.Array]
+
+
+class UpdateCarry(NamedTuple):
+    """What the update's gradient steps pass on."""
+
+    params: Any
+    opt_state: Any
+    stats: RunningStatistics  # read, not changed, by the update
+    stopped: jax.Array  # a minibatch's KL passed max_kl in this iteration: the later steps are skipped
 
 
 class _Iteration:
@@ -208,18 +217,31 @@ class _Iteration:
         loss = loss + self.teacher.weight * imitation
         return loss, metrics | {"loss": loss, "teacher_kl": imitation}
 
-    def gradient_step(self, carry: Carry, batch_and_key: tuple[Sample | Unroll, jax.Array]) -> tuple[Carry, Metrics]:
-        params, opt_state, stats = carry
-        grads, losses = jax.grad(self.loss, has_aux=True)(params, stats, *batch_and_key)
+    def gradient_step(
+        self, carry: UpdateCarry, batch_and_key: tuple[Sample | Unroll, jax.Array]
+    ) -> tuple[UpdateCarry, Metrics]:
+        grads, losses = jax.grad(self.loss, has_aux=True)(carry.params, carry.stats, *batch_and_key)
         grads = ordered_mean(grads, self.axis)
-        # the KL before this step, as every device sees it (it sets the learning rate)
-        kl = ordered_mean(losses["approx_kl"], self.axis) if self.optimization.desired_kl > 0 else None
+        adaptive, guarded = self.optimization.desired_kl > 0, self.optimization.max_kl > 0
+        # the KL before this step, as every device sees it (it sets the learning rate, or stops the update)
+        kl = ordered_mean(losses["approx_kl"], self.axis) if adaptive or guarded else None
         with jax.named_scope("optimizer"):
-            opt_state = scheduled_learning_rate(opt_state, kl, self.optimization, self.env_steps_per_gradient_step)
-            updates, opt_state = self.optimizer.update(grads, opt_state, params)
-            params = optax.apply_updates(params, updates)
+            opt_state = scheduled_learning_rate(
+                carry.opt_state, kl if adaptive else None, self.optimization, self.env_steps_per_gradient_step
+            )
+            updates, opt_state = self.optimizer.update(grads, opt_state, carry.params)
+            params = optax.apply_updates(carry.params, updates)
         losses["learning_rate"] = opt_state.hyperparams["learning_rate"]
-        return (params, opt_state, stats), losses
+        if not guarded:
+            return carry._replace(params=params, opt_state=opt_state), losses
+        stopped = carry.stopped | (kl > self.optimization.max_kl)
+        # a skipped step leaves the parameters and Adam's moments as they were; its count still advances, so
+        # that an annealed learning rate keeps to its schedule in environment steps
+        kept_params, kept_state = jax.tree.map(
+            lambda old, new: jnp.where(stopped, old, new), (carry.params, carry.opt_state), (params, opt_state)
+        )
+        losses["kl_stopped"] = stopped.astype(jnp.float32)
+        return UpdateCarry(kept_params, kept_state._replace(count=opt_state.count), carry.stats, stopped), losses
 
     def updated_statistics(self, stats: RunningStatistics, samples: Sample | Unroll) -> RunningStatistics:
         """The observation statistics with this iteration's observations (every device's), when normalising."""
@@ -227,7 +249,7 @@ class _Iteration:
             return stats
         return update_statistics(stats, samples.observation.reshape(-1, self.env.observation_size), self.axis)
 
-    def epoch(self, carry: Carry, key: jax.Array, samples: Sample | Unroll) -> tuple[Carry, Metrics]:
+    def epoch(self, carry: UpdateCarry, key: jax.Array, samples: Sample | Unroll) -> tuple[UpdateCarry, Metrics]:
         order_key, entropy_key = jax.random.split(key)
         order = jax.random.permutation(order_key, samples.observation.shape[0])
         shape = (self.num_minibatches, self.local_minibatch)
@@ -260,11 +282,12 @@ class _Iteration:
         if statistics_first:
             stats = self.updated_statistics(stats, samples)
         with jax.named_scope("update"):
-            (params, opt_state, _), losses = jax.lax.scan(
+            update, losses = jax.lax.scan(
                 lambda carry, key: self.epoch(carry, key, samples),
-                (params, opt_state, stats),
+                UpdateCarry(params, opt_state, stats, stopped=jnp.zeros((), bool)),
                 jax.random.split(epoch_key, self.optimization.num_epochs),
             )
+        params, opt_state = update.params, update.opt_state
         if not statistics_first:
             stats = self.updated_statistics(stats, samples)
         metrics = _episode_metrics(jax.tree.map(lambda x: jax.lax.psum(x.sum(), self.axis), sums))

@@ -11,7 +11,7 @@ PPO_FIELD_NUMBER: _ClassVar[int]
 ppo: _descriptor.FieldDescriptor
 
 class PpoOptions(_message.Message):
-    __slots__ = ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "value_hidden_sizes", "squash_actions", "activation", "state_dependent_std", "recompute_advantages", "advantage", "entropy_coef", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "desired_kl", "anneal_learning_rate", "disable_observation_normalization", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs", "distributed", "pixels", "teacher")
+    __slots__ = ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "value_hidden_sizes", "squash_actions", "activation", "state_dependent_std", "recompute_advantages", "advantage", "entropy_coef", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "desired_kl", "max_kl", "anneal_learning_rate", "disable_observation_normalization", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs", "distributed", "pixels", "teacher")
     class Advantage(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         GAE: _ClassVar[PpoOptions.Advantage]
@@ -41,6 +41,7 @@ class PpoOptions(_message.Message):
     UNROLLS_PER_ITERATION_FIELD_NUMBER: _ClassVar[int]
     MAX_GRAD_NORM_FIELD_NUMBER: _ClassVar[int]
     DESIRED_KL_FIELD_NUMBER: _ClassVar[int]
+    MAX_KL_FIELD_NUMBER: _ClassVar[int]
     ANNEAL_LEARNING_RATE_FIELD_NUMBER: _ClassVar[int]
     DISABLE_OBSERVATION_NORMALIZATION_FIELD_NUMBER: _ClassVar[int]
     VALUE_COEF_FIELD_NUMBER: _ClassVar[int]
@@ -66,6 +67,7 @@ class PpoOptions(_message.Message):
     unrolls_per_iteration: int
     max_grad_norm: float
     desired_kl: float
+    max_kl: float
     anneal_learning_rate: bool
     disable_observation_normalization: bool
     value_coef: float
@@ -76,7 +78,7 @@ class PpoOptions(_message.Message):
     distributed: Distributed
     pixels: PixelOptions
     teacher: Teacher
-    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., value_hidden_sizes: _Optional[_Iterable[int]] = ..., squash_actions: _Optional[bool] = ..., activation: _Optional[str] = ..., state_dependent_std: _Optional[bool] = ..., recompute_advantages: _Optional[bool] = ..., advantage: _Optional[_Union[PpoOptions.Advantage, str]] = ..., entropy_coef: _Optional[float] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., desired_kl: _Optional[float] = ..., anneal_learning_rate: _Optional[bool] = ..., disable_observation_normalization: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ..., distributed: _Optional[_Union[Distributed, _Mapping]] = ..., pixels: _Optional[_Union[PixelOptions, _Mapping]] = ..., teacher: _Optional[_Union[Teacher, _Mapping]] = ...) -> None: ...
+    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., value_hidden_sizes: _Optional[_Iterable[int]] = ..., squash_actions: _Optional[bool] = ..., activation: _Optional[str] = ..., state_dependent_std: _Optional[bool] = ..., recompute_advantages: _Optional[bool] = ..., advantage: _Optional[_Union[PpoOptions.Advantage, str]] = ..., entropy_coef: _Optional[float] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., desired_kl: _Optional[float] = ..., max_kl: _Optional[float] = ..., anneal_learning_rate: _Optional[bool] = ..., disable_observation_normalization: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ..., distributed: _Optional[_Union[Distributed, _Mapping]] = ..., pixels: _Optional[_Union[PixelOptions, _Mapping]] = ..., teacher: _Optional[_Union[Teacher, _Mapping]] = ...) -> None: ...
 
 class PixelOptions(_message.Message):
     __slots__ = ("cameras", "observation_terms", "commands", "channels", "kernel_sizes", "strides", "feature_size")

@@ -39,6 +39,9 @@ class OptimizationSettings:
     # > 0: adapt the learning rate on every gradient step to keep the policy's KL divergence from the
     # collecting policy near this (see adapt_learning_rate); 0: a constant learning rate
     desired_kl: float = 0.0
+    # > 0: the iteration's remaining gradient steps are skipped once a minibatch's approximate KL divergence
+    # from the collecting policy exceeds this, so one runaway update cannot carry the policy far; 0: never
+    max_kl: float = 0.0
     # > 0: the learning rate falls linearly from learning_rate to 0 over this many environment steps
     # (counted from the run's start, so across resumes); 0: no annealing
     anneal_steps: int = 0

@@ -34,7 +34,8 @@ class IterationReport:
     (`episodes` of them; NaN when none), `reward/<term>` episode sums, `metrics/<name>` on the
     episodes' last steps, and the losses (`loss`, `policy_loss`, `value_loss`, `entropy`,
     `approx_kl`, `clip_fraction`, `action_std`, the policy's mean standard deviation, and
-    `learning_rate`, the mean over the iteration's gradient steps).
+    `learning_rate`, the mean over the iteration's gradient steps; with `max_kl`, `kl_stopped`, the share
+    of them it skipped).
     """
 
     iteration: int

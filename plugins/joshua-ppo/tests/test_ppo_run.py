@@ -209,8 +209,9 @@ def test_bad_settings_are_config_errors(tmp_path: Path) -> None:
         )
     with pytest.raises(ConfigError, match="activation 'gelu' is not one of: relu, swish"):
         train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"activation": "gelu"}}, checkpoint_dir=tmp_path)
-    with pytest.raises(ConfigError, match="desired_kl must not be negative"):
-        train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"desired_kl": -0.01}}, checkpoint_dir=tmp_path)
+    for name in ("desired_kl", "max_kl"):
+        with pytest.raises(ConfigError, match=f"{name} must not be negative"):
+            train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {name: -0.01}}, checkpoint_dir=tmp_path)
     with pytest.raises(ConfigError, match="desired_kl and an annealed learning rate cannot be combined"):
         train_mjx(
             model_path="ant/ant_mjx.xml",

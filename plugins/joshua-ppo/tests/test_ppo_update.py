@@ -1,12 +1,16 @@
 """The PPO update itself: both advantage estimators against a step-by-step reference; advantages recomputed
 per minibatch agree with the once-per-iteration ones while the value network is still the collecting one,
-and differ once it has learned; the adaptive learning rate follows the KL divergence."""
+and differ once it has learned; the adaptive learning rate follows the KL divergence; the KL stop skips the rest of
+an update."""
 
 from __future__ import annotations
+
+from typing import Any
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 import pytest
 
 from joshua_core.config_pb2 import TaskConfig
@@ -117,6 +121,35 @@ def test_the_kl_guard_measures_the_policy_change_alone(env: MjxEnv) -> None:
         assert not np.allclose(next_state.normalizer.mean, before)  # updated in both
         kls.append(abs(float(metrics["approx_kl"])))
     assert kls[0] < 1e-6 < kls[1], kls
+
+
+def kl_stopped_update(env: MjxEnv, max_kl: float) -> tuple[Any, Any, dict[str, float]]:
+    """(parameters, optimiser state, metrics) after one iteration of 2 epochs of 2 minibatches under `max_kl`."""
+    optimization = OptimizationSettings(num_epochs=2, minibatch_size=20, learning_rate=1e-3, max_kl=max_kl)
+    state = init_state(env, seed=0, network=NETWORK, optimization=optimization)
+    iteration = make_iteration(
+        env, rollout=ROLLOUT, optimization=optimization, returns=ReturnSettings(), network=NETWORK
+    )
+    state, metrics = iteration(state)
+    return state.params, state.opt_state, {name: float(value) for name, value in metrics.items()}
+
+
+@pytest.mark.slow
+def test_max_kl_skips_the_rest_of_an_update_once_the_policy_moved_too_far(env: MjxEnv) -> None:
+    """The first gradient step's KL is 0 (the collecting policy's), so it is taken; every later one measures a
+    policy that moved, which a tiny max_kl stops: 3 of the 4 steps skipped, Adam stepped once, while the
+    schedule's count (what annealing reads) went on. A huge max_kl never stops and changes nothing."""
+    unguarded_params, _, unguarded = kl_stopped_update(env, 0.0)
+    assert "kl_stopped" not in unguarded
+    params, opt_state, metrics = kl_stopped_update(env, 1e-9)
+    assert metrics["kl_stopped"] == pytest.approx(0.75)
+    counts = [int(count) for _, count in optax.tree_utils.tree_get_all_with_path(opt_state, "count")]
+    assert counts == [4, 1], counts  # the schedule's, Adam's
+    moved = jax.tree.map(lambda a, b: float(np.abs(np.asarray(a) - np.asarray(b)).max()), params, unguarded_params)
+    assert max(jax.tree.leaves(moved)) > 1e-5  # one step taken, not four
+    params, _, metrics = kl_stopped_update(env, 1e9)
+    assert metrics["kl_stopped"] == 0.0
+    jax.tree.map(lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6), params, unguarded_params)
 
 
 def test_adaptive_learning_rate_stays_within_its_bounds() -> None:
