@@ -18,7 +18,8 @@ snapshot whose deterministic value reaches it.
 Prints a few lines: time to target (with and without compile), training env steps/s, raw physics steps/s of
 `vmap(mjx.step)` on the same batch measured in the same run (after training) and their ratio, and the env
 steps/s of the environment alone under random actions (what PPO costs on top of the task); writes
-OUT/time_to_target.json and OUT/time_to_target.png (the metric and its interval against wall time). At every
+OUT/time_to_target.json (with every iteration's return and update metrics, `iterations`: a collapse shows there
+first) and OUT/time_to_target.png (the metric and its interval against wall time). At every
 snapshot it keeps the training state in OUT/state and the snapshots so far in the JSON, which --resume OUT
 continues in a later run, also after a run stopped from outside (for targets further away than one sitting:
 its wall times go on from the first run's, and the second compilation counts).
@@ -96,20 +97,24 @@ def evaluated(resume: Resumed | None, taken: list[dict], results: list[dict[str,
     return earlier + [when | result for when, result in zip(taken, results, strict=True)]
 
 
-Keep = Callable[[TrainingState, Progress, dict[str, float], list[dict]], None]
+Keep = Callable[[TrainingState, Progress, dict[str, float], list[dict], list[dict]], None]
 
 
 def keeper(out: Path, evaluator: SnapshotEvaluator, resume: Resumed | None) -> Keep:
     """What `train` calls at every snapshot: the training state in OUT/state (as a checkpoint saves it) and, in
-    OUT/time_to_target.json, the snapshots evaluated so far with the wall and compile seconds that --resume
-    reads; the end of the run replaces that JSON with the whole outcome."""
+    OUT/time_to_target.json, the snapshots evaluated so far and the iterations' trace, with the wall and compile
+    seconds that --resume reads; the end of the run replaces that JSON with the whole outcome."""
 
-    def keep(state: TrainingState, progress: Progress, seconds: dict[str, float], taken: list[dict]) -> None:
+    def keep(
+        state: TrainingState, progress: Progress, seconds: dict[str, float], taken: list[dict], iterations: list[dict]
+    ) -> None:
         (out / "state").mkdir(parents=True, exist_ok=True)
         write_payloads(out / "state", checkpoint_payloads(state, progress))
         partial = {"wall_seconds": seconds["wall"], "compile_seconds": seconds["compile"], "partial": True}
         records = evaluated(resume, taken, evaluator.results)
-        atomic_write_json(out / "time_to_target.json", json_safe(partial | {"snapshots": records}))
+        atomic_write_json(
+            out / "time_to_target.json", json_safe(partial | {"snapshots": records, "iterations": iterations})
+        )
 
     return keep
 
@@ -236,6 +241,10 @@ def train(
     log: list[dict] = []
     snapshots: list[tuple[dict, Snapshot]] = []
 
+    def trace() -> list[dict]:
+        """Every iteration's entry: the resumed run's, then this run's."""
+        return earlier.get("iterations", []) + log
+
     def on_progress(report: IterationReport, state: TrainingState) -> None:
         metrics = report.metrics
         wall = earlier["wall_seconds"] + report.wall_seconds - evaluation_seconds()
@@ -247,6 +256,8 @@ def train(
             "value": metrics.get(training_key, float("nan")),
             "episodes": metrics["episodes"],
             "compile": report.compile_seconds,
+            # the update's health, per iteration: a collapse shows here first (a KL or value-loss spike)
+            **{name: metrics[name] for name in UPDATE_TRACE if name in metrics},
         }
         log.append(entry)
         reached = metrics["episodes"] > 0 and entry["value"] >= target
@@ -261,6 +272,7 @@ def train(
                 f"kl {metrics['approx_kl']:.4f}  lr {metrics['learning_rate']:.2e}  "
                 f"vloss {metrics['value_loss']:.3g}  clip {metrics['clip_fraction']:.3f}  "
                 + (f"teacher_kl {metrics['teacher_kl']:.3f}  " if "teacher_kl" in metrics else "")
+                + (f"kl_stopped {metrics['kl_stopped']:.2f}  " if "kl_stopped" in metrics else "")
                 + " ".join(f"{key[7:]} {value:.1f}" for key, value in metrics.items() if key.startswith("reward/"))
                 # the task's other metrics, e.g. a randomization curriculum's strength
                 + "".join(
@@ -279,7 +291,8 @@ def train(
             stopping = (evaluator is not None and evaluator(snapshots[-1][1])) or stopping
             if keep is not None:
                 seconds = {"wall": wall, "compile": compile_seconds()}
-                keep(state, Progress(report.iteration, report.env_steps), seconds, [when for when, _ in snapshots])
+                taken = [when for when, _ in snapshots]
+                keep(state, Progress(report.iteration, report.env_steps), seconds, taken, trace())
         if stopping:
             raise TargetReached  # or out of time, iterations or steps
 
@@ -305,7 +318,12 @@ def train(
         "env_steps": log[-1]["step"] if log else 0,
         "final_return": next((e["return"] for e in reversed(log) if e["episodes"] > 0), float("nan")),
         f"training_{metric}_reached_target_at_seconds": reached[0]["wall"] if reached else None,
+        "iterations": trace(),
     }, snapshots
+
+
+# an iteration's update metrics kept in the JSON's per-iteration trace (`iterations`)
+UPDATE_TRACE = ("approx_kl", "kl_stopped", "clip_fraction", "action_std", "value_loss", "learning_rate")
 
 
 def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snapshot]) -> list[dict[str, Any]]:
