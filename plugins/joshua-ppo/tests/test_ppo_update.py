@@ -5,8 +5,6 @@ an update."""
 
 from __future__ import annotations
 
-from typing import Any
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -28,7 +26,7 @@ from joshua_ppo.settings import (
     ReturnSettings,
     RolloutSettings,
 )
-from joshua_ppo.state import init_state
+from joshua_ppo.state import TrainingState, init_state
 
 ROLLOUT = RolloutSettings(num_steps=5, unrolls_per_iteration=2)  # of the 4 environments of `env`
 # without observation normalisation: the statistics change between collecting and updating, and with
@@ -84,15 +82,22 @@ def test_recomputing_needs_minibatches_of_whole_unrolls(env: MjxEnv) -> None:
         )
 
 
-def learning_rates(env: MjxEnv, desired_kl: float) -> tuple[float, float]:
-    """The learning rate after one iteration of 2 epochs of 2 minibatches, and its mean over the 4 steps."""
-    optimization = OptimizationSettings(num_epochs=2, minibatch_size=20, learning_rate=1e-3, desired_kl=desired_kl)
+def four_step_iteration(env: MjxEnv, **guard: float) -> tuple[TrainingState, dict[str, float]]:
+    """The state and metrics after one iteration of 2 epochs of 2 minibatches at learning rate 1e-3, with the KL
+    `guard` given (desired_kl or max_kl)."""
+    optimization = OptimizationSettings(num_epochs=2, minibatch_size=20, learning_rate=1e-3, **guard)
     state = init_state(env, seed=0, network=NETWORK, optimization=optimization)
     iteration = make_iteration(
         env, rollout=ROLLOUT, optimization=optimization, returns=ReturnSettings(), network=NETWORK
     )
     state, metrics = iteration(state)
-    return float(state.opt_state.hyperparams["learning_rate"]), float(metrics["learning_rate"])
+    return state, {name: float(value) for name, value in metrics.items()}
+
+
+def learning_rates(env: MjxEnv, desired_kl: float) -> tuple[float, float]:
+    """The learning rate after the four steps, and its mean over them."""
+    state, metrics = four_step_iteration(env, desired_kl=desired_kl)
+    return float(state.opt_state.hyperparams["learning_rate"]), metrics["learning_rate"]
 
 
 @pytest.mark.slow
@@ -123,33 +128,22 @@ def test_the_kl_guard_measures_the_policy_change_alone(env: MjxEnv) -> None:
     assert kls[0] < 1e-6 < kls[1], kls
 
 
-def kl_stopped_update(env: MjxEnv, max_kl: float) -> tuple[Any, Any, dict[str, float]]:
-    """(parameters, optimiser state, metrics) after one iteration of 2 epochs of 2 minibatches under `max_kl`."""
-    optimization = OptimizationSettings(num_epochs=2, minibatch_size=20, learning_rate=1e-3, max_kl=max_kl)
-    state = init_state(env, seed=0, network=NETWORK, optimization=optimization)
-    iteration = make_iteration(
-        env, rollout=ROLLOUT, optimization=optimization, returns=ReturnSettings(), network=NETWORK
-    )
-    state, metrics = iteration(state)
-    return state.params, state.opt_state, {name: float(value) for name, value in metrics.items()}
-
-
 @pytest.mark.slow
 def test_max_kl_skips_the_rest_of_an_update_once_the_policy_moved_too_far(env: MjxEnv) -> None:
     """The first gradient step's KL is 0 (the collecting policy's), so it is taken; every later one measures a
     policy that moved, which a tiny max_kl stops: 3 of the 4 steps skipped, Adam stepped once, while the
     schedule's count (what annealing reads) went on. A huge max_kl never stops and changes nothing."""
-    unguarded_params, _, unguarded = kl_stopped_update(env, 0.0)
-    assert "kl_stopped" not in unguarded
-    params, opt_state, metrics = kl_stopped_update(env, 1e-9)
+    unguarded, unguarded_metrics = four_step_iteration(env, max_kl=0.0)
+    assert "kl_stopped" not in unguarded_metrics
+    state, metrics = four_step_iteration(env, max_kl=1e-9)
     assert metrics["kl_stopped"] == pytest.approx(0.75)
-    counts = [int(count) for _, count in optax.tree_utils.tree_get_all_with_path(opt_state, "count")]
+    counts = [int(count) for _, count in optax.tree_utils.tree_get_all_with_path(state.opt_state, "count")]
     assert counts == [4, 1], counts  # the schedule's, Adam's
-    moved = jax.tree.map(lambda a, b: float(np.abs(np.asarray(a) - np.asarray(b)).max()), params, unguarded_params)
+    moved = jax.tree.map(lambda a, b: float(np.abs(a - b).max()), state.params, unguarded.params)
     assert max(jax.tree.leaves(moved)) > 1e-5  # one step taken, not four
-    params, _, metrics = kl_stopped_update(env, 1e9)
+    state, metrics = four_step_iteration(env, max_kl=1e9)
     assert metrics["kl_stopped"] == 0.0
-    jax.tree.map(lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6), params, unguarded_params)
+    jax.tree.map(lambda a, b: np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6), state.params, unguarded.params)
 
 
 def test_adaptive_learning_rate_stays_within_its_bounds() -> None:
