@@ -3,7 +3,8 @@
 The CLI turns SIGTERM into `Terminated` (a KeyboardInterrupt, so every `finally` and cleanup that runs on
 Ctrl-C runs on SIGTERM too) and exits 128 + the signal's number (130 for SIGINT, 143 for SIGTERM),
 printing one line, no traceback. A trainer wraps its loop in `stop_requests()`: the first signal only
-asks it to stop, so it can save a checkpoint at a consistent point; a second one interrupts at once.
+asks it to stop, so it can save a checkpoint at a consistent point; a second one interrupts at once. A
+step that must not be cut in two (a video frame encoded but not yet written) runs in `signals_deferred()`.
 """
 
 from __future__ import annotations
@@ -103,6 +104,27 @@ def stop_requests() -> Iterator[StopRequest]:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+
+
+@contextmanager
+def signals_deferred() -> Iterator[None]:
+    """SIGINT and SIGTERM that arrive inside the block reach the handlers in place before it when it ends.
+
+    For short steps that a signal must not cut in two: an exception raised between an encoder's output and
+    the muxer's write loses a packet that every later frame of the video refers to. Outside the main thread
+    nothing is installed (signals are only ever handled there)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    arrived: list[int] = []
+    previous = {signum: signal.signal(signum, lambda signum, _: arrived.append(signum)) for signum in SIGNALS}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        if arrived:
+            signal.raise_signal(arrived[0])  # the handler now in place takes it, as if it had come just now
 
 
 def resume_command(options: str, run_name: str) -> str:

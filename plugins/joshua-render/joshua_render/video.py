@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from joshua_core.atomic import atomic_write_bytes, remove_stale_temporaries, temporary_prefix
 from joshua_core.errors import JoshuaError
+from joshua_core.interrupts import signals_deferred
 
 ENCODER = "libx264"
 ENCODER_OPTIONS = {"preset": "veryfast", "crf": "20"}  # visually near-lossless at a few hundred kB per minute
@@ -66,8 +67,9 @@ class VideoWriter:
         padded = np.pad(frame, ((0, frame.shape[0] % 2), (0, frame.shape[1] % 2), (0, 0)), mode="edge")
         picture = av.VideoFrame.from_ndarray(np.ascontiguousarray(padded), format="rgb24")
         picture.pts = self.frames
-        self._container.mux(self._stream.encode(picture))
-        self.frames += 1
+        with signals_deferred():  # a Ctrl-C between encode and mux would lose a packet later frames refer to
+            self._container.mux(self._stream.encode(picture))
+            self.frames += 1
 
     def _open(self, size: tuple[int, int]) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -99,10 +101,11 @@ class VideoWriter:
                 return self.path  # already closed
             raise JoshuaError(f"no frames were written, so there is no video {self.path}")
         container, self._container = self._container, None
-        container.mux(self._stream.encode(None))  # flush the frames the encoder holds back
-        container.close()  # writes the index, moved to the front by +faststart
-        assert self._temporary is not None
-        os.replace(self._temporary, self.path)
+        with signals_deferred():  # often called on the way out of a Ctrl-C: a second one must not cut it short
+            container.mux(self._stream.encode(None))  # flush the frames the encoder holds back
+            container.close()  # writes the index, moved to the front by +faststart
+            assert self._temporary is not None
+            os.replace(self._temporary, self.path)
         return self.path
 
     def __enter__(self) -> VideoWriter:

@@ -6,8 +6,10 @@ data can be shown or recorded, not only the MuJoCo backend's."""
 
 from __future__ import annotations
 
+import signal
 from fractions import Fraction
 from pathlib import Path
+from typing import Any
 
 import av
 import numpy as np
@@ -144,3 +146,35 @@ def test_viewer_without_a_display_is_a_usage_error(engine: SceneEngine, tmp_path
 def test_unknown_camera_lists_the_cameras(engine: SceneEngine, tmp_path: Path) -> None:
     with pytest.raises(UsageError, match="no camera 'top' in the model; cameras: overview, side"):
         open_display(engine, output_dir=tmp_path, name="x", camera="top", viewer=False)
+
+
+class _SignalAfterEncode:
+    """A video stream whose encoder output is followed at once by SIGINT, the first time it gives packets: a
+    Ctrl-C between the encoder and the muxer, where raising would drop a packet that later frames refer to."""
+
+    def __init__(self, stream: Any) -> None:
+        self.stream = stream
+        self.signalled = False
+
+    def encode(self, picture: av.VideoFrame | None) -> list[av.Packet]:
+        packets = self.stream.encode(picture)
+        if packets and not self.signalled:
+            self.signalled = True
+            signal.raise_signal(signal.SIGINT)
+        return packets
+
+
+def test_ctrl_c_while_a_frame_is_encoded_keeps_every_frame_decodable(tmp_path: Path) -> None:
+    path = tmp_path / "stopped.mp4"
+    written = 0
+    with pytest.raises(KeyboardInterrupt), VideoWriter(path, fps=30) as video:
+        video.write(gradient(0))
+        video._stream = _SignalAfterEncode(video._stream)  # the encoder, where the signal lands
+        for index in range(1, 40):
+            written = index
+            video.write(gradient(index))
+    assert video.frames == written + 1  # the interrupted frame was written whole before the interrupt came
+    _, frames = decode(path)
+    assert len(frames) == written + 1
+    for index, frame in enumerate(frames):
+        assert np.abs(frame.astype(int) - gradient(index)).mean() < 6
