@@ -224,7 +224,7 @@ class _Iteration:
         grads = ordered_mean(grads, self.axis)
         adaptive, guarded = self.optimization.desired_kl > 0, self.optimization.max_kl > 0
         # the KL before this step, as every device sees it (it sets the learning rate, or stops the update)
-        kl = ordered_mean(losses["approx_kl"], self.axis) if adaptive or guarded else None
+        kl = ordered_mean(losses["approx_kl"], self.axis) if self.optimization.watches_kl else None
         with jax.named_scope("optimizer"):
             opt_state = scheduled_learning_rate(
                 carry.opt_state, kl if adaptive else None, self.optimization, self.env_steps_per_gradient_step
@@ -274,11 +274,12 @@ class _Iteration:
             )
         # steps (unrolls * steps * envs, ...) or, to recompute advantages, unrolls (unrolls * envs, steps, ...)
         samples = jax.tree.map(lambda x: x.reshape(-1, *x.shape[2 if self.recompute else 3 :]), samples)
-        # Brax updates the observation statistics before the epochs. With a KL guard they are updated after
-        # them: the update then sees the observations as the rollout did, and the KL it measures is the
-        # policy's change alone, not the statistics' drift (which alone held pick-and-place's learning rate at
-        # its floor for its first 30 iterations: approx-KL 0.017-0.027 at 1e-5)
-        statistics_first = self.optimization.desired_kl <= 0
+        # Brax updates the observation statistics before the epochs. With a KL guard (desired_kl or max_kl)
+        # they are updated after them: the update then sees the observations as the rollout did, and the KL
+        # it measures is the policy's change alone, not the statistics' drift (which alone held
+        # pick-and-place's learning rate at its floor for its first 30 iterations: approx-KL 0.017-0.027 at
+        # 1e-5; and reached 0.57 on a first iteration, past any sensible max_kl)
+        statistics_first = not self.optimization.watches_kl
         if statistics_first:
             stats = self.updated_statistics(stats, samples)
         with jax.named_scope("update"):

@@ -46,6 +46,11 @@ class OptimizationSettings:
     # (counted from the run's start, so across resumes); 0: no annealing
     anneal_steps: int = 0
 
+    @property
+    def watches_kl(self) -> bool:
+        """Whether the update measures its KL divergence from the collecting policy (desired_kl or max_kl)."""
+        return self.desired_kl > 0 or self.max_kl > 0
+
 
 @dataclass(frozen=True)
 class ReturnSettings:
