@@ -91,19 +91,27 @@ class StopRequest:
 
 
 @contextmanager
+def _handled_by(handler: Callable[[int, FrameType | None], None]) -> Iterator[None]:
+    """Inside the block `handler` takes SIGINT and SIGTERM; the handlers in place before come back after it.
+    Outside the main thread nothing is installed (signals are only ever handled there)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {signum: signal.signal(signum, handler) for signum in SIGNALS}
+    try:
+        yield
+    finally:
+        for signum, before in previous.items():
+            signal.signal(signum, before)
+
+
+@contextmanager
 def stop_requests() -> Iterator[StopRequest]:
     """Inside the block SIGINT and SIGTERM only set `StopRequest.signum` (the first time); the handlers
     in place before come back after it. Outside the main thread nothing is installed."""
     request = StopRequest()
-    if threading.current_thread() is not threading.main_thread():
+    with _handled_by(request.handle):
         yield request
-        return
-    previous = {signum: signal.signal(signum, request.handle) for signum in SIGNALS}
-    try:
-        yield request
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
 
 
 @contextmanager
@@ -113,16 +121,11 @@ def signals_deferred() -> Iterator[None]:
     For short steps that a signal must not cut in two: an exception raised between an encoder's output and
     the muxer's write loses a packet that every later frame of the video refers to. Outside the main thread
     nothing is installed (signals are only ever handled there)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
     arrived: list[int] = []
-    previous = {signum: signal.signal(signum, lambda signum, _: arrived.append(signum)) for signum in SIGNALS}
     try:
-        yield
+        with _handled_by(lambda signum, _: arrived.append(signum)):
+            yield
     finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
         if arrived:
             signal.raise_signal(arrived[0])  # the handler now in place takes it, as if it had come just now
 
