@@ -57,6 +57,7 @@ from joshua_core.options import OptionSet
 from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
 from joshua_core.statistics import SUCCESS_METRIC, summarize
+from joshua_core.tasks import METRIC_PREFIX, REWARD_PREFIX
 from joshua_mjx import MjxEnv, Physics
 from joshua_mjx.physics import mjx
 from joshua_ppo.checkpoints import checkpoint_payloads, load_state, read_json, write_payloads
@@ -273,12 +274,16 @@ def train(
                 f"vloss {metrics['value_loss']:.3g}  clip {metrics['clip_fraction']:.3f}  "
                 + (f"teacher_kl {metrics['teacher_kl']:.3f}  " if "teacher_kl" in metrics else "")
                 + (f"kl_stopped {metrics['kl_stopped']:.2f}  " if "kl_stopped" in metrics else "")
-                + " ".join(f"{key[7:]} {value:.1f}" for key, value in metrics.items() if key.startswith("reward/"))
+                + " ".join(
+                    f"{key.removeprefix(REWARD_PREFIX)} {value:.1f}"
+                    for key, value in metrics.items()
+                    if key.startswith(REWARD_PREFIX)
+                )
                 # the task's other metrics, e.g. a randomization curriculum's strength
                 + "".join(
-                    f"  {key[8:]} {value:.3g}"
+                    f"  {key.removeprefix(METRIC_PREFIX)} {value:.3g}"
                     for key, value in metrics.items()
-                    if key.startswith("metrics/") and key != training_key
+                    if key.startswith(METRIC_PREFIX) and key != training_key
                 ),
                 flush=True,
             )

@@ -7,10 +7,13 @@ from typing import Any
 
 import numpy as np
 
+from joshua_core.statistics import SUCCESS_METRIC
+from joshua_core.tasks import METRIC_PREFIX
+
 # Per metric: the training metric compared with the target while training, and the evaluation's value and interval.
 METRICS = {
     "return": ("mean_return", "mean_return", "mean_return_ci95"),
-    "success": ("metrics/success", "success_rate", "success_rate_ci95"),
+    "success": (METRIC_PREFIX + SUCCESS_METRIC, "success_rate", "success_rate_ci95"),
 }
 
 

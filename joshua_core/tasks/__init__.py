@@ -16,7 +16,15 @@ from joshua_core.tasks.context import (
     TermContext,
     set_columns,
 )
-from joshua_core.tasks.episodes import Episode, EpisodeSums, StepOutcome, account_step, nonfinite
+from joshua_core.tasks.episodes import (
+    METRIC_PREFIX,
+    REWARD_PREFIX,
+    Episode,
+    EpisodeSums,
+    StepOutcome,
+    account_step,
+    nonfinite,
+)
 from joshua_core.tasks.handles import (
     Actuators,
     Bodies,
@@ -48,7 +56,9 @@ __all__ = [
     "DERIVED_FIELDS",
     "INERTIAL_FIELDS",
     "KINEMATIC_FIELDS",
+    "METRIC_PREFIX",
     "MODEL_FIELDS",
+    "REWARD_PREFIX",
     "STATE_FIELDS",
     "ActionSpec",
     "Actuators",

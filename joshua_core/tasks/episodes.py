@@ -21,6 +21,11 @@ from typing import Any, NamedTuple
 from joshua_core.tasks.context import TermContext
 from joshua_core.tasks.task import Task
 
+# An episode's record flattened beside other values (a NUMPY environment's "episode" info, a trainer's logged
+# iteration) names each reward term's sum REWARD_PREFIX + term and each task metric METRIC_PREFIX + name.
+REWARD_PREFIX = "reward/"
+METRIC_PREFIX = "metrics/"
+
 
 class Episode(NamedTuple):
     """The episodes that ended on a step; entries are valid where `done`."""

@@ -32,6 +32,7 @@ from joshua_core.tasks import (  # noqa: E402
     DERIVED_FIELDS,
     INERTIAL_FIELDS,
     MODEL_FIELDS,
+    REWARD_PREFIX,
     EpisodeSums,
     NumpyRandom,
     Task,
@@ -341,7 +342,7 @@ class BatchedVectorEnv(VectorEnv):
             infos["_final_obs"] = done
             record = {"r": np.where(done, episode.return_, 0.0), "l": np.where(done, episode.length, 0)}
             for name, sums in episode.reward_terms.items():
-                record[f"reward/{name}"] = np.where(done, sums, 0.0)
+                record[REWARD_PREFIX + name] = np.where(done, sums, 0.0)
             infos["episode"], infos["_episode"] = record, done
             ids = np.flatnonzero(done)
             observation[ids] = simulation.reset(ids)

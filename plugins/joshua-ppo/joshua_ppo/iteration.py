@@ -20,6 +20,7 @@ import jax.numpy as jnp
 import optax
 from jax.sharding import PartitionSpec
 
+from joshua_core.tasks import METRIC_PREFIX, REWARD_PREFIX
 from joshua_ppo.advantages import estimate_advantages
 from joshua_ppo.batches import Sample, Transition, Unroll
 from joshua_ppo.collectives import ordered_mean
@@ -374,14 +375,14 @@ def _episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[s
     episode = state.episode
     done = episode.done.astype(jnp.float32)
     sums = {"episodes": done, "return": episode.return_ * done, "length": episode.length * done}
-    sums |= {f"reward/{name}": episode.reward_terms[name] * done for name in reward_terms}
+    sums |= {REWARD_PREFIX + name: episode.reward_terms[name] * done for name in reward_terms}
     for name in metric_terms:
         # a simulation that failed (non-finite state) ends its episode with metrics that are no numbers: each
         # metric is averaged over the episodes where it is one (else one blow-up made the mean NaN)
         value = episode.metrics[name]
         counted = episode.done & jnp.isfinite(value)
-        sums[f"metrics/{name}"] = jnp.where(counted, value, 0.0)
-        sums[f"{COUNTED}metrics/{name}"] = counted.astype(jnp.float32)
+        sums[METRIC_PREFIX + name] = jnp.where(counted, value, 0.0)
+        sums[COUNTED + METRIC_PREFIX + name] = counted.astype(jnp.float32)
     return sums
 
 

@@ -22,6 +22,8 @@ from joshua_core.options import message_to_dict, options_of
 from joshua_core.progress import progress_bar
 from joshua_core.run_context import RunContext
 from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
+from joshua_core.statistics import SUCCESS_METRIC
+from joshua_core.tasks import METRIC_PREFIX
 from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import RUN_FORMAT, checkpoint_payloads, read_json, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings
@@ -34,11 +36,11 @@ from joshua_ppo.viewer import open_page, open_viewer
 from joshua_render import LiveViewer, TrainingPage
 
 TRAINER_NAME = "ppo"
-# metrics/success: the task's success metric on the last step of the episodes that ended in the iteration,
-# i.e. the success rate per iteration (tasks without one leave the panel out)
+# the task's success metric on the last step of the episodes that ended in the iteration, i.e. the success
+# rate per iteration (tasks without one leave the panel out)
 CURVE_SERIES = (
     "mean_return",
-    "metrics/success",
+    METRIC_PREFIX + SUCCESS_METRIC,
     "mean_length",
     "policy_loss",
     "value_loss",

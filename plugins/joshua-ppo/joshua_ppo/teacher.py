@@ -12,6 +12,7 @@ import jax.numpy as jnp
 from joshua_core.errors import ConfigError
 from joshua_core.runs import METRICS_FILE, saved_training
 from joshua_core.statistics import SUCCESS_METRIC
+from joshua_core.tasks import METRIC_PREFIX
 from joshua_ppo.checkpoints import RUN_FORMAT, load_params, read_json
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv
@@ -61,7 +62,7 @@ def _described(checkpoint: Path) -> str:
     success), and the student's log is where that shows first."""
     record = (read_json(checkpoint / METRICS_FILE).get("history") or [{}])[-1]
     learned = [f"mean return {record['mean_return']:.4g}"] if record.get("mean_return") is not None else []
-    success = record.get(f"metrics/{SUCCESS_METRIC}")  # as the iteration logs the task's metrics
+    success = record.get(METRIC_PREFIX + SUCCESS_METRIC)  # as the iteration logs the task's metrics
     if success is not None:
         learned.append(f"success {success:.3f}")
     last = f"; its last iteration: {', '.join(learned)}" if learned else ""

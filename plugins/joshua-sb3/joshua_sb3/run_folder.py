@@ -33,6 +33,7 @@ from joshua_core.atomic import atomic_create_bytes, atomic_write_json, json_safe
 from joshua_core.curves import write_training_curves
 from joshua_core.errors import UsageError
 from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
+from joshua_core.tasks import METRIC_PREFIX
 
 CURVES_FILE = "training_curves.png"
 MANIFEST_FILE = "manifest.json"
@@ -153,6 +154,6 @@ def update_run_metrics(run_dir: Path, metrics: dict[str, Any], *, title: str) ->
     """Rewrite the run's metrics.json and its training-curve PNG (atomically)."""
     atomic_write_json(run_dir / METRICS_FILE, json_safe(metrics))  # a NaN loss is written as null
     series = ["rollout/ep_rew_mean"] + sorted(
-        {name for record in metrics["history"] for name in record if name.startswith("metrics/")}
+        {name for record in metrics["history"] for name in record if name.startswith(METRIC_PREFIX)}
     )
     write_training_curves(metrics["history"], run_dir / CURVES_FILE, title=title, series=series)

@@ -42,6 +42,7 @@ from joshua_core.runs import (
     resume_run,
     saved_training,
 )
+from joshua_core.tasks import METRIC_PREFIX, REWARD_PREFIX
 from joshua_sb3 import options_pb2
 from joshua_sb3.export import saved_policy
 from joshua_sb3.rollout import roll_out
@@ -114,10 +115,10 @@ class TrainingMonitor(BaseCallback):
         episodes = list(self.model.ep_info_buffer or [])
         if not episodes:
             return
-        for key, prefix in ((REWARD_TERMS_KEY, "reward"), (METRICS_KEY, "metrics")):
+        for key, prefix in ((REWARD_TERMS_KEY, REWARD_PREFIX), (METRICS_KEY, METRIC_PREFIX)):
             for name in episodes[-1].get(key, {}):
                 values = [episode[key][name] for episode in episodes if name in episode.get(key, {})]
-                self.logger.record(f"{prefix}/{name}", float(np.mean(values)))
+                self.logger.record(prefix + name, float(np.mean(values)))
         mean_return = float(np.mean([episode["r"] for episode in episodes]))
         self.bar.set_description_str(f"sb3 {self.run.settings.algorithm} return {mean_return:.3g}", refresh=False)
 
