@@ -24,6 +24,7 @@ import numpy as np
 
 from joshua_core.errors import UsageError
 from joshua_render.display import Display
+from joshua_render.web_access import AccessRule, guarded_serve
 
 if TYPE_CHECKING:
     import mujoco
@@ -98,10 +99,16 @@ def start_server(address: str, *, title: str, instead: str | None) -> viser.Vise
     except ImportError:
         raise UsageError(INSTALL_HINT) from None
     logging.getLogger("websockets.server").addFilter(_CLIENT_ERRORS)  # adding it again changes nothing
-    server = viser.ViserServer(host=host, port=port, label=title, verbose=False)
+    rule = AccessRule(host, port)
+    with guarded_serve(rule) as guarded:
+        server = viser.ViserServer(host=host, port=port, label=title, verbose=False)
+    if not guarded:
+        server.stop()
+        raise UsageError(f"viser {viser.__version__} starts its server in a way JOSHUA cannot guard; {INSTALL_HINT}")
+    rule.port = server.get_port()
     shown = f"[{host}]" if ":" in host else host
-    scope = "this machine only" if host in ("127.0.0.1", "localhost", "::1") else "reachable from the network"
-    print(f"web display: http://{shown}:{server.get_port()}/ ({scope}; no authentication)", flush=True)
+    scope = "this machine only" if rule.token is None else "reachable from the network; the token is needed"
+    print(f"web display: {rule.page_url(shown)} ({scope})", flush=True)
     return server
 
 

@@ -157,3 +157,111 @@ def test_training_page_sends_poses_only_while_a_client_is_connected() -> None:
             np.testing.assert_allclose(frame.position, (0.3, 0.0, 0.0), atol=1e-9)  # the slide joint's 0.3 m
     finally:
         page.close()
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _status_of(url: str, headers: dict[str, str]) -> tuple[int, dict[str, str]]:
+    """The status and headers a plain HTTP GET gets (a refusal's 403 included)."""
+    import urllib.error
+
+    try:
+        with urllib.request.urlopen(urllib.request.Request(url, headers=headers), timeout=30) as page:
+            return page.status, dict(page.headers)
+    except urllib.error.HTTPError as error:
+        return error.code, dict(error.headers)
+
+
+def _handshake_status(port: int, host: str, *, origin: str) -> int:
+    """The status a WebSocket handshake naming `host` (as a page on a rebound name would) gets: 101 is accepted."""
+    import base64
+    import os
+
+    request = (
+        f"GET / HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nOrigin: {origin}\r\n"
+        f"Sec-WebSocket-Key: {base64.b64encode(os.urandom(16)).decode()}\r\nSec-WebSocket-Version: 13\r\n\r\n"
+    )
+    with socket.create_connection(("127.0.0.1", port), timeout=30) as raw:
+        raw.sendall(request.encode())
+        reply = b""
+        while b"\r\n" not in reply:
+            chunk = raw.recv(4096)
+            assert chunk, reply
+            reply += chunk
+    return int(reply.split(b" ")[1])
+
+
+def test_a_foreign_web_site_cannot_drive_the_page(capfd: pytest.CaptureFixture[str]) -> None:
+    """A WebSocket opened by another web site (its Origin), from a sandboxed frame (`Origin: null`) or through a
+    rebound host name (its Host) is refused with 403 before viser sees it, and said once on the terminal; the
+    page's own origin and a program sending no Origin are let in."""
+    import viser
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+
+    port = _free_port()
+    server = start_server(f"127.0.0.1:{port}", title="t", instead="going on")
+    assert server is not None
+    own = f"http://127.0.0.1:{port}"
+    protocol = [f"viser-v{viser.__version__}"]
+    try:
+        for origin in ("https://evil.example", "null", f"http://127.0.0.1:{port + 1}"):
+            with pytest.raises(InvalidStatus) as refused:
+                connect(f"ws://127.0.0.1:{port}", origin=origin, subprotocols=protocol, open_timeout=30)
+            assert refused.value.response.status_code == 403
+        assert _handshake_status(port, f"evil.example:{port}", origin=f"http://evil.example:{port}") == 403
+        assert _handshake_status(port, f"127.0.0.1:{port}", origin=own) == 101  # the same handshake from the page
+        assert _status_of(f"{own}/", {"Host": f"evil.example:{port}"})[0] == 403
+        assert _status_of(f"{own}/", {"Origin": "https://evil.example"})[0] == 403
+        assert _handshake_status(port, f"localhost:{port}", origin=f"http://localhost:{port}") == 101
+        with connect(f"ws://127.0.0.1:{port}", origin=own, subprotocols=protocol, open_timeout=30) as client:
+            assert client.subprotocol == protocol[0]
+        with connect(f"ws://127.0.0.1:{port}", subprotocols=protocol, open_timeout=30) as client:
+            assert client.subprotocol == protocol[0]
+        assert _status_of(f"{own}/", {"Origin": own})[0] == 200
+    finally:
+        server.stop()
+    err = capfd.readouterr().err
+    assert "Traceback" not in err
+    assert err.count("joshua: warning: web display: refused a request: Origin 'https://evil.example'") == 1
+    assert "refused a request: Origin 'null' is not the page's own" in err
+    assert f"refused a request: Host 'evil.example:{port}' is not this server" in err
+
+
+def test_a_page_reachable_from_the_network_asks_for_the_printed_token(capfd: pytest.CaptureFixture[str]) -> None:
+    """On a network address the terminal prints the URL with a token; without it (or with another) every request
+    is refused, with it the page answers and sets the cookie its scripts and WebSocket then carry."""
+    import viser
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+
+    port = _free_port()
+    server = start_server(f"0.0.0.0:{port}", title="t", instead="going on")
+    assert server is not None
+    try:
+        printed = capfd.readouterr().out
+        assert f"web display: http://0.0.0.0:{port}/?token=" in printed
+        assert "(reachable from the network; the token is needed)" in printed
+        token = printed.split("?token=")[1].split()[0]
+        base = f"http://127.0.0.1:{port}/"
+        assert _status_of(base, {})[0] == 403
+        assert _status_of(f"{base}?token=wrong", {})[0] == 403
+        status, headers = _status_of(f"{base}?token={token}", {})
+        assert status == 200
+        assert headers["Set-Cookie"].startswith(f"joshua_web_token={token};")
+        assert "HttpOnly" in headers["Set-Cookie"] and "SameSite=Strict" in headers["Set-Cookie"]
+        protocol = [f"viser-v{viser.__version__}"]
+        with pytest.raises(InvalidStatus) as refused:
+            connect(f"ws://127.0.0.1:{port}", additional_headers={"Cookie": "joshua_web_token=wrong"},
+                    subprotocols=protocol, open_timeout=30)  # fmt: skip
+        assert refused.value.response.status_code == 403
+        with connect(f"ws://127.0.0.1:{port}", additional_headers={"Cookie": f"joshua_web_token={token}"},
+                     origin=f"http://127.0.0.1:{port}", subprotocols=protocol, open_timeout=30) as client:  # fmt: skip
+            assert client.subprotocol == protocol[0]
+    finally:
+        server.stop()
+    assert "refused a request: no valid token (open the address the terminal printed)" in capfd.readouterr().err
