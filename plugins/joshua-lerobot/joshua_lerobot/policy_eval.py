@@ -38,6 +38,8 @@ if TYPE_CHECKING:
     from joshua_lerobot.policy_process import PolicyDescription, PolicyProcess
 
 POLICY_FILES = ("config.json", "model.safetensors")  # what LeRobot's save_pretrained writes for every policy
+DEFAULT_REPLY_SECONDS = 300.0  # loading lerobot, torch and a policy on a busy CPU takes about a minute
+MAX_REPLY_SECONDS = 86400.0
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,14 @@ class LeRobotPolicyFormat(PolicyFormat):
         )
         group.add_argument(
             "--lerobot-device", default="cpu", help="torch device the policy runs on (default cpu; e.g. cuda)"
+        )
+        group.add_argument(
+            "--lerobot-timeout",
+            metavar="SECONDS",
+            type=cli_number("--lerobot-timeout", 1, MAX_REPLY_SECONDS),
+            default=DEFAULT_REPLY_SECONDS,
+            help="the most a policy may take to load or to answer a batch; past it the policy process is stopped "
+            f"(default {DEFAULT_REPLY_SECONDS:g})",
         )
         group.add_argument(
             "--lerobot-task", metavar="TEXT", help="the task text the policy is given (default: the task's own)"
@@ -124,7 +134,7 @@ class LeRobotPolicyFormat(PolicyFormat):
         num_envs = min(args.num_envs, episodes)
         if video_grid > num_envs:
             raise UsageError(f"--grid {video_grid} tiles episodes of one batch: at most --num-envs ({num_envs})")
-        with PolicyProcess(args.lerobot_python, path, args.lerobot_device) as policy:
+        with PolicyProcess(args.lerobot_python, path, args.lerobot_device, args.lerobot_timeout) as policy:
             return evaluate_policy(
                 policy,
                 training.task,
@@ -176,18 +186,18 @@ def evaluate_policy(
         lengths: list[float] = []
         metrics: dict[str, list[float]] = {}
         last_states = []
-        bar = progress_bar(episodes * env.simulation.task.spec.episode_length, description="eval", unit="env steps")
-        while len(returns) < episodes:
-            if returns:
-                env.reset()  # the next draws of the same random stream
-            wanted = min(num_envs, episodes - len(returns))
-            batch = rollout.batch(stride, video if not returns else None, bar, wanted)
-            returns += batch.returns[:wanted].tolist()
-            lengths += batch.lengths[:wanted].tolist()
-            for name, values in batch.metrics.items():
-                metrics.setdefault(name, []).extend(values[:wanted].tolist())
-            last_states.append(batch.last_states[:wanted])
-        bar.close()
+        total = episodes * env.simulation.task.spec.episode_length
+        with progress_bar(total, description="eval", unit="env steps") as bar:  # closed before an error is printed
+            while len(returns) < episodes:
+                if returns:
+                    env.reset()  # the next draws of the same random stream
+                wanted = min(num_envs, episodes - len(returns))
+                batch = rollout.batch(stride, video if not returns else None, bar, wanted)
+                returns += batch.returns[:wanted].tolist()
+                lengths += batch.lengths[:wanted].tolist()
+                for name, values in batch.metrics.items():
+                    metrics.setdefault(name, []).extend(values[:wanted].tolist())
+                last_states.append(batch.last_states[:wanted])
         if video is not None:
             video.close()
     finally:

@@ -22,6 +22,7 @@ Only numpy is imported at the top, so that JOSHUA imports the message functions 
 from __future__ import annotations
 
 import json
+import math
 import os
 import struct
 import sys
@@ -34,6 +35,10 @@ if __name__ == "__main__" and sys.path[0] == os.path.dirname(os.path.abspath(__f
 import numpy as np  # noqa: E402
 
 HEADER = struct.Struct("<I")
+MAX_HEADER_BYTES = 1 << 20  # a header lists a few arrays; more is not a message
+MAX_DIMENSIONS = 8
+MAX_COUNT = 1 << 31  # per dimension; the total is bounded by receive's max_bytes
+NUMBER_KINDS = "biuf"  # bool, signed, unsigned, float: nothing else travels
 IMAGE_PREFIX = "observation.images."
 
 
@@ -48,20 +53,49 @@ def send(stream: IO[bytes], header: dict[str, Any], arrays: dict[str, np.ndarray
     stream.flush()
 
 
-def receive(stream: IO[bytes]) -> tuple[dict[str, Any], dict[str, np.ndarray]] | None:
-    """Read one message: its header and arrays; None when the stream ended before a message."""
+def receive(stream: IO[bytes], max_bytes: int | None = None) -> tuple[dict[str, Any], dict[str, np.ndarray]] | None:
+    """Read one message: its header and arrays; None when the stream ended before a message. A message that is
+    not one (a header that is not JSON or lists arrays badly, arrays of other than numbers, more than `max_bytes`
+    of arrays, a header over `MAX_HEADER_BYTES`) is a ValueError; one that ends early an EOFError."""
     size = stream.read(HEADER.size)
     if len(size) < HEADER.size:
         return None
-    header = json.loads(_read_exactly(stream, HEADER.unpack(size)[0]))
+    length = HEADER.unpack(size)[0]
+    if length > MAX_HEADER_BYTES:
+        raise ValueError(f"a header of {length} bytes (at most {MAX_HEADER_BYTES})")
+    header = json.loads(_read_exactly(stream, length))
+    listed = header.pop("arrays", None) if isinstance(header, dict) else None
+    if not isinstance(listed, list):
+        raise ValueError("the header is not an object listing its arrays")
+    layouts = [_layout(entry) for entry in listed]
+    total = sum(math.prod(shape) * dtype.itemsize for _, dtype, shape in layouts)
+    if max_bytes is not None and total > max_bytes:
+        raise ValueError(f"arrays of {total} bytes (at most {max_bytes})")
     arrays = {}
-    for entry in header.pop("arrays"):
-        dtype, shape = np.dtype(entry["dtype"]), tuple(entry["shape"])
-        if dtype.hasobject:
-            raise ValueError("object arrays are not sent")
-        count = int(np.prod(shape))
-        arrays[entry["name"]] = np.frombuffer(_read_exactly(stream, count * dtype.itemsize), dtype).reshape(shape)
+    for name, dtype, shape in layouts:
+        count = math.prod(shape)
+        arrays[name] = np.frombuffer(_read_exactly(stream, count * dtype.itemsize), dtype).reshape(shape)
     return header, arrays
+
+
+def _layout(entry: object) -> tuple[str, np.dtype, tuple[int, ...]]:
+    """(name, dtype, shape) of one listed array: numbers only, a shape of at most `MAX_DIMENSIONS` counts."""
+    if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
+        raise ValueError(f"an array listed as {str(entry)[:80]}")
+    name, shape = entry["name"], entry.get("shape")
+    try:
+        dtype = np.dtype(str(entry.get("dtype")))
+    except TypeError:
+        raise ValueError(f"array {name!r}: dtype {str(entry.get('dtype'))[:40]!r} is not one") from None
+    if dtype.kind not in NUMBER_KINDS:
+        raise ValueError(f"array {name!r}: dtype {dtype} is not a number")
+    if not (isinstance(shape, list) and len(shape) <= MAX_DIMENSIONS and all(_count(n) for n in shape)):
+        raise ValueError(f"array {name!r}: shape {str(shape)[:80]} is not a list of counts")
+    return name, dtype, tuple(shape)
+
+
+def _count(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= MAX_COUNT
 
 
 def _read_exactly(stream: IO[bytes], size: int) -> bytes:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,7 @@ from joshua_core.config_pb2 import TaskConfig
 from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
 from joshua_lerobot.joints import DEFAULT_UNITS
-from joshua_lerobot.policy_eval import evaluate_policy
+from joshua_lerobot.policy_eval import DEFAULT_REPLY_SECONDS, evaluate_policy
 from joshua_lerobot.policy_process import PolicyProcess
 
 JOSHUA = str(Path(sys.executable).parent / "joshua")
@@ -75,7 +76,7 @@ def test_joshua_eval_reports_a_lerobot_policys_success_rate_with_intervals(
 
 def test_the_policys_actions_drive_the_arm(policy: Path, lerobot_folder: Path) -> None:
     plugins = PluginHost.discover()
-    with PolicyProcess(str(lerobot_python(lerobot_folder)), policy, "cpu") as process:
+    with PolicyProcess(str(lerobot_python(lerobot_folder)), policy, "cpu", DEFAULT_REPLY_SECONDS) as process:
         assert process.description.type == "sac"
         evaluation = evaluate_policy(
             process,
@@ -135,4 +136,77 @@ def test_a_policy_taking_a_camera_the_task_lacks_is_refused_naming_it(lerobot_fo
         "observation.state, observation.images.overview, observation.images.side)"
     )
     assert done.returncode == 2 and done.stderr.count("\n") == 1 and expected in done.stderr, done.stderr
+    assert not (folder / "eval.json").exists()
+
+
+MISBEHAVING = Path(__file__).with_name("misbehaving_policy.py")
+
+
+def misbehaving_python(tmp_path: Path, answer: str) -> str:
+    """An executable `--lerobot-python` whose "policy" is tests/misbehaving_policy.py answering as `answer` says."""
+    script = tmp_path / f"python-{answer}"
+    script.write_text(f"#!/bin/sh\nexport JOSHUA_TEST_ANSWER={answer}\nexec '{sys.executable}' '{MISBEHAVING}'\n")
+    script.chmod(0o755)
+    return str(script)
+
+
+@pytest.mark.parametrize(
+    ("answer", "message"),
+    [
+        ("one_row", "answered a batch of 4 observations with actions of shape [1, 6], not [4, 6]"),
+        ("one_d", "answered a batch of 4 observations with actions of shape [6], not [4, 6]"),
+        ("too_wide", "answered a batch of 4 observations with actions of shape [4, 7], not [4, 6]"),
+        ("nan", "answered with non-finite actions (NaN or infinity) in 1 of 4 rows"),
+        ("strings", "sent what is not a reply (array 'action': dtype <U1 is not a number)"),
+        ("not_json", "sent what is not a reply (Expecting property name enclosed in double quotes"),
+        ("huge_length", "sent what is not a reply (a header of 4294967295 bytes (at most 1048576))"),
+        ("huge_shape", "sent what is not a reply (array 'action': shape [1099511627776, 1099511627776] is not"),
+        ("huge_total", "sent what is not a reply (arrays of 4398046511104 bytes (at most 67108864))"),
+        ("short_then_exit", "sent what is not a reply (the message ended after 8 of 96 bytes)"),
+        ("dies", "the policy process ended without a reply (exit 3)"),
+    ],
+)
+def test_a_policy_answering_wrongly_is_stopped_with_one_line(answer: str, message: str, tmp_path: Path) -> None:
+    """An answer that is not one finite row per observation is refused, never spread over the batch, and a reply
+    that is not a message ends the policy process."""
+    from joshua_core.errors import UsageError
+
+    process = PolicyProcess(misbehaving_python(tmp_path, answer), tmp_path, "cpu", 120.0)
+    try:
+        with pytest.raises(UsageError) as refused:
+            process.select_action(np.zeros((4, 6), np.float32), {}, ["task"] * 4)
+        assert message in str(refused.value) and "\n" not in str(refused.value)
+        assert process.process.wait(timeout=30) is not None  # stopped, or ended by itself
+    finally:
+        process.close()
+
+
+@pytest.mark.parametrize("answer", ["hang_loading", "partial_description"])
+def test_a_policy_that_stops_answering_is_stopped_at_the_deadline(answer: str, tmp_path: Path) -> None:
+    from joshua_core.errors import UsageError
+
+    started = time.monotonic()
+    with pytest.raises(UsageError, match=r"the policy process did not answer within 1 s \(--lerobot-timeout\)"):
+        PolicyProcess(misbehaving_python(tmp_path, answer), tmp_path, "cpu", 1.0)
+    assert 1.0 <= time.monotonic() - started < 60  # the deadline, plus the process's stop
+
+
+def test_a_policy_describing_itself_wrongly_is_one_line(tmp_path: Path) -> None:
+    from joshua_core.errors import UsageError
+
+    with pytest.raises(UsageError, match="the policy process described its policy wrongly"):
+        PolicyProcess(misbehaving_python(tmp_path, "no_description"), tmp_path, "cpu", 120.0)
+
+
+def test_joshua_eval_of_a_policy_answering_one_row_for_the_batch_is_exit_2(tmp_path: Path) -> None:
+    """The broadcast finding: `joshua eval` of such a policy stops with one line and writes no results."""
+    folder = tmp_path / "policy"
+    folder.mkdir()
+    (folder / "config.json").write_text(json.dumps({"type": "fake"}))
+    (folder / "model.safetensors").write_bytes(b"")
+    done = joshua_eval(folder, "--no-video", "--num-envs", "2", "--episodes", "2", *SHORT,
+                       python=misbehaving_python(tmp_path, "one_row"))  # fmt: skip
+    said = [line for line in done.stderr.splitlines() if not line.startswith("eval:")]  # the progress lines aside
+    assert done.returncode == 2 and len(said) == 1, done.stderr
+    assert "answered a batch of 2 observations with actions of shape [1, 6], not [2, 6]" in said[0]
     assert not (folder / "eval.json").exists()
