@@ -26,6 +26,7 @@ import argparse
 import enum
 import json
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -51,6 +52,8 @@ GRIPPER = "gripper.pos"
 GRIPPER_SCALE = 100.0  # LeRobot's gripper: 0 .. 100 over the range
 RANGE_SCALE = 100.0  # LeRobot's body joints without degrees: -100 .. 100 over the range
 TICKS_PER_TURN = 4095  # lerobot's degrees: the STS3215's resolution (4096) - 1 ticks per 360 degrees
+MAX_TICK = 4095  # the STS3215 reads positions 0..4095
+MIN_CALIBRATED_SPAN = TICKS_PER_TURN // 360  # ticks: a calibrated range narrower than a degree is no joint's travel
 CALIBRATION_FIELDS = ("id", "drive_mode", "homing_offset", "range_min", "range_max")
 POSITION_SUFFIX = ".pos"
 # Largest magnitude an SO-100 value (arm angle in degrees, gripper in percent) may have: ±1e4 degrees is
@@ -108,9 +111,12 @@ class MotorRange:
 def read_calibration(path: Path) -> dict[str, MotorRange]:
     """A LeRobot calibration JSON (`lerobot-calibrate` writes it, e.g.
     ~/.cache/huggingface/lerobot/calibration/robots/so100_follower/<id>.json): motor name -> {id, drive_mode,
-    homing_offset, range_min, range_max}; every SO-100 motor must be there. A problem is one UsageError."""
+    homing_offset, range_min, range_max}; every SO-100 motor must be there. A problem is one UsageError; a range
+    no STS3215 arm has (outside 0..4095 ticks, or under a degree wide) is read and warned about in one line."""
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
+    except RecursionError:  # json gives up on deep nesting (e.g. 100000 nested lists) by recursing too deep
+        raise UsageError(f"{path}: cannot read the LeRobot calibration: nested too deeply") from None
     except (OSError, ValueError) as error:
         raise UsageError(f"{path}: cannot read the LeRobot calibration: {error}") from None
     motors = [name.removesuffix(POSITION_SUFFIX) for name in SO100_JOINTS]
@@ -129,7 +135,24 @@ def read_calibration(path: Path) -> dict[str, MotorRange]:
             low, high = entry["range_min"], entry["range_max"]
             raise UsageError(f"{path}: motor '{motor}': range_max {high} is not above range_min {low}")
         calibration[motor] = MotorRange(entry["range_min"], entry["range_max"], entry["drive_mode"])
+        _warn_unlikely_range(path, motor, calibration[motor])
     return calibration
+
+
+def _warn_unlikely_range(path: Path, motor: str, motor_range: MotorRange) -> None:
+    """One line on stderr when `motor_range` is not one an SO-100's servos give: ticks outside 0..4095, or a span
+    under a degree, which scales every range value of the motor by its tiny width (a typo read silently before)."""
+    low, high = motor_range.range_min, motor_range.range_max
+    if low < 0 or high > MAX_TICK:
+        problem = f"lies outside the servo's 0..{MAX_TICK} ticks"
+    elif high - low < MIN_CALIBRATED_SPAN:
+        problem = f"spans {high - low} tick(s), under a degree"
+    else:
+        return
+    print(
+        f"joshua: warning: {path}: motor '{motor}': range {low}..{high} {problem}; is it the arm's calibration?",
+        file=sys.stderr,
+    )
 
 
 def _is_int(value: Any) -> bool:
