@@ -9,7 +9,7 @@ from typing import Any, NamedTuple
 import jax
 import jax.numpy as jnp
 
-from joshua_core.errors import ConfigError
+from joshua_core.errors import ConfigError, CorruptCheckpointError
 from joshua_core.runs import METRICS_FILE, saved_training
 from joshua_core.statistics import SUCCESS_METRIC
 from joshua_core.tasks import METRIC_PREFIX
@@ -59,11 +59,27 @@ def load_teacher(settings: TeacherSettings, env: JaxEnv, task: str, options: Any
 def _described(checkpoint: Path) -> str:
     """The checkpoint with its training's last record: a teacher that had not learned the task yet teaches a
     policy that does not either (a pick-and-place teacher at a mean return of 955 left its pixel student at 0.09
-    success), and the student's log is where that shows first."""
-    record = (read_json(checkpoint / METRICS_FILE).get("history") or [{}])[-1]
-    learned = [f"mean return {record['mean_return']:.4g}"] if record.get("mean_return") is not None else []
-    success = record.get(METRIC_PREFIX + SUCCESS_METRIC)  # as the iteration logs the task's metrics
-    if success is not None:
+    success), and the student's log is where that shows first. A metrics.json of other types is a
+    CorruptCheckpointError naming the file (exit 2)."""
+    path = checkpoint / METRICS_FILE
+    history = read_json(path).get("history") or [{}]
+    record = history[-1] if isinstance(history, list) else None
+    if not isinstance(record, dict):
+        raise CorruptCheckpointError(f"{path}: 'history' is not a list of records (objects)")
+    step, mean_return, success = (
+        _number(path, record, key) for key in ("step", "mean_return", METRIC_PREFIX + SUCCESS_METRIC)
+    )
+    learned = [f"mean return {mean_return:.4g}"] if mean_return is not None else []
+    if success is not None:  # as the iteration logs the task's metrics
         learned.append(f"success {success:.3f}")
     last = f"; its last iteration: {', '.join(learned)}" if learned else ""
-    return f"{checkpoint} ({record.get('step', 0):,} env steps{last})"
+    return f"{checkpoint} ({step or 0:,} env steps{last})"
+
+
+def _number(path: Path, record: dict[str, Any], key: str) -> float | None:
+    """The number `record` holds under `key`, or None when it holds none; any other value is a
+    CorruptCheckpointError naming `path`, the file the record is from."""
+    value = record.get(key)
+    if value is None or (isinstance(value, int | float) and not isinstance(value, bool)):
+        return value
+    raise CorruptCheckpointError(f"{path}: the last record's '{key}' is a {type(value).__name__}, not a number")
