@@ -9,6 +9,8 @@ its holder's pid written, and only then renamed to its name (a rename never repl
 holds files), so two processes never share a run and a second one asking for a name in use learns
 which process holds it. A checkpoint is written into a hidden folder beside, flushed to disk and
 renamed into place (`joshua_core.atomic.atomic_directory`): every visible checkpoint is complete.
+A run killed before it wrote anything leaves its folder holding only the lock file with its pid; the lock
+itself went with the process, so the next run of that name takes the folder over (saying so).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import os
 import re
 import secrets
 import shutil
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import datetime
@@ -125,7 +128,7 @@ def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunF
     root.mkdir(parents=True, exist_ok=True)
     if name is not None:
         check_run_name(name, "run name")
-        run = None if run_checkpoints(root, name) else _claim(root, name)
+        run = None if run_checkpoints(root, name) else _claim(root, name) or _take_over(root, name)
         if run is None:
             if (root / name).is_dir():
                 open_run(root, name).close()  # raises RunInUseError while another process trains it
@@ -181,12 +184,50 @@ def _claim(root: Path, name: str) -> RunFolder | None:
     return RunFolder(root, name, descriptor)
 
 
+def _take_over(root: Path, name: str) -> RunFolder | None:
+    """The existing folder `<root>/<name>`, locked by this process, when all it holds is the lock file of a run
+    that ended before writing anything (killed while starting): `_claim` made it so, nothing else is in it, and
+    its process is gone, since the lock is free; said in one line. None when the folder holds anything else (it
+    is left as it is); RunInUseError while the process that holds the lock lives."""
+    folder = root / name
+    ended = _sole_lock_holder(folder)
+    if ended is None:
+        return None
+    run = open_run(root, name)
+    if _sole_lock_holder(folder) is None:  # looked at again under the lock: a process that had it wrote something
+        run.close()
+        return None
+    print(
+        f"joshua: warning: run folder {folder} held only the lock of process {ended}, which ended before writing "
+        "anything; this run starts afresh in it",
+        file=sys.stderr,
+    )
+    return run
+
+
+def _sole_lock_holder(folder: Path) -> str | None:
+    """The pid the lock file of `folder` names when that file is all the folder holds and reads as `_lock` writes
+    it; None otherwise."""
+    try:
+        if [path.name for path in folder.iterdir()] != [LOCK_FILE]:
+            return None
+        content = (folder / LOCK_FILE).read_bytes()
+    except OSError:
+        return None
+    return _holder(content) if re.fullmatch(rb"\d+\n", content) else None
+
+
+def _holder(lock_content: bytes) -> str:
+    """The process a lock file names (the pid `_lock` wrote), as text for a message."""
+    return lock_content[:32].decode(errors="replace").strip() or "unknown"
+
+
 def _lock(descriptor: int, root: Path, name: str) -> None:
     """Take the run's lock without waiting and write this process's pid into it; RunInUseError when held."""
     try:
         fcntl.flock(descriptor, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
-        holder = os.pread(descriptor, 32, 0).decode(errors="replace").strip() or "unknown"
+        holder = _holder(os.pread(descriptor, 32, 0))
         raise RunInUseError(
             f"run '{name}' in {root} is being trained by process {holder}; wait for it to end, or choose another "
             "run_name"
@@ -238,6 +279,11 @@ def resume_run(root: Path, name: str | None, *, trainer: str, options: str) -> t
     """The run to resume (the named one, else the newest of `trainer`), locked, and its config.json."""
     folder = root / check_run_name(name, "run name") if name else newest_run(root, trainer)
     if folder is None or not (folder / CONFIG_FILE).is_file():
+        if folder is not None and (holder := _sole_lock_holder(folder)) is not None:
+            raise ConfigError(
+                f"{options}.resume: run folder {folder} holds nothing to resume (only the lock of process {holder}, "
+                "which wrote nothing): start the run without resume"
+            )
         which = f"no run '{name}'" if name else f"no {trainer} run"
         raise ConfigError(f"{options}.resume: there is {which} in {root} to resume")
     saved = read_run_config(folder)

@@ -89,6 +89,7 @@ def test_the_same_name_at_once_one_wins_and_the_other_learns_who_holds_it(tmp_pa
         _finish(processes, release)
     with open_run(tmp_path, "mine") as run:  # free once its holder ended
         assert (run.path / runs.LOCK_FILE).read_text().strip() == str(os.getpid())
+        (run.path / CONFIG_FILE).write_text("{}")  # a run that wrote something keeps its name
     with pytest.raises(ConfigError, match=r"run folder .*mine exists; continue it with --set training.x.resume=true"):
         create_run(tmp_path, "mine", stem="walk", options="training.x")
 
@@ -191,7 +192,52 @@ def test_a_file_given_as_run_folder_is_named_a_file(tmp_path: Path) -> None:
 
 
 def test_a_command_line_run_name_in_use_says_choose_another(tmp_path: Path) -> None:
-    create_run(tmp_path, "fit", stem="sysid", options="--run-name").close()
+    with create_run(tmp_path, "fit", stem="sysid", options="--run-name") as run:
+        (run.path / "report.json").write_text("{}")
     with pytest.raises(ConfigError) as raised:
         create_run(tmp_path, "fit", stem="sysid", options="--run-name")
     assert str(raised.value) == f"run folder {tmp_path / 'fit'} exists; choose another --run-name"
+
+
+def test_a_run_killed_before_writing_anything_leaves_its_name_usable(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Killed while starting, a run leaves its folder holding only the lock file with its pid (the lock itself goes
+    with the process): resuming it says there is nothing to resume, and a new run of that name takes the folder
+    over, in one line; a folder holding anything else is left as it is."""
+    processes, reports, _ = _start_creators(tmp_path, "mine", 1)
+    (kind, _, _, pid), (holder,) = reports[0], processes
+    assert kind == "run"
+    holder.kill()
+    holder.join(WAIT)
+    assert [path.name for path in (tmp_path / "mine").iterdir()] == [runs.LOCK_FILE]
+
+    with pytest.raises(ConfigError) as nothing:
+        resume_run(tmp_path, "mine", trainer="sb3", options="training.x")
+    assert str(nothing.value) == (
+        f"training.x.resume: run folder {tmp_path / 'mine'} holds nothing to resume (only the lock of process {pid}, "
+        "which wrote nothing): start the run without resume"
+    )
+    capsys.readouterr()
+    with create_run(tmp_path, "mine", stem="walk", options="training.x") as run:
+        assert run.path == tmp_path / "mine"
+        assert (run.path / runs.LOCK_FILE).read_text() == f"{os.getpid()}\n"
+        with pytest.raises(RunInUseError):
+            open_run(tmp_path, "mine")  # held by this run now
+        (run.path / CONFIG_FILE).write_text("{}")
+    assert capsys.readouterr().err == (
+        f"joshua: warning: run folder {tmp_path / 'mine'} held only the lock of process {pid}, which ended before "
+        "writing anything; this run starts afresh in it\n"
+    )
+
+    for name, files in {
+        "notes": {runs.LOCK_FILE: f"{pid}\n", "notes.txt": "mine"},
+        "odd": {runs.LOCK_FILE: "x"},
+    }.items():
+        for file, text in files.items():  # a folder holding more than a lock, and one whose lock names no process
+            (tmp_path / name).mkdir(exist_ok=True)
+            (tmp_path / name / file).write_text(text)
+        with pytest.raises(ConfigError, match=f"run folder {tmp_path / name} exists"):
+            create_run(tmp_path, name, stem="walk", options="training.x")
+        assert sorted(path.name for path in (tmp_path / name).iterdir()) == sorted(files)  # left as it was
+    assert (tmp_path / "notes" / "notes.txt").read_text() == "mine"
