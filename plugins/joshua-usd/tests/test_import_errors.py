@@ -7,7 +7,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from pxr import Gf, Usd, UsdGeom, UsdPhysics
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics
 
 sys.path.insert(0, str(Path(__file__).parent))
 
@@ -54,6 +54,41 @@ def infinite_translate(stage: Usd.Stage) -> None:
     UsdGeom.Xform.Define(stage, "/World/hinge/frame").AddTranslateOp().Set(Gf.Vec3d(float("inf"), 0, 0))
 
 
+def mjc_value(name: str, kind: Sdf.ValueTypeName, value: object) -> Callable[[Usd.Stage], None]:
+    """A stage whose hinge is driven by an MjcActuator (MuJoCo's USD schema, unknown to usd-core, so any type can
+    be authored) with attribute `name` of type `kind` set to `value`."""
+
+    def author(stage: Usd.Stage) -> None:
+        two_bodies_and_a_hinge(stage)
+        actuator = stage.DefinePrim("/World/hinge/servo", "MjcActuator")
+        actuator.CreateRelationship("mjc:target", custom=False).SetTargets(["/World/hinge"])
+        actuator.CreateAttribute(name, kind, custom=False, variability=Sdf.VariabilityUniform).Set(value)
+
+    author.__name__ = f"{name}={value!r}"
+    return author
+
+
+def scaled_to_zero(stage: Usd.Stage) -> None:
+    two_bodies_and_a_hinge(stage)
+    UsdGeom.Xformable(stage.GetPrimAtPath("/World/b")).AddScaleOp().Set(Gf.Vec3f(1, 0, 1))
+
+
+def collapsed_matrix(stage: Usd.Stage) -> None:
+    """A body whose transform maps its x and y axes onto one line (rank 2, no zero scale anywhere)."""
+    two_bodies_and_a_hinge(stage)
+    matrix = Gf.Matrix4d(1, 0, 0, 0, 1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1)
+    UsdGeom.Xformable(stage.GetPrimAtPath("/World/b")).AddTransformOp().Set(matrix)
+
+
+def parent_scaled_to_zero(stage: Usd.Stage) -> None:
+    """The bodies under an Xform of scale 0: the error names that Xform, whose own transform collapses."""
+    UsdGeom.Xform.Define(stage, "/World/robot").AddScaleOp().Set(Gf.Vec3f(0, 0, 0))
+    first, second = body(stage, "/World/robot/a"), body(stage, "/World/robot/b")
+    joint(stage, UsdPhysics.RevoluteJoint, "/World/robot/hinge", first, second, (0, 0, 0))
+
+
+MUST_BE_NUMBERS = "must be an array of numbers"
+SINGULAR = "the transform is singular (a scale of 0, or axes collapsed onto each other)"
 CASES: list[tuple[Callable[[Usd.Stage], None], str, str, str]] = [
     (missing_target, "/World/hinge", "physics:body1", "does not exist"),
     (not_finite, "/World/hinge", "physics:localPos1", "not a finite number"),
@@ -61,7 +96,20 @@ CASES: list[tuple[Callable[[Usd.Stage], None], str, str, str]] = [
     (loop, "/World/hinge", "physics:body1", "kinematic loop"),
     (inverted_limits, "/World/hinge", "physics:lowerLimit", "above upperLimit"),
     (infinite_translate, "/World/hinge/frame", "xformOp", "the transform is not finite"),
-]
+    (mjc_value("mjc:gear", Sdf.ValueTypeNames.StringArray, ["a"]), "/World/hinge/servo", "mjc:gear", MUST_BE_NUMBERS),
+    (mjc_value("mjc:gear", Sdf.ValueTypeNames.Double, 2.0), "/World/hinge/servo", "mjc:gear", MUST_BE_NUMBERS),
+    (mjc_value("mjc:gear", Sdf.ValueTypeNames.String, "12"), "/World/hinge/servo", "mjc:gear", MUST_BE_NUMBERS),
+    (mjc_value("mjc:group", Sdf.ValueTypeNames.String, "abc"), "/World/hinge/servo", "mjc:group", "must be a number"),
+    (mjc_value("mjc:group", Sdf.ValueTypeNames.Double, 1e30), "/World/hinge/servo", "mjc:group", "within 32 bits"),
+    (mjc_value("mjc:group", Sdf.ValueTypeNames.Double, 1.5), "/World/hinge/servo", "mjc:group", "a whole number"),
+    (mjc_value("mjc:inheritRange", Sdf.ValueTypeNames.FloatArray, [1.0]), "/World/hinge/servo", "mjc:inheritRange",
+     "must be a number"),
+    (mjc_value("mjc:ctrlRange:max", Sdf.ValueTypeNames.Token, "x"), "/World/hinge/servo", "mjc:ctrlRange:max",
+     "must be a number"),
+    (scaled_to_zero, "/World/b", "xformOp", SINGULAR),
+    (collapsed_matrix, "/World/b", "xformOp", SINGULAR),
+    (parent_scaled_to_zero, "/World/robot", "xformOp", "read from it, which places /World/robot/"),
+]  # fmt: skip
 
 
 @pytest.mark.parametrize(("author", "prim", "attribute", "reason"), CASES, ids=[case[0].__name__ for case in CASES])

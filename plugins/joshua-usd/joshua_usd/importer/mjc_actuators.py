@@ -6,6 +6,7 @@ setting (`mjc:compiler:angle` matters for joint ranges only), so they are used a
 
 from __future__ import annotations
 
+import reprlib
 from collections.abc import Iterator, Mapping
 from typing import Any
 
@@ -14,7 +15,7 @@ import numpy as np
 from pxr import Sdf, Usd
 
 from joshua_usd.importer.report import ImportReport
-from joshua_usd.importer.stage import StageFrame, prims, read
+from joshua_usd.importer.stage import StageFrame, prims, read, read_number
 
 ACTUATOR_TYPE = "MjcActuator"
 ACTUATOR_API = "MjcActuatorAPI"
@@ -111,7 +112,7 @@ def _new_actuator(
     else:
         target = path
     if target in joints:
-        in_parent = bool(read(prim, "mjc:jointInParent", report))
+        in_parent = bool(read_number(prim, "mjc:jointInParent", report))
         transmission = mujoco.mjtTrn.mjTRN_JOINTINPARENT if in_parent else mujoco.mjtTrn.mjTRN_JOINT
         return spec.add_actuator(name=name, target=joints[target].name, trntype=transmission)
     if target in bodies:
@@ -140,28 +141,34 @@ def _set_parameters(prim: Usd.Prim, actuator: mujoco.MjsActuator, report: Import
             if str(token) not in LIMITED:
                 raise report.error(prim.GetPath(), f"mjc:{kind}Limited", f"must be false, true or auto, got {token}")
             setattr(actuator, limited, LIMITED[str(token)])
-        low, high = (read(prim, f"mjc:{kind}Range:{end}", report) for end in ("min", "max"))
+        low, high = (read_number(prim, f"mjc:{kind}Range:{end}", report) for end in ("min", "max"))
         if low is not None or high is not None:
-            setattr(actuator, bounds, [float(low or 0.0), float(high or 0.0)])
-    low, high = (read(prim, f"mjc:lengthRange:{end}", report) for end in ("min", "max"))
+            setattr(actuator, bounds, [low or 0.0, high or 0.0])
+    low, high = (read_number(prim, f"mjc:lengthRange:{end}", report) for end in ("min", "max"))
     if low is not None or high is not None:
-        actuator.lengthrange = [float(low or 0.0), float(high or 0.0)]
-    for attribute, field, kind in (
-        ("mjc:group", "group", int),
-        ("mjc:actDim", "actdim", int),
-        ("mjc:actEarly", "actearly", int),
-        ("mjc:inheritRange", "inheritrange", float),
+        actuator.lengthrange = [low or 0.0, high or 0.0]
+    for attribute, field, integer in (
+        ("mjc:group", "group", True),
+        ("mjc:actDim", "actdim", True),
+        ("mjc:actEarly", "actearly", True),
+        ("mjc:inheritRange", "inheritrange", False),
     ):
-        if (value := read(prim, attribute, report)) is not None:
-            setattr(actuator, field, kind(value))
+        if (value := read_number(prim, attribute, report, integer=integer)) is not None:
+            setattr(actuator, field, value)
 
 
 def _array(prim: Usd.Prim, attribute: str, size: int, report: ImportReport) -> np.ndarray | None:
-    """The authored array padded with zeros to `size`; longer arrays are a ModelError (MuJoCo holds `size`)."""
+    """The authored array padded with zeros to `size`; longer arrays, and values that are not an array of numbers,
+    are a ModelError (MuJoCo holds `size` numbers)."""
     value: Any = read(prim, attribute, report)
     if value is None:
         return None
-    values = np.asarray(list(value), dtype=np.float64)
+    try:
+        values = None if isinstance(value, str) else np.asarray(list(value), dtype=np.float64)
+    except (TypeError, ValueError):  # a number, or an array of strings
+        values = None
+    if values is None or values.ndim != 1:
+        raise report.error(prim.GetPath(), attribute, f"must be an array of numbers, got {reprlib.repr(value)}")
     if values.size > size:
         raise report.error(prim.GetPath(), attribute, f"has {values.size} values, MuJoCo holds {size}")
     return np.pad(values, (0, size - values.size))

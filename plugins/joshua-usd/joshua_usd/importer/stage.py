@@ -4,6 +4,7 @@ attribute readers that turn bad values into one-line ModelErrors."""
 from __future__ import annotations
 
 import math
+import reprlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,6 +17,11 @@ from pxr import Gf, Tf, Usd, UsdGeom, UsdPhysics
 from joshua_usd.importer.pose import Pose, Vec, decompose
 from joshua_usd.importer.report import ImportReport
 from joshua_usd.physx_schema import attribute_name
+
+# A transform whose smallest singular value is this small against its largest collapses an axis (a scale of 0, or
+# two axes onto one): no pose or size can be read from it.
+SINGULAR_RATIO = 1e-12
+INT32_LIMIT = 2**31  # MuJoCo's integer fields are 32-bit
 
 
 def open_stage(path: Path, report: ImportReport) -> Usd.Stage:
@@ -53,12 +59,14 @@ def prims(stage: Usd.Stage) -> Iterator[Usd.Prim]:
 
 @dataclass(frozen=True)
 class StageFrame:
-    """How stage coordinates map to MuJoCo's: `to_mujoco` scales to metres and turns a Y-up world to Z-up."""
+    """How stage coordinates map to MuJoCo's: `to_mujoco` scales to metres and turns a Y-up world to Z-up;
+    `report` is the import's, for the transforms that place nothing."""
 
     meters_per_unit: float
     kilograms_per_unit: float
     up_axis: str
     to_mujoco: NDArray[np.float64]
+    report: ImportReport
 
     @classmethod
     def of(cls, stage: Usd.Stage, report: ImportReport) -> StageFrame:
@@ -71,20 +79,45 @@ class StageFrame:
         up = str(UsdGeom.GetStageUpAxis(stage))
         matrix = np.eye(4)
         matrix[:3, :3] = meters * (np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]) if up == "Y" else np.eye(3))
-        return cls(meters, kilograms, up, matrix)
+        return cls(meters, kilograms, up, matrix, report)
 
     def world_matrix(self, prim: Usd.Prim | None) -> NDArray[np.float64]:
-        """The prim's local-to-world matrix in MuJoCo's world (column vectors); None is the world itself."""
+        """The prim's local-to-world matrix in MuJoCo's world (column vectors); None is the world itself. A singular
+        one (a scale of 0 on the prim or above it) is a ModelError naming the prim whose own transform collapses."""
         if prim is None or prim.IsPseudoRoot():
             return self.to_mujoco
         if not prim.IsA(UsdGeom.Xformable):  # a type usd-core has no schema for (Isaac's sensors): its own ops
-            return self.world_matrix(prim.GetParent()) @ _local_matrix(prim)
-        stage_matrix = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
-        return self.to_mujoco @ np.array(stage_matrix).T
+            matrix = self.world_matrix(prim.GetParent()) @ _local_matrix(prim)
+        else:
+            stage_matrix = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
+            matrix = self.to_mujoco @ np.array(stage_matrix).T
+        if _singular(matrix):
+            collapsing = next((above for above in _ancestry(prim) if _singular(_local_matrix(above))), prim)
+            placed = "" if collapsing == prim else f", which places {prim.GetPath()}"
+            raise self.report.error(
+                collapsing.GetPath(),
+                "xformOp",
+                "the transform is singular (a scale of 0, or axes collapsed onto each other): no pose or size can be "
+                f"read from it{placed}",
+            )
+        return matrix
 
     def world_pose(self, prim: Usd.Prim | None) -> tuple[Pose, Vec]:
         """The prim's rigid pose in MuJoCo's world and the scale (metres per local unit) along its axes."""
         return decompose(self.world_matrix(prim))
+
+
+def _singular(matrix: NDArray[np.float64]) -> bool:
+    """Whether the linear part of a 4x4 transform (finite: `open_stage` checked) collapses an axis."""
+    singular_values = np.linalg.svd(matrix[:3, :3], compute_uv=False)
+    return not singular_values[-1] > SINGULAR_RATIO * singular_values[0]
+
+
+def _ancestry(prim: Usd.Prim) -> Iterator[Usd.Prim]:
+    """`prim` and its ancestors, nearest first, up to the stage's root prims."""
+    while prim and not prim.IsPseudoRoot():
+        yield prim
+        prim = prim.GetParent()
 
 
 def _local_matrix(prim: Usd.Prim) -> NDArray[np.float64]:
@@ -110,6 +143,20 @@ def read(prim: Usd.Prim, name: str, report: ImportReport, *, allow_inf: bool = F
     if numbers.size and (np.isnan(numbers).any() or (not allow_inf and np.isinf(numbers).any())):
         raise report.error(prim.GetPath(), name, f"is not a finite number: {value}")
     return value
+
+
+def read_number(prim: Usd.Prim, name: str, report: ImportReport, *, integer: bool = False) -> float | None:
+    """The value of attribute `name` as a number (checked as `read` checks), None when it has none. A value of
+    another type (a string, an array) is a ModelError naming the prim and attribute, as is, where `integer`, one
+    that is not a whole number MuJoCo's 32-bit integers hold."""
+    value = read(prim, name, report)
+    if value is None:
+        return None
+    if not isinstance(value, int | float):  # bool is an int: USD's bool attributes read as 0 or 1
+        raise report.error(prim.GetPath(), name, f"must be a number, got {reprlib.repr(value)}")
+    if integer and not (float(value).is_integer() and -INT32_LIMIT <= value < INT32_LIMIT):
+        raise report.error(prim.GetPath(), name, f"must be a whole number within 32 bits, got {value}")
+    return int(value) if integer else float(value)
 
 
 def read_physx(
