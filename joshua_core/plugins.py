@@ -12,8 +12,9 @@ from __future__ import annotations
 import difflib
 import functools
 import importlib
+import inspect
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from importlib import metadata
 from typing import Any
@@ -274,11 +275,12 @@ class PluginHost:
         """Instantiate the registered class `name`, checking that it implements `base` (an ABC)."""
         component = self.component(kind, name)
         target = component.load()
+        owner = f"{kind.value} '{name}' from plugin '{component.plugin.name}' ({component.plugin.distribution})"
         if not (isinstance(target, type) and issubclass(target, base)):
-            raise PluginLoadError(
-                f"{kind.value} '{name}' from plugin '{component.plugin.name}' ({component.plugin.distribution}) "
-                f"is {target!r}, not a subclass of {base.__module__}.{base.__qualname__}"
-            )
+            raise PluginLoadError(f"{owner} is {target!r}, not a subclass of {base.__module__}.{base.__qualname__}")
+        mismatch = next(_signature_mismatches(target, base), None)
+        if mismatch is not None:
+            raise PluginLoadError(f"{owner}: {mismatch}; the plugin was written for another joshua-core: update it")
         return target()
 
     def backend(self, name: str) -> Backend:
@@ -315,6 +317,44 @@ class PluginHost:
         """Record `plugin` as broken and forget everything it registered."""
         plugin.error = error
         self._components = {key: c for key, c in self._components.items() if c.plugin is not plugin}
+
+
+def _signature_mismatches(target: type, base: type) -> Iterator[str]:
+    """What differs, for each public method of the ABC `base` that `target` overrides with parameters the core's
+    calls do not fit (e.g. a backend written before `create_engine` took the run's plugins), where calling it would
+    be a TypeError traceback from inside the core."""
+    for method, declared in vars(base).items():
+        implemented = getattr(target, method, None)
+        if method.startswith("_") or not inspect.isfunction(declared) or implemented is declared:
+            continue
+        try:
+            expected, actual = inspect.signature(declared), inspect.signature(implemented)  # type: ignore[arg-type]
+        except (TypeError, ValueError):  # not introspectable (a builtin, a callable object): nothing to compare
+            continue
+        passed = [p for p in expected.parameters.values() if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+        try:
+            actual.bind(
+                *(p.name for p in passed if p.kind is not p.KEYWORD_ONLY),
+                **{p.name: None for p in passed if p.kind is p.KEYWORD_ONLY},
+            )
+        except TypeError as error:
+            names = [p.name for p in passed]
+            lacks = [f"lacks '{name}'" for name in names if name not in actual.parameters]
+            needs = [
+                f"requires '{name}', which the core does not pass"
+                for name, p in actual.parameters.items()
+                if name not in names and p.default is p.empty and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)
+            ]
+            yield (
+                f"{method}{_unannotated(actual)} does not fit joshua-core {__version__}'s "
+                f"{base.__qualname__}.{method}{_unannotated(expected)}: it {', '.join(lacks + needs) or error}"
+            )
+
+
+def _unannotated(signature: inspect.Signature) -> inspect.Signature:
+    """`signature` without its annotations, as a message shows it (names and defaults)."""
+    parameters = [parameter.replace(annotation=parameter.empty) for parameter in signature.parameters.values()]
+    return signature.replace(parameters=parameters, return_annotation=signature.empty)
 
 
 def _extension_of(component: Component) -> FieldDescriptor:

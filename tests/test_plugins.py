@@ -13,7 +13,7 @@ from types import ModuleType
 
 import pytest
 
-from joshua_core import builtin_plugin, catalog, hookimpl
+from joshua_core import __version__, builtin_plugin, catalog, hookimpl
 from joshua_core.config_pb2 import SimulationConfig, TrainingConfig
 from joshua_core.errors import ConfigError, PluginLoadError, PluginNotFoundError, UsageError
 from joshua_core.interfaces import Backend, EnvKind, EnvSpec, Mode
@@ -82,6 +82,40 @@ def test_duplicate_names_are_rejected_naming_both_providers(tmp_path: Path, run_
         env={**env, "JOSHUA_DISABLE_PLUGINS": "mujoco-fork"},
     )
     assert fixed.returncode == 0, fixed.stderr
+
+
+OLD_SIGNATURE_BACKEND = """
+    from joshua_core import hookimpl
+    from joshua_core.interfaces import Backend
+    from joshua_mujoco import MuJoCoEngine
+
+    class OldBackend(Backend):
+        def create_engine(self, model_path, *, render_width=640, render_height=480):  # before it took the plugins
+            return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height)
+
+    @hookimpl
+    def joshua_register_backends(registry):
+        registry.add("mujoco_old", OldBackend, "written for an older joshua-core")
+"""
+
+
+def test_a_backend_of_an_older_interface_is_one_line_naming_plugin_method_and_change(
+    tmp_path: Path, run_joshua
+) -> None:
+    """A third-party backend whose create_engine predates the `plugins` argument is refused before it is called,
+    in one line, rather than failing inside the core with a TypeError traceback."""
+    site = tmp_path / "site"
+    install_fake_distribution(site, "joshua-old", "old", "joshua_old_plugin", OLD_SIGNATURE_BACKEND)
+    run = run_joshua(
+        "--set", "simulation.mode=HEADLESS", "--set", "simulation.backend=mujoco_old", env={"PYTHONPATH": str(site)}
+    )  # fmt: skip
+    assert run.returncode == 1 and run.stderr.count("\n") == 1, run.stderr
+    assert run.stderr == (
+        "joshua: error: backend 'mujoco_old' from plugin 'old' (joshua-old): create_engine(self, model_path, *, "
+        "render_width=640, render_height=480) does not fit joshua-core "
+        f"{__version__}'s Backend.create_engine(self, model_path, plugins, *, render_width=640, render_height=480): it "
+        "lacks 'plugins'; the plugin was written for another joshua-core: update it\n"
+    )
 
 
 def test_disabled_plugin_is_listed_and_named_when_needed(run_joshua) -> None:
