@@ -4,7 +4,9 @@ The CLI turns SIGTERM into `Terminated` (a KeyboardInterrupt, so every `finally`
 Ctrl-C runs on SIGTERM too) and exits 128 + the signal's number (130 for SIGINT, 143 for SIGTERM),
 printing one line, no traceback. A trainer wraps its loop in `stop_requests()`: the first signal only
 asks it to stop, so it can save a checkpoint at a consistent point; a second one interrupts at once. A
-step that must not be cut in two (a video frame encoded but not yet written) runs in `signals_deferred()`.
+step that must not be cut in two (a video frame encoded but not yet written) runs in `signals_deferred()`;
+work that keeps what it made so far defers signals throughout and lets them interrupt only its droppable
+parts (`HeldSignals.interruptible`: a rollout, not the writing of what was kept).
 """
 
 from __future__ import annotations
@@ -80,14 +82,19 @@ class StopRequest:
     def handle(self, signum: int, frame: FrameType | None) -> None:
         """The first signal is recorded; a second one of either kind interrupts at once."""
         if self.signum is not None:
-            raise Terminated() if signum == signal.SIGTERM else Interrupted(signum)
+            raise _interruption(signum)
         self.signum = signum
         print(f"\njoshua: {signal.Signals(signum).name}: stopping after this step (again to stop now)", file=sys.stderr)
 
     def interrupted(self) -> Interrupted:
         """The exception to raise once the run has saved what it could."""
         assert self.signum is not None
-        return Terminated() if self.signum == signal.SIGTERM else Interrupted(self.signum)
+        return _interruption(self.signum)
+
+
+def _interruption(signum: int) -> Interrupted:
+    """The exception signal `signum` stands for: `Terminated` for SIGTERM, `Interrupted` (a Ctrl-C) otherwise."""
+    return Terminated() if signum == signal.SIGTERM else Interrupted(signum)
 
 
 @contextmanager
@@ -114,20 +121,55 @@ def stop_requests() -> Iterator[StopRequest]:
         yield request
 
 
+class HeldSignals:
+    """The signals `signals_deferred` holds back, and the parts of its block where one interrupts at once."""
+
+    def __init__(self) -> None:
+        self.arrived: list[int] = []
+        self._at_once = False
+
+    def handle(self, signum: int, frame: FrameType | None) -> None:
+        """Hold `signum`; inside `interruptible()`, raise it."""
+        if self._at_once:
+            raise _interruption(signum)
+        self.arrived.append(signum)
+
+    def take(self) -> Interrupted | None:
+        """The interruption a held signal stands for, no longer held (its taker raises it once done), or None."""
+        if not self.arrived:
+            return None
+        interruption = _interruption(self.arrived[0])
+        self.arrived.clear()
+        return interruption
+
+    @contextmanager
+    def interruptible(self) -> Iterator[None]:
+        """Inside the block a signal interrupts at once (`Interrupted`, `Terminated`), as the CLI's handlers do, and
+        one held before it does so on entering: for work that may be dropped, between steps that must not be cut."""
+        if (interruption := self.take()) is not None:
+            raise interruption
+        self._at_once = True
+        try:
+            yield
+        finally:
+            self._at_once = False
+
+
 @contextmanager
-def signals_deferred() -> Iterator[None]:
-    """SIGINT and SIGTERM that arrive inside the block reach the handlers in place before it when it ends.
+def signals_deferred() -> Iterator[HeldSignals]:
+    """SIGINT and SIGTERM that arrive inside the block reach the handlers in place before it when it ends, except
+    inside `HeldSignals.interruptible()` blocks and those `HeldSignals.take()` took.
 
     For short steps that a signal must not cut in two: an exception raised between an encoder's output and
     the muxer's write loses a packet that every later frame of the video refers to. Outside the main thread
     nothing is installed (signals are only ever handled there)."""
-    arrived: list[int] = []
+    held = HeldSignals()
     try:
-        with _handled_by(lambda signum, _: arrived.append(signum)):
-            yield
+        with _handled_by(held.handle):
+            yield held
     finally:
-        if arrived:
-            signal.raise_signal(arrived[0])  # the handler now in place takes it, as if it had come just now
+        if held.arrived:
+            signal.raise_signal(held.arrived[0])  # the handler now in place takes it, as if it had come just now
 
 
 def resume_command(options: str, run_name: str) -> str:

@@ -20,6 +20,7 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.defaults import DEFAULT_OUTPUT_DIR
 from joshua_core.errors import JoshuaError, UsageError
 from joshua_core.interfaces import Command
+from joshua_core.interrupts import HeldSignals, signals_deferred
 from joshua_core.limits import MAX_FPS, MIN_FPS, cli_number
 from joshua_core.outputs import check_replaceable
 from joshua_core.plugins import PluginHost
@@ -43,12 +44,14 @@ AUTO, CPU, GPU = "auto", "cpu", "gpu"  # --physics
 
 @dataclass(frozen=True)
 class DemosReport:
-    """What a recording did: episodes kept (successful), attempts rolled out, frames written, wall seconds."""
+    """What a recording did: episodes kept (successful), attempts rolled out, frames written, wall seconds, and the
+    interruption (Ctrl-C) that stopped it early, to be raised once the report is out."""
 
     kept: int
     attempts: int
     frames: int
     seconds: float
+    interrupted: KeyboardInterrupt | None = None
 
     @property
     def episodes_per_minute(self) -> float:
@@ -128,12 +131,15 @@ class DemosCommand(Command):
         finally:
             producer.close()
         print(f"LeRobot dataset: {args.out} ({report.kept} episodes, {report.frames} frames)")
-        if report.kept < args.episodes:
-            print(f"kept {report.kept} of the {args.episodes} episodes wanted: --max-attempts reached", file=sys.stderr)
         print(
             f"{report.kept} of {report.attempts} attempts succeeded in {report.seconds:.1f} s: "
             f"{report.episodes_per_minute:.1f} episodes/minute"
         )
+        if report.interrupted is not None:
+            print(f"demos: interrupted; the dataset holds the {report.kept} episode(s) kept before it", file=sys.stderr)
+            raise report.interrupted
+        if report.kept < args.episodes:
+            print(f"kept {report.kept} of the {args.episodes} episodes wanted: --max-attempts reached", file=sys.stderr)
         return 0
 
 
@@ -197,14 +203,24 @@ def record_demonstrations(
 ) -> DemosReport:
     """Roll `producer` out until `episodes` attempts succeeded or `max_attempts` were made, and write the
     successful ones to `out` as a LeRobot dataset at `fps` with the task text `task`, values in `units`; each is
-    encoded as it comes. No success at all is an error and leaves nothing at `out`."""
+    encoded as it comes. No success at all is an error and leaves nothing at `out`.
+
+    A signal (Ctrl-C, SIGTERM) stops the rollouts at once, and the episodes kept before it are written as the
+    dataset (`DemosReport.interrupted`); one that comes while an episode or the dataset's files are being written
+    waits for them, so that what is kept is whole."""
     started = time.perf_counter()
     counts = {"kept": 0, "attempts": 0, "frames": 0}
+    stopped: list[KeyboardInterrupt] = []
 
-    def kept() -> Iterator[DatasetEpisode]:
+    def kept(held: HeldSignals) -> Iterator[DatasetEpisode]:
+        rollouts = producer.rollouts()
         with progress_bar(episodes, description="demos", unit="episodes") as bar:
-            for rollout in producer.rollouts():
-                if counts["kept"] >= episodes or counts["attempts"] >= max_attempts:
+            while counts["kept"] < episodes and counts["attempts"] < max_attempts:
+                try:
+                    with held.interruptible():  # a rollout under way is dropped
+                        rollout = next(rollouts)
+                except KeyboardInterrupt as interrupt:
+                    stopped.append(interrupt)
                     break
                 counts["attempts"] += 1
                 counts["kept"] += rollout.success
@@ -212,7 +228,7 @@ def record_demonstrations(
                 if not rollout.success:
                     continue
                 counts["frames"] += rollout.length
-                yield DatasetEpisode(
+                yield DatasetEpisode(  # written with signals held: an episode is in the dataset whole or not at all
                     joint_names=producer.joint_names,
                     timestamps=np.arange(rollout.length) / fps,
                     states=rollout.states,
@@ -222,7 +238,13 @@ def record_demonstrations(
                 )
                 bar.update(1)
         if not counts["kept"]:
+            if stopped:
+                raise stopped[0]
             raise JoshuaError(f"none of {counts['attempts']} attempts succeeded; no dataset written")
 
-    write_dataset(out, kept(), fps=fps, joint_ranges=producer.joint_ranges, units=units, overwrite=overwrite)
-    return DemosReport(counts["kept"], counts["attempts"], counts["frames"], time.perf_counter() - started)
+    with signals_deferred() as held:
+        write_dataset(out, kept(held), fps=fps, joint_ranges=producer.joint_ranges, units=units, overwrite=overwrite)
+        late = held.take()  # came while the last episode or the dataset's files were written: they are whole
+    interrupted = stopped[0] if stopped else late
+    seconds = time.perf_counter() - started
+    return DemosReport(counts["kept"], counts["attempts"], counts["frames"], seconds, interrupted)

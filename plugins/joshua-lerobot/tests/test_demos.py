@@ -4,17 +4,29 @@ the script's targets in LeRobot's units, and only the attempts that placed the c
 
 from __future__ import annotations
 
+import fcntl
+import json
+import os
+import pty
+import re
+import select
+import signal
+import struct
 import subprocess
 import sys
+import termios
+import time
 from pathlib import Path
 from typing import Any
 
+import av
 import numpy as np
 import pytest
 from lerobot_harness import lerobot
 
 from joshua_core.config import finalize, load_preset
 from joshua_core.options import LENIENT
+from joshua_lerobot import LeRobotReader
 from joshua_mujoco import PickPlaceScript, make_vector_env
 
 JOSHUA = str(Path(sys.executable).parent / "joshua")
@@ -139,3 +151,45 @@ def test_an_existing_out_is_refused_before_any_rollout(tmp_path: Path) -> None:
     done = demos(out, "--episodes", "1")
     assert done.returncode == 2 and done.stderr.count("\n") == 1 and "was not written by joshua" in done.stderr
     assert (out / "notes.txt").read_text() == "keep"
+
+
+def test_ctrl_c_writes_the_episodes_kept_before_it_as_a_dataset(tmp_path: Path) -> None:
+    """A real SIGINT once the first episode is written (the progress bar says 1/50) stops the rollout under way at
+    once; the episodes kept before it are a whole dataset, said in one line, and the run exits 130."""
+    out = tmp_path / "demos"
+    leader, follower = pty.openpty()  # stderr a terminal: the progress bar redraws as each episode is written
+    fcntl.ioctl(follower, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 160, 0, 0))  # tqdm draws nothing 0 wide
+    command = [JOSHUA, "demos", "--out", str(out), "--episodes", "50", "--num-envs", "1", "--seed", str(SEED),
+               "--fps", str(FPS), "--width", "32", "--height", "24", "--physics", "cpu"]  # fmt: skip
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=follower, text=True)
+    os.close(follower)
+    terminal = b""
+    try:
+        deadline = time.monotonic() + 300
+        while b" 1/50 episodes" not in terminal:
+            assert select.select([leader], [], [], max(0.0, deadline - time.monotonic()))[0], terminal[-2000:]
+            terminal += os.read(leader, 1 << 16)
+        process.send_signal(signal.SIGINT)
+        stdout, _ = process.communicate(timeout=120)
+        while select.select([leader], [], [], 0)[0]:
+            terminal += os.read(leader, 1 << 16)
+    except OSError:  # the child's side of the terminal closed: all it wrote was read
+        stdout, _ = process.communicate(timeout=120)
+    finally:
+        process.kill()
+        os.close(leader)
+    stderr = terminal.decode(errors="replace")
+    assert process.returncode == 130 and "Traceback" not in stderr, stderr[-3000:]
+    said = re.search(r"demos: interrupted; the dataset holds the (\d+) episode\(s\) kept before it", stderr)
+    assert said is not None, stderr[-3000:]
+    kept = int(said.group(1))
+    assert kept >= 1 and f"LeRobot dataset: {out} ({kept} episodes, {30 * kept} frames)" in stdout, stdout
+
+    info = json.loads((out / "meta" / "info.json").read_text())
+    assert (info["total_episodes"], info["total_frames"]) == (kept, 30 * kept)
+    ranges = {joint: (-3.0, 3.0) for joint in JOINTS}
+    for episode in range(kept):
+        assert len(LeRobotReader().read(out, ranges, episode=episode).timestamps) == 30
+    (video,) = (out / "videos").rglob("*.mp4")
+    with av.open(str(video)) as container:  # every frame kept is in the video, decodable
+        assert sum(1 for _ in container.decode(video=0)) == 30 * kept
