@@ -7,6 +7,7 @@ The run folder layout and the checkpoint trust rules are in `joshua_sb3.run_fold
 from __future__ import annotations
 
 import json
+import sys
 import time
 from importlib import metadata
 from pathlib import Path
@@ -199,6 +200,12 @@ def _open_run(config: TrainingConfig, context: RunContext, settings: Settings) -
                 f"this config asks for '{value}'"
             )
     checkpoints = run.checkpoints()
+    if not checkpoints:
+        print(
+            f"joshua: warning: {OPTIONS}.resume: run {run.path} has no checkpoint (it stopped before its first); "
+            "training it from the start",
+            file=sys.stderr,
+        )
     return run, checkpoints[-1] if checkpoints else None
 
 
