@@ -145,11 +145,7 @@ class DemosCommand(Command):
 
 def make_producer(args: argparse.Namespace, training: TrainingConfig, plugins: PluginHost) -> EpisodeProducer:
     """The scripted pick-and-place producer `--physics` asks for (auto: the GPU's where it runs here)."""
-    physics = args.physics
-    if physics == GPU and (missing := gpu_physics_missing()):
-        raise UsageError(f"--physics gpu needs {missing}: pip install 'joshua-mjx[warp]' (warp-lang, mujoco-warp)")
-    if physics == AUTO:
-        physics = GPU if not gpu_physics_missing() and gpu_present() else CPU
+    physics = chosen_physics(args.physics)
     common = {
         "num_envs": args.num_envs,
         "cameras": args.camera or [""],
@@ -166,6 +162,25 @@ def make_producer(args: argparse.Namespace, training: TrainingConfig, plugins: P
 
     task_config = training.task_config if training.HasField("task_config") else None
     return ScriptedMuJoCoProducer(task_config=task_config, **common)
+
+
+def chosen_physics(requested: str) -> str:
+    """CPU or GPU for `--physics requested`: auto picks the GPU where joshua-mjx, Warp and a GPU are there; gpu
+    without joshua-mjx or Warp is a UsageError, and without a GPU a one-line warning, since Warp then runs on the
+    CPU, far slower than --physics cpu."""
+    if requested == GPU:
+        if missing := gpu_physics_missing():
+            raise UsageError(f"--physics gpu needs {missing}: pip install 'joshua-mjx[warp]' (warp-lang, mujoco-warp)")
+        if not gpu_present():
+            print(
+                "joshua: warning: --physics gpu: JAX finds no GPU here, so MuJoCo Warp runs on the CPU, far slower "
+                "than --physics cpu",
+                file=sys.stderr,
+            )
+        return GPU
+    if requested == AUTO:
+        return GPU if not gpu_physics_missing() and gpu_present() else CPU
+    return CPU
 
 
 def gpu_physics_missing() -> str:

@@ -130,6 +130,8 @@ def test_demos_on_the_gpu_producer_load_in_lerobot(
     printed = capsys.readouterr()
     assert status == 0, printed.err[-3000:]
     assert "compiling the rollout" in printed.err and "1 of 1 attempts succeeded" in printed.out, printed
+    on_the_cpu = "joshua: warning: --physics gpu: JAX finds no GPU here, so MuJoCo Warp runs on the CPU, far slower"
+    assert (on_the_cpu in printed.err) == (jax.default_backend() != "gpu"), printed.err  # said, where it is so
     kept = next(attempt for attempt in attempts if attempt.success)  # the same seed: the same first attempt
     loaded = lerobot("delta", out, tmp_path)
     assert (loaded["frames"], loaded["episodes"], loaded["fps"]) == (ROWS, 1, FPS)
