@@ -8,6 +8,7 @@ seconds, real-time factor, largest joint drift) is printed and written to `headl
 from __future__ import annotations
 
 import math
+import sys
 import time
 from typing import Any
 
@@ -28,6 +29,7 @@ class HeadlessMode(Mode):
     """Runs `duration` simulated seconds as fast as possible and reports how it went."""
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
+        warn_no_web_page(config, "HEADLESS")
         with context.create_engine(config) as engine:
             summary = simulate(engine, config.duration or DEFAULT_DURATION_S)
         summary["model_path"] = config.model_path
@@ -39,6 +41,12 @@ class HeadlessMode(Mode):
             f"({summary['realtime_factor']:.1f}x real time, {summary['steps_per_second']:.0f} steps/s); "
             f"largest joint drift {summary['max_qpos_drift']:.2e}; summary: {path}"
         )
+
+
+def warn_no_web_page(config: SimulationConfig, mode: str) -> None:
+    """One line when `simulation.web` (`--web`) is set for `mode`, which shows no page: it would be ignored unsaid."""
+    if config.web:
+        print(f"joshua: warning: {mode} mode has no web page; ignored simulation.web ({config.web})", file=sys.stderr)
 
 
 def simulate(engine: Engine, duration: float) -> dict[str, Any]:

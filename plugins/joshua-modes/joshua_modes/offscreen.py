@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from joshua_core.atomic import staged_outputs
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError, UsageError
+from joshua_core.headless import warn_no_web_page
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, render_size
 from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost
@@ -186,6 +187,7 @@ class OffscreenMode(Mode):
     (even killed) leaves the earlier render's outputs as they were, never a mix of two renders."""
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
+        warn_no_web_page(config, "OFFSCREEN")
         options = options_of(config, options_pb2.offscreen)
         fps = options.fps or DEFAULT_FPS
         width, height = render_size(config)

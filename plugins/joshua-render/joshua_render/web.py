@@ -4,21 +4,27 @@ The page is served by viser (docs/web-display.md says why viser and not MuJoCo S
 the browser draws the model's visible geoms with three.js; the simulation only sends each body's
 pose, at most `PUSH_HZ` times per second, and viser keeps only the newest value of each pose for a
 client that falls behind, so a slow or closed browser never holds the simulation back. Any number of
-browsers may watch; each sees the same scene and the same controls (pause, step, scrub).
+browsers may watch; each sees the same scene and the same controls (pause, step, scrub). What a browser sends
+is checked against its control before the run sees it (`ClientValues`): a value a control does not take is one
+line on the terminal, and the run goes on.
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import errno
 import logging
+import math
+import reprlib
 import socket
 import sys
 import threading
 import time as clock
+import warnings
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
@@ -29,6 +35,8 @@ from joshua_render.web_access import AccessRule, guarded_serve
 if TYPE_CHECKING:
     import mujoco
     import viser
+    from viser.infra import ClientId
+    from viser.infra._infra import Message
 
 DEFAULT_HOST = "127.0.0.1"  # only this machine, unless the address names another interface
 DEFAULT_PORT = 8080
@@ -37,6 +45,7 @@ VISIBLE_GROUPS = (0, 1, 2)  # the geom groups MuJoCo's viewers show by default
 PLANE_HALF_SIZE_M = 5.0  # an infinite plane (size 0) is drawn this large
 CAMERA_DIRECTION = (0.8, -1.1, 0.7)  # where the first view looks from, in model extents from the model's centre
 NO_MARK = "-"  # the "go to" list's entry that goes nowhere
+UNIT_TOLERANCE = 1e-3  # how far from 1 the norm of a gizmo's orientation sent by a browser may be (its rounding: 1e-7)
 INSTALL_HINT = "the web display needs viser: pip install 'joshua-render[web]'"
 
 
@@ -121,12 +130,162 @@ class _OneLineClientErrors(logging.Filter):
             return True
         problem = record.exc_info[1]
         cause = problem.__cause__ if problem is not None and problem.__cause__ is not None else problem
-        print(f"joshua: warning: web display: a client sent something else than the page's protocol ({cause}); "
-              "ignored it", file=sys.stderr)  # fmt: skip
+        _warn_off_protocol(cause)
         return False
 
 
 _CLIENT_ERRORS = _OneLineClientErrors()
+
+
+def _warn_off_protocol(problem: BaseException | None) -> None:
+    """One line for a client's message the page could not take, instead of its traceback."""
+    print(f"joshua: warning: web display: a client sent something else than the page's protocol ({problem}); "
+          "ignored it", file=sys.stderr, flush=True)  # fmt: skip
+
+
+Control = TypeVar("Control", bound="viser.GuiInputHandle")
+_OTHER = object()  # stands for what a browser sent that was not a value alone (other properties): no control takes it
+
+
+@dataclasses.dataclass(frozen=True)
+class _Gizmo:
+    """A transform gizmo browsers may move (`label` names it in the terminal), its position inside the box `low` to
+    `high` (m)."""
+
+    handle: viser.TransformControlsHandle
+    label: str
+    low: tuple[float, ...]
+    high: tuple[float, ...]
+
+
+def _numbers_within(value: object, low: Sequence[float], high: Sequence[float]) -> bool:
+    """Whether `value` is a list or tuple of len(low) numbers (not bools), each within its bounds (so finite)."""
+    return (
+        isinstance(value, list | tuple)
+        and len(value) == len(low)
+        and all(
+            isinstance(x, int | float) and not isinstance(x, bool) and lo <= x <= hi  # NaN fails the comparison
+            for x, lo, hi in zip(value, low, high, strict=True)
+        )
+    )
+
+
+def _box(low: Sequence[float], high: Sequence[float]) -> str:
+    """The box from `low` to `high` as the terminal shows it."""
+    return f"from ({', '.join(f'{x:g}' for x in low)}) to ({', '.join(f'{x:g}' for x in high)})"
+
+
+def _refusal(control: viser.GuiInputHandle | _Gizmo, value: object) -> str | None:
+    """None when a browser may set `control` to `value`; else what the control takes. The one check of every value a
+    browser sends, against what its control declares: a button a click, a checkbox true or false, a dropdown one of
+    its options, a slider or a vector numbers within its bounds, a gizmo a (wxyz, position) pose inside its box."""
+    import viser
+
+    if isinstance(control, viser.GuiButtonHandle):
+        return None if value is True else "a click: true"
+    if isinstance(control, viser.GuiCheckboxHandle):
+        return None if isinstance(value, bool) else "true or false"
+    if isinstance(control, viser.GuiDropdownHandle):
+        return None if isinstance(value, str) and value in control.options else "one of its options"
+    if isinstance(control, viser.GuiSliderHandle):
+        within = _numbers_within((value,), (control.min,), (control.max,))
+        return None if within else f"a number from {control.min:g} to {control.max:g}"
+    if isinstance(control, viser.GuiVector3Handle) and control.min is not None and control.max is not None:
+        within = _numbers_within(value, control.min, control.max)
+        return None if within else f"3 numbers {_box(control.min, control.max)}"
+    if isinstance(control, _Gizmo):
+        wxyz, position = value if isinstance(value, tuple) else (None, None)
+        unit = _numbers_within(wxyz, (-1.0,) * 4, (1.0,) * 4) and abs(math.hypot(*wxyz) - 1.0) <= UNIT_TOLERANCE
+        within = _numbers_within(position, control.low, control.high)
+        return None if unit and within else f"a unit quaternion and a position {_box(control.low, control.high)}"
+    return "nothing: the page does not check this kind of control"
+
+
+class ClientValues:
+    """What browsers may set on a page, checked before viser applies it (viser casts a value to its control's type:
+    a string for a number is a traceback, and NaN or 1e300 goes through). Only the controls a page `allow`s take
+    values from browsers, only their value (no other property), and only one `_refusal` finds right; a gizmo it
+    `allow_gizmo`s takes only poses inside its box. Anything else is ignored: the control is set back to the value
+    in force in every browser, the terminal gets one line per control, and the run goes on."""
+
+    def __init__(self, server: viser.ViserServer) -> None:
+        self._websock = server._websock_server
+        self._controls: dict[str, viser.GuiInputHandle] = {}  # by uuid
+        self._gizmos: dict[str, _Gizmo] = {}  # by scene node name
+        self._warned: set[int | None] = set()  # the controls (by id) said to have ignored a value; None: any other
+        # viser has no hook for a client's messages: the check goes in front of its dispatch of them. viser warns in
+        # two lines of a pose of the wrong length, before the check says it in one.
+        self._dispatch = self._websock._handle_incoming_message
+        self._websock._handle_incoming_message = self._checked  # type: ignore[method-assign]
+        warnings.filterwarnings("ignore", message=r"\[viser\] .* does not match annotation")
+
+    def allow(self, control: Control) -> Control:
+        """Let browsers set `control`'s value (to one `_refusal` finds right); returns it."""
+        self._controls[control._impl.uuid] = control
+        return control
+
+    def allow_gizmo(
+        self, gizmo: viser.TransformControlsHandle, label: str, low: Sequence[float], high: Sequence[float]
+    ) -> None:
+        """Let browsers move `gizmo` (named `label` in the terminal) to positions from `low` to `high` (m)."""
+        self._gizmos[gizmo.name] = _Gizmo(gizmo, label, tuple(map(float, low)), tuple(map(float, high)))
+
+    async def _checked(self, client_id: ClientId, message: Message) -> None:
+        """viser's dispatch of `message` if `_taken`; a client's message that viser then fails to handle (a wrong
+        type where nothing is checked) is one line, not a traceback."""
+        if not self._taken(message):
+            return
+        try:
+            await self._dispatch(client_id, message)
+        except Exception as error:  # a client's message failed, not the run
+            _warn_off_protocol(error)
+
+    def _taken(self, message: Message) -> bool:
+        """Whether `message` sets nothing browsers may not set, and no control to a value it does not take; if not,
+        it is said (once per control) and the browsers get the value in force back."""
+        from viser import _messages
+
+        control: viser.GuiInputHandle | _Gizmo | None
+        if isinstance(message, _messages.GuiUpdateMessage):
+            control = self._controls.get(message.uuid) if isinstance(message.uuid, str) else None
+            updates = message.updates
+            value = updates["value"] if isinstance(updates, dict) and list(updates) == ["value"] else _OTHER
+            shown = updates if value is _OTHER else value
+            if control is None:
+                self._warn(None, f"ignored {reprlib.repr(shown)} for a control the page alone sets")
+                return False
+        elif isinstance(message, _messages.TransformControlsUpdateMessage):
+            control = self._gizmos.get(message.name) if isinstance(message.name, str) else None
+            value = shown = (message.wxyz, message.position)
+            if control is None:  # none of this page's: viser finds none either
+                return True
+        else:
+            return True
+        expected = _refusal(control, value)
+        if expected is None:
+            return True
+        self._warn(id(control), f"ignored {reprlib.repr(shown)} for '{control.label}' (expected {expected})")
+        for in_force in _in_force(control):
+            self._websock.queue_message(in_force)
+        return False
+
+    def _warn(self, control: int | None, text: str) -> None:
+        if control not in self._warned:
+            self._warned.add(control)
+            print(f"joshua: warning: web display: {text}", file=sys.stderr, flush=True)
+
+
+def _in_force(control: viser.GuiInputHandle | _Gizmo) -> list[Message]:
+    """The messages that show browsers `control`'s value (or pose) in force."""
+    from viser import _messages
+
+    if isinstance(control, _Gizmo):
+        name = control.handle.name
+        return [
+            _messages.SetOrientationMessage(name, tuple(control.handle.wxyz.tolist())),
+            _messages.SetPositionMessage(name, tuple(control.handle.position.tolist())),
+        ]
+    return [_messages.GuiUpdateMessage(control._impl.uuid, {"value": control.value})]
 
 
 def _geom_mesh(model: mujoco.MjModel, geom: int) -> tuple[np.ndarray, np.ndarray] | None:
@@ -272,6 +431,7 @@ class WebDisplay(Display):
     ) -> None:
         self._server, self._model, self._data = server, model, data
         self.controls = WebControls()
+        self._inputs = ClientValues(server)
         self._scene = ModelScene(server, model, "robot")
         center, extent = np.asarray(model.stat.center), float(model.stat.extent)
         server.initial_camera.look_at = tuple(center)
@@ -279,26 +439,30 @@ class WebDisplay(Display):
         self._last_push = -np.inf
         gui = server.gui
         if controls:
-            self._pause = gui.add_button("Pause")
+            self._pause = self._inputs.allow(gui.add_button("Pause"))
             self._pause.on_click(self._on_pause)
-            step = gui.add_button("Step")
+            step = self._inputs.allow(gui.add_button("Step"))
             step.on_click(lambda _: self.controls.step())
         self._status = gui.add_text("status", initial_value="running", disabled=True)
         self._time = gui.add_text("time (s)", initial_value="0.000", disabled=True)
         self._slider = None
         if duration is not None and duration > 0:
-            self._slider = gui.add_slider(
-                "scrub (s)",
-                min=0.0,
-                max=duration,
-                step=duration / 1000,
-                initial_value=0.0,
-                marks=((0.0, "0"), *marks, (duration, f"{duration:.6g}")) if marks else None,
+            self._slider = self._inputs.allow(
+                gui.add_slider(
+                    "scrub (s)",
+                    min=0.0,
+                    max=duration,
+                    step=duration / 1000,
+                    initial_value=0.0,
+                    marks=((0.0, "0"), *marks, (duration, f"{duration:.6g}")) if marks else None,
+                )
             )
             self._slider.on_update(self._on_scrub)
         self._targets = {f"{label} at {time:.3f} s": time for time, label in marks} if self._slider is not None else {}
         if self._targets:
-            self._go_to = gui.add_dropdown("go to", options=(NO_MARK, *self._targets), initial_value=NO_MARK)
+            self._go_to = self._inputs.allow(
+                gui.add_dropdown("go to", options=(NO_MARK, *self._targets), initial_value=NO_MARK)
+            )
             self._go_to.on_update(self._on_go_to)
         self._report = gui.add_markdown("", visible=False)
         self.description = f"web display at port {server.get_port()}"

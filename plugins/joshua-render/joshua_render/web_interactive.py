@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     import viser
 
 SPEEDS = (0.05, 2.0)  # the speed slider's range, in simulated seconds per wall-clock second
+DRAG_REACH_EXTENTS = 10.0  # a drag target stays within this many model extents of the model's centre, per axis
 CONTACT_POINT_SCALE = 0.5  # a contact point's sphere radius, in MuJoCo's contact width (vis.scale.contactwidth)
 
 
@@ -62,15 +63,15 @@ class InteractivePage(WebDisplay):
 
         super().__init__(server, model, data)
         self.controls: InteractiveControls = InteractiveControls()
-        gui, scene = server.gui, server.scene
-        gui.add_button("Reset").on_click(self._on_reset)
-        speed = gui.add_slider("speed (x real time)", min=SPEEDS[0], max=SPEEDS[1], step=0.05, initial_value=1.0)
+        gui, scene, allow = server.gui, server.scene, self._inputs.allow
+        allow(gui.add_button("Reset")).on_click(self._on_reset)
+        speed = allow(gui.add_slider("speed (x real time)", min=SPEEDS[0], max=SPEEDS[1], step=0.05, initial_value=1.0))
         speed.on_update(lambda _: setattr(self.controls, "speed", float(speed.value)))
 
         size = float(model.stat.meansize)
-        self._show_contacts = gui.add_checkbox("contact points", initial_value=False)
-        self._show_forces = gui.add_checkbox("contact forces", initial_value=False)
-        show_frames = gui.add_checkbox("body frames", initial_value=False)
+        self._show_contacts = allow(gui.add_checkbox("contact points", initial_value=False))
+        self._show_forces = allow(gui.add_checkbox("contact forces", initial_value=False))
+        show_frames = allow(gui.add_checkbox("body frames", initial_value=False))
         self._axes = [  # children of the drawn bodies' frames: they move with them
             scene.add_frame(
                 f"{frame.name}/axes",
@@ -111,13 +112,22 @@ class InteractivePage(WebDisplay):
             if model.body_weldid[body] != 0  # a body welded to the world does not move
         }
         self._draggable = {name: body for body, name in draggable.items()}
-        self._drag_body = gui.add_dropdown("drag body", options=(NO_MARK, *self._draggable), initial_value=NO_MARK)
+        self._drag_body = allow(
+            gui.add_dropdown("drag body", options=(NO_MARK, *self._draggable), initial_value=NO_MARK)
+        )
         self._drag_body.on_update(self._on_drag_body)
-        self._drag_target = gui.add_vector3("drag target (m)", initial_value=(0.0, 0.0, 0.0), step=0.01, visible=False)
+        reach = DRAG_REACH_EXTENTS * float(model.stat.extent)
+        low, high = tuple(np.asarray(model.stat.center) - reach), tuple(np.asarray(model.stat.center) + reach)
+        self._drag_target = allow(
+            gui.add_vector3(
+                "drag target (m)", initial_value=(0.0, 0.0, 0.0), min=low, max=high, step=0.01, visible=False
+            )
+        )
         self._drag_target.on_update(self._on_target_typed)
         self._gizmo = scene.add_transform_controls(
             "/drag", scale=float(model.stat.extent) / 4, depth_test=False, visible=False
         )
+        self._inputs.allow_gizmo(self._gizmo, "drag gizmo", low, high)
         self._gizmo.on_update(self._on_gizmo)
 
     # --- viser's threads: record what a browser asked for -------------------------------------------------

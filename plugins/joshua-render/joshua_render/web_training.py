@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from joshua_render.web import CAMERA_DIRECTION, ModelScene, start_server
+from joshua_render.web import CAMERA_DIRECTION, ClientValues, ModelScene, start_server
 
 if TYPE_CHECKING:
     import mujoco
@@ -39,6 +39,7 @@ class TrainingPage:
         from viser import uplot
 
         self._server = server
+        self._inputs = ClientValues(server)  # allows nothing: a browser sets no value on this page
         self._model = copy.deepcopy(model)  # the page's thread must not share a model the trainer may change
         self._data = mujoco.MjData(self._model)
         extent = float(self._model.stat.extent)
