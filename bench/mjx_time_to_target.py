@@ -1,6 +1,8 @@
-"""Time-to-target of PPO on MJX for any task preset (success rate or return), against raw MJX physics, in one run.
+"""Time-to-target of a JAX trainer (PPO, TD3 or SAC: --trainer) on MJX for any task preset (success rate or return),
+against raw MJX physics, in one run.
 
     python bench/mjx_time_to_target.py --preset so_arm100_pick_place_mjx --metric success --target 0.9 --out out/pp
+    python bench/mjx_time_to_target.py --preset so_arm100_pick_place_mjx --trainer td3 --out out/pp_td3
     python bench/mjx_time_to_target.py --preset trileg_train_mjx --metric return --target 2000 --out out/trileg
     python bench/mjx_time_to_target.py --preset so_arm100_pick_place_mjx --smoke --out /tmp/smoke   # tiny, on CPU
 
@@ -41,6 +43,7 @@ import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -60,17 +63,79 @@ from joshua_core.statistics import SUCCESS_METRIC, summarize
 from joshua_core.tasks import METRIC_PREFIX, REWARD_PREFIX
 from joshua_mjx import MjxEnv, Physics
 from joshua_mjx.physics import mjx
-from joshua_ppo.checkpoints import checkpoint_payloads, load_state, read_json, write_payloads
+from joshua_ppo import offpolicy_iteration, offpolicy_trainer
+from joshua_ppo.checkpoints import checkpoint_payloads, load_state, read_json, resume_payloads, write_payloads
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import environment as ppo_environment
 from joshua_ppo.normalizer import RunningStatistics
-from joshua_ppo.rollout import collect, episode_results, make_rollout
+from joshua_ppo.offpolicy_settings import ALGORITHMS, offpolicy_settings
+from joshua_ppo.policy import deterministic_policy
+from joshua_ppo.rollout import Act, collect, episode_results, make_rollout
 from joshua_ppo.state import Progress, TrainingState, abstract_state
 from joshua_ppo.teacher import Teacher, load_teacher
 from joshua_ppo.train import IterationReport, train_ppo
 
 # --smoke: a tiny run that exercises every stage on a CPU in a minute or two (the figures mean nothing).
 SMOKE = ["training.num_envs=8", "training.num_steps=5", "training.minibatch_size=40", "training.num_epochs=1"]
+
+
+TRAINERS = ("ppo", *ALGORITHMS)
+
+
+@dataclass(frozen=True)
+class Learner:
+    """What the bench needs of a trainer (--trainer): its settings, its deterministic policy and the shapes of what
+    that policy reads, its training loop, and its state's saving and loading (for --resume)."""
+
+    name: str
+    settings: Any  # PpoSettings or OffPolicySettings
+    act: Callable[[MjxEnv], Act]
+    shapes: Callable[[MjxEnv], tuple[Any, Any]]  # the abstract (params, normalizer) the policy reads
+    fit: Callable[..., Any]  # (env, resume, on_progress, teacher) -> None, stopped by TargetReached
+    payloads: Callable[[Any, Progress], dict[str, Any]]
+    load: Callable[[Path, MjxEnv], tuple[Any, Progress]]
+
+
+def learner(name: str, config: TrainingConfig) -> Learner:
+    """The trainer `name` with the config's settings."""
+    if name == "ppo":
+        settings = PpoSettings.from_config(config)
+
+        def ppo_shapes(env: MjxEnv) -> tuple[Any, Any]:
+            shapes = abstract_state(env, network=settings.network, optimization=settings.optimization)
+            return shapes.params, shapes.normalizer
+
+        def ppo_fit(env: MjxEnv, resume: Any, on_progress: Callable, teacher: Teacher | None) -> None:
+            train_ppo(env, **settings.groups, total_timesteps=settings.total_timesteps, seed=settings.seed,
+                      resume=resume, on_progress=on_progress, teacher=teacher)  # fmt: skip
+
+        return Learner(
+            name,
+            settings,
+            lambda env: deterministic_policy(env, settings.network),
+            ppo_shapes,
+            ppo_fit,
+            checkpoint_payloads,
+            lambda folder, env: load_state(folder, env, settings),
+        )
+    settings = offpolicy_settings(config, name)
+
+    def offpolicy_shapes(env: MjxEnv) -> tuple[Any, Any]:
+        shapes = offpolicy_iteration.abstract_state(env, settings)
+        return shapes.params, shapes.normalizer
+
+    def offpolicy_fit(env: MjxEnv, resume: Any, on_progress: Callable, teacher: Teacher | None) -> None:
+        offpolicy_trainer.train_offpolicy(env, settings, resume=resume, on_progress=on_progress)
+
+    return Learner(
+        name,
+        settings,
+        lambda env: offpolicy_trainer.offpolicy_policy(env, settings),
+        offpolicy_shapes,
+        offpolicy_fit,
+        offpolicy_trainer.checkpoint_payloads,
+        lambda folder, env: offpolicy_trainer.load_state(folder, env, settings, resume_payloads(folder)),
+    )
 
 
 class TargetReached(Exception):
@@ -85,9 +150,9 @@ class Resumed(NamedTuple):
     outcome: dict[str, Any]
 
 
-def resume_from(folder: Path, env: MjxEnv, settings: PpoSettings) -> Resumed:
+def resume_from(folder: Path, env: MjxEnv, trainer: Learner) -> Resumed:
     """The run saved in `folder` (an earlier --out), on `env` (its environments freshly reset)."""
-    state, progress = load_state(folder / "state", env, settings)
+    state, progress = trainer.load(folder / "state", env)
     return Resumed(state, progress, read_json(folder / "time_to_target.json"))
 
 
@@ -101,7 +166,7 @@ def evaluated(resume: Resumed | None, taken: list[dict], results: list[dict[str,
 Keep = Callable[[TrainingState, Progress, dict[str, float], list[dict], list[dict]], None]
 
 
-def keeper(out: Path, evaluator: SnapshotEvaluator, resume: Resumed | None) -> Keep:
+def keeper(out: Path, evaluator: SnapshotEvaluator, resume: Resumed | None, trainer: Learner) -> Keep:
     """What `train` calls at every snapshot: the training state in OUT/state (as a checkpoint saves it) and, in
     OUT/time_to_target.json, the snapshots evaluated so far and the iterations' trace, with the wall and compile
     seconds that --resume reads; the end of the run replaces that JSON with the whole outcome."""
@@ -110,7 +175,7 @@ def keeper(out: Path, evaluator: SnapshotEvaluator, resume: Resumed | None) -> K
         state: TrainingState, progress: Progress, seconds: dict[str, float], taken: list[dict], iterations: list[dict]
     ) -> None:
         (out / "state").mkdir(parents=True, exist_ok=True)
-        write_payloads(out / "state", checkpoint_payloads(state, progress))
+        write_payloads(out / "state", trainer.payloads(state, progress))
         partial = {"wall_seconds": seconds["wall"], "compile_seconds": seconds["compile"], "partial": True}
         records = evaluated(resume, taken, evaluator.results)
         atomic_write_json(
@@ -181,12 +246,12 @@ class SnapshotEvaluator:
     and the training wall time leaves that time out. The rollout compiles in a thread from the start, beside
     the training's own compilation, instead of at the first snapshot (about a minute on pick-and-place)."""
 
-    def __init__(self, settings: PpoSettings, env: MjxEnv, value_key: str, target: float) -> None:
-        rollout = make_rollout(env, settings.network, env.task.episode_length)
-        shapes = abstract_state(env, network=settings.network, optimization=settings.optimization)
+    def __init__(self, trainer: Learner, env: MjxEnv, value_key: str, target: float) -> None:
+        rollout = make_rollout(env, trainer.act(env), env.task.episode_length)
+        params, normalizer = trainer.shapes(env)
         key = jax.eval_shape(lambda: jax.random.PRNGKey(1))
         # traced here, compiled in the thread (XLA's compilation is what takes the time)
-        self.compiling = ThreadPoolExecutor(1).submit(rollout.lower(shapes.params, shapes.normalizer, key).compile)
+        self.compiling = ThreadPoolExecutor(1).submit(rollout.lower(params, normalizer, key).compile)
         # the compiled rollout does not hold the env, but reads the Warp buffers of its cameras' render contexts,
         # which go with the env: kept alive here (else "FFI callback error: KeyError" at the first snapshot)
         self.env = env
@@ -206,7 +271,7 @@ class SnapshotEvaluator:
 
 
 def train(
-    settings: PpoSettings,
+    trainer: Learner,
     env: MjxEnv,
     target: float,
     max_seconds: float,
@@ -269,9 +334,9 @@ def train(
                 f"  it {report.iteration:4d}  {report.env_steps:>11,} steps  {wall:7.1f} s  "
                 f"{report.steps_per_second:>10,.0f} steps/s  return {metrics['mean_return']:8.1f}  "
                 + (f"{metric} {entry['value']:.3f}  " if metric != "return" else "")
-                + f"length {metrics['mean_length']:6.1f}  std {metrics['action_std']:.3f}  "
-                f"kl {metrics['approx_kl']:.4f}  lr {metrics['learning_rate']:.2e}  "
-                f"vloss {metrics['value_loss']:.3g}  clip {metrics['clip_fraction']:.3f}  "
+                + f"length {metrics['mean_length']:6.1f}  "
+                + " ".join(f"{name} {metrics[name]:.4g}" for name in PRINTED if name in metrics)
+                + "  "
                 + (f"teacher_kl {metrics['teacher_kl']:.3f}  " if "teacher_kl" in metrics else "")
                 + (f"kl_stopped {metrics['kl_stopped']:.2f}  " if "kl_stopped" in metrics else "")
                 + " ".join(
@@ -302,15 +367,7 @@ def train(
             raise TargetReached  # or out of time, iterations or steps
 
     try:
-        train_ppo(
-            env,
-            **settings.groups,
-            total_timesteps=settings.total_timesteps,
-            seed=settings.seed,
-            resume=resume and (resume.state, resume.progress),
-            on_progress=on_progress,
-            teacher=teacher,
-        )
+        trainer.fit(env, resume and (resume.state, resume.progress), on_progress, teacher)
     except TargetReached:
         pass
     steady = [entry["sps"] for entry in log[1:]] or [entry["sps"] for entry in log]
@@ -327,8 +384,12 @@ def train(
     }, snapshots
 
 
-# an iteration's update metrics kept in the JSON's per-iteration trace (`iterations`)
-UPDATE_TRACE = ("approx_kl", "kl_stopped", "clip_fraction", "action_std", "value_loss", "learning_rate")
+# an iteration's update metrics kept in the JSON's per-iteration trace (`iterations`): PPO's, then the off-policy
+# trainers'
+UPDATE_TRACE = ("approx_kl", "kl_stopped", "clip_fraction", "action_std", "value_loss", "learning_rate", "policy_loss",
+                "q_mean", "alpha", "entropy")  # fmt: skip
+# those printed every 10 iterations, where the trainer reports them
+PRINTED = ("action_std", "approx_kl", "learning_rate", "value_loss", "clip_fraction", "q_mean", "alpha", "entropy")
 
 
 def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snapshot]) -> list[dict[str, Any]]:
@@ -337,7 +398,7 @@ def evaluate_snapshots(settings: PpoSettings, env: MjxEnv, snapshots: list[Snaps
     exploration noise): all snapshots in one compiled program, one after another (`lax.map`). Not vmapped:
     that multiplies the worlds of every physics call, and MuJoCo Warp's contact arrays, sized for the env's
     worlds, then overflow (Ant's deterministic episodes on Warp ended after 6 steps)."""
-    rollout = make_rollout(env, settings.network, env.task.episode_length)
+    rollout = make_rollout(env, deterministic_policy(env, settings.network), env.task.episode_length)
     stacked = jax.tree.map(lambda *leaves: np.stack(leaves), *snapshots)
     key = jax.random.PRNGKey(1)
     raw = jax.device_get(jax.jit(lambda s: jax.lax.map(lambda p: rollout(p[0], p[1], key), s))(stacked))
@@ -418,20 +479,23 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         args.num_envs,
         plugins.options(),
     )
-    settings = PpoSettings.from_config(config)
+    trainer = learner(args.trainer, config)
     Physics.from_training(config).leave_memory_to_warp()  # before jax.devices() starts JAX's backends
     devices = jax.devices()
-    print(f"devices: {devices}  preset {args.preset}: {settings.rollout} {settings.optimization}", flush=True)
+    print(f"devices: {devices}  preset {args.preset}, {args.trainer}: {trainer.settings}", flush=True)
     env = environment(config, plugins, None, devices, training=True)
     if args.metric == "success" and SUCCESS_METRIC not in [term.name for term in env.task.metric_terms]:
         raise SystemExit(f"task {config.task} has no {SUCCESS_METRIC} metric: use --metric return")
     value_key = METRICS[args.metric][1]
     eval_envs = -(-args.eval_envs // len(devices)) * len(devices)
-    evaluator = SnapshotEvaluator(settings, environment(config, plugins, eval_envs, devices), value_key, args.target)
-    resume = resume_from(args.resume, env, settings) if args.resume else None
-    teacher = settings.teacher and load_teacher(settings.teacher, env, config.task, plugins.options(), settings.network)
+    evaluator = SnapshotEvaluator(trainer, environment(config, plugins, eval_envs, devices), value_key, args.target)
+    resume = resume_from(args.resume, env, trainer) if args.resume else None
+    settings = trainer.settings
+    teacher = None
+    if args.trainer == "ppo" and settings.teacher is not None:
+        teacher = load_teacher(settings.teacher, env, config.task, plugins.options(), settings.network)
     outcome, snapshots = train(
-        settings,
+        trainer,
         env,
         stop_at(args),
         args.max_seconds,
@@ -440,13 +504,14 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         args.metric,
         evaluator,
         resume,
-        keep=keeper(args.out, evaluator, resume),
+        keep=keeper(args.out, evaluator, resume, trainer),
         teacher=teacher,
     )
     raw = raw_physics_rate(env)
     outcome |= {
         "environment_steps_per_second": environment_rate(env),
         "preset": args.preset,
+        "trainer": args.trainer,
         "metric": args.metric,
         "target": args.target,
         "devices": len(devices),
@@ -468,6 +533,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--preset", default="so_arm100_pick_place_mjx", help="a preset's name or a .pbtxt file")
+    parser.add_argument("--trainer", choices=TRAINERS, default="ppo", help="the JAX trainer to time (default ppo)")
     parser.add_argument("--metric", choices=sorted(METRICS), default="success")
     parser.add_argument("--target", type=float, default=0.9, help="value of --metric to reach (default 0.9)")
     parser.add_argument("--max-seconds", type=float, default=900.0)
@@ -514,7 +580,7 @@ def main() -> int:
         }
     args.out.mkdir(parents=True, exist_ok=True)
     atomic_write_json(args.out / "time_to_target.json", json_safe(outcome))
-    title = f"{args.preset}: PPO on MJX, {outcome['num_envs']} envs, {outcome['devices']} device(s)"
+    title = f"{args.preset}: {args.trainer} on MJX, {outcome['num_envs']} envs, {outcome['devices']} device(s)"
     curve = plot_curve(outcome["snapshots"], args.metric, args.target, title)
     atomic_write_bytes(args.out / "time_to_target.png", curve)
     print("\n".join(summary_lines(outcome, args.metric, args.target)))

@@ -62,7 +62,7 @@ class PpoSettings:
                 raise ConfigError(f"training.{name} must not be negative")
         total = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
         optimization = OptimizationSettings(
-            **_given(
+            **set_fields(
                 num_epochs=config.num_epochs,
                 minibatch_size=config.minibatch_size,
                 learning_rate=config.learning_rate,
@@ -78,22 +78,22 @@ class PpoSettings:
         if optimization.max_grad_norm is not None and optimization.max_grad_norm < 0:  # negative: no clipping
             optimization = replace(optimization, max_grad_norm=None)
         network = NetworkSettings(
-            **_given(hidden_sizes=tuple(options.hidden_sizes), activation=options.activation),
+            **set_fields(hidden_sizes=tuple(options.hidden_sizes), activation=options.activation),
             value_hidden_sizes=tuple(options.value_hidden_sizes),
             normalize_observations=not options.disable_observation_normalization,
             squash_actions=options.squash_actions,
             state_dependent_std=options.state_dependent_std,
-            pixels=_pixel_settings(options.pixels) if options.HasField("pixels") else None,
+            pixels=pixel_settings(options.pixels) if options.HasField("pixels") else None,
         )
         if network.activation not in ACTIVATIONS:
             raise ConfigError(f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}")
         return cls(
             rollout=RolloutSettings(
-                **_given(num_steps=config.num_steps, unrolls_per_iteration=options.unrolls_per_iteration)
+                **set_fields(num_steps=config.num_steps, unrolls_per_iteration=options.unrolls_per_iteration)
             ),
             optimization=optimization,
             returns=ReturnSettings(
-                **_given(gamma=config.gamma, gae_lambda=config.gae_lambda, reward_scaling=options.reward_scaling),
+                **set_fields(gamma=config.gamma, gae_lambda=config.gae_lambda, reward_scaling=options.reward_scaling),
                 recompute_advantages=options.recompute_advantages,
                 advantage=PpoOptions.Advantage.Name(options.advantage).lower(),
             ),
@@ -111,21 +111,20 @@ def _teacher_settings(options: options_pb2.Teacher) -> TeacherSettings:
         raise ConfigError("training.ppo.teacher.run must name the teacher's run folder or checkpoint folder")
     if options.weight < 0:
         raise ConfigError(f"training.ppo.teacher.weight must not be negative, got {options.weight}")
-    return TeacherSettings(options.run, **_given(weight=options.weight))
+    return TeacherSettings(options.run, **set_fields(weight=options.weight))
 
 
-def _pixel_settings(options: options_pb2.PixelOptions) -> PixelSettings:
-    """The pixel policy's settings, checked: cameras named, one kernel size and stride per conv layer, sizes
+def pixel_settings(options: options_pb2.PixelOptions, owner: str = "training.ppo") -> PixelSettings:
+    """The pixel policy's settings of the trainer options at `owner`, checked: cameras named, one kernel size and
+    stride per conv layer, sizes
     positive (which cameras the task has is checked where the network meets the environments)."""
     if not options.cameras:
-        raise ConfigError(
-            "training.ppo.pixels.cameras must name at least one of the task's cameras (task_config.cameras)"
-        )
+        raise ConfigError(f"{owner}.pixels.cameras must name at least one of the task's cameras (task_config.cameras)")
     pixels = PixelSettings(
         cameras=tuple(options.cameras),
         observation_terms=tuple(options.observation_terms),
         commands=tuple(options.commands),
-        **_given(
+        **set_fields(
             channels=tuple(options.channels),
             kernel_sizes=tuple(options.kernel_sizes),
             strides=tuple(options.strides),
@@ -135,18 +134,18 @@ def _pixel_settings(options: options_pb2.PixelOptions) -> PixelSettings:
     layers = {len(pixels.channels), len(pixels.kernel_sizes), len(pixels.strides)}
     if len(layers) != 1:
         raise ConfigError(
-            "training.ppo.pixels: channels, kernel_sizes and strides must have one entry per conv layer, got "
+            f"{owner}.pixels: channels, kernel_sizes and strides must have one entry per conv layer, got "
             f"{list(pixels.channels)}, {list(pixels.kernel_sizes)}, {list(pixels.strides)}"
         )
     for name in ("channels", "kernel_sizes", "strides"):
         if any(size <= 0 for size in getattr(pixels, name)):
-            raise ConfigError(f"training.ppo.pixels.{name} must be positive, got {list(getattr(pixels, name))}")
+            raise ConfigError(f"{owner}.pixels.{name} must be positive, got {list(getattr(pixels, name))}")
     if pixels.feature_size < 0:
-        raise ConfigError(f"training.ppo.pixels.feature_size must be positive, got {pixels.feature_size}")
+        raise ConfigError(f"{owner}.pixels.feature_size must be positive, got {pixels.feature_size}")
     return pixels
 
 
-def _given(**values: Any) -> dict[str, Any]:
+def set_fields(**values: Any) -> dict[str, Any]:
     """The values a config sets. An unset proto3 number or list reads as zero or empty, which means "the
     default" (docs/configuration.md): those are left out, so the settings dataclasses supply them."""
     return {name: value for name, value in values.items() if value}

@@ -145,7 +145,7 @@ class _Iteration:
         )
         return (next_state, params, stats), (
             transition,
-            _episode_sums(next_state, self.reward_terms, self.metric_terms),
+            episode_sums(next_state, self.reward_terms, self.metric_terms),
         )
 
     def final_values(self, params: Any, stats: RunningStatistics, state: EnvState) -> jax.Array:
@@ -292,7 +292,7 @@ class _Iteration:
         params, opt_state = update.params, update.opt_state
         if not statistics_first:
             stats = self.updated_statistics(stats, samples)
-        metrics = _episode_metrics(jax.tree.map(lambda x: jax.lax.psum(x.sum(), self.axis), sums))
+        metrics = episode_metrics(jax.tree.map(lambda x: jax.lax.psum(x.sum(), self.axis), sums))
         metrics |= {name: jax.lax.pmean(value.mean(), self.axis) for name, value in losses.items()}
         leaves = jax.tree.leaves(params)
         metrics["params_finite"] = jnp.all(jnp.stack([jnp.isfinite(leaf).all() for leaf in leaves]))
@@ -367,10 +367,10 @@ class EmptyLeaves(NamedTuple):
         return jax.tree.unflatten(self.treedef, leaves)
 
 
-COUNTED = "counted:"  # prefix of a sum's own episode count in `_episode_sums`, where it is not all episodes'
+COUNTED = "counted:"  # prefix of a sum's own episode count in `episode_sums`, where it is not all episodes'
 
 
-def _episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[str]) -> Metrics:
+def episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[str]) -> Metrics:
     """Per-environment sums of the statistics of the episodes that ended on this step."""
     episode = state.episode
     done = episode.done.astype(jnp.float32)
@@ -386,7 +386,7 @@ def _episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[s
     return sums
 
 
-def _episode_metrics(sums: Metrics) -> Metrics:
+def episode_metrics(sums: Metrics) -> Metrics:
     """Means over the ended episodes (NaN when none ended); each metric over those where it is finite."""
     count = sums.pop("episodes")
     counts = {name.removeprefix(COUNTED): sums.pop(name) for name in list(sums) if name.startswith(COUNTED)}

@@ -9,6 +9,8 @@ from typing import ClassVar as _ClassVar, Optional as _Optional, Union as _Union
 DESCRIPTOR: _descriptor.FileDescriptor
 PPO_FIELD_NUMBER: _ClassVar[int]
 ppo: _descriptor.FieldDescriptor
+OFFPOLICY_FIELD_NUMBER: _ClassVar[int]
+offpolicy: _descriptor.FieldDescriptor
 
 class PpoOptions(_message.Message):
     __slots__ = ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "value_hidden_sizes", "squash_actions", "activation", "state_dependent_std", "recompute_advantages", "advantage", "entropy_coef", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "desired_kl", "max_kl", "anneal_learning_rate", "disable_observation_normalization", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs", "distributed", "pixels", "teacher")
@@ -115,3 +117,61 @@ class Distributed(_message.Message):
     num_processes: int
     process_id: int
     def __init__(self, coordinator: _Optional[str] = ..., num_processes: _Optional[int] = ..., process_id: _Optional[int] = ...) -> None: ...
+
+class OffPolicyOptions(_message.Message):
+    __slots__ = ("run_name", "resume", "checkpoint_interval", "video_interval", "video_steps", "viewer", "viewer_envs", "replay_steps", "updates_per_step", "learning_starts", "n_step", "tau", "critic_learning_rate", "actor_hidden_sizes", "critic_hidden_sizes", "reward_scaling", "max_grad_norm", "disable_observation_normalization", "policy_delay", "exploration_std_min", "exploration_std_max", "target_noise", "target_noise_clip", "initial_alpha", "target_entropy_scale", "pixels", "image_shift")
+    RUN_NAME_FIELD_NUMBER: _ClassVar[int]
+    RESUME_FIELD_NUMBER: _ClassVar[int]
+    CHECKPOINT_INTERVAL_FIELD_NUMBER: _ClassVar[int]
+    VIDEO_INTERVAL_FIELD_NUMBER: _ClassVar[int]
+    VIDEO_STEPS_FIELD_NUMBER: _ClassVar[int]
+    VIEWER_FIELD_NUMBER: _ClassVar[int]
+    VIEWER_ENVS_FIELD_NUMBER: _ClassVar[int]
+    REPLAY_STEPS_FIELD_NUMBER: _ClassVar[int]
+    UPDATES_PER_STEP_FIELD_NUMBER: _ClassVar[int]
+    LEARNING_STARTS_FIELD_NUMBER: _ClassVar[int]
+    N_STEP_FIELD_NUMBER: _ClassVar[int]
+    TAU_FIELD_NUMBER: _ClassVar[int]
+    CRITIC_LEARNING_RATE_FIELD_NUMBER: _ClassVar[int]
+    ACTOR_HIDDEN_SIZES_FIELD_NUMBER: _ClassVar[int]
+    CRITIC_HIDDEN_SIZES_FIELD_NUMBER: _ClassVar[int]
+    REWARD_SCALING_FIELD_NUMBER: _ClassVar[int]
+    MAX_GRAD_NORM_FIELD_NUMBER: _ClassVar[int]
+    DISABLE_OBSERVATION_NORMALIZATION_FIELD_NUMBER: _ClassVar[int]
+    POLICY_DELAY_FIELD_NUMBER: _ClassVar[int]
+    EXPLORATION_STD_MIN_FIELD_NUMBER: _ClassVar[int]
+    EXPLORATION_STD_MAX_FIELD_NUMBER: _ClassVar[int]
+    TARGET_NOISE_FIELD_NUMBER: _ClassVar[int]
+    TARGET_NOISE_CLIP_FIELD_NUMBER: _ClassVar[int]
+    INITIAL_ALPHA_FIELD_NUMBER: _ClassVar[int]
+    TARGET_ENTROPY_SCALE_FIELD_NUMBER: _ClassVar[int]
+    PIXELS_FIELD_NUMBER: _ClassVar[int]
+    IMAGE_SHIFT_FIELD_NUMBER: _ClassVar[int]
+    run_name: str
+    resume: bool
+    checkpoint_interval: int
+    video_interval: int
+    video_steps: int
+    viewer: PpoOptions.Viewer
+    viewer_envs: int
+    replay_steps: int
+    updates_per_step: int
+    learning_starts: int
+    n_step: int
+    tau: float
+    critic_learning_rate: float
+    actor_hidden_sizes: _containers.RepeatedScalarFieldContainer[int]
+    critic_hidden_sizes: _containers.RepeatedScalarFieldContainer[int]
+    reward_scaling: float
+    max_grad_norm: float
+    disable_observation_normalization: bool
+    policy_delay: int
+    exploration_std_min: float
+    exploration_std_max: float
+    target_noise: float
+    target_noise_clip: float
+    initial_alpha: float
+    target_entropy_scale: float
+    pixels: PixelOptions
+    image_shift: int
+    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ..., replay_steps: _Optional[int] = ..., updates_per_step: _Optional[int] = ..., learning_starts: _Optional[int] = ..., n_step: _Optional[int] = ..., tau: _Optional[float] = ..., critic_learning_rate: _Optional[float] = ..., actor_hidden_sizes: _Optional[_Iterable[int]] = ..., critic_hidden_sizes: _Optional[_Iterable[int]] = ..., reward_scaling: _Optional[float] = ..., max_grad_norm: _Optional[float] = ..., disable_observation_normalization: _Optional[bool] = ..., policy_delay: _Optional[int] = ..., exploration_std_min: _Optional[float] = ..., exploration_std_max: _Optional[float] = ..., target_noise: _Optional[float] = ..., target_noise_clip: _Optional[float] = ..., initial_alpha: _Optional[float] = ..., target_entropy_scale: _Optional[float] = ..., pixels: _Optional[_Union[PixelOptions, _Mapping]] = ..., image_shift: _Optional[int] = ...) -> None: ...

@@ -1,4 +1,5 @@
-"""Entry point of joshua-ppo: registers the `ppo` trainer and its options. Imports nothing heavy (no jax or flax)."""
+"""Entry point of joshua-ppo: registers the JAX trainers `ppo`, `td3` and `sac` and their options. Imports nothing
+heavy (no jax or flax)."""
 
 from __future__ import annotations
 
@@ -14,8 +15,21 @@ def joshua_register_trainers(registry: Registrar) -> None:
         "PPO in JAX/Flax on JAX environments (MJX): thousands of environments per GPU",
         env_kinds=("jax",),
     )
+    registry.add(
+        "td3",
+        "joshua_ppo.offpolicy_trainer:Td3Trainer",
+        "TD3 in JAX (FastTD3's recipe) on JAX environments: replay on the device, n-step clipped double Q",
+        env_kinds=("jax",),
+    )
+    registry.add(
+        "sac",
+        "joshua_ppo.offpolicy_trainer:SacTrainer",
+        "SAC in JAX on JAX environments: replay on the device, n-step clipped double Q, learned temperature",
+        env_kinds=("jax",),
+    )
 
 
 @hookimpl
 def joshua_register_options(registry: Registrar) -> None:
     registry.add("ppo", "joshua_ppo.options_pb2:ppo", "ppo trainer: network, advantages, schedule, run, videos")
+    registry.add("offpolicy", "joshua_ppo.options_pb2:offpolicy", "td3 and sac trainers: replay, updates, networks")

@@ -3,6 +3,7 @@ from it."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import jax
@@ -29,7 +30,7 @@ def make_network(env: JaxEnv, network: NetworkSettings) -> Network:
             tuple(network.hidden_sizes),
             tuple(network.value_hidden_sizes or network.hidden_sizes),
             network.pixels,
-            _observation_indices(env, network.pixels),
+            observation_indices(env, network.pixels),
             **shape,
         )
     if network.value_hidden_sizes:
@@ -39,30 +40,30 @@ def make_network(env: JaxEnv, network: NetworkSettings) -> Network:
     return ActorCritic(action_dim=env.action_size, hidden_sizes=tuple(network.hidden_sizes), **shape)
 
 
-def _observation_indices(env: JaxEnv, pixels: PixelSettings) -> tuple[int, ...]:
+def observation_indices(env: JaxEnv, pixels: PixelSettings, owner: str = "training.ppo") -> tuple[int, ...]:
     """The flat observation's entries the pixel policy sees (its observation terms'), after checking its cameras
-    and commands."""
+    and commands against the task's (a ConfigError names the option of the trainer at `owner` that is wrong)."""
     cameras = {camera.name: camera for camera in env.task.cameras}
     for name in pixels.cameras:
         if name not in cameras:
             known = ", ".join(cameras) or "none: add them to task_config.cameras"
-            raise ConfigError(f"training.ppo.pixels: camera '{name}' is not one of the task's cameras ({known})")
+            raise ConfigError(f"{owner}.pixels: camera '{name}' is not one of the task's cameras ({known})")
         if cameras[name].kind not in POLICY_CAMERA_KINDS:
             raise ConfigError(
-                f"training.ppo.pixels: camera '{name}' is a {cameras[name].kind} camera; "
+                f"{owner}.pixels: camera '{name}' is a {cameras[name].kind} camera; "
                 f"the policy reads {' or '.join(POLICY_CAMERA_KINDS)}"
             )
     for name in pixels.commands:
         if name not in env.task.commands:
             known = ", ".join(env.task.commands) or "none"
-            raise ConfigError(f"training.ppo.pixels: command '{name}' is not one of the task's commands ({known})")
+            raise ConfigError(f"{owner}.pixels: command '{name}' is not one of the task's commands ({known})")
     layout = env.task.observation_layout
     starts = np.cumsum([0, *(width for _, width in layout)])
     spans = {name: range(start, start + width) for (name, width), start in zip(layout, starts, strict=False)}
     for name in pixels.observation_terms:
         if name not in spans:
             raise ConfigError(
-                f"training.ppo.pixels: observation term '{name}' is not one of the task's ({', '.join(spans)})"
+                f"{owner}.pixels: observation term '{name}' is not one of the task's ({', '.join(spans)})"
             )
     names = pixels.observation_terms or tuple(spans)
     return tuple(int(index) for name in names for index in spans[name])
@@ -71,11 +72,16 @@ def _observation_indices(env: JaxEnv, pixels: PixelSettings) -> tuple[int, ...]:
 def policy_views(state: EnvState, network: NetworkSettings) -> dict[str, dict[str, jax.Array]] | None:
     """What a pixel policy sees of the environment state beside the observation: {"images": by camera, "commands":
     by command} (None for a policy without pixels)."""
-    if network.pixels is None:
+    return camera_views(state, network.pixels)
+
+
+def camera_views(state: EnvState, pixels: PixelSettings | None) -> dict[str, dict[str, jax.Array]] | None:
+    """The views of the environment state that `pixels` names (None without pixels): see `policy_views`."""
+    if pixels is None:
         return None
     return {
-        "images": {name: state.images[name] for name in network.pixels.cameras},
-        "commands": {name: state.commands[name] for name in network.pixels.commands},
+        "images": {name: state.images[name] for name in pixels.cameras},
+        "commands": {name: state.commands[name] for name in pixels.commands},
     }
 
 
@@ -120,3 +126,16 @@ def policy_actions(
     inputs = (observation,) if views is None else (observation, None, views)
     mean, _, _ = net.apply({"params": params}, *inputs)
     return env_actions(mean, network)
+
+
+def deterministic_policy(
+    env: JaxEnv, network: NetworkSettings
+) -> Callable[[Any, RunningStatistics, EnvState], jax.Array]:
+    """The deterministic policy of the network `network` describes, as rollouts take it: (params, normaliser,
+    environment state) -> the environment's actions."""
+    net = make_network(env, network)
+
+    def act(params: Any, stats: RunningStatistics, state: EnvState) -> jax.Array:
+        return policy_actions(net, params, stats, state.observation, network, policy_views(state, network))
+
+    return act

@@ -9,6 +9,7 @@ labelled tiles by its `GridVideoWriter`.
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,8 +22,6 @@ from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, 
 from joshua_core.statistics import SUCCESS_METRIC, SUCCESS_THRESHOLD
 from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics
-from joshua_ppo.policy import make_network, policy_actions, policy_views
-from joshua_ppo.settings import NetworkSettings
 from joshua_render import GridVideoWriter, camera_id, create_renderer, episode_label, render_with_commands
 
 
@@ -40,17 +39,19 @@ class Rollout:
     metrics: dict[str, np.ndarray]  # (finished,) each metric on the first episode's last step
 
 
-def make_rollout(env: JaxEnv, network: NetworkSettings, steps: int, recorded: int = 1) -> Any:
-    """A compiled function (params, normalizer, key) -> per-step arrays of a `steps`-long rollout of the
-    deterministic policy of the network `network` describes; poses, commands and rewards of the first
-    `recorded` environments are kept for videos."""
-    net = make_network(env, network)
+Act = Callable[[Any, RunningStatistics, Any], jax.Array]  # (params, normaliser, environment state) -> actions
+
+
+def make_rollout(env: JaxEnv, act: Act, steps: int, recorded: int = 1) -> Any:
+    """A compiled function (params, normalizer, key) -> per-step arrays of a `steps`-long rollout of a trainer's
+    deterministic policy `act` (e.g. `joshua_ppo.policy.deterministic_policy`); poses, commands and rewards of the
+    first `recorded` environments are kept for videos."""
 
     def run(params: Any, stats: RunningStatistics, key: jax.Array) -> dict[str, Any]:
         state = env.reset(key)
 
         def step(state: Any, _: None) -> tuple[Any, dict[str, Any]]:
-            action = policy_actions(net, params, stats, state.observation, network, policy_views(state, network))
+            action = act(params, stats, state)
             next_state = env.step(state, action)
             episode = next_state.episode
             record = {

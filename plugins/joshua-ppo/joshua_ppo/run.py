@@ -1,11 +1,15 @@
-"""One PPO run being trained: its folder, history and monitors (progress bar, TensorBoard, training-curve
-PNG, rollout MP4s, the live viewer, the web page), and the callbacks `train_ppo` calls to report and checkpoint.
-The checkpoint layout is in `joshua_ppo.checkpoints`."""
+"""One run of a JAX trainer being trained: its folder, history and monitors (progress bar, TensorBoard,
+training-curve PNG, rollout MP4s, the live viewer, the web page), and the callbacks the training loop
+(`joshua_ppo.train.run_iterations`) calls to report and checkpoint. What differs between the trainers (PPO, TD3,
+SAC) is three things: their policy, what a checkpoint saves of their state, and their settings (`Run`'s abstract
+methods; `PpoRun` here, `joshua_ppo.offpolicy_trainer.OffPolicyRun`). The checkpoint layout is in
+`joshua_ppo.checkpoints`."""
 
 from __future__ import annotations
 
 import sys
 import time
+from abc import ABC, abstractmethod
 from dataclasses import asdict
 from importlib import metadata
 from pathlib import Path
@@ -28,14 +32,15 @@ from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import RUN_FORMAT, checkpoint_payloads, read_json, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv, environment
-from joshua_ppo.policy import image_bytes_per_env
-from joshua_ppo.rollout import collect, make_rollout, render_video
-from joshua_ppo.state import Progress, TrainingState
+from joshua_ppo.policy import deterministic_policy, image_bytes_per_env
+from joshua_ppo.rollout import Act, collect, make_rollout, render_video
+from joshua_ppo.state import Progress
 from joshua_ppo.train import IterationReport
 from joshua_ppo.viewer import open_page, open_viewer
 from joshua_render import LiveViewer, TrainingPage
 
 TRAINER_NAME = "ppo"
+State = Any  # a trainer's training state: `params`, `normalizer`, `env_state` and `key` are all a run reads
 # the task's success metric on the last step of the episodes that ended in the iteration, i.e. the success
 # rate per iteration (tasks without one leave the panel out)
 CURVE_SERIES = (
@@ -73,19 +78,27 @@ class ScalarLog:
         self._writer.close()
 
 
-class Run:
-    """One run being trained: its folder, history and monitors; the callbacks `train_ppo` calls."""
+class Run(ABC):
+    """One run being trained: its folder, history and monitors; the callbacks the training loop calls. A trainer
+    names itself (`trainer_name`, also the messages' prefix), its options (run, videos, viewer: `options`) and
+    says what differs in the abstract methods."""
+
+    trainer_name: str
+    run_format: str
+    options_path: str  # where the trainer's options live in a config, for messages (e.g. "training.ppo")
 
     def __init__(
         self,
         config: TrainingConfig,
-        settings: PpoSettings,
+        settings: Any,  # the trainer's settings dataclass: total_timesteps and seed besides its own
         env: JaxEnv,
         context: RunContext,
         run: RunFolder,
         cache: CompileCache,
+        options: Any,  # the trainer's options message
     ) -> None:
         self.config = config
+        self.options = options
         self.cache = cache
         self._reads_before: tuple[int, int] | None = None  # cache reads when compiling began, until reported
         self.settings = settings
@@ -105,25 +118,32 @@ class Run:
         self._page_policy_step = 0  # the step the policy that made the next published poses was updated at
         self._rollout: tuple[JaxEnv, Any] | None = None
 
+    @abstractmethod
+    def policy(self, env: JaxEnv) -> Act:
+        """The deterministic policy on `env`, as rollouts (videos) take it."""
+
+    @abstractmethod
+    def payloads(self, state: State, progress: Progress) -> dict[str, Any]:
+        """Host copies of what a checkpoint saves of `state` (`joshua_ppo.checkpoints.write_payloads`)."""
+
+    def settings_document(self) -> dict[str, Any]:
+        """What config.json records of the settings beyond `asdict` of them."""
+        return {}
+
     def config_document(self) -> dict[str, Any]:
-        settings = asdict(self.settings)
         return {
-            "trainer": TRAINER_NAME,
-            "format": RUN_FORMAT,
+            "trainer": self.trainer_name,
+            "format": self.run_format,
             "run": self.name,
             "task": self.config.task,
             "model_path": str(self.config.model_path),
             "seed": self.settings.seed,
             "observation_size": self.env.observation_size,
             "action_size": self.env.action_size,
-            # the camera images one iteration's rollout buffer holds (the epochs' shuffle copies it once more)
-            "rollout_image_bytes": image_bytes_per_env(self.env, self.settings.network)
-            * self.env.num_envs
-            * self.settings.rollout.num_steps
-            * self.settings.rollout.unrolls_per_iteration,
+            **self.settings_document(),
             "devices": [str(device) for device in jax.devices()],
             "processes": jax.process_count(),
-            "settings": settings,
+            "settings": asdict(self.settings),
             "training": message_to_dict(self.config),
             "versions": {
                 name: _version(name) for name in ("joshua-ppo", "jax", "flax", "optax", "mujoco", "mujoco-mjx")
@@ -148,24 +168,28 @@ class Run:
         self.history = [record for record in previous.get("history", []) if record["step"] <= progress.env_steps]
         saved_return = previous.get("mean_return")  # null where it was not finite (json_safe)
         self.last_return = float("nan") if saved_return is None else float(saved_return)
-        print(f"ppo: resuming {self.name} from {checkpoint.name} ({progress.env_steps} steps)")
+        print(f"{self.trainer_name}: resuming {self.name} from {checkpoint.name} ({progress.env_steps} steps)")
 
     def open_monitors(self, start: int) -> None:
         """The progress bar (from `start` steps), TensorBoard log, live viewer and web page; the line saying training
         started."""
-        self.page = open_page(self.config, self.env.model, self.env.num_envs)  # its URL line before the bar
+        title = f"JOSHUA {self.config.task}: {self.trainer_name}"
+        self.page = open_page(self.config, self.env.model, self.env.num_envs, title)  # its URL line before the bar
         self._page_policy_step = start
         self.bar = progress_bar(
-            self.settings.total_timesteps, description=f"ppo {self.config.task}", unit="steps", initial=start
+            self.settings.total_timesteps,
+            description=f"{self.trainer_name} {self.config.task}",
+            unit="steps",
+            initial=start,
         )
         self.scalars = ScalarLog(self.folder / "tensorboard")
-        self.viewer = open_viewer(options_of(self.config, options_pb2.ppo), self.env.model)
+        self.viewer = open_viewer(self.options, self.env.model, self.options_path)
         processes = jax.process_count()
         devices = ", ".join(str(device) for device in jax.devices())
         where = f"{len(jax.devices())} devices of {processes} processes" if processes > 1 else devices
         self._reads_before = cache_reads()
         self.bar.write(
-            f"ppo: {self.env.num_envs} environments on {where}; compiling the training iteration "
+            f"{self.trainer_name}: {self.env.num_envs} environments on {where}; compiling the training iteration "
             f"({self.cache.describe()})"
         )
         sys.stdout.flush()  # the line that says training started, for whoever waits on it
@@ -179,9 +203,9 @@ class Run:
         if self.page is not None:
             self.page.close()
 
-    # --- callbacks of train_ppo ---
+    # --- callbacks of the training loop ---
 
-    def on_progress(self, report: IterationReport, state: TrainingState) -> None:
+    def on_progress(self, report: IterationReport, state: State) -> None:
         metrics = report.metrics
         if metrics["episodes"] > 0:
             self.last_return = metrics["mean_return"]
@@ -194,9 +218,11 @@ class Run:
         self.history.append(record)
         if self.scalars is not None:
             self.scalars.write(report.env_steps, {**metrics, "steps_per_second": report.steps_per_second})
-        self.bar.set_description_str(f"ppo {self.config.task} return {self.last_return:.4g}", refresh=False)
+        self.bar.set_description_str(
+            f"{self.trainer_name} {self.config.task} return {self.last_return:.4g}", refresh=False
+        )
         self.bar.update(report.env_steps - self.bar.n)
-        interval = options_of(self.config, options_pb2.ppo).video_interval
+        interval = self.options.video_interval
         if interval > 0 and report.iteration % interval == 0:
             self.record_video(state, report.env_steps)
         if self.viewer is not None:
@@ -208,7 +234,7 @@ class Run:
         if self.page is not None:
             self.publish_to_page(report, state)
 
-    def publish_to_page(self, report: IterationReport, state: TrainingState) -> None:
+    def publish_to_page(self, report: IterationReport, state: State) -> None:
         """The shown environments as this iteration's rollout left them (moved by the policy before its update) and
         the mean return of the episodes that ended in it; the page's own thread sends them, training never waits."""
         qpos = _first_local(state.env_state.data.qpos, self.page.envs)
@@ -221,30 +247,64 @@ class Run:
         """The line after the first iteration: how long compiling took and how much of it came from the cache."""
         hits, requests = (now - before for now, before in zip(cache_reads(), reads_before, strict=True))
         cached = f"{hits} of {requests} programs from the compilation cache" if self.cache.folder else "no cache"
-        self.bar.write(f"ppo: compiled in {self.compile_seconds:.1f} s ({cached})")
+        self.bar.write(f"{self.trainer_name}: compiled in {self.compile_seconds:.1f} s ({cached})")
 
-    def on_checkpoint(self, state: TrainingState, progress: Progress, report: IterationReport | None) -> None:
+    def on_checkpoint(self, state: State, progress: Progress, report: IterationReport | None) -> None:
         metrics = self.metrics_document(progress)
         documents = {CONFIG_FILE: self.config_document(), METRICS_FILE: metrics}
-        write_checkpoint(self.run_folder, progress.env_steps, checkpoint_payloads(state, progress), documents)
+        write_checkpoint(self.run_folder, progress.env_steps, self.payloads(state, progress), documents)
         atomic_write_json(self.folder / METRICS_FILE, json_safe(metrics))
         write_training_curves(
-            self.history, self.folder / "training_curves.png", title=f"{self.config.task}: ppo", series=CURVE_SERIES
+            self.history,
+            self.folder / "training_curves.png",
+            title=f"{self.config.task}: {self.trainer_name}",
+            series=CURVE_SERIES,
         )
-        if report is not None and options_of(self.config, options_pb2.ppo).video_interval == 0:
+        if report is not None and self.options.video_interval == 0:
             self.record_video(state, progress.env_steps)
 
-    def record_video(self, state: TrainingState, step: int) -> None:
+    def record_video(self, state: State, step: int) -> None:
         """Roll out the current deterministic policy for one episode and render it to videos/step_<N>.mp4."""
         if self._rollout is None:  # on this process's devices: the others do not take part
             env = environment(self.config, self.context, jax.local_device_count(), jax.local_devices())
-            steps = options_of(self.config, options_pb2.ppo).video_steps or env.task.episode_length
-            self._rollout = env, make_rollout(env, self.settings.network, steps)
+            steps = self.options.video_steps or env.task.episode_length
+            self._rollout = env, make_rollout(env, self.policy(env), steps)
         env, rollout = self._rollout
         params, normalizer = jax.device_get((state.params, state.normalizer))  # from every process's devices
         episode = collect(rollout(params, normalizer, jax.random.PRNGKey(step)))
         path = render_video(env.model, episode, self.folder / "videos" / f"step_{step}.mp4", fps=1.0 / env.task.dt)
-        self.bar.write(f"ppo: video {path}")
+        self.bar.write(f"{self.trainer_name}: video {path}")
+
+
+class PpoRun(Run):
+    """A run of the `ppo` trainer."""
+
+    trainer_name = TRAINER_NAME
+    run_format = RUN_FORMAT
+    options_path = "training.ppo"
+
+    def __init__(
+        self,
+        config: TrainingConfig,
+        settings: PpoSettings,
+        env: JaxEnv,
+        context: RunContext,
+        run: RunFolder,
+        cache: CompileCache,
+    ) -> None:
+        super().__init__(config, settings, env, context, run, cache, options_of(config, options_pb2.ppo))
+
+    def policy(self, env: JaxEnv) -> Act:
+        return deterministic_policy(env, self.settings.network)
+
+    def payloads(self, state: State, progress: Progress) -> dict[str, Any]:
+        return checkpoint_payloads(state, progress)
+
+    def settings_document(self) -> dict[str, Any]:
+        # the camera images one iteration's rollout buffer holds (the epochs' shuffle copies it once more)
+        rollout = self.settings.rollout
+        per_env = image_bytes_per_env(self.env, self.settings.network)
+        return {"rollout_image_bytes": per_env * self.env.num_envs * rollout.num_steps * rollout.unrolls_per_iteration}
 
 
 def _first_local(array: jax.Array, count: int) -> np.ndarray:

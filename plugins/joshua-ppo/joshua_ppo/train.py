@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -52,8 +53,8 @@ class TrainingDiverged(JoshuaError):
     """A loss or parameter became NaN or infinite; training stopped before writing anything from that state."""
 
 
-ProgressCallback = Callable[[IterationReport, TrainingState], None]
-CheckpointCallback = Callable[[TrainingState, Progress, IterationReport | None], None]
+ProgressCallback = Callable[[IterationReport, Any], None]  # the report and the trainer's state
+CheckpointCallback = Callable[[Any, Progress, IterationReport | None], None]
 
 
 def train_ppo(
@@ -81,15 +82,51 @@ def train_ppo(
     `teacher`: a trained policy the policy imitates beside its PPO loss (`joshua_ppo.teacher`).
     Raises TrainingDiverged, without calling `on_checkpoint`, when a loss or parameter stops being finite.
     """
-    if resume is not None and resume[0].env_state.observation.shape[0] != env.num_envs:
-        raise ConfigError(
-            f"the saved state has {resume[0].env_state.observation.shape[0]} environments, not {env.num_envs}"
-        )
     started = time.perf_counter()
     iteration = make_iteration(
         env, rollout=rollout, optimization=optimization, returns=returns, network=network, teacher=teacher
     )
     abstract = abstract_state(env, network=network, optimization=optimization)
+    return run_iterations(
+        env,
+        iteration,
+        abstract,
+        lambda: init_state(env, seed=seed, network=network, optimization=optimization),
+        steps_per_iteration=env.num_envs * rollout.num_steps * rollout.unrolls_per_iteration,
+        total_timesteps=total_timesteps,
+        checkpoint_interval=checkpoint_interval,
+        resume=resume,
+        on_progress=on_progress,
+        on_checkpoint=on_checkpoint,
+        should_stop=should_stop,
+        started=started,
+    )
+
+
+def run_iterations(
+    env: JaxEnv,
+    iteration: Callable[[Any], tuple[Any, dict[str, jax.Array]]],
+    abstract: Any,
+    init: Callable[[], Any],
+    *,
+    steps_per_iteration: int,
+    total_timesteps: int,
+    checkpoint_interval: int = 0,
+    resume: tuple[Any, Progress] | None = None,
+    on_progress: ProgressCallback | None = None,
+    on_checkpoint: CheckpointCallback | None = None,
+    should_stop: Callable[[], bool] | None = None,
+    started: float | None = None,
+) -> tuple[Any, Progress]:
+    """The training loop every JAX trainer shares: compile `iteration` (a jitted state -> (state, metrics) of
+    `steps_per_iteration` environment steps) for states like `abstract` while `init` makes the first state (unless
+    resuming), then run it until `total_timesteps`, reporting and checkpointing as `train_ppo` says. `started`:
+    when the caller began (perf_counter), so that the reported compile time includes its tracing."""
+    if resume is not None and resume[0].env_state.observation.shape[0] != env.num_envs:
+        raise ConfigError(
+            f"the saved state has {resume[0].env_state.observation.shape[0]} environments, not {env.num_envs}"
+        )
+    started = time.perf_counter() if started is None else started
     # the iteration compiles while the environments reset (which compiles mjx.forward): both take seconds
     # of XLA compilation, which runs without holding the GIL. It is traced here, before the reset traces: traced
     # at once on two threads, the two programs came out different from run to run (JAX's tracing caches are
@@ -97,13 +134,9 @@ def train_ppo(
     lowered = iteration.lower(abstract)
     with ThreadPoolExecutor(max_workers=1) as pool:
         compiling = pool.submit(lowered.compile)
-        state, progress = resume or (
-            init_state(env, seed=seed, network=network, optimization=optimization),
-            Progress(0, 0),
-        )
+        state, progress = resume or (init(), Progress(0, 0))
         compiled = compiling.result()
     compile_seconds = time.perf_counter() - started
-    steps_per_iteration = env.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
     iterations = max(0, math.ceil((total_timesteps - progress.env_steps) / steps_per_iteration))
     total_steps = progress.env_steps + iterations * steps_per_iteration
     if resume is None and on_checkpoint is not None:
@@ -152,13 +185,13 @@ def train_ppo(
 _copy = jax.jit(lambda state: jax.tree.map(jnp.copy, state))
 
 
-def _queue(env: JaxEnv, compiled: Callable, state: TrainingState) -> tuple[TrainingState, dict[str, jax.Array]]:
+def _queue(env: JaxEnv, compiled: Callable, state: Any) -> tuple[Any, dict[str, jax.Array]]:
     """Queue an iteration from `state` (whose buffers it takes) on the device; every iteration's episodes start
     from fresh draws of the task's reset terms."""
     return compiled(state._replace(env_state=env.redraw_starts(state.env_state)))
 
 
-def _finish(queued: tuple[TrainingState, dict[str, jax.Array]] | None) -> None:
+def _finish(queued: tuple[Any, dict[str, jax.Array]] | None) -> None:
     """Wait for an iteration still queued when training ends early (a stop, an error), discarding its results and
     any error it meets: no computation outlives training. A MuJoCo Warp step runs Python callbacks on XLA's threads;
     one still queued when the interpreter finalized could never take the interpreter lock, and the process hung at
@@ -176,6 +209,6 @@ def _check_finite(values: dict[str, float], progress: Progress) -> None:
         what = f"{', '.join(bad)} became {values[bad[0]]}" if bad else "the network parameters became non-finite"
         raise TrainingDiverged(
             f"training diverged in iteration {progress.iteration + 1} ({progress.env_steps} steps done): {what}; "
-            "the last checkpoint written before it is kept. Lower training.learning_rate, set "
-            "training.ppo.max_grad_norm, or check the task's rewards and observations for huge values"
+            "the last checkpoint written before it is kept. Lower training.learning_rate, set the trainer's "
+            "max_grad_norm, or check the task's rewards and observations for huge values"
         )

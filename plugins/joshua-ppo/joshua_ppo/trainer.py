@@ -5,8 +5,10 @@ checkpoints, resume and monitoring (`joshua_ppo.run`), and the evaluation of a s
 from __future__ import annotations
 
 import sys
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import jax
 
@@ -35,94 +37,83 @@ from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.distributed import Cluster, join
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.export import mlp_policy
-from joshua_ppo.rollout import collect, episode_results, make_rollout, render_video
-from joshua_ppo.run import TRAINER_NAME, Run
-from joshua_ppo.settings import check_settings
-from joshua_ppo.state import Progress, TrainingState
-from joshua_ppo.teacher import Teacher, load_teacher
+from joshua_ppo.normalizer import RunningStatistics
+from joshua_ppo.policy import deterministic_policy
+from joshua_ppo.rollout import Act, collect, episode_results, make_rollout, render_video
+from joshua_ppo.run import TRAINER_NAME, PpoRun, Run
+from joshua_ppo.settings import NetworkSettings, check_settings
+from joshua_ppo.state import Progress
+from joshua_ppo.teacher import load_teacher
 from joshua_ppo.train import train_ppo
 
 OPTIONS = "training.ppo"  # where the run options live, for hints
 Resume = tuple[Path, dict[str, bytes]]  # the checkpoint to resume from and its payloads (resume_payloads)
+Fit = Callable[[Run | None, Any, Callable[[], bool]], Progress]  # (run, resumed state or None, should_stop) -> end
+SavedPolicy = tuple[Act, Any, RunningStatistics]  # a checkpoint's policy, its parameters and normaliser
+Load = Callable[[Path, dict[str, bytes]], tuple[Any, Progress]]  # (checkpoint, its payloads) -> state to resume
 
 
-def _open_run(config: TrainingConfig, root: Path, processes: int) -> tuple[RunFolder, Resume | None]:
-    """The run folder, locked, and the checkpoint to resume from with what resuming reads (None: a new run)."""
-    options = options_of(config, options_pb2.ppo)
-    if not options.resume:
-        return create_run(root, options.run_name or None, stem=config.task, options=OPTIONS), None
-    run, saved = resume_run(root, options.run_name or None, trainer=TRAINER_NAME, options=OPTIONS)
-    try:
-        if saved.get("task") != config.task:
-            raise ConfigError(
-                f"{OPTIONS}.resume: run '{run.name}' trained task '{saved.get('task')}', "
-                f"this config asks for '{config.task}'"
-            )
-        if saved.get("processes", 1) != processes:
-            raise ConfigError(
-                f"{OPTIONS}.resume: run '{run.name}' was trained by {saved.get('processes', 1)} processes, "
-                f"this one has {processes}; resume it with as many (the environments are split across them)"
-            )
-        checkpoints = run.checkpoints()
-        if not checkpoints:
-            raise ConfigError(f"{OPTIONS}.resume: run '{run.name}' in {root} has no checkpoint to resume from")
-        return run, (checkpoints[-1], resume_payloads(checkpoints[-1]))
-    except Exception:
-        run.close()
-        raise
+class JaxTrainer(Trainer, ABC):
+    """What every trainer of this distribution does around its algorithm: the run folder (new or resumed, process
+    0's), the processes of a multi-process run, monitors, and stopping on a signal with a checkpoint."""
 
+    name: str  # the registered trainer name, written into config.json
+    options_path: str  # where its options live in a config (e.g. "training.ppo")
+    run_format: str  # the "format" of its runs' config.json
 
-def _shared_resume(cluster: Cluster, resume: Resume | None) -> Resume | None:
-    """Process 0's checkpoint to resume from and its payloads, on every process (None: a new run)."""
-    checkpoint, payloads = resume or (None, {})
-    shared = cluster.broadcast_bytes(str(checkpoint).encode() if checkpoint else None)
-    if not shared:
-        return None
-    return Path(shared.decode()), {name: cluster.broadcast_bytes(payloads.get(name)) for name in RESUME_FILES}
+    def open_run(
+        self, config: TrainingConfig, options: Any, root: Path, processes: int
+    ) -> tuple[RunFolder, Resume | None]:
+        """The run folder, locked, and the checkpoint to resume from with what resuming reads (None: a new run)."""
+        if not options.resume:
+            return create_run(root, options.run_name or None, stem=config.task, options=self.options_path), None
+        run, saved = resume_run(root, options.run_name or None, trainer=self.name, options=self.options_path)
+        try:
+            if saved.get("task") != config.task:
+                raise ConfigError(
+                    f"{self.options_path}.resume: run '{run.name}' trained task '{saved.get('task')}', "
+                    f"this config asks for '{config.task}'"
+                )
+            if saved.get("processes", 1) != processes:
+                raise ConfigError(
+                    f"{self.options_path}.resume: run '{run.name}' was trained by {saved.get('processes', 1)} "
+                    f"processes, this one has {processes}; resume it with as many (the environments are split across "
+                    "them)"
+                )
+            checkpoints = run.checkpoints()
+            if not checkpoints:
+                raise ConfigError(
+                    f"{self.options_path}.resume: run '{run.name}' in {root} has no checkpoint to resume from"
+                )
+            return run, (checkpoints[-1], resume_payloads(checkpoints[-1]))
+        except Exception:
+            run.close()
+            raise
 
-
-class PpoTrainer(Trainer):
-    """PPO on the JAX environments of the configured backend; see the plugin README."""
-
-    def train(self, config: TrainingConfig, context: RunContext) -> Path:
-        cache = use_compile_cache()  # before anything compiles
-        cluster = join(config)  # before anything asks JAX for its devices
-        cluster.check_same_config(config)
-        settings = PpoSettings.from_config(config)
-        if run_name := options_of(config, options_pb2.ppo).run_name:
-            check_run_name(run_name, f"{OPTIONS}.run_name")  # before the environments are built
-        env = environment(config, context, training_envs=True)
-        teacher = None
-        if settings.teacher is not None:  # checked before anything is written
-            teacher = load_teacher(settings.teacher, env, config.task, context.plugins.options(), settings.network)
-        # a bad batch layout is a config error before anything is written
-        recompute = settings.returns.recompute_advantages
-        check_settings(settings.rollout, settings.optimization, env.num_envs, env.mesh.size, whole_unrolls=recompute)
-        rollout = settings.rollout
-        check_one_iteration(settings.total_timesteps, env.num_envs, rollout.num_steps, rollout.unrolls_per_iteration)
-        opened = cluster.on_leader(lambda: _open_run(config, context.output_dir, cluster.num_processes))
-        if opened is None:  # another process than 0: it trains alongside and writes nothing
-            return self._train(settings, env, teacher, cluster, None, _shared_resume(cluster, None))
-        folder, resume = opened
-        if teacher is not None:
-            print(f"ppo: imitating the teacher {teacher.description}")
-        with folder:  # locked while training
-            run = Run(config, settings, env, context, folder, cache)
-            return self._train(settings, env, teacher, cluster, run, _shared_resume(cluster, resume))
-
-    def _train(
+    def train_run(
         self,
-        settings: PpoSettings,
-        env: JaxEnv,
-        teacher: Teacher | None,
+        config: TrainingConfig,
+        context: RunContext,
         cluster: Cluster,
-        run: Run | None,
-        resume: Resume | None,
+        options: Any,
+        make_run: Callable[[RunFolder], Run],
+        load: Load,
+        fit: Fit,
     ) -> Path:
+        """Open the run on process 0 (`make_run` its monitors), resume it or write its config, and `fit` on every
+        process; a signal stops it after an iteration, with a checkpoint and the command that resumes it."""
+        opened = cluster.on_leader(lambda: self.open_run(config, options, context.output_dir, cluster.num_processes))
+        if opened is None:  # another process than 0: it trains alongside and writes nothing
+            return self._train(cluster, None, _shared_resume(cluster, None), load, fit)
+        folder, resume = opened
+        with folder:  # locked while training
+            return self._train(cluster, make_run(folder), _shared_resume(cluster, resume), load, fit)
+
+    def _train(self, cluster: Cluster, run: Run | None, resume: Resume | None, load: Load, fit: Fit) -> Path:
         """Train on every process; `run` (process 0's, None on the others) records and reports."""
         state = None
         if resume is not None:
-            state = load_state(resume[0], env, settings, resume[1])
+            state = load(*resume)
             if run is not None:
                 run.resumed_from(resume[0], state[1])
         elif run is not None:
@@ -132,51 +123,36 @@ class PpoTrainer(Trainer):
         with stop_requests() as stop:
             if run is not None:
                 run.open_monitors(state[1].env_steps if state else 0)
-            progress = self._run(settings, env, teacher, run, state, lambda: cluster.agreed_stop(stop))
+            try:
+                progress = fit(run, state, lambda: cluster.agreed_stop(stop))
+            finally:
+                if run is not None:
+                    run.close_monitors()
         newest = str(run.run_folder.checkpoints()[-1]).encode() if run is not None else None
         checkpoint = Path(cluster.broadcast_bytes(newest).decode())  # process 0's, on every process
         if stop.requested:
             if run is not None:
                 print(
-                    f"ppo: stopped at {progress.env_steps} steps; checkpoint {checkpoint}\n"
-                    f"resume with: {resume_command(OPTIONS, run.name)}",
+                    f"{self.name}: stopped at {progress.env_steps} steps; checkpoint {checkpoint}\n"
+                    f"resume with: {resume_command(self.options_path, run.name)}",
                     flush=True,
                 )
             raise stop.interrupted()
         if run is not None:
             print(
-                f"ppo: {progress.env_steps} steps in {run.wall_seconds:.1f} s (compile {run.compile_seconds:.1f} s), "
-                f"mean return {run.last_return:.4g}; checkpoint {checkpoint}"
+                f"{self.name}: {progress.env_steps} steps in {run.wall_seconds:.1f} s "
+                f"(compile {run.compile_seconds:.1f} s), mean return {run.last_return:.4g}; checkpoint {checkpoint}"
             )
         return checkpoint
 
-    @staticmethod
-    def _run(
-        settings: PpoSettings,
-        env: JaxEnv,
-        teacher: Teacher | None,
-        run: Run | None,
-        resume: tuple[TrainingState, Progress] | None,
-        should_stop: Callable[[], bool],  # asked every iteration
-    ) -> Progress:
-        """`train_ppo` with the run's callbacks; the progress bar, logs and viewer are closed however it ends."""
-        try:
-            _, progress = train_ppo(
-                env,
-                **settings.groups,
-                total_timesteps=settings.total_timesteps,
-                seed=settings.seed,
-                checkpoint_interval=settings.checkpoint_interval,
-                resume=resume,
-                on_progress=run.on_progress if run is not None else None,
-                on_checkpoint=run.on_checkpoint if run is not None else None,
-                should_stop=should_stop,
-                teacher=teacher,
-            )
-        finally:
-            if run is not None:
-                run.close_monitors()
-        return progress
+    @abstractmethod
+    def saved_policy(self, config: TrainingConfig, checkpoint: Path, env: JaxEnv) -> SavedPolicy:
+        """The deterministic policy a checkpoint of a run trained with `config` holds, for `env`: as rollouts take
+        it, with its parameters and normaliser (a CorruptCheckpointError when they do not fit)."""
+
+    @abstractmethod
+    def exported_network(self, config: TrainingConfig) -> NetworkSettings:
+        """The saved policy described as the MLP `joshua_ppo.export.mlp_policy` reads."""
 
     def evaluate(
         self,
@@ -189,14 +165,13 @@ class PpoTrainer(Trainer):
         trust_checkpoint: bool = False,
         video_grid: int = 1,
     ) -> EpisodeResults:
-        checkpoint, _, config = saved_training(run_dir, RUN_FORMAT, context.plugins.options())
-        settings = PpoSettings.from_config(config)
+        checkpoint, _, config = saved_training(run_dir, self.run_format, context.plugins.options())
         use_compile_cache()  # before anything compiles
         devices = len(jax.devices())
         env = environment(config, context, -(-episodes // devices) * devices)
-        params, normalizer = load_params(checkpoint, env, settings.network)
-        print(f"ppo: evaluating {checkpoint} ({checkpoint_step(checkpoint)} steps) over {episodes} episodes")
-        rollout = make_rollout(env, settings.network, env.task.episode_length, recorded=video_grid)
+        act, params, normalizer = self.saved_policy(config, checkpoint, env)
+        print(f"{self.name}: evaluating {checkpoint} ({checkpoint_step(checkpoint)} steps) over {episodes} episodes")
+        rollout = make_rollout(env, act, env.task.episode_length, recorded=video_grid)
         episode = collect(rollout(params, normalizer, jax.random.PRNGKey(seed)), episodes)
         if video_path is not None:
             written = render_video(env.model, episode, video_path, fps=1.0 / env.task.dt)
@@ -205,6 +180,75 @@ class PpoTrainer(Trainer):
 
     def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:
         # msgpack runs no code: nothing to trust
-        checkpoint, _, config = saved_training(run_dir, RUN_FORMAT, context.plugins.options())
-        policy = mlp_policy(checkpoint, PpoSettings.from_config(config).network)
-        return ExportedPolicy(TRAINER_NAME, checkpoint, config, policy)
+        checkpoint, _, config = saved_training(run_dir, self.run_format, context.plugins.options())
+        return ExportedPolicy(self.name, checkpoint, config, mlp_policy(checkpoint, self.exported_network(config)))
+
+
+def _shared_resume(cluster: Cluster, resume: Resume | None) -> Resume | None:
+    """Process 0's checkpoint to resume from and its payloads, on every process (None: a new run)."""
+    checkpoint, payloads = resume or (None, {})
+    shared = cluster.broadcast_bytes(str(checkpoint).encode() if checkpoint else None)
+    if not shared:
+        return None
+    return Path(shared.decode()), {name: cluster.broadcast_bytes(payloads.get(name)) for name in RESUME_FILES}
+
+
+class PpoTrainer(JaxTrainer):
+    """PPO on the JAX environments of the configured backend; see the plugin README."""
+
+    name = TRAINER_NAME
+    options_path = OPTIONS
+    run_format = RUN_FORMAT
+
+    def train(self, config: TrainingConfig, context: RunContext) -> Path:
+        cache = use_compile_cache()  # before anything compiles
+        cluster = join(config)  # before anything asks JAX for its devices
+        cluster.check_same_config(config)
+        settings = PpoSettings.from_config(config)
+        options = options_of(config, options_pb2.ppo)
+        if options.run_name:
+            check_run_name(options.run_name, f"{OPTIONS}.run_name")  # before the environments are built
+        env = environment(config, context, training_envs=True)
+        teacher = None
+        if settings.teacher is not None:  # checked before anything is written
+            teacher = load_teacher(settings.teacher, env, config.task, context.plugins.options(), settings.network)
+        # a bad batch layout is a config error before anything is written
+        recompute = settings.returns.recompute_advantages
+        check_settings(settings.rollout, settings.optimization, env.num_envs, env.mesh.size, whole_unrolls=recompute)
+        rollout = settings.rollout
+        check_one_iteration(settings.total_timesteps, env.num_envs, rollout.num_steps, rollout.unrolls_per_iteration)
+        if teacher is not None and cluster.leader:
+            print(f"ppo: imitating the teacher {teacher.description}")
+
+        def fit(run: Run | None, resume: Any, should_stop: Callable[[], bool]) -> Progress:
+            _, progress = train_ppo(
+                env,
+                **settings.groups,
+                total_timesteps=settings.total_timesteps,
+                seed=settings.seed,
+                checkpoint_interval=settings.checkpoint_interval,
+                resume=resume,
+                on_progress=run.on_progress if run is not None else None,
+                on_checkpoint=run.on_checkpoint if run is not None else None,
+                should_stop=should_stop,
+                teacher=teacher,
+            )
+            return progress
+
+        return self.train_run(
+            config,
+            context,
+            cluster,
+            options,
+            lambda folder: PpoRun(config, settings, env, context, folder, cache),
+            lambda checkpoint, payloads: load_state(checkpoint, env, settings, payloads),
+            fit,
+        )
+
+    def saved_policy(self, config: TrainingConfig, checkpoint: Path, env: JaxEnv) -> SavedPolicy:
+        settings = PpoSettings.from_config(config)
+        params, normalizer = load_params(checkpoint, env, settings.network)
+        return deterministic_policy(env, settings.network), params, normalizer
+
+    def exported_network(self, config: TrainingConfig) -> NetworkSettings:
+        return PpoSettings.from_config(config).network

@@ -6,7 +6,7 @@ from __future__ import annotations
 import mujoco
 
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_ppo.options_pb2 import PpoOptions
+from joshua_ppo.options_pb2 import OffPolicyOptions, PpoOptions
 from joshua_render import LiveViewer, TrainingPage, open_training_page
 from joshua_render import open_viewer as open_live_viewer
 
@@ -14,21 +14,21 @@ DEFAULT_VIEWER_ENVS = 4
 PAGE_ENVS = 4  # environments the web page shows side by side (fewer when the run has fewer)
 
 
-def open_viewer(options: PpoOptions, model: mujoco.MjModel) -> LiveViewer | None:
-    """The live viewer the options ask for: none for OFF; for AUTO when a display is usable; for ON, or a
-    UsageError saying what to do without a display."""
+def open_viewer(options: PpoOptions | OffPolicyOptions, model: mujoco.MjModel, owner: str) -> LiveViewer | None:
+    """The live viewer the options of a trainer (at `owner` in a config) ask for: none for OFF; for AUTO when a
+    display is usable; for ON, or a UsageError saying what to do without a display."""
     if options.viewer == PpoOptions.OFF:
         return None
     return open_live_viewer(
         model,
         options.viewer_envs or DEFAULT_VIEWER_ENVS,
         required=options.viewer == PpoOptions.ON,
-        what="training.ppo.viewer ON (the live MuJoCo viewer)",
+        what=f"{owner}.viewer ON (the live MuJoCo viewer)",
     )
 
 
-def open_page(config: TrainingConfig, model: mujoco.MjModel, num_envs: int) -> TrainingPage | None:
+def open_page(config: TrainingConfig, model: mujoco.MjModel, num_envs: int, title: str) -> TrainingPage | None:
     """The web page at `config.web` (None when unset, or when it cannot listen there: training goes on, and says so)."""
     if not config.web:
         return None
-    return open_training_page(model, min(PAGE_ENVS, num_envs), config.web, title=f"JOSHUA {config.task}: ppo")
+    return open_training_page(model, min(PAGE_ENVS, num_envs), config.web, title=title)

@@ -21,7 +21,7 @@ import pytest
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.tasks.episodes import Episode
 from joshua_mjx.env import MjxEnv, make_mjx_env
-from joshua_ppo.iteration import _episode_metrics, _episode_sums, _Iteration, make_iteration
+from joshua_ppo.iteration import _Iteration, episode_metrics, episode_sums, make_iteration
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
 from joshua_ppo.state import abstract_state, init_state
 
@@ -104,8 +104,8 @@ def test_a_failed_simulations_metrics_leave_the_means_finite() -> None:
         reward_terms={},
         metrics={"distance": jnp.array([0.2, jnp.nan, 0.4, jnp.nan]), "success": jnp.array([1.0, 0.0, 0.0, 1.0])},
     )
-    sums = _episode_sums(SimpleNamespace(episode=episode), [], ["distance", "success"])  # type: ignore[arg-type]
-    means = _episode_metrics({name: value.sum() for name, value in sums.items()})
+    sums = episode_sums(SimpleNamespace(episode=episode), [], ["distance", "success"])  # type: ignore[arg-type]
+    means = episode_metrics({name: value.sum() for name, value in sums.items()})
     assert float(means["episodes"]) == 3 and float(means["mean_return"]) == pytest.approx(4.0 / 3)
     assert float(means["metrics/distance"]) == pytest.approx(0.3)  # over the two episodes where it is a number
     assert float(means["metrics/success"]) == pytest.approx(1.0 / 3)  # the failed one counted as a failure

@@ -249,3 +249,39 @@ def test_pixel_options_without_a_camera_or_with_unknown_names_are_one_line_confi
             make_network(env, _settings({"pixels": pixels}).network)
         errors.append(error.value)
     assert all("\n" not in str(value) for value in errors), errors
+
+
+def test_an_offpolicy_pixel_actor_trains_from_its_camera_and_evaluates(tmp_path: Path) -> None:
+    """TD3 with a pixel actor (the critics see the flat state): one iteration of 4 steps stores the camera's frames
+    in the replay buffer and updates from shifted copies of them; the checkpoint evaluates, and the actor holds
+    the camera's encoder."""
+    from joshua_ppo.offpolicy_trainer import Td3Trainer
+
+    config = copy.deepcopy(CONFIG)
+    del config["ppo"]
+    config |= {"trainer": "td3", "minibatch_size": 8, "total_timesteps": NUM_ENVS * NUM_STEPS}
+    config["offpolicy"] = {
+        "run_name": "pixels",
+        "actor_hidden_sizes": [16],
+        "critic_hidden_sizes": [16],
+        "replay_steps": 8,
+        "n_step": 1,
+        "learning_starts": 2,
+        "video_interval": -1,
+        "pixels": PIXELS,
+        "image_shift": 2,
+    }
+    training = TrainingConfig()
+    plugins = PluginHost.discover()
+    parse_dict({**config, "model_path": "so_arm100/pick_place_mjx.xml"}, training, plugins.options())
+    training.checkpoint_dir = str(tmp_path)
+    context = RunContext(plugins, tmp_path)
+    checkpoint = Td3Trainer().train(training, context)
+    history = json.loads((checkpoint / "metrics.json").read_text())["history"]
+    assert len(history) == 1 and np.isfinite(history[0]["value_loss"]) and history[0]["value_loss"] > 0
+    saved = from_bytes(None, (checkpoint / "params.msgpack").read_bytes())
+    assert "encoder_overview" in saved["params"]  # the CNN of the camera the actor sees
+    results = Td3Trainer().evaluate(checkpoint, episodes=2, seed=0, video_path=None, context=context)
+    assert len(results.returns) == 2
+    with pytest.raises(ConfigError, match="only policies of the flat observation export as an MLP"):
+        Td3Trainer().export_policy(checkpoint, context=context)
