@@ -255,6 +255,7 @@ def test_an_offpolicy_pixel_actor_trains_from_its_camera_and_evaluates(tmp_path:
     """TD3 with a pixel actor (the critics see the flat state): one iteration of 4 steps stores the camera's frames
     in the replay buffer and updates from shifted copies of them; the checkpoint evaluates, and the actor holds
     the camera's encoder."""
+    from joshua_core.resources import resolve_data_path
     from joshua_ppo.offpolicy_trainer import Td3Trainer
 
     config = copy.deepcopy(CONFIG)
@@ -273,7 +274,8 @@ def test_an_offpolicy_pixel_actor_trains_from_its_camera_and_evaluates(tmp_path:
     }
     training = TrainingConfig()
     plugins = PluginHost.discover()
-    parse_dict({**config, "model_path": "so_arm100/pick_place_mjx.xml"}, training, plugins.options())
+    model = str(resolve_data_path("so_arm100/pick_place_mjx.xml"))
+    parse_dict({**config, "model_path": model}, training, plugins.options())
     training.checkpoint_dir = str(tmp_path)
     context = RunContext(plugins, tmp_path)
     checkpoint = Td3Trainer().train(training, context)
