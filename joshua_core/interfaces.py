@@ -255,6 +255,7 @@ class EpisodeResults:
     returns: Sequence[float]  # undiscounted return
     lengths: Sequence[float]  # steps
     metrics: dict[str, Sequence[float]]  # each task metric's value on the episode's last step (e.g. "success")
+    failed: Sequence[bool] = ()  # whether each episode's simulation blew up; empty: the trainer does not say
 
 
 class PolicyFormat(ABC):

@@ -62,8 +62,9 @@ def t_interval(values: Sequence[float]) -> tuple[float, float] | None:
 
 
 def summarize(results: EpisodeResults) -> dict[str, Any]:
-    """The figures of an evaluation: episodes, mean return and length, each metric's mean final value, the
-    return's 95 % t interval and, when the task has a `success` metric, the success rate and its Wilson interval."""
+    """The figures of an evaluation: episodes, mean return and length, each metric's mean final value, how many
+    episodes blew up (where the trainer says), the return's 95 % t interval and, when the task has a `success`
+    metric, the success rate and its Wilson interval."""
     episodes = len(results.returns)
     if episodes < 1:
         raise ValueError("no episode finished: nothing to summarize")
@@ -73,6 +74,8 @@ def summarize(results: EpisodeResults) -> dict[str, Any]:
         "mean_length": float(np.mean(results.lengths)),
     }
     summary |= {f"final_{name}": float(np.mean(values)) for name, values in results.metrics.items()}
+    if len(results.failed):  # episodes whose simulation blew up: their metrics are not numbers
+        summary["failed_episodes"] = int(np.sum(results.failed))
     if SUCCESS_METRIC in results.metrics:
         successes = int(np.sum(np.asarray(results.metrics[SUCCESS_METRIC]) >= SUCCESS_THRESHOLD))
         summary |= {

@@ -17,6 +17,8 @@ from joshua_core.tasks.context import (
     set_columns,
 )
 from joshua_core.tasks.episodes import (
+    MAX_POSITION,
+    MAX_SPEED,
     METRIC_PREFIX,
     REWARD_PREFIX,
     Episode,
@@ -56,6 +58,8 @@ __all__ = [
     "DERIVED_FIELDS",
     "INERTIAL_FIELDS",
     "KINEMATIC_FIELDS",
+    "MAX_POSITION",
+    "MAX_SPEED",
     "METRIC_PREFIX",
     "MODEL_FIELDS",
     "REWARD_PREFIX",

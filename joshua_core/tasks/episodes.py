@@ -4,8 +4,9 @@ After each step a backend calls `account_step`: it evaluates the task's rewards,
 metrics on the step's `TermContext`, and keeps each environment's running return and per-term
 sums. The rules, the same on numpy (joshua-mujoco) and inside `jax.jit` (joshua-mjx):
 
-- A simulation that failed (a non-finite state, see `nonfinite`, or a physics error) is terminated
-  with zero reward and zero reward terms: its numbers never reach a return.
+- A simulation that failed (a state that is non-finite or beyond any scene's bounds, see `nonfinite`, or a
+  physics error) is terminated with zero reward and zero reward terms: its numbers never reach a return, and
+  its episode's record says it failed (`Episode.failed`), so that trainers count blow-ups.
 - `truncated` means the episode reached the task's episode length and was not terminated, so
   `terminated` and `truncated` are never both set; `done` is either.
 - Where an episode ended, `Episode` holds its record (return, length, per-term sums, the task's
@@ -25,6 +26,11 @@ from joshua_core.tasks.task import Task
 # iteration) names each reward term's sum REWARD_PREFIX + term and each task metric METRIC_PREFIX + name.
 REWARD_PREFIX = "reward/"
 METRIC_PREFIX = "metrics/"
+# A state beyond these bounds has blown up as surely as a non-finite one (a cube flung 1e7 m by a randomized
+# contact, a joint spun at 1e6 rad/s), long before it turns non-finite: no scene is 1 km wide, no joint turns at
+# 1e4 rad/s (a hobby servo: about 10)
+MAX_POSITION = 1e3  # of any qpos entry (metres or radians)
+MAX_SPEED = 1e4  # of any qvel entry (m/s or rad/s)
 
 
 class Episode(NamedTuple):
@@ -35,6 +41,7 @@ class Episode(NamedTuple):
     length: Any  # (N,) steps
     reward_terms: dict[str, Any]  # per reward term, its weighted sum over the episode
     metrics: dict[str, Any]  # the task's metrics on the episode's last step
+    failed: Any  # (N,) bool: the episode ended because its simulation failed (blew up)
 
     @classmethod
     def none(cls, xp: Any, task: Task, num_envs: int, dtype: Any) -> Episode:
@@ -46,6 +53,7 @@ class Episode(NamedTuple):
             length=xp.zeros(num_envs, xp.int32),
             reward_terms={term.name: zeros for term in task.reward_terms},
             metrics={term.name: zeros for term in task.metric_terms},
+            failed=xp.zeros(num_envs, bool),
         )
 
 
@@ -81,8 +89,9 @@ class StepOutcome(NamedTuple):
 
 
 def nonfinite(xp: Any, qpos: Any, qvel: Any) -> Any:
-    """(N,) bool: the simulations whose positions or velocities are no longer finite."""
-    return ~(xp.isfinite(qpos).all(axis=1) & xp.isfinite(qvel).all(axis=1))
+    """(N,) bool: the simulations that blew up: positions or velocities no longer finite, or beyond MAX_POSITION
+    or MAX_SPEED."""
+    return ~((xp.abs(qpos) <= MAX_POSITION).all(axis=1) & (xp.abs(qvel) <= MAX_SPEED).all(axis=1))
 
 
 def account_step(task: Task, ctx: TermContext, failed: Any, sums: EpisodeSums, dtype: Any) -> StepOutcome:
@@ -99,5 +108,5 @@ def account_step(task: Task, ctx: TermContext, failed: Any, sums: EpisodeSums, d
         sums.return_ + reward, {name: sums.reward_terms[name] + value for name, value in reward_terms.items()}
     )
     metrics = {name: value.astype(dtype) for name, value in task.metrics(ctx).items()}
-    episode = Episode(done, ended.return_, ctx.episode_step, ended.reward_terms, metrics)
+    episode = Episode(done, ended.return_, ctx.episode_step, ended.reward_terms, metrics, failed & done)
     return StepOutcome(reward, reward_terms, terminated, truncated, metrics, episode, ended.restart(xp, done))

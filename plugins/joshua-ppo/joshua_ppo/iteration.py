@@ -367,6 +367,7 @@ class EmptyLeaves(NamedTuple):
         return jax.tree.unflatten(self.treedef, leaves)
 
 
+FAILED = "failed_episodes"  # how many of the episodes that ended did so because their simulation blew up
 COUNTED = "counted:"  # prefix of a sum's own episode count in `episode_sums`, where it is not all episodes'
 
 
@@ -375,6 +376,7 @@ def episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[st
     episode = state.episode
     done = episode.done.astype(jnp.float32)
     sums = {"episodes": done, "return": episode.return_ * done, "length": episode.length * done}
+    sums[FAILED] = episode.failed.astype(jnp.float32)
     sums |= {REWARD_PREFIX + name: episode.reward_terms[name] * done for name in reward_terms}
     for name in metric_terms:
         # a simulation that failed (non-finite state) ends its episode with metrics that are no numbers: each
@@ -387,9 +389,10 @@ def episode_sums(state: EnvState, reward_terms: list[str], metric_terms: list[st
 
 
 def episode_metrics(sums: Metrics) -> Metrics:
-    """Means over the ended episodes (NaN when none ended); each metric over those where it is finite."""
-    count = sums.pop("episodes")
+    """Means over the ended episodes (NaN when none ended); each metric over those where it is finite; the
+    episodes' count and how many of them blew up (FAILED) as counts."""
+    count, failed = sums.pop("episodes"), sums.pop(FAILED)
     counts = {name.removeprefix(COUNTED): sums.pop(name) for name in list(sums) if name.startswith(COUNTED)}
     means = {name: value / counts.get(name, count) for name, value in sums.items()}
     means["mean_return"], means["mean_length"] = means.pop("return"), means.pop("length")
-    return {"episodes": count, **means}
+    return {"episodes": count, FAILED: failed, **means}

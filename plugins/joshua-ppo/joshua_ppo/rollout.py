@@ -37,6 +37,7 @@ class Rollout:
     returns: np.ndarray  # (finished,) their first episode's return
     lengths: np.ndarray  # (finished,)
     metrics: dict[str, np.ndarray]  # (finished,) each metric on the first episode's last step
+    failed: np.ndarray  # (finished,) bool: the first episode's simulation blew up
 
 
 Act = Callable[[Any, RunningStatistics, Any], jax.Array]  # (params, normaliser, environment state) -> actions
@@ -62,6 +63,7 @@ def make_rollout(env: JaxEnv, act: Act, steps: int, recorded: int = 1) -> Any:
                 "return": episode.return_,
                 "length": episode.length,
                 "metrics": episode.metrics,
+                "failed": episode.failed,
             }
             return next_state, record
 
@@ -102,12 +104,13 @@ def _frames(start: Any, recorded: Any, index: int, end: int) -> np.ndarray:
 
 def _first_episodes(
     steps: dict[str, Any], first_end: np.ndarray, finished: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """(returns, lengths, metrics) of the finished environments' first episodes."""
+) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], np.ndarray]:
+    """(returns, lengths, metrics, failed) of the finished environments' first episodes."""
     return (
         np.asarray(steps["return"])[first_end, finished],
         np.asarray(steps["length"])[first_end, finished],
         {name: np.asarray(value)[first_end, finished] for name, value in steps["metrics"].items()},
+        np.asarray(steps["failed"])[first_end, finished],
     )
 
 
@@ -157,4 +160,5 @@ def episode_results(rollout: Rollout) -> EpisodeResults:
         returns=rollout.returns.tolist(),
         lengths=rollout.lengths.tolist(),
         metrics={name: values.tolist() for name, values in rollout.metrics.items()},
+        failed=rollout.failed.tolist(),
     )

@@ -32,6 +32,7 @@ from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import RUN_FORMAT, checkpoint_payloads, read_json, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv, environment
+from joshua_ppo.iteration import FAILED
 from joshua_ppo.policy import deterministic_policy, image_bytes_per_env
 from joshua_ppo.rollout import Act, collect, make_rollout, render_video
 from joshua_ppo.state import Progress
@@ -109,6 +110,7 @@ class Run(ABC):
         self.folder = run.path
         self.history: list[dict[str, float]] = []
         self.last_return = float("nan")
+        self.failed_episodes = 0  # episodes whose simulation blew up, over the run (from the resumed run's on)
         self.compile_seconds = 0.0
         self.wall_seconds = 0.0
         self.bar: Any = None
@@ -159,6 +161,7 @@ class Run(ABC):
             "compile_seconds": round(self.compile_seconds, 3),
             "steps_per_second": recent.get("steps_per_second", 0.0),
             "mean_return": self.last_return,
+            "failed_episodes": self.failed_episodes,
             "history": [record for record in self.history if record["step"] <= progress.env_steps],
         }
 
@@ -168,6 +171,7 @@ class Run(ABC):
         self.history = [record for record in previous.get("history", []) if record["step"] <= progress.env_steps]
         saved_return = previous.get("mean_return")  # null where it was not finite (json_safe)
         self.last_return = float("nan") if saved_return is None else float(saved_return)
+        self.failed_episodes = sum(int(record.get(FAILED, 0)) for record in self.history)
         print(f"{self.trainer_name}: resuming {self.name} from {checkpoint.name} ({progress.env_steps} steps)")
 
     def open_monitors(self, start: int) -> None:
@@ -209,6 +213,7 @@ class Run(ABC):
         metrics = report.metrics
         if metrics["episodes"] > 0:
             self.last_return = metrics["mean_return"]
+        self.failed_episodes += int(metrics[FAILED])
         self.compile_seconds, self.wall_seconds = report.compile_seconds, report.wall_seconds
         if self._reads_before is not None:
             self.report_compiled(self._reads_before)

@@ -15,6 +15,7 @@ import jax
 from joshua_core.atomic import atomic_write_json
 from joshua_core.compile_cache import use_compile_cache
 from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.determinism import use_determinism
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import EpisodeResults, Trainer
 from joshua_core.interrupts import resume_command, stop_requests
@@ -139,9 +140,11 @@ class JaxTrainer(Trainer, ABC):
                 )
             raise stop.interrupted()
         if run is not None:
+            failed = f"; {run.failed_episodes} episodes blew up" if run.failed_episodes else ""
             print(
                 f"{self.name}: {progress.env_steps} steps in {run.wall_seconds:.1f} s "
-                f"(compile {run.compile_seconds:.1f} s), mean return {run.last_return:.4g}; checkpoint {checkpoint}"
+                f"(compile {run.compile_seconds:.1f} s), mean return {run.last_return:.4g}{failed}; "
+                f"checkpoint {checkpoint}"
             )
         return checkpoint
 
@@ -201,6 +204,7 @@ class PpoTrainer(JaxTrainer):
     run_format = RUN_FORMAT
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
+        use_determinism(config)  # before JAX starts its backends
         cache = use_compile_cache()  # before anything compiles
         cluster = join(config)  # before anything asks JAX for its devices
         cluster.check_same_config(config)

@@ -103,9 +103,11 @@ def test_a_failed_simulations_metrics_leave_the_means_finite() -> None:
         length=jnp.array([10, 4, 10, 7]),
         reward_terms={},
         metrics={"distance": jnp.array([0.2, jnp.nan, 0.4, jnp.nan]), "success": jnp.array([1.0, 0.0, 0.0, 1.0])},
+        failed=jnp.array([False, True, False, False]),
     )
     sums = episode_sums(SimpleNamespace(episode=episode), [], ["distance", "success"])  # type: ignore[arg-type]
     means = episode_metrics({name: value.sum() for name, value in sums.items()})
     assert float(means["episodes"]) == 3 and float(means["mean_return"]) == pytest.approx(4.0 / 3)
+    assert float(means["failed_episodes"]) == 1  # a count, not a mean
     assert float(means["metrics/distance"]) == pytest.approx(0.3)  # over the two episodes where it is a number
     assert float(means["metrics/success"]) == pytest.approx(1.0 / 3)  # the failed one counted as a failure
