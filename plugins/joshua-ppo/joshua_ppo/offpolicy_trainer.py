@@ -202,16 +202,8 @@ class OffPolicyTrainer(JaxTrainer):
         check_batch(settings, env.num_envs, env.mesh.size)
         check_one_iteration(settings.total_timesteps, env.num_envs, settings.steps_per_iteration, 1)
 
-        def fit(run: Run | None, resume: Any, should_stop: Callable[[], bool]) -> Progress:
-            _, progress = train_offpolicy(
-                env,
-                settings,
-                resume=resume,
-                on_progress=run.on_progress if run is not None else None,
-                on_checkpoint=run.on_checkpoint if run is not None else None,
-                should_stop=should_stop,
-            )
-            return progress
+        def fit(**loop: Any) -> Progress:
+            return train_offpolicy(env, settings, **loop)[1]
 
         return self.train_run(
             config,

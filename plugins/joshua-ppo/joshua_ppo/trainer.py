@@ -49,7 +49,8 @@ from joshua_ppo.train import train_ppo
 
 OPTIONS = "training.ppo"  # where the run options live, for hints
 Resume = tuple[Path, dict[str, bytes]]  # the checkpoint to resume from and its payloads (resume_payloads)
-Fit = Callable[[Run | None, Any, Callable[[], bool]], Progress]  # (run, resumed state or None, should_stop) -> end
+# a trainer's loop given its keyword arguments resume, on_progress, on_checkpoint and should_stop -> where it ended
+Fit = Callable[..., Progress]
 SavedPolicy = tuple[Act, Any, RunningStatistics]  # a checkpoint's policy, its parameters and normaliser
 Load = Callable[[Path, dict[str, bytes]], tuple[Any, Progress]]  # (checkpoint, its payloads) -> state to resume
 
@@ -124,8 +125,9 @@ class JaxTrainer(Trainer, ABC):
         with stop_requests() as stop:
             if run is not None:
                 run.open_monitors(state[1].env_steps if state else 0)
+            callbacks = {"on_progress": run.on_progress, "on_checkpoint": run.on_checkpoint} if run is not None else {}
             try:
-                progress = fit(run, state, lambda: cluster.agreed_stop(stop))
+                progress = fit(resume=state, should_stop=lambda: cluster.agreed_stop(stop), **callbacks)
             finally:
                 if run is not None:
                     run.close_monitors()
@@ -224,20 +226,10 @@ class PpoTrainer(JaxTrainer):
         if teacher is not None and cluster.leader:
             print(f"ppo: imitating the teacher {teacher.description}")
 
-        def fit(run: Run | None, resume: Any, should_stop: Callable[[], bool]) -> Progress:
-            _, progress = train_ppo(
-                env,
-                **settings.groups,
-                total_timesteps=settings.total_timesteps,
-                seed=settings.seed,
-                checkpoint_interval=settings.checkpoint_interval,
-                resume=resume,
-                on_progress=run.on_progress if run is not None else None,
-                on_checkpoint=run.on_checkpoint if run is not None else None,
-                should_stop=should_stop,
-                teacher=teacher,
-            )
-            return progress
+        def fit(**loop: Any) -> Progress:
+            groups = settings.groups
+            return train_ppo(env, **groups, total_timesteps=settings.total_timesteps, seed=settings.seed,
+                             checkpoint_interval=settings.checkpoint_interval, teacher=teacher, **loop)[1]  # fmt: skip
 
         return self.train_run(
             config,
