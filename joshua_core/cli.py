@@ -22,6 +22,7 @@ from joshua_core.config import (
 )
 from joshua_core.config_pb2 import JoshuaConfig
 from joshua_core.defaults import required_components, simulation_mode, simulation_output_dir, training_output_dir
+from joshua_core.determinism import use_determinism
 from joshua_core.errors import JoshuaError, PluginNotFoundError, UsageError
 from joshua_core.interrupts import reported
 from joshua_core.kinds import Kind
@@ -32,6 +33,7 @@ from joshua_core.run_context import RunContext
 
 STRICT_OVERRIDE = "simulation.replay.strict=true"  # what --strict means
 EPISODE_OVERRIDE = "simulation.replay.episode={episode}"  # what --episode N means
+DETERMINISTIC_OVERRIDE = "training.deterministic=true"  # what --deterministic means
 WEB_FIELDS = {"SIMULATION": "simulation.web", "TRAINING": "training.web"}  # what --web sets, by operation_mode
 
 EPILOG = f"""\
@@ -90,6 +92,12 @@ def build_parser(plugin_commands: dict[str, str] | None = None) -> argparse.Argu
         help="show the run in a web page at this address (HOST defaults to 127.0.0.1, this machine only): "
         "PASSIVE, INTERACTIVE, MIRROR, or a training's environments and return curve; prints the URL. "
         "Same as --set simulation.web=ADDRESS (or training.web for a training config)",
+    )
+    parser.add_argument(
+        "--deterministic",
+        action="store_true",
+        help="train so that the same config and seed repeat exactly on this machine: exact on the CPU, on a GPU as "
+        f"far as XLA allows (docs/determinism.md; same as --set {DETERMINISTIC_OVERRIDE})",
     )
     parser.add_argument("--print-config", action="store_true", help="print the final config and exit")
     add_no_cache_argument(parser)
@@ -243,6 +251,10 @@ def run(args: argparse.Namespace, host: PluginHost) -> int:
     if args.web is not None:
         field = WEB_FIELDS[JoshuaConfig.OperationMode.Name(loaded.message.operation_mode)]
         apply_override(loaded.message, f"{field}={args.web}", options)
+    if args.deterministic:
+        if loaded.message.operation_mode != JoshuaConfig.TRAINING:
+            raise UsageError("--deterministic is for training configs (operation_mode: TRAINING)")
+        apply_override(loaded.message, DETERMINISTIC_OVERRIDE, options)
     config = finalize(loaded)
     if args.print_config:
         print(config_text_of(config, options), end="")
@@ -258,6 +270,7 @@ def run(args: argparse.Namespace, host: PluginHost) -> int:
         training = config.training
         folder = writable_folder(training_output_dir(training), "training.checkpoint_dir")
         context = RunContext(host, folder)
+        use_determinism(training)  # before the trainer's import: nothing of JAX may start first
         host.trainer(training.trainer).train(training, context)
     return 0
 

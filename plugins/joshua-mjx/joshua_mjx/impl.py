@@ -50,12 +50,13 @@ _JAX_MEMORY_VARIABLES = (
 
 @dataclass(frozen=True)
 class Physics:
-    """The implementation MJX steps the environments with, and Warp's per-environment capacities (0: from the
-    model, see the module docstring)."""
+    """The implementation MJX steps the environments with, Warp's per-environment capacities (0: from the
+    model, see the module docstring), and whether the run asks to repeat exactly (`training.deterministic`)."""
 
     impl: str = JAX
     nconmax: int = 0
     njmax: int = 0
+    deterministic: bool = False
 
     def __post_init__(self) -> None:
         if self.nconmax < 0 or self.njmax < 0:
@@ -67,18 +68,29 @@ class Physics:
         from joshua_mjx.options_pb2 import MjxOptions
         from joshua_mjx.options_pb2 import mjx as mjx_options
 
-        if training is None or not training.HasExtension(mjx_options):
+        if training is None:
             return cls()
+        if not training.HasExtension(mjx_options):
+            return cls(deterministic=training.deterministic)
         options = training.Extensions[mjx_options]
-        return cls(MjxOptions.Impl.Name(options.impl).lower(), options.nconmax, options.njmax)
+        impl = MjxOptions.Impl.Name(options.impl).lower()
+        return cls(impl, options.nconmax, options.njmax, training.deterministic)
 
     def check_devices(self, devices: list[jax.Device]) -> None:
-        """Refuse a device Warp cannot run on (Warp runs on CUDA GPUs and the CPU)."""
+        """Refuse a device Warp cannot run on (Warp runs on CUDA GPUs and the CPU); warn that a deterministic run
+        of Warp on a GPU will not repeat (docs/determinism.md)."""
         if self.impl != WARP:
             return
         for device in devices:
             if device.platform not in ("cpu", "gpu", "cuda"):
                 raise ConfigError(f"training.mjx.impl WARP runs on a CUDA GPU or the CPU, not {device}")
+        if self.deterministic and any(device.platform != "cpu" for device in devices):
+            print(
+                "joshua: warning: training.deterministic: MuJoCo Warp on a GPU sums contact and constraint forces "
+                "with atomic additions in no fixed order, so runs will not repeat bit for bit; training.mjx.impl "
+                "JAX repeats as far as XLA allows",
+                file=sys.stderr,
+            )
 
     def leave_memory_to_warp(self) -> None:
         """MuJoCo Warp allocates its work arrays outside JAX's memory pool, and JAX takes 75 % of a GPU up front by

@@ -15,6 +15,7 @@ from typing import Any
 
 import gymnasium
 import numpy as np
+import torch
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CallbackList
@@ -25,6 +26,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.defaults import DEFAULT_NUMPY_NUM_ENVS
+from joshua_core.determinism import use_determinism
 from joshua_core.errors import ConfigError, CorruptCheckpointError, UsageError
 from joshua_core.interfaces import EnvKind, EpisodeResults, Trainer
 from joshua_core.interrupts import StopRequest, resume_command, stop_requests
@@ -232,6 +234,8 @@ class Sb3Trainer(Trainer):
     """stable-baselines3 on the NUMPY environments of the configured backend; see the plugin README."""
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
+        if use_determinism(config):  # the JAX environments' XLA flag, and torch's deterministic algorithms
+            torch.use_deterministic_algorithms(True)
         settings = Settings.from_config(config)
         folder, resume_from = _open_run(config, context, settings)
         with folder:  # locked while training; a new run that fails before writing anything leaves no folder
