@@ -13,27 +13,31 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-import mujoco
-import numpy as np
-from numpy.typing import NDArray
+from joshua_render import choose_headless_gl
 
-from joshua_core.atomic import staged_outputs
-from joshua_core.config_pb2 import SimulationConfig
-from joshua_core.errors import ConfigError, UsageError
-from joshua_core.headless import warn_no_web_page
-from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, render_size
-from joshua_core.options import options_of
-from joshua_core.plugins import PluginHost
-from joshua_core.progress import progress_bar
-from joshua_core.resources import resolve_data_path
-from joshua_core.run_context import RunContext
-from joshua_core.trajectory_sources import load_trajectory
-from joshua_modes import options_pb2
-from joshua_modes.options_pb2 import OffscreenOptions
-from joshua_modes.replay import Replayer, model_joint_ranges
-from joshua_modes.validation import validate, validated_replayer
-from joshua_mujoco import MuJoCoEngine
-from joshua_render import VideoWriter, camera_id, create_renderer, write_png
+choose_headless_gl()  # the modes import mujoco here first: a MUJOCO_GL it cannot import with is disabled
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+from numpy.typing import NDArray  # noqa: E402
+
+from joshua_core.atomic import staged_outputs  # noqa: E402
+from joshua_core.config_pb2 import SimulationConfig  # noqa: E402
+from joshua_core.errors import ConfigError, UsageError  # noqa: E402
+from joshua_core.headless import warn_no_web_page  # noqa: E402
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, render_size  # noqa: E402
+from joshua_core.options import options_of  # noqa: E402
+from joshua_core.plugins import PluginHost  # noqa: E402
+from joshua_core.progress import progress_bar  # noqa: E402
+from joshua_core.resources import resolve_data_path  # noqa: E402
+from joshua_core.run_context import RunContext  # noqa: E402
+from joshua_core.trajectory_sources import load_trajectory  # noqa: E402
+from joshua_modes import options_pb2  # noqa: E402
+from joshua_modes.options_pb2 import OffscreenOptions  # noqa: E402
+from joshua_modes.replay import Replayer, model_joint_ranges  # noqa: E402
+from joshua_modes.validation import validate, validated_replayer  # noqa: E402
+from joshua_mujoco import MuJoCoEngine  # noqa: E402
+from joshua_render import VideoWriter, camera_id, create_renderer, write_png  # noqa: E402
 
 DEFAULT_FPS = 30.0
 DEFAULT_DURATION_S = 5.0  # rendered when there is no trajectory: the model at its keyframe under physics

@@ -2,7 +2,8 @@
 
 A library the MuJoCo backend, the modes, the mirror and the trainers share (no `joshua` entry point):
 
-- headless GL: `choose_headless_gl`, `has_display`, `RenderingUnavailableError`;
+- headless GL: `choose_headless_gl`, `has_display`, `RenderingUnavailableError`, `render_optional` (a picture
+  that is a by-product: warned about once, never an error);
 - frames: `create_renderer`, `camera_id`, `render_with_commands` (3-d commands drawn as markers);
 - files: `VideoWriter` (atomic H.264 MP4), `write_png`; `GridVideoWriter` (episodes tiled and labelled in one MP4),
   `episode_label`, `grid_shape`;
@@ -32,7 +33,7 @@ if TYPE_CHECKING:
         open_display,
     )
     from joshua_render.frames import camera_id, create_renderer, render_with_commands
-    from joshua_render.gl import RenderingUnavailableError, choose_headless_gl, has_display
+    from joshua_render.gl import RenderingUnavailableError, choose_headless_gl, has_display, render_optional
     from joshua_render.grid import GridVideoWriter, episode_label, grid_shape
     from joshua_render.video import VideoWriter, write_png
     from joshua_render.viewer import LiveViewer, open_viewer
@@ -67,6 +68,7 @@ __all__ = [
     "open_viewer",
     "open_web_display",
     "parse_web_address",
+    "render_optional",
     "render_with_commands",
     "write_png",
 ]
@@ -76,6 +78,7 @@ _HOME = {
     "choose_headless_gl": "gl",
     "has_display": "gl",
     "RenderingUnavailableError": "gl",
+    "render_optional": "gl",
     "camera_id": "frames",
     "create_renderer": "frames",
     "render_with_commands": "frames",

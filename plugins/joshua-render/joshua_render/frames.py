@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from joshua_render.gl import choose_headless_gl, rendering_unavailable
+from joshua_render.gl import check_rendering, choose_headless_gl, rendering_unavailable
 
 choose_headless_gl()  # must run before mujoco is imported: mujoco picks its GL platform at import
 
@@ -38,10 +38,12 @@ def create_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Re
     """A headless `mujoco.Renderer` of `width` x `height`, enlarging the model's offscreen buffer if needed.
 
     A size below one pixel, or one the GL platform has no framebuffer for, is a one-line UsageError naming the
-    size; a GL platform that cannot create a context raises `RenderingUnavailableError` naming what to install.
+    size; a GL platform that cannot create a context raises `RenderingUnavailableError` naming what to install (at
+    once where that is known already: an unknown MUJOCO_GL, a missing library, an earlier failure).
     """
     if width < 1 or height < 1:
         raise UsageError(f"cannot render {width}x{height} images: width and height must be at least 1 pixel")
+    check_rendering()
     visual = model.vis.global_
     earlier = visual.offwidth, visual.offheight
     visual.offwidth = max(visual.offwidth, width)
