@@ -15,14 +15,26 @@ from pathlib import Path
 from typing import Any
 
 import jax
-import mujoco
-import numpy as np
 
-from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, EpisodeResults
-from joshua_core.statistics import SUCCESS_METRIC, SUCCESS_THRESHOLD
-from joshua_ppo.envs import JaxEnv
-from joshua_ppo.normalizer import RunningStatistics
-from joshua_render import GridVideoWriter, camera_id, create_renderer, episode_label, render_with_commands
+from joshua_render import choose_headless_gl
+
+choose_headless_gl()  # the trainers import mujoco here first: a MUJOCO_GL it cannot import with is disabled
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+
+from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, EpisodeResults  # noqa: E402
+from joshua_core.statistics import SUCCESS_METRIC, SUCCESS_THRESHOLD  # noqa: E402
+from joshua_ppo.envs import JaxEnv  # noqa: E402
+from joshua_ppo.normalizer import RunningStatistics  # noqa: E402
+from joshua_render import (  # noqa: E402
+    GridVideoWriter,
+    camera_id,
+    create_renderer,
+    episode_label,
+    render_optional,
+    render_with_commands,
+)
 
 
 @dataclass
@@ -126,9 +138,16 @@ def tile_label(rollout: Rollout, index: int, frame: int) -> str:
     return episode_label(index, float(rollout.returns[position[0]]), outcome)
 
 
-def render_video(model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None = None) -> Path:
+def render_video(
+    model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None = None
+) -> Path | None:
     """Render the recorded environments' episodes, tiled and labelled, to an MP4 at `path` (returned), with
-    their commands drawn as markers; a tile whose episode ended holds its last frame."""
+    their commands drawn as markers; a tile whose episode ended holds its last frame. Where nothing can be
+    rendered, None, after a warning: a video never ends a training or an evaluation."""
+    return render_optional("videos", lambda: _render_video(model, rollout, path, fps, camera))
+
+
+def _render_video(model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None) -> Path:
     tiles = len(rollout.qpos)
     writer = GridVideoWriter(path, fps, tiles)
     model = copy.deepcopy(model)  # drawing commands moves marker sites of the model it draws

@@ -38,7 +38,7 @@ from joshua_ppo.rollout import Act, collect, make_rollout, render_video
 from joshua_ppo.state import Progress
 from joshua_ppo.train import IterationReport
 from joshua_ppo.viewer import open_page, open_viewer
-from joshua_render import LiveViewer, TrainingPage
+from joshua_render import LiveViewer, TrainingPage, render_optional
 
 TRAINER_NAME = "ppo"
 State = Any  # a trainer's training state: `params`, `normalizer`, `env_state` and `key` are all a run reads
@@ -269,16 +269,22 @@ class Run(ABC):
             self.record_video(state, progress.env_steps)
 
     def record_video(self, state: State, step: int) -> None:
-        """Roll out the current deterministic policy for one episode and render it to videos/step_<N>.mp4."""
-        if self._rollout is None:  # on this process's devices: the others do not take part
-            env = environment(self.config, self.context, jax.local_device_count(), jax.local_devices())
-            steps = self.options.video_steps or env.task.episode_length
-            self._rollout = env, make_rollout(env, self.policy(env), steps)
-        env, rollout = self._rollout
-        params, normalizer = jax.device_get((state.params, state.normalizer))  # from every process's devices
-        episode = collect(rollout(params, normalizer, jax.random.PRNGKey(step)))
-        path = render_video(env.model, episode, self.folder / "videos" / f"step_{step}.mp4", fps=1.0 / env.task.dt)
-        self.bar.write(f"{self.trainer_name}: video {path}")
+        """Roll out the current deterministic policy for one episode and render it to videos/step_<N>.mp4; where
+        nothing can be rendered, warn once and go on training (no rollouts for videos from then on)."""
+
+        def film() -> Path | None:
+            if self._rollout is None:  # on this process's devices: the others do not take part
+                env = environment(self.config, self.context, jax.local_device_count(), jax.local_devices())
+                steps = self.options.video_steps or env.task.episode_length
+                self._rollout = env, make_rollout(env, self.policy(env), steps)
+            env, rollout = self._rollout
+            params, normalizer = jax.device_get((state.params, state.normalizer))  # from every process's devices
+            episode = collect(rollout(params, normalizer, jax.random.PRNGKey(step)))
+            return render_video(env.model, episode, self.folder / "videos" / f"step_{step}.mp4", fps=1.0 / env.task.dt)
+
+        path = render_optional("videos", film)
+        if path is not None:
+            self.bar.write(f"{self.trainer_name}: video {path}")
 
 
 class PpoRun(Run):

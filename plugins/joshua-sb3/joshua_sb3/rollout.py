@@ -18,7 +18,7 @@ from stable_baselines3.common.vec_env import VecEnv
 
 from joshua_core.interfaces import EpisodeResults
 from joshua_core.statistics import SUCCESS_METRIC, SUCCESS_THRESHOLD
-from joshua_render import GridVideoWriter, episode_label
+from joshua_render import GridVideoWriter, episode_label, render_optional
 from joshua_sb3.vec_env import METRICS_KEY
 
 
@@ -29,17 +29,19 @@ def roll_out(
     video_path: Path | None,
     grid: int = 1,
 ) -> EpisodeResults:
-    """Run one episode in each environment of `vec_env` with the deterministic policy; film the first `grid`."""
+    """Run one episode in each environment of `vec_env` with the deterministic policy; film the first `grid`
+    (where something can be rendered)."""
     episodes = vec_env.num_envs
     observations = vec_env.reset()
     finished: dict[int, dict[str, Any]] = {}
     running = np.zeros(episodes)
     fps = float(environments.metadata.get("render_fps", 30))
+    # where nothing can be rendered, a warning says why and the episodes are rolled out without a video
+    first = None if video_path is None else render_optional("video", lambda: _frames(environments, grid))
     with contextlib.ExitStack() as stack:  # the video is closed (finished) however the rollout ends
-        writer = stack.enter_context(GridVideoWriter(video_path, fps, grid)) if video_path is not None else None
+        writer = None if first is None else stack.enter_context(GridVideoWriter(video_path, fps, grid))
         if writer is not None:
-            labels = [episode_label(i, 0.0) for i in range(grid)]
-            writer.write([environments.render_frame(i) for i in range(grid)], labels)
+            writer.write(first, [episode_label(i, 0.0) for i in range(grid)])
         while len(finished) < episodes:
             actions, _ = model.predict(observations, deterministic=True)  # type: ignore[arg-type]
             observations, rewards, dones, infos = vec_env.step(actions)
@@ -62,6 +64,11 @@ def roll_out(
         lengths=[float(episode["l"]) for episode in ordered],
         metrics={name: [float(episode[METRICS_KEY][name]) for episode in ordered] for name in ordered[0][METRICS_KEY]},
     )
+
+
+def _frames(environments: gymnasium.vector.VectorEnv, grid: int) -> list[NDArray[np.uint8]]:
+    """The first `grid` environments' current frames."""
+    return [environments.render_frame(i) for i in range(grid)]
 
 
 def _label(index: int, running: NDArray[np.float64], finished: dict[int, dict[str, Any]]) -> str:
