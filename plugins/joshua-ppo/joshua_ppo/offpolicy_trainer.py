@@ -20,6 +20,7 @@ from flax import serialization
 
 from joshua_core.compile_cache import use_compile_cache
 from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.determinism import use_determinism
 from joshua_core.errors import CorruptCheckpointError
 from joshua_core.limits import check_one_iteration
 from joshua_core.options import options_of
@@ -190,6 +191,7 @@ class OffPolicyTrainer(JaxTrainer):
     run_format = RUN_FORMAT
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
+        use_determinism(config)  # before JAX starts its backends
         cache = use_compile_cache()  # before anything compiles
         cluster = join(config)  # before anything asks JAX for its devices
         cluster.check_same_config(config)
