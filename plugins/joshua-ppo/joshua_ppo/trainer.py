@@ -180,7 +180,8 @@ class JaxTrainer(Trainer, ABC):
         episode = collect(rollout(params, normalizer, jax.random.PRNGKey(seed)), episodes)
         if video_path is not None:
             written = render_video(env.model, episode, video_path, fps=1.0 / env.task.dt)
-            print(f"video: {written}", file=sys.stderr)
+            if written is not None:  # None: nothing can be drawn here, which render_video has said
+                print(f"video: {written}", file=sys.stderr)
         return episode_results(episode)
 
     def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:

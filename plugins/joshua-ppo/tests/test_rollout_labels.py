@@ -17,6 +17,7 @@ def rollout() -> Rollout:
         returns=np.array([3.5, -4.0]),
         lengths=np.array([3, 4]),
         metrics={"success": np.array([1.0, 0.0]), "distance": np.array([0.01, 0.2])},
+        failed=np.array([False, False]),
     )
 
 
@@ -38,3 +39,4 @@ def test_without_a_success_metric_the_final_label_has_no_outcome_and_results_are
     assert tile_label(recorded, 0, 2) == "episode 1  return 3.5"
     results = episode_results(recorded)
     assert results.returns == [3.5, -4.0] and results.lengths == [3, 4] and results.metrics == {"distance": [0.01, 0.2]}
+    assert results.failed == [False, False]
