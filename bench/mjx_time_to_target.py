@@ -63,7 +63,7 @@ from joshua_core.statistics import SUCCESS_METRIC, summarize
 from joshua_core.tasks import METRIC_PREFIX, REWARD_PREFIX
 from joshua_mjx import MjxEnv, Physics
 from joshua_mjx.physics import mjx
-from joshua_ppo import offpolicy_iteration, offpolicy_trainer
+from joshua_ppo import offpolicy_iteration, offpolicy_train
 from joshua_ppo.checkpoints import checkpoint_payloads, load_state, read_json, resume_payloads, write_payloads
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import environment as ppo_environment
@@ -125,16 +125,16 @@ def learner(name: str, config: TrainingConfig) -> Learner:
         return shapes.params, shapes.normalizer
 
     def offpolicy_fit(env: MjxEnv, resume: Any, on_progress: Callable, teacher: Teacher | None) -> None:
-        offpolicy_trainer.train_offpolicy(env, settings, resume=resume, on_progress=on_progress)
+        offpolicy_train.train_offpolicy(env, settings, resume=resume, on_progress=on_progress)
 
     return Learner(
         name,
         settings,
-        lambda env: offpolicy_trainer.offpolicy_policy(env, settings),
+        lambda env: offpolicy_train.offpolicy_policy(env, settings),
         offpolicy_shapes,
         offpolicy_fit,
-        offpolicy_trainer.checkpoint_payloads,
-        lambda folder, env: offpolicy_trainer.load_state(folder, env, settings, resume_payloads(folder)),
+        offpolicy_train.checkpoint_payloads,
+        lambda folder, env: offpolicy_train.load_state(folder, env, settings, resume_payloads(folder)),
     )
 
 

@@ -27,14 +27,7 @@ from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, 
 from joshua_core.statistics import SUCCESS_METRIC, SUCCESS_THRESHOLD  # noqa: E402
 from joshua_ppo.envs import JaxEnv  # noqa: E402
 from joshua_ppo.normalizer import RunningStatistics  # noqa: E402
-from joshua_render import (  # noqa: E402
-    GridVideoWriter,
-    camera_id,
-    create_renderer,
-    episode_label,
-    render_optional,
-    render_with_commands,
-)
+from joshua_render import camera_id, create_renderer, render_optional, render_with_commands  # noqa: E402
 
 
 @dataclass
@@ -129,6 +122,8 @@ def _first_episodes(
 def tile_label(rollout: Rollout, index: int, frame: int) -> str:
     """The label of recorded environment `index` on video frame `frame`: its return so far, and on its
     episode's last frame and after, the episode's return and (for tasks with a success metric) its outcome."""
+    from joshua_render import episode_label  # with the video writer, which needs PyAV
+
     last = len(rollout.qpos[index]) - 1
     position = np.flatnonzero(rollout.finished == index)
     if frame < last or not position.size:
@@ -149,6 +144,8 @@ def render_video(
 
 def _render_video(model: mujoco.MjModel, rollout: Rollout, path: Path, fps: float, camera: str | None) -> Path:
     tiles = len(rollout.qpos)
+    from joshua_render import GridVideoWriter  # PyAV: only where a video is written
+
     writer = GridVideoWriter(path, fps, tiles)
     model = copy.deepcopy(model)  # drawing commands moves marker sites of the model it draws
     data = mujoco.MjData(model)

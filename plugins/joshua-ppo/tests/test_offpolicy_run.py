@@ -25,7 +25,8 @@ from joshua_core.run_context import RunContext
 from joshua_core.runs import run_checkpoints
 from joshua_ppo.envs import environment
 from joshua_ppo.offpolicy_settings import offpolicy_settings
-from joshua_ppo.offpolicy_trainer import OffPolicyTrainer, SacTrainer, Td3Trainer, load_actor, offpolicy_policy
+from joshua_ppo.offpolicy_train import load_actor, offpolicy_policy
+from joshua_ppo.offpolicy_trainer import OffPolicyTrainer, SacTrainer, Td3Trainer
 
 pytestmark = pytest.mark.slow  # every test here trains
 
