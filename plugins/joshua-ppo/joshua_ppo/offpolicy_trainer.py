@@ -7,15 +7,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from joshua_core.compile_cache import use_compile_cache
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.determinism import use_determinism
 from joshua_core.limits import check_one_iteration
 from joshua_core.options import options_of
 from joshua_core.run_context import RunContext
-from joshua_core.runs import RunFolder, check_run_name
+from joshua_core.runs import RunFolder
 from joshua_ppo import options_pb2
-from joshua_ppo.distributed import join
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.offpolicy_iteration import make_actor
 from joshua_ppo.offpolicy_settings import OPTIONS, OffPolicySettings, check_batch, offpolicy_settings
@@ -67,14 +64,9 @@ class OffPolicyTrainer(JaxTrainer):
     run_format = RUN_FORMAT
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
-        use_determinism(config)  # before JAX starts its backends
-        cache = use_compile_cache()  # before anything compiles
-        cluster = join(config)  # before anything asks JAX for its devices
-        cluster.check_same_config(config)
-        settings = offpolicy_settings(config, self.name)
         options = options_of(config, options_pb2.offpolicy)
-        if options.run_name:
-            check_run_name(options.run_name, f"{OPTIONS}.run_name")  # before the environments are built
+        cache, cluster = self.prepare(config, options)
+        settings = offpolicy_settings(config, self.name)
         env = environment(config, context, training_envs=True)
         make_actor(env, settings)  # a pixel actor's cameras and terms are checked before anything is written
         check_batch(settings, env.num_envs, env.mesh.size)

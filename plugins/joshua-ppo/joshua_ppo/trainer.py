@@ -13,7 +13,7 @@ from typing import Any
 import jax
 
 from joshua_core.atomic import atomic_write_json
-from joshua_core.compile_cache import use_compile_cache
+from joshua_core.compile_cache import CompileCache, use_compile_cache
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.determinism import use_determinism
 from joshua_core.errors import ConfigError
@@ -62,6 +62,18 @@ class JaxTrainer(Trainer, ABC):
     name: str  # the registered trainer name, written into config.json
     options_path: str  # where its options live in a config (e.g. "training.ppo")
     run_format: str  # the "format" of its runs' config.json
+
+    def prepare(self, config: TrainingConfig, options: Any) -> tuple[CompileCache, Cluster]:
+        """What comes before anything compiles or is built: the determinism flags (before JAX starts its backends),
+        the compilation cache, the run's processes (before anything asks JAX for its devices), and the run name
+        in `options` checked."""
+        use_determinism(config)
+        cache = use_compile_cache()
+        cluster = join(config)
+        cluster.check_same_config(config)
+        if options.run_name:
+            check_run_name(options.run_name, f"{self.options_path}.run_name")
+        return cache, cluster
 
     def open_run(
         self, config: TrainingConfig, options: Any, root: Path, processes: int
@@ -207,14 +219,9 @@ class PpoTrainer(JaxTrainer):
     run_format = RUN_FORMAT
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
-        use_determinism(config)  # before JAX starts its backends
-        cache = use_compile_cache()  # before anything compiles
-        cluster = join(config)  # before anything asks JAX for its devices
-        cluster.check_same_config(config)
-        settings = PpoSettings.from_config(config)
         options = options_of(config, options_pb2.ppo)
-        if options.run_name:
-            check_run_name(options.run_name, f"{OPTIONS}.run_name")  # before the environments are built
+        cache, cluster = self.prepare(config, options)
+        settings = PpoSettings.from_config(config)
         env = environment(config, context, training_envs=True)
         teacher = None
         if settings.teacher is not None:  # checked before anything is written
