@@ -12,7 +12,7 @@ one `mjx.forward` over the batch, and reading the iteration's metrics, one itera
 also measures raw physics (`vmap(mjx.step)` on the same batch) under its own flags, since a flag may speed
 the physics too. Prints each variant's env steps/s, its ratio to the default measured in the same run, and
 the share of raw physics it reaches: of the default's and of its own; and the loop's rate. What the figures
-said for tuned Ant is in docs/training-mjx.md: the update is bound by its many small kernels, not by its
+said for tuned Ant is in docs/mjx-presets.md: the update is bound by its many small kernels, not by its
 matrix products, and its policy and value passes run side by side.
 """
 
