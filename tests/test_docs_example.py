@@ -1,4 +1,4 @@
-"""The worked plugin example of docs/architecture.md (docs/examples/joshua-rk4) builds, installs and works."""
+"""The worked plugin example of docs/writing-plugins.md (docs/examples/joshua-rk4) builds, installs and works."""
 
 from __future__ import annotations
 
@@ -173,7 +173,7 @@ def test_the_compare_mode_runs_with_its_own_options(example_site: Path, run_josh
 
 
 def test_the_third_party_trainer_reuses_what_the_core_and_backend_offer(tmp_path: Path) -> None:
-    """docs/examples/random_trainer (docs/architecture.md, "Adding a backend or trainer"), registered like any
+    """docs/examples/random_trainer (docs/writing-plugins.md, "Adding a backend or trainer"), registered like any
     plugin's trainer, trains on the mujoco backend's environments: desynchronised episodes end and are counted
     by the backend, and its run folder and checkpoint are the core's."""
     from joshua_core import builtin_plugin, hookimpl

@@ -1,4 +1,4 @@
-"""A third-party trainer in one file: random actions on any backend's NUMPY environments (docs/architecture.md,
+"""A third-party trainer in one file: random actions on any backend's NUMPY environments (docs/writing-plugins.md,
 "Adding a backend or trainer"). Everything but the policy comes from the core and the backend."""
 
 from __future__ import annotations
