@@ -6,6 +6,7 @@ browser plays while it downloads; PyAV's wheels bundle an FFmpeg with the libx26
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
 from fractions import Fraction
@@ -34,7 +35,9 @@ class VideoWriter:
     The frame size is fixed by the first frame; a frame of odd width or height is padded by repeating its last
     column or row (yuv420p needs even sizes). `keyframe_interval` (frames) bounds how far back a seek decodes
     (None: the encoder's default). A context manager; leaving the block calls `close()` (after an exception, a
-    video with at least one frame is still finished, so nothing recorded is lost).
+    video with at least one frame is still finished, so nothing recorded is lost). Where the file cannot be
+    written (a full disk), the writer gives up: it removes its temporary file, leaves whatever was at `path`, and
+    raises an OSError naming `path` (JoshuaError for another FFmpeg failure); every later call raises too.
     """
 
     CODEC_NAME: ClassVar[str] = "h264"  # the codec's name as decoders (and LeRobot's info.json) report it
@@ -51,11 +54,14 @@ class VideoWriter:
         self._container: Any = None
         self._stream: Any = None
         self._temporary: Path | None = None
+        self._failed = False  # FFmpeg failed to write the file, which was given up
 
     def write(self, frame: NDArray[np.uint8]) -> None:
         """Append one (H, W, 3) RGB uint8 frame of the size of the first one."""
         if frame.dtype != np.uint8 or frame.ndim != 3 or frame.shape[2] != 3:
             raise ValueError(f"VideoWriter expects (H, W, 3) uint8 RGB frames, got {frame.shape} {frame.dtype}")
+        if self._failed:
+            raise JoshuaError(f"video {self.path} was given up after a failed write")
         size = (frame.shape[1], frame.shape[0])
         if self._container is None:
             self._open(size)
@@ -68,7 +74,10 @@ class VideoWriter:
         picture = av.VideoFrame.from_ndarray(np.ascontiguousarray(padded), format="rgb24")
         picture.pts = self.frames
         with signals_deferred():  # a Ctrl-C between encode and mux would lose a packet later frames refer to
-            self._container.mux(self._stream.encode(picture))
+            try:
+                self._container.mux(self._stream.encode(picture))
+            except av.FFmpegError as error:
+                raise self._give_up(error) from None
             self.frames += 1
 
     def _open(self, size: tuple[int, int]) -> None:
@@ -96,17 +105,41 @@ class VideoWriter:
 
     def close(self) -> Path:
         """Finish the file and move it to `path`; returns `path`. With no frames written it raises JoshuaError."""
+        if self._failed:
+            raise JoshuaError(f"video {self.path} was given up after a failed write")
         if self._container is None:
             if self.path.is_file() and self.frames:
                 return self.path  # already closed
             raise JoshuaError(f"no frames were written, so there is no video {self.path}")
-        container, self._container = self._container, None
         with signals_deferred():  # often called on the way out of a Ctrl-C: a second one must not cut it short
-            container.mux(self._stream.encode(None))  # flush the frames the encoder holds back
-            container.close()  # writes the index, moved to the front by +faststart
+            try:
+                self._container.mux(self._stream.encode(None))  # flush the frames the encoder holds back
+            except av.FFmpegError as error:
+                raise self._give_up(error) from None
+            container, self._container = self._container, None
+            try:
+                container.close()  # writes the index, moved to the front by +faststart
+            except av.FFmpegError as error:
+                raise self._give_up(error) from None
             assert self._temporary is not None
             os.replace(self._temporary, self.path)
         return self.path
+
+    def _give_up(self, error: av.FFmpegError) -> Exception:
+        """Abandon the video after FFmpeg failed to write it; returns the error to raise, naming `path`.
+
+        The container is closed without another packet (muxing after a failed header write crashes FFmpeg) and
+        the temporary file removed, so neither a crash nor a truncated file is left; `path` is never touched.
+        """
+        container, self._container, self._failed = self._container, None, True
+        if container is not None:
+            with contextlib.suppress(av.FFmpegError):
+                container.close()
+        if self._temporary is not None:
+            self._temporary.unlink(missing_ok=True)
+        if isinstance(error, OSError) and error.errno is not None:
+            return OSError(error.errno, error.strerror, str(self.path))
+        return JoshuaError(f"cannot write video {self.path}: {error}")
 
     def __enter__(self) -> VideoWriter:
         return self

@@ -6,7 +6,10 @@ data can be shown or recorded, not only the MuJoCo backend's."""
 
 from __future__ import annotations
 
+import json
 import signal
+import subprocess
+import sys
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -94,6 +97,58 @@ def test_video_writer_keeps_what_was_recorded_when_the_run_fails(tmp_path: Path)
             video.write(gradient(index))
         raise RuntimeError("simulated failure")
     assert len(read_video(path)[0]) == 3
+
+
+# Writes 40 frames of noise (hard to compress) to argv[1] as `joshua` would, under each file-size limit in argv[2:]
+# (-1: none; a write past it fails as on a full disk; SIGXFSZ ignored); prints each attempt's exit status and stderr.
+WRITE_UNDER_SIZE_LIMITS = """
+import contextlib, io, json, resource, signal, sys
+from pathlib import Path
+import numpy as np
+from joshua_core.cli import os_errors_reported
+from joshua_core.interrupts import reported
+from joshua_render import VideoWriter
+
+def job() -> int:
+    with VideoWriter(Path(sys.argv[1]), fps=30) as video:
+        for index in range(40):
+            video.write(np.random.default_rng(index).integers(0, 256, (48, 64, 3), np.uint8))
+    return 0
+
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+for limit in map(int, sys.argv[2:]):
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, resource.RLIM_INFINITY))
+    stderr = io.StringIO()
+    with contextlib.redirect_stderr(stderr):
+        status = reported(lambda: os_errors_reported(job))
+    resource.setrlimit(resource.RLIMIT_FSIZE, (resource.RLIM_INFINITY, resource.RLIM_INFINITY))
+    print(json.dumps([status, stderr.getvalue()]), flush=True)
+"""
+
+
+def test_video_writer_on_a_full_disk_is_one_line_and_leaves_the_earlier_file(tmp_path: Path) -> None:
+    finished = tmp_path / "finished.mp4"
+    whole = subprocess.run(
+        [sys.executable, "-c", WRITE_UNDER_SIZE_LIMITS, str(finished), "-1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert whole.stdout == '[0, ""]\n' and finished.is_file(), whole.stderr[-3000:]
+    path = tmp_path / "eval.mp4"
+    path.write_bytes(b"the earlier video")
+    # the first write (the header: FFmpeg crashed when flushed after it) fails, then the last one, in close()
+    limits = [0, finished.stat().st_size - 1]
+    attempts = subprocess.run(
+        [sys.executable, "-c", WRITE_UNDER_SIZE_LIMITS, str(path), *map(str, limits)],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert attempts.returncode == 0, attempts.stderr[-3000:]
+    reported = [json.loads(line) for line in attempts.stdout.splitlines()]
+    assert reported == [[2, f"joshua: error: {path}: File too large\n"]] * len(limits)
+    assert path.read_bytes() == b"the earlier video" and sorted(p.name for p in tmp_path.iterdir()) == [
+        "eval.mp4", "finished.mp4"
+    ]  # fmt: skip
 
 
 def test_open_display_records_one_frame_per_interval_without_a_display(
