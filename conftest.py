@@ -40,15 +40,15 @@ def pytest_configure(config: pytest.Config) -> None:
 
 
 # XLA's CPU compiler set for short programs: the tests step a few small batches, so compiling is most of their
-# time. Measured on a reach MJX step (bench/RESULTS.md, 2026-11-28, test suite): the older LLVM fusion emitters and
-# LLVM's optimization level 1 compile its reset and step 32-40 % faster, and the step runs no slower.
+# time. The older LLVM fusion emitters and LLVM's optimization level 1 compile an MJX reset and step markedly sooner,
+# and the step runs no slower.
 TEST_XLA_FLAGS = ("--xla_cpu_use_fusion_emitters=false", "--xla_backend_optimization_level=1")
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Run the test files that hold slow tests first, each file's tests together and in their order. xdist hands
-    the tests out in this order and queues a few on each worker ahead: slow tests last in the order left one
-    worker running them while the other idled (a clean clone's pytest took 1594 s for 2614 test-seconds)."""
+    the tests out in this order and queues a few on each worker ahead: slow tests last in the order leave one
+    worker running them while the other idles."""
     slow_files = {item.path for item in items if item.get_closest_marker("slow")}
     items.sort(key=lambda item: item.path not in slow_files)  # stable: the order within each group is kept
 
@@ -66,7 +66,7 @@ def _share_compiled_programs(config: pytest.Config) -> None:
     """Let this run's tests and the processes they start reuse what JAX compiled for one another.
 
     Many tests compile the same program (an MJX scene's step, a training iteration of the same small config,
-    each `joshua train` or `joshua eval` process anew); sharing it shortens the suite (bench/RESULTS.md).
+    each `joshua train` or `joshua eval` process anew); sharing it shortens the suite.
     The cache lives in a folder of this run's own, removed at its end, so every run starts cold, as CI does;
     a JAX_COMPILATION_CACHE_DIR already set is kept. Every program is kept, however fast it compiled: JAX's
     default keeps only those of a second or more, and a `joshua` process compiles dozens of smaller ones anew.

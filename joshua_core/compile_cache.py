@@ -106,7 +106,7 @@ def building_into(folder: Path | None, what: str) -> Iterator[None]:
     """Hold this host's lock on the cache `folder` while building into it (None: no cache, no lock).
 
     Runs started together on one host (a seed per GPU) compile the same programs: each alone takes every core,
-    so side by side they took 79-85 s where one took 30 s (bench/RESULTS.md). Under the lock one builds while the
+    so side by side each takes several times as long as one alone. Under the lock one builds while the
     others wait, then read what it built. A folder the lock cannot be made in is built into without it."""
     if folder is None:
         yield

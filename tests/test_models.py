@@ -180,8 +180,8 @@ def test_mjx_steps_without_nan(path: Path, atol: float) -> None:
     data = reset_home(model)
     mjx_model = mjx.put_model(model)
     mjx_data = mjx.put_data(model, data)
-    # XLA CPU optimisation level 1 compiles mjx.step ~10-20 % faster than the default (3), which
-    # dominates this file's run time; the stepping itself is not slower.
+    # XLA CPU optimisation level 1 compiles mjx.step sooner than the default (3), and compiling dominates this
+    # file's run time; the stepping itself is not slower.
     step = jax.jit(mjx.step).lower(mjx_model, mjx_data).compile({"xla_backend_optimization_level": 1})
     for _ in range(100):
         mjx_data = step(mjx_model, mjx_data)

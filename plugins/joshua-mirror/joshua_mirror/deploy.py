@@ -41,7 +41,7 @@ DEFAULT_PRESET = "sim_mirror"
 UNITS = ("radians", "degrees", "range")  # the robot's: the model's own, or LeRobot's two (joshua_lerobot.BodyUnits)
 DEFAULT_STALE_AFTER_S = 0.2
 # rad/s (m/s for a slide joint): under the SO-ARM100 servos' top speed (STS3215: 0.222 s/60 deg at 7.4 V, 4.7 rad/s);
-# a target that moves faster than the servo can follow only builds up error
+# a target that moves beyond the speed the servo can follow only builds up error
 DEFAULT_MAX_SPEED = 4.0
 DEFAULT_ESTOP_TOPIC = "/joshua_deploy/estop"
 NODE_NAME = "joshua_deploy"

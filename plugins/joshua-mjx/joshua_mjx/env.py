@@ -376,7 +376,7 @@ class MjxEnv:
     def _advance(self, fields: dict[str, jax.Array], data: mjx.Data) -> mjx.Data:
         """`data` after frame_skip physics steps. Only MuJoCo's integration state goes from one to the next: what
         else the steps before the last compute, the last recomputes, so XLA drops it (positions of cameras and
-        geoms, inertias, constraint rows, ... stay on chip or go unwritten; the gain is in bench/RESULTS.md). The
+        geoms, inertias, constraint rows, ... stay on chip or go unwritten, which saves memory traffic). The
         Data is what frame_skip whole steps give, to float32 rounding (XLA may fuse the two programs differently)."""
 
         if self.physics.impl == WARP:
@@ -404,7 +404,7 @@ class MjxEnv:
     def _autoreset(self, done: jax.Array, start: mjx.Data, data: mjx.Data) -> mjx.Data:
         """`data` with the start state of every environment whose episode ended (`done`): of the start's Data only
         what the next mjx.step reads and what the task's terms read. The rest, which the step recomputes, keeps
-        the ended episode's values until then, since copying all of it costs time (bench/RESULTS.md)."""
+        the ended episode's values until then, since copying all of it costs time on every step."""
         names = STEP_INPUTS + self._derived + (_RENDER_FIELDS if self.cameras else ())
         data = data.replace(**{name: where_env(done, getattr(start, name), getattr(data, name)) for name in names})
         if self.cameras:

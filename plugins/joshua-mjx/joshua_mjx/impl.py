@@ -94,8 +94,8 @@ class Physics:
 
     def leave_memory_to_warp(self) -> None:
         """MuJoCo Warp allocates its work arrays outside JAX's memory pool, and JAX takes 75 % of a GPU up front by
-        default: on an H100 that left Warp too little, and training stopped minutes in with "Failed to allocate"
-        (bench/RESULTS.md). So JAX allocates on demand instead (XLA_PYTHON_CLIENT_PREALLOCATE=false), unless the
+        default, which can leave Warp too little: training then stops minutes in with "Failed to allocate".
+        So JAX allocates on demand instead (XLA_PYTHON_CLIENT_PREALLOCATE=false), unless the
         user set JAX's memory variables; that must happen before JAX starts its backends, else it says what to do."""
         if self.impl != WARP or any(name in os.environ for name in _JAX_MEMORY_VARIABLES):
             return
@@ -160,9 +160,9 @@ def batch_data(data: Any, n: int) -> Any:
 def _load_warp_kernels(device: jax.Device) -> None:
     """Compile (or load from Warp's kernel cache) MuJoCo Warp's kernels on a GPU now, on every core at once.
 
-    Left to Warp, each module compiles when a step first launches it, one after another: on an H100 host that
-    was 102 s of a cold start of pick-and-place, against 49 s for this and 12 s left at the first step
-    (bench/RESULTS.md). On the CPU, where compiling is Warp's development path, only what a step uses is built.
+    Left to Warp, each module compiles when a step first launches it, one after another, which makes a cold start
+    several times longer than compiling them together. On the CPU, where compiling is Warp's development path, only
+    what a step uses is built.
     Processes on one host take turns (`building_into`): the first builds on every core, the others then load.
     """
     if device.platform != "gpu":
@@ -248,8 +248,8 @@ class CapturedGraphs:
     """Keeps MuJoCo Warp's captured CUDA graphs from filling the GPU. On a GPU, Warp captures each call's kernels as
     a CUDA graph per set of buffer addresses (JaxCallableGraphMode.WARP) and keeps up to 32 of them per callable,
     each holding the work arrays it allocated while capturing. JAX hands the step new addresses now and then (an
-    evaluation or a snapshot allocates in between), so graphs piled up until Warp failed to allocate 170 s into
-    16384 randomized environments (bench/RESULTS.md). Clearing them every GRAPH_CLEAR_INTERVAL rollouts, once the
+    evaluation or a snapshot allocates in between), so graphs pile up until Warp fails to allocate minutes into a
+    long run. Clearing them every GRAPH_CLEAR_INTERVAL rollouts, once the
     last one has finished, bounds that for one recapture per call site per interval."""
 
     def __init__(self, physics: Physics, device: jax.Device) -> None:

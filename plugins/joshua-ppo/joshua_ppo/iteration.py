@@ -43,7 +43,7 @@ from joshua_ppo.teacher import Teacher
 
 # XLA runs the kernels of a loop body as one CUDA graph (a command buffer), by default one after another; here
 # only their data dependencies order them, since a gradient step's policy and value passes are two chains of small
-# kernels that fill a GPU only together (measured in bench/RESULTS.md)
+# kernels that fill a GPU only together
 GPU_COMPILER_OPTIONS = {"xla_gpu_command_buffer_scheduling_mode": "CONCURRENT"}
 Carry = tuple[Any, Any, RunningStatistics]  # (environments, params, normaliser) in the rollout's scans
 Metrics = dict[str, jax.Array]
@@ -256,7 +256,7 @@ class _Iteration:
         shape = (self.num_minibatches, self.local_minibatch)
         minibatches = jax.tree.map(lambda x: x[order].reshape(*shape, *x.shape[1:]), samples)
         keys = jax.random.split(entropy_key, self.num_minibatches)
-        # 4 gradient steps per loop trip: fewer loop trips run faster, more only compile longer (bench/RESULTS.md)
+        # 4 gradient steps per loop trip: fewer loop trips run faster, more only compile longer
         return jax.lax.scan(self.gradient_step, carry, (minibatches, keys), unroll=min(self.num_minibatches, 4))
 
     def local(

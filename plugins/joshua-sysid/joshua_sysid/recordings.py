@@ -32,7 +32,7 @@ MIN_SAMPLES = 20  # fewer samples than this cannot tell four parameters per join
 MIN_DURATION_S = 1.0  # nor can a recording shorter than a few servo time constants
 MIN_MOTION = 1e-4  # rad or m: below a tenth of one step of a 12-bit servo encoder (2 pi / 4096), no motion at all
 # The fit simulates each recording from its first row with zero velocity, so the arm must be at rest there: between
-# the first two rows no joint may move faster than REST_SPEED (rad/s or m/s), four encoder steps (2 pi / 4096
+# the first two rows no joint's speed may exceed REST_SPEED (rad/s or m/s), four encoder steps (2 pi / 4096
 # each) per frame at 30 fps, which encoder noise does not reach and an arm in motion does.
 REST_SPEED = 0.2
 SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
@@ -163,7 +163,7 @@ def _check_plausible(
 def _check_starts_at_rest(
     path: Path, joints: Sequence[str], times: NDArray[np.float64], positions: NDArray[np.float64]
 ) -> None:
-    """No joint moves faster than REST_SPEED between the first two rows (the fit starts the recording at rest)."""
+    """No joint's speed exceeds REST_SPEED between the first two rows (the fit starts the recording at rest)."""
     speeds = np.abs(positions[1] - positions[0]) / (times[1] - times[0])
     fastest = int(np.argmax(speeds))
     if speeds[fastest] > REST_SPEED:

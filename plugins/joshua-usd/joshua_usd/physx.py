@@ -40,7 +40,7 @@ from joshua_mujoco import BatchPhysics
 CONTACTS_PER_LINK = 16  # room for contact points per link and read; grown when a step reports more
 ENV_SPACING = 20.0  # metres between the lanes of the clones: further than a robot walks in an episode
 # GPU PhysX's buffers (PhysxSceneAPI, ovphysx docs/population/PhysxSceneAPI.md): (per clone, schema default), the
-# larger of default and per clone x clones authored. With the defaults, 4096 and 8192 Ants on an H200 logged
+# larger of default and per clone x clones authored. With the defaults, 4096 and 8192 Ants on a GPU logged
 # "needs to increase totalAggregatePairsCapacity to 1025-2047 / foundLostAggregatePairsCapacity to 5845, otherwise
 # the simulation will miss interactions" (each articulation is an aggregate): 8 pairs per clone leaves room.
 GPU_CAPACITIES = {
