@@ -9,7 +9,6 @@ dataset) must not pass for a replay of it.
 from __future__ import annotations
 
 import json
-import os
 import string
 import sys
 from collections.abc import Mapping
@@ -19,6 +18,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from joshua_core.atomic import atomic_write_bytes
+from joshua_core.errors import UsageError
 from joshua_core.interfaces import TrajectoryReader
 from joshua_core.trajectory import Trajectory, TrajectoryError
 from joshua_lerobot.joints import (
@@ -151,19 +152,43 @@ def _hint_range_units(
         )
 
 
-def record_units(path: Path, units: LeRobotUnits) -> Path:
+def record_units(path: Path, units: LeRobotUnits, *, overwrite: bool = False) -> bool:
     """Note `units` in the dataset's meta/info.json (the state and action features' `units`, as joshua's writer
-    does), so that every reader of the dataset converts with them; lerobot ignores the key. Returns the file."""
+    does), so that every reader of the dataset converts with them; lerobot ignores the key. Returns whether the
+    file changed. A record already there that says otherwise is a UsageError unless `overwrite`: it may hold
+    the mirror's offsets or a calibration that this call does not know, and replacing it would lose them."""
     info = _info(path)
     file = path / INFO
-    for key in (STATE, ACTION):
-        if key in info["features"]:
-            _names(path, info, key)
-            info["features"][key]["units"] = units_metadata(units)
-    temporary = file.with_name(file.name + ".tmp")
-    temporary.write_text(json.dumps(info, indent=4) + "\n", encoding="utf-8")
-    os.replace(temporary, file)
-    return file
+    features = [STATE, *([ACTION] if ACTION in info["features"] else [])]
+    for key in features:
+        _names(path, info, key)
+    record = units_metadata(units)
+    earlier = [info["features"][key]["units"] for key in features if "units" in info["features"][key]]
+    if len(earlier) == len(features) and all(existing == record for existing in earlier):
+        return False
+    if earlier and not overwrite:
+        raise UsageError(
+            f"{file} already records {_described(earlier[0], file)}; pass --overwrite to replace that record"
+        )
+    for key in features:
+        info["features"][key]["units"] = record
+    atomic_write_bytes(file, (json.dumps(info, indent=4) + "\n").encode())
+    return True
+
+
+def describe_units(units: LeRobotUnits) -> str:
+    """`units` in words, as `joshua lerobot-units` reports them: "SO-100 body joints in range, calibrated"."""
+    calibrated = ", calibrated" if units.calibration else ""
+    offsets = ", with offsets" if any(units.offsets.values()) else ""
+    return f"SO-100 body joints in {units.body}{calibrated}{offsets}"
+
+
+def _described(record: Any, file: Path) -> str:
+    """A units record found in info.json in words (`describe_units`), or that it does not read."""
+    try:
+        return describe_units(units_from_metadata(record, str(file)))
+    except TrajectoryError:
+        return "units joshua cannot read"
 
 
 def _names(path: Path, info: dict[str, Any], key: str) -> list[str]:

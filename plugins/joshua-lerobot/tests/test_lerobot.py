@@ -560,3 +560,36 @@ def test_range_values_read_as_degrees_give_a_one_line_hint(
     read = load_trajectory(root, ranges, plugins=PLUGINS)
     assert np.allclose(read.positions, positions, rtol=0, atol=1e-5)  # rad: float32 in LeRobot units
     assert "hint" not in capsys.readouterr().err
+
+
+def test_lerobot_units_keeps_a_record_it_did_not_make_unless_told_to_overwrite(
+    tmp_path: Path, ranges: dict[str, tuple[float, float]], capsys: pytest.CaptureFixture[str]
+) -> None:
+    from joshua_core.cli import main
+    from joshua_lerobot.joints import BodyUnits, LeRobotUnits, read_calibration
+
+    calibration = calibration_file(tmp_path)
+    ours = LeRobotUnits(BodyUnits.RANGE, read_calibration(calibration), OFFSETS)  # the mirror's offsets recorded
+    trajectory = motion(ranges)
+    episode = DatasetEpisode(JOINTS, trajectory.timestamps, trajectory.positions, trajectory.positions, "wave")
+    root = write_dataset(tmp_path / "dataset", [episode], fps=FPS, joint_ranges=ranges, units=ours)
+    written = (root / INFO).read_bytes()
+    stray = root / "meta" / "info.json.tmp"  # the name the command once wrote through (and moved away)
+    stray.write_text("the user's")
+    capsys.readouterr()
+    assert main(["lerobot-units", str(root), "--units", "degrees"]) == 2
+    error = capsys.readouterr().err
+    assert error == (
+        f"joshua: error: {root / INFO} already records SO-100 body joints in range, calibrated, with offsets; "
+        "pass --overwrite to replace that record\n"
+    )
+    assert (root / INFO).read_bytes() == written
+    assert main(["lerobot-units", str(root), "--units", "degrees", "--overwrite"]) == 0
+    assert capsys.readouterr().out == f"{root / INFO}: SO-100 body joints in degrees\n"
+    assert main(["lerobot-units", str(root), "--units", "degrees"]) == 0  # the same record again: nothing to do
+    assert capsys.readouterr().out == f"{root / INFO}: SO-100 body joints in degrees (recorded already; unchanged)\n"
+    assert json.loads((root / INFO).read_text())["features"][STATE]["units"] == {
+        "body": "degrees", "calibration": None, "offsets": {}
+    }  # fmt: skip
+    assert stray.read_text() == "the user's"
+    assert not [file for file in (root / "meta").iterdir() if file.name.startswith(".")]  # no temporary left
