@@ -103,7 +103,9 @@ class EnvKind(enum.Enum):
     Both run `num_envs` copies of one task, reset every environment whose episode ended within the
     step that ended it (same-step autoreset), and count episodes as `joshua_core.tasks.episodes` does:
     `terminated` (the task's termination, or a non-finite state: zero reward) and `truncated` (the
-    task's episode length reached, only when not terminated).
+    task's episode length reached, only when not terminated). A NaN or infinite action is never clipped into a
+    control: a NUMPY environment refuses the step (ValueError), a JAX one, which cannot raise inside a compiled
+    step, fails that environment's step as if its state had turned non-finite (`episode.failed`).
 
     NUMPY: a `gymnasium.vector.VectorEnv` with `metadata["autoreset_mode"] == AutoresetMode.SAME_STEP`,
     float32 Box spaces (actions in [-1, 1]), `num_envs`, `task` (the built `Task`), `render_frame(env_index,

@@ -15,7 +15,9 @@ with numpy, so rewards and observations match the `mujoco` backend's.
   truncated episodes), `state.episode` its return, length, per-term reward sums and final metrics.
 - Rewards, terminations, truncations and the episode records follow `joshua_core.tasks.episodes`
   (the same code as the `mujoco` backend's): a simulation whose state becomes non-finite is
-  terminated with zero reward, never propagated.
+  terminated with zero reward, never propagated. So is one given a non-finite action (NaN or infinity), which a
+  compiled step cannot refuse as the `mujoco` backend does: it is stepped with a zero action, not a clipped one,
+  and its episode ends as failed (counted with the blow-ups).
 - Cameras: where the task names cameras (joshua_core.tasks.cameras; MuJoCo Warp only), `state.images` holds
   each camera's current frame, rendered inside `reset` and `step` (joshua_mjx.cameras); a camera-less task
   compiles the same programs as before.
@@ -267,9 +269,11 @@ class MjxEnv:
 
     def _step(self, state: EnvState, action: jax.Array) -> EnvState:
         """Apply `action` (N, nu; clipped to [-1, 1]), advance frame_skip physics steps, evaluate the task,
-        and start a new episode wherever one ended."""
+        and start a new episode wherever one ended. An environment whose action is not finite fails the step."""
         task = self.task
-        action = jnp.clip(action.astype(jnp.float32), -1.0, 1.0)
+        action = action.astype(jnp.float32)
+        finite = jnp.isfinite(action).all(axis=1)
+        action = jnp.where(finite[:, None], jnp.clip(action, -1.0, 1.0), 0.0)
         applied, history = action, state.history
         if task.max_action_delay:
             applied, history = delayed_action(jnp, history, action, state.params["action_delay"])
@@ -296,7 +300,8 @@ class MjxEnv:
         ctx = self._context(
             data, state.data.qpos, action, state.action, episode_step, state.commands, params, state.strength
         )
-        outcome = account_step(task, ctx, nonfinite(jnp, data.qpos, data.qvel), state.sums, jnp.float32)
+        failed = nonfinite(jnp, data.qpos, data.qvel) | ~finite
+        outcome = account_step(task, ctx, failed, state.sums, jnp.float32)
         done = outcome.episode.done
         final_observation, final_value_observation = self._observe(ctx)
         strength = state.strength

@@ -35,7 +35,7 @@ def ant_env():  # type: ignore[no-untyped-def]
     return make_mjx_env("ant_locomotion", 4, model_path="ant/ant.xml", task_config=config)
 
 
-def test_mjx_env_matches_the_mujoco_backend_step_for_step(ant_env) -> None:  # type: ignore[no-untyped-def]
+def test_mjx_env_matches_the_mujoco_backend_and_fails_non_finite_actions(ant_env) -> None:  # type: ignore[no-untyped-def]
     cpu = make_vector_env(
         "ant_locomotion", 4, model_path="ant/ant.xml", terms=NO_RESET_NOISE, episode_length=ANT_EPISODE, nthread=1
     )
@@ -48,6 +48,21 @@ def test_mjx_env_matches_the_mujoco_backend_step_for_step(ant_env) -> None:  # t
         state = ant_env.step(state, jnp.asarray(action))
         np.testing.assert_allclose(np.asarray(state.observation)[:, :27], cpu_observation[:, :27], atol=1e-3)
         np.testing.assert_allclose(np.asarray(state.reward), cpu_reward, atol=1e-4)
+    # a non-finite action is never clipped into a control: its environment fails the step, as a blow-up does, and
+    # restarts; the others step on as the CPU backend's do
+    action = np.random.default_rng(1).uniform(-1, 1, (4, 8))
+    cpu_observation, cpu_reward, _, _, _ = cpu.step(action)
+    action[1, 2], action[2, 5] = np.inf, np.nan
+    state = ant_env.step(state, jnp.asarray(action))
+    assert np.asarray(state.episode.failed).tolist() == [False, True, True, False]
+    assert np.asarray(state.episode.done).tolist() == [False, True, True, False]
+    assert np.asarray(state.reward)[1:3].tolist() == [0.0, 0.0] and np.asarray(state.episode_step)[1:3].tolist() == [
+        0,
+        0,
+    ]
+    assert np.isfinite(np.asarray(state.observation)).all()
+    np.testing.assert_allclose(np.asarray(state.observation)[[0, 3], :27], cpu_observation[[0, 3], :27], atol=1e-3)
+    np.testing.assert_allclose(np.asarray(state.reward)[[0, 3]], cpu_reward[[0, 3]], atol=1e-4)
     cpu.close()
 
 

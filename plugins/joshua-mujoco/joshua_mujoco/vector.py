@@ -268,7 +268,7 @@ class BatchedSimulation:
 class BatchedVectorEnv(VectorEnv):
     """A Gymnasium VectorEnv over `mujoco.batch`, running any registered task (EnvKind.NUMPY).
 
-    - Spaces: float32 Boxes; actions in [-1, 1] (values outside are clipped).
+    - Spaces: float32 Boxes; actions in [-1, 1] (values outside are clipped; NaN or infinity is a ValueError).
     - Autoreset: same step. For an environment that finished, step() returns the first
       observation of its next episode; the last one is in infos["final_obs"] (num_envs x obs_dim,
       rows valid where infos["_final_obs"]).
