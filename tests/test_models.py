@@ -15,6 +15,7 @@ import pytest
 
 MODELS = Path(__file__).parents[1] / "models"
 ARM_DIR = MODELS / "so_arm100"
+SO101_DIR = MODELS / "so101"
 ANT_XML = MODELS / "ant" / "ant.xml"
 ANT_MJX_XML = MODELS / "ant" / "ant_mjx.xml"
 TRILEG_XML = MODELS / "trileg" / "trileg.xml"
@@ -33,16 +34,27 @@ MJX_CASES = [
 ]
 
 ARM_JOINTS = [f"joint_{i}" for i in range(1, 7)]
-ARM_SENSORS = {
-    "wrist_force": mujoco.mjtSensor.mjSENS_FORCE,
-    "wrist_torque": mujoco.mjtSensor.mjSENS_TORQUE,
-    "wrist_accel": mujoco.mjtSensor.mjSENS_ACCELEROMETER,
-    "wrist_gyro": mujoco.mjtSensor.mjSENS_GYRO,
-    "gripper_touch_fixed": mujoco.mjtSensor.mjSENS_TOUCH,
-    "gripper_touch_moving": mujoco.mjtSensor.mjSENS_TOUCH,
-    **{f"{j}_pos": mujoco.mjtSensor.mjSENS_JOINTPOS for j in ARM_JOINTS},
-    **{f"{j}_vel": mujoco.mjtSensor.mjSENS_JOINTVEL for j in ARM_JOINTS},
+SO101_JOINTS = ["shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll", "gripper"]  # LeRobot's
+# Each arm's folder, its joints, and the actuator driving a joint: the SO-ARM100's `<joint>_position`, the SO-101's
+# named as its joint (LeRobot's motor names).
+ARMS = {
+    "so_arm100": (ARM_DIR, ARM_JOINTS, "{}_position"),
+    "so101": (SO101_DIR, SO101_JOINTS, "{}"),
 }
+
+
+def arm_sensors(joints: list[str]) -> dict[str, mujoco.mjtSensor]:
+    """The sensors every arm has: the wrist's force, torque and IMU, the jaw pads' touch, each joint's reading."""
+    return {
+        "wrist_force": mujoco.mjtSensor.mjSENS_FORCE,
+        "wrist_torque": mujoco.mjtSensor.mjSENS_TORQUE,
+        "wrist_accel": mujoco.mjtSensor.mjSENS_ACCELEROMETER,
+        "wrist_gyro": mujoco.mjtSensor.mjSENS_GYRO,
+        "gripper_touch_fixed": mujoco.mjtSensor.mjSENS_TOUCH,
+        "gripper_touch_moving": mujoco.mjtSensor.mjSENS_TOUCH,
+        **{f"{j}_pos": mujoco.mjtSensor.mjSENS_JOINTPOS for j in joints},
+        **{f"{j}_vel": mujoco.mjtSensor.mjSENS_JOINTVEL for j in joints},
+    }
 
 
 def load(path: Path) -> mujoco.MjModel:
@@ -59,9 +71,9 @@ def reset_home(model: mujoco.MjModel) -> mujoco.MjData:
     return data
 
 
-def arm_qpos(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-    """Positions of joint_1..joint_6."""
-    return np.array([data.qpos[model.joint(name).qposadr[0]] for name in ARM_JOINTS])
+def arm_qpos(model: mujoco.MjModel, data: mujoco.MjData, joints: list[str] = ARM_JOINTS) -> np.ndarray:
+    """Positions of the arm's `joints` (the SO-ARM100's joint_1..joint_6 by default)."""
+    return np.array([data.qpos[model.joint(name).qposadr[0]] for name in joints])
 
 
 def import_script(path: Path) -> ModuleType:
@@ -96,16 +108,18 @@ def test_compiles_and_steps_without_warnings(path: Path, mju_warnings: list[str]
     assert np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()
 
 
+@pytest.mark.parametrize("arm", ARMS)
 @pytest.mark.parametrize("name", ["scene.xml", "pick_place.xml"])
-def test_arm_holds_home(name: str) -> None:
+def test_arm_holds_home(name: str, arm: str) -> None:
     """Started at `home` with its ctrl, the arm drifts less than 1e-3 rad in every joint over 10 s."""
-    model = load(ARM_DIR / name)
+    folder, joints, _ = ARMS[arm]
+    model = load(folder / name)
     data = reset_home(model)
-    start = arm_qpos(model, data)
+    start = arm_qpos(model, data, joints)
     np.testing.assert_allclose(data.ctrl, model.key("home").ctrl)
     mujoco.mj_step(model, data, nstep=round(10.0 / model.opt.timestep))
     assert data.time == pytest.approx(10.0)
-    assert np.abs(arm_qpos(model, data) - start).max() < 1e-3
+    assert np.abs(arm_qpos(model, data, joints) - start).max() < 1e-3
 
 
 def settle(path: Path, seconds: float) -> tuple[mujoco.MjModel, mujoco.MjData]:
@@ -192,18 +206,21 @@ def test_mjx_steps_without_nan(path: Path, atol: float) -> None:
     np.testing.assert_allclose(qpos, data.qpos, atol=atol)
 
 
+@pytest.mark.parametrize("arm", ARMS)
 @pytest.mark.parametrize("name", ARM_VARIANTS)
-def test_arm_names(name: str) -> None:
-    """Every arm variant exposes the same joints, actuators, sensors, sites and home keyframe."""
-    model = load(ARM_DIR / name)
-    for joint in ARM_JOINTS:
+def test_arm_names(name: str, arm: str) -> None:
+    """Every variant of each arm exposes the same joints, actuators, sensors, sites and home keyframe."""
+    folder, joints, actuator_name = ARMS[arm]
+    model = load(folder / name.replace("so_arm100.xml", f"{arm}.xml"))
+    assert model.nu == len(joints)
+    for joint in joints:
         assert model.joint(joint).type[0] == mujoco.mjtJoint.mjJNT_HINGE
-        actuator = model.actuator(f"{joint}_position")
+        actuator = model.actuator(actuator_name.format(joint))
         assert actuator.trnid[0] == model.joint(joint).id
         assert actuator.biastype[0] == mujoco.mjtBias.mjBIAS_AFFINE  # position servo
         np.testing.assert_allclose(actuator.ctrlrange, model.joint(joint).range, atol=1e-12)
         assert 2.5 < actuator.forcerange[1] < 3.5  # STS3215 stall torque, ~3 N*m
-    for sensor, kind in ARM_SENSORS.items():
+    for sensor, kind in arm_sensors(joints).items():
         assert model.sensor(sensor).type[0] == kind
     model.site("gripper")
     model.site("wrist")
@@ -211,10 +228,11 @@ def test_arm_names(name: str) -> None:
     assert np.all(home.ctrl >= model.actuator_ctrlrange[:, 0]) and np.all(home.ctrl <= model.actuator_ctrlrange[:, 1])
 
 
+@pytest.mark.parametrize("arm", ARMS)
 @pytest.mark.parametrize("name", ["scene.xml", "scene_mjx.xml", "pick_place.xml", "pick_place_mjx.xml"])
-def test_scene_names(name: str) -> None:
+def test_scene_names(name: str, arm: str) -> None:
     """Scenes have the two cameras; pick-and-place scenes also have the free cube and the goal."""
-    model = load(ARM_DIR / name)
+    model = load(ARMS[arm][0] / name)
     model.camera("overview")
     model.camera("side")
     if name.startswith("pick_place"):
@@ -223,9 +241,10 @@ def test_scene_names(name: str) -> None:
         model.site("goal")
 
 
-def test_cameras_see_the_arm() -> None:
+@pytest.mark.parametrize("arm", ARMS)
+def test_cameras_see_the_arm(arm: str) -> None:
     """Both scene cameras have the gripper and the base inside their field of view."""
-    model = load(ARM_DIR / "scene.xml")
+    model = load(ARMS[arm][0] / "scene.xml")
     data = reset_home(model)
     for camera in ("overview", "side"):
         cam = data.camera(camera)
@@ -234,6 +253,62 @@ def test_cameras_see_the_arm() -> None:
             local = cam.xmat.reshape(3, 3).T @ (point - cam.xpos)
             assert local[2] < 0  # in front of the camera (it looks along -z)
             assert abs(local[1] / local[2]) < np.tan(fovy / 2)
+
+
+@pytest.mark.parametrize("arm", ARMS)
+def test_links_excluded_from_the_table_stay_above_it(arm: str) -> None:
+    """pick_place_mjx.xml excludes the world's contacts with the shoulder and the upper arm: over shoulder_lift's
+    range, every collision geom of both lies above the table (z = 0), its bounding sphere included."""
+    folder, joints, _ = ARMS[arm]
+    model = load(folder / "pick_place_mjx.xml")
+    data = mujoco.MjData(model)
+    lift = model.joint(joints[1])
+    links = {model.body("shoulder").id, model.body("upper_arm").id}
+    geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] in links and model.geom_contype[g]]
+    for angle in np.linspace(*lift.range, 25):
+        data.qpos[lift.qposadr[0]] = angle
+        mujoco.mj_kinematics(model, data)
+        assert min(data.geom_xpos[g][2] - model.geom_rbound[g] for g in geoms) > 0, angle
+
+
+def test_so101_zero_pose_is_lerobots_calibrated_zero() -> None:
+    """At zero the SO-101 stands as LeRobot's calibration leaves 0 degrees (the middle of every range): upper arm
+    up, forearm and gripper level and forward; positive lift, elbow and wrist flex tilt their link forward and
+    down, and a positive gripper opens the jaw."""
+    model = load(SO101_DIR / "so101.xml")
+    data = mujoco.MjData(model)
+    for joint in SO101_JOINTS[:4]:
+        low, high = model.joint(joint).range
+        assert low == pytest.approx(-high)  # LeRobot's 0 degrees: the middle of the calibrated range
+
+    def positions(**angles: float) -> dict[str, np.ndarray]:
+        data.qpos[:] = [angles.get(joint, 0.0) for joint in SO101_JOINTS]
+        mujoco.mj_kinematics(model, data)
+        bodies = ("upper_arm", "lower_arm", "wrist", "gripper")
+        return {**{body: data.body(body).xpos.copy() for body in bodies}, "tip": data.site("gripper").xpos.copy()}
+
+    zero = positions()
+    upper, forearm = zero["lower_arm"] - zero["upper_arm"], zero["wrist"] - zero["lower_arm"]
+    assert upper[2] > 0.1 and abs(upper[0]) < 0.03  # up, the SO-10x's 28 mm forward offset
+    assert forearm[0] > 0.13 and abs(forearm[2]) < 0.01
+    assert zero["tip"][0] > zero["gripper"][0] and abs(zero["tip"][2] - zero["gripper"][2]) < 0.015
+    for joint, link in (("shoulder_lift", "lower_arm"), ("elbow_flex", "wrist"), ("wrist_flex", "tip")):
+        moved = positions(**{joint: 0.3})[link]
+        assert moved[2] < zero[link][2], joint  # forward and down
+    data.qpos[:] = 0
+    gap = []
+    for jaw in (-0.17, 0.8):
+        data.qpos[model.joint("gripper").qposadr[0]] = jaw
+        mujoco.mj_kinematics(model, data)
+        gap.append(np.linalg.norm(data.geom("moving_pad").xpos - data.geom("fixed_pad").xpos))
+    assert gap[0] < 0.01 < 0.04 < gap[1]  # closed: the pads meet; open: a 3 cm cube fits between
+
+
+def test_the_so101_mjx_scenes_load_on_mjx() -> None:
+    """MJX takes the SO-101's MJX scenes as they are (put_model rejects geoms and options it does not support)."""
+    mjx = pytest.importorskip("mujoco.mjx")
+    for name in ("scene_mjx.xml", "pick_place_mjx.xml"):
+        mjx.put_model(load(SO101_DIR / name))
 
 
 def test_ant_and_trileg_names() -> None:
