@@ -1,6 +1,7 @@
 """A scripted controller picks up the cube and places it on the goal, on the CPU scene (mujoco.batch) and on
 the MJX scene (MJX), through the task's own environments: the task is solvable in both physics, and the
-reward stages fire in order (reach, grasp, lift, place, at the goal, let go there)."""
+reward stages fire in order (reach, grasp, lift, place, at the goal, let go there). On the CPU scene, for both
+arms (the SO-ARM100's and the SO-101's task)."""
 
 from __future__ import annotations
 
@@ -52,8 +53,9 @@ def check_solved(rewards: list[dict[str, float]], success: float, phases: list[s
 
 
 @pytest.mark.parametrize("seed", range(8))
-def test_the_script_solves_the_cpu_scene(seed: int) -> None:
-    env = make_vector_env(TASK, 1, seed=seed, nthread=1)
+@pytest.mark.parametrize("task", [TASK, "so101_pick_place"])
+def test_the_script_solves_the_cpu_scene(task: str, seed: int) -> None:
+    env = make_vector_env(task, 1, seed=seed, nthread=1)
     env.reset(seed=seed)
     simulation = env.simulation
     script = PickPlaceScript(simulation.model, simulation.task)

@@ -1,5 +1,5 @@
-"""A hand-written pick-and-place controller for the SO-ARM100 task (`so_arm100_pick_place`), in the task's own
-action space.
+"""A hand-written pick-and-place controller for the arms' pick-and-place tasks (`so_arm100_pick_place`,
+`so101_pick_place`), in the task's own action space.
 
 It proves the task can be solved in a given physics (the backends' tests), and it records demonstrations
 (`joshua demos`): from the cube's and the goal's positions it plans
@@ -37,7 +37,6 @@ __all__ = [
     "pick_place_phases",
 ]
 
-ARM = ("joint_1", "joint_2", "joint_3", "joint_4", "joint_5")
 JAW_OPEN, JAW_CLOSED = 0.8, -0.17  # rad: wide open; the pads' closed angle, so the servo squeezes the cube
 ABOVE = 0.08  # m above the cube's centre when approaching and carrying
 # The gripper site is the fixed fingertip; the moving pad closes onto it along the site's z axis, so a held
@@ -106,13 +105,14 @@ def integrate_sag(xp: Any, sag: Any, arm: Any, measured: Any) -> Any:
 
 class ScriptPlanner:
     """The script's joint targets for attempts on `model` (a CPU MjModel of the scene being simulated): its
-    inverse kinematics, which needs the model alone."""
+    inverse kinematics, which needs the model alone. The arm's joints are those its actuators drive but the last
+    (the jaw's), as both arms order them."""
 
     def __init__(self, model: mujoco.MjModel) -> None:
         self.model = model
         self.data = mujoco.MjData(model)
         self.site = model.site("gripper").id
-        joints = [model.joint(name) for name in ARM]
+        joints = [model.joint(int(joint)) for joint in model.actuator_trnid[:-1, 0]]
         self.qpos_addresses = [int(joint.qposadr[0]) for joint in joints]
         self.dofs = [int(joint.dofadr[0]) for joint in joints]
 
@@ -139,7 +139,7 @@ class ScriptPlanner:
                 arms.append(self._solve(start + share * (phase.site - start)))
                 jaws.append(phase.jaw)
             start = phase.site
-        return ScriptPlan(tuple(names), np.array(arms).reshape(-1, len(ARM)), np.array(jaws, dtype=np.float64))
+        return ScriptPlan(tuple(names), np.array(arms).reshape(-1, len(self.dofs)), np.array(jaws, dtype=np.float64))
 
     def _grasp_point(self) -> NDArray[np.float64]:
         """Where a held cube's centre is for `self.data`'s joints: GRASP_OFFSET along the site's z axis."""
@@ -224,7 +224,7 @@ class PickPlaceScript(ScriptPlanner):
         """(phase name, action) for every control step of `plan` (pick and place by default), starting from joint
         positions `qpos`; send the joint positions after each step (they correct the servos' sag)."""
         solved = self.plan(qpos, cube, goal, plan)
-        sag = np.zeros(len(ARM))
+        sag = np.zeros(len(self.dofs))
         for phase, arm, jaw in zip(solved.phases, solved.arm, solved.jaw, strict=True):
             measured = yield phase, self._action(corrected_targets(np, arm, jaw, sag))
             sag = integrate_sag(np, sag, arm, measured[self.qpos_addresses])
