@@ -87,7 +87,9 @@ PLUGIN_PRESETS = {
     "trileg_train_mjx",
     "so_arm100_pick_place_mjx_dr",
     "so_arm100_pick_place_pixels",
-}  # presets added with the plugins, beyond the first nine
+    *(f"so101_{name}" for name in ("sim_interactive", "sim_mirror", "reach_sb3", "train_mjx", "pick_place_mjx")),
+    *(f"so101_pick_place_{name}" for name in ("mjx_dr", "pixels")),
+}  # presets added with the plugins, beyond the first nine; the SO-101's extend the SO-ARM100's
 
 
 def test_the_shipped_presets_each_parse_with_a_description() -> None:
