@@ -1,6 +1,6 @@
-"""Cameras and sensors read back into MuJoCo: the shipped SO-ARM100 (its scene's cameras, touch sensors on the
-gripper pads, the wrist IMU) and sensor prims as Isaac Sim authors them (IsaacImuSensor, IsaacContactSensor
-under a body with PhysxContactReportAPI) with none of the exporter's attributes."""
+"""Cameras and sensors read back into MuJoCo: the shipped SO-ARM100 and SO-101 (their scenes' cameras, touch
+sensors on the gripper pads, the wrist IMU) and sensor prims as Isaac Sim authors them (IsaacImuSensor,
+IsaacContactSensor under a body with PhysxContactReportAPI) with none of the exporter's attributes."""
 
 from __future__ import annotations
 
@@ -22,12 +22,15 @@ from joshua_usd.importer import import_usd  # noqa: E402
 SENSOR = mujoco.mjtSensor
 
 
-def test_the_shipped_so100_reads_back_its_cameras_pads_and_imu() -> None:
-    imported = import_usd(models_dir() / "isaac" / "so100.usd")
+@pytest.mark.parametrize(
+    ("usd", "scene_path"), [("so100.usd", "so_arm100/scene.xml"), ("so101.usd", "so101/scene.xml")]
+)
+def test_the_shipped_arms_read_back_their_cameras_pads_and_imu(usd: str, scene_path: str) -> None:
+    imported = import_usd(models_dir() / "isaac" / usd)
     model = imported.spec.compile()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    scene = mujoco.MjModel.from_xml_path(str(models_dir() / "so_arm100" / "scene.xml"))
+    scene = mujoco.MjModel.from_xml_path(str(models_dir() / scene_path))
     scene_data = mujoco.MjData(scene)
     mujoco.mj_forward(scene, scene_data)
     assert sorted(model.camera(i).name for i in range(model.ncam)) == ["overview", "side"]
