@@ -1,19 +1,21 @@
 """The one table between LeRobot's joint names and units and the model's, both ways (`LeRobotUnits`).
 
-SO-100/SO-101 (`so100_follower`) datasets name the arm's joints `shoulder_pan.pos` ... `wrist_roll.pos` and
-the gripper `gripper.pos`. lerobot's motor bus (`MotorsBus._normalize`) reads a servo's ticks t, within the
-calibrated range [range_min, range_max] (mid its middle), as
+SO-100/SO-101 (`so100_follower`, `so101_follower`) datasets name the arm's joints `shoulder_pan.pos` ...
+`wrist_roll.pos` and the gripper `gripper.pos`. lerobot's motor bus (`MotorsBus._normalize`) reads a servo's
+ticks t, within the calibrated range [range_min, range_max] (mid its middle), as
 - DEGREES (`use_degrees=True`, the body joints' default): (t - mid) * 360 / 4095;
 - RANGE_M100_100 (`use_degrees=False`, body joints): (t - range_min) / (range_max - range_min) * 200 - 100;
 - RANGE_0_100 (the gripper, either way): (t - range_min) / (range_max - range_min) * 100;
 the two ranges negated (100 - x for the gripper) when the motor's drive_mode is set. The homing offset is
 written into the servo, so ticks are read with it applied and no formula needs it.
-JOSHUA's SO-ARM100 (models/so_arm100/so_arm100.xml) has joint_1 .. joint_6 in radians, its ranges the
-calibrated SO-10x ranges; a tick is 2 pi / 4095 rad as lerobot's degrees count it, and the middle of the
-calibrated range is the middle of the model joint's range (docs/sim-to-real.md, "Joint zeros"). So a body
+JOSHUA's SO-ARM100 (models/so_arm100/so_arm100.xml) has joint_1 .. joint_6 in radians, its SO-101
+(models/so101/so101.xml, so101_follower) the motors' own names; both have the calibrated SO-10x ranges, a tick is
+2 pi / 4095 rad as lerobot's degrees count it, and the middle of the calibrated range is the middle of the model
+joint's range (docs/sim-to-real.md, "Joint zeros" and "The SO-101"). So a body
 angle a (degrees) is mid + radians(a), a body value r (range) mid + r / 100 * half span of the calibrated
 range, and the gripper g low + g / 100 * (high - low) over the model's range, or over the calibrated range
-when a calibration is given. Directions are taken to agree (the model follows the SO-100 URDF's axes).
+when a calibration is given. Directions are taken to agree (the SO-ARM100 follows the SO-100 URDF's axes, the
+SO-101 those of TheRobotStudio's so101_new_calib.xml, written for LeRobot's calibration).
 Any other feature name `<joint>.pos` is a joint of the model in the model's own units.
 
 The real arm's angle then becomes the model's as the mirror's mapping says (`TopicMapping.offset`, radians):
@@ -48,6 +50,9 @@ SO100_JOINTS = {
     "wrist_roll.pos": "joint_5",
     "gripper.pos": "joint_6",
 }
+SO101_ROBOT_TYPE = "so101_follower"
+SO101_JOINTS = {name: name.removesuffix(".pos") for name in SO100_JOINTS}  # the SO-101 model names joints as motors
+ARM_JOINTS = {SO100_ROBOT_TYPE: SO100_JOINTS, SO101_ROBOT_TYPE: SO101_JOINTS}  # robot type -> feature -> model joint
 GRIPPER = "gripper.pos"
 GRIPPER_SCALE = 100.0  # LeRobot's gripper: 0 .. 100 over the range
 RANGE_SCALE = 100.0  # LeRobot's body joints without degrees: -100 .. 100 over the range
@@ -62,17 +67,20 @@ MAX_SO100_VALUE = 1e4
 
 
 def feature_names(joint_names: Sequence[str]) -> tuple[list[str], str | None]:
-    """LeRobot names for the model joints `joint_names`, and the robot type: SO-100's when the joints are
-    exactly the SO-ARM100's six, else `<joint>.pos` each (and no robot type)."""
-    by_joint = {joint: name for name, joint in SO100_JOINTS.items()}
-    if sorted(joint_names) == sorted(by_joint):
-        return [by_joint[joint] for joint in joint_names], SO100_ROBOT_TYPE
+    """LeRobot names for the model joints `joint_names`, and the robot type: an SO follower's when the joints are
+    exactly the SO-ARM100's or the SO-101's six, else `<joint>.pos` each (and no robot type)."""
+    for robot_type, table in ARM_JOINTS.items():
+        by_joint = {joint: name for name, joint in table.items()}
+        if sorted(joint_names) == sorted(by_joint):
+            return [by_joint[joint] for joint in joint_names], robot_type
     return [joint + POSITION_SUFFIX for joint in joint_names], None
 
 
 def model_joint(name: str, joints: Mapping[str, tuple[float, float]]) -> str:
-    """The model joint a LeRobot feature name stands for; a name matching none is a TrajectoryError."""
-    joint = SO100_JOINTS.get(name) or name.removesuffix(POSITION_SUFFIX)
+    """The model joint a LeRobot feature name stands for (the arm's whose joint the model has); a name matching
+    none is a TrajectoryError."""
+    arms = (table[name] for table in ARM_JOINTS.values() if name in table and table[name] in joints)
+    joint = next(arms, name.removesuffix(POSITION_SUFFIX))
     if joint not in joints:
         raise TrajectoryError(
             f"the dataset's joint '{name}' matches no joint of the model (expected '<joint>{POSITION_SUFFIX}' or one "
@@ -190,7 +198,7 @@ class LeRobotUnits:
         else:
             assert motor is not None
             robot = mid + (-values if motor.drive_mode else values) / RANGE_SCALE * motor.half_span
-        return robot + self.offsets.get(SO100_JOINTS[name], 0.0)
+        return robot + self._offset(name)
 
     def from_model(
         self, name: str, values: NDArray[np.float64], joint_range: tuple[float, float]
@@ -200,7 +208,7 @@ class LeRobotUnits:
             return values
         low, high = _finite(name, joint_range)
         mid, motor = (low + high) / 2, self._motor(name)
-        robot = values - self.offsets.get(SO100_JOINTS[name], 0.0)
+        robot = values - self._offset(name)
         if name == GRIPPER:
             share = (robot - low) / (high - low) if motor is None else ((robot - mid) / motor.half_span + 1) / 2
             percent = share * GRIPPER_SCALE
@@ -210,6 +218,11 @@ class LeRobotUnits:
         assert motor is not None
         scaled = (robot - mid) / motor.half_span * RANGE_SCALE
         return -scaled if motor.drive_mode else scaled
+
+    def _offset(self, name: str) -> float:
+        """The mirror's offset of feature `name`'s joint, of whichever arm's joint names the offsets use (the
+        arms' joint names differ)."""
+        return next((self.offsets[table[name]] for table in ARM_JOINTS.values() if table[name] in self.offsets), 0.0)
 
     def _motor(self, name: str) -> MotorRange | None:
         return None if self.calibration is None else self.calibration[name.removesuffix(POSITION_SUFFIX)]
