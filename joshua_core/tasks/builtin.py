@@ -137,7 +137,7 @@ def pick_place(arm: Arm) -> TaskSpec:
             TermSpec("body_to_command", params={"body": "cube", "name": "goal"}, name="goal_offset"),
             TermSpec("body_pos", params={"body": "cube"}, name="cube_position"),
             # saturated at 100 N (a grasp reads ~46 N): contact spikes would inflate the normaliser's variance
-            # (see terms.sensor; the spikes measured are in bench/RESULTS.md)
+            # (see terms.sensor)
             TermSpec("sensor", params={"sensor": "gripper_touch_fixed", "saturation": 100.0}, name="touch_fixed"),
             TermSpec("sensor", params={"sensor": "gripper_touch_moving", "saturation": 100.0}, name="touch_moving"),
             TermSpec("last_action"),
@@ -146,7 +146,7 @@ def pick_place(arm: Arm) -> TaskSpec:
             # std 0.1: the gripper starts 0.11-0.17 m from the cube, where std 0.05 paid almost nothing (< 0.02)
             TermSpec("site_body_tanh", 1.0, {"site": "gripper", "body": "cube", "std": 0.1}, name="reach"),
             # the cube between both pads, not any touch of both: a press on the cube's top touches both pads too,
-            # and paid policies that pressed the cube into the table (test_pick_place_scripted.py, bench/RESULTS.md)
+            # and paid policies that pressed the cube into the table (test_pick_place_scripted.py)
             TermSpec("body_pinched", 0.5, {"body": "cube", **_PADS, "threshold": 0.05, "radius": 0.02}, name="grasp"),
             TermSpec("body_height_above", 1.0, {"body": "cube", "height": 0.04}, name="lift"),
             # while the gripper is at the cube: a reward for a cube lying near its goal paid the policy for leaving
@@ -156,13 +156,12 @@ def pick_place(arm: Arm) -> TaskSpec:
             ),
             # the same, coarse (std 0.3, as Isaac Lab's Lift): it pays across the whole table, so carrying the cube
             # toward the goal earns from the first grasp, where runs otherwise settled on holding it
-            # (bench/RESULTS.md)
             TermSpec(
                 "pushed_command_tanh", 2.0, {**_AT_GOAL, "site": "gripper", "radius": 0.05, "std": 0.3}, name="carry"
             ),
             TermSpec("body_command_within", 5.0, {"body": "cube", "name": "goal", "radius": 0.02}, name="at_goal"),
             # the cube let go at its goal: otherwise a cube at its goal pays as much held as released, and runs held
-            # placed cubes until they lost them; weight 3 makes letting go clearly pay (bench/RESULTS.md)
+            # placed cubes until they lost them; weight 3 makes letting go clearly pay
             TermSpec(
                 "body_released_at_command",
                 3.0,
