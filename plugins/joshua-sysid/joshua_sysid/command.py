@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import difflib
 import shutil
+import sys
 from pathlib import Path
 
 from joshua_core.cli import writable_folder
@@ -97,6 +98,9 @@ class SysidCommand(Command):
             f"{result.iterations} iterations in {result.seconds:.1f} s"
         )
         print(f"calibrated model: {model_file}\nreport: {report_file}\nplot: {run.path / report.PLOT_FILE}")
+        warning = fit.quality_warning(result)
+        if warning:
+            print(f"joshua: warning: {warning}", file=sys.stderr)
         return 0
 
 

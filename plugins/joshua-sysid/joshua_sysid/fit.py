@@ -30,6 +30,12 @@ KINDS = ("kp", "damping", "armature", "frictionloss")
 FACTOR_BOUNDS = (0.2, 5.0)
 # Scale of a parameter whose nominal value is 0 (the range is then [0, 5 x floor]).
 FLOORS = {"kp": 1.0, "damping": 0.05, "armature": 0.005, "frictionloss": 0.01}
+# A fitted factor this close (relative) to an end of its search range ended there: the optimizer would have gone
+# further, so the arm's value may lie beyond the range and the other parameters bent to make up for it.
+BOUND_TOLERANCE = 0.01
+# A servo still missing its recordings by more than this share of its recorded motion (RMS about its mean) after
+# the fit is not explained by the calibrated model (a parameter not fitted, or something the model lacks).
+POOR_TRACKING_SHARE = 0.1
 
 
 @dataclass(frozen=True)
@@ -173,6 +179,55 @@ def fit(
         iterations=int(iterations),
         seconds=seconds,
     )
+
+
+def at_bounds(result: FitResult) -> list[str]:
+    """The parameters (`<joint>.<kind>`) that ended at an end of their search range; 0 for a parameter whose
+    nominal value is 0 is a value, not the end of a range."""
+    ended = []
+    for joint, values in result.identified.items():
+        for kind, value in values.items():
+            nominal = result.nominal[joint][kind]
+            low, high = FACTOR_BOUNDS if nominal > 0 else (0.0, FACTOR_BOUNDS[1])
+            factor = value / (nominal if nominal > 0 else FLOORS[kind])
+            if factor >= high * (1 - BOUND_TOLERANCE) or (low > 0 and factor <= low * (1 + BOUND_TOLERANCE)):
+                ended.append(f"{joint}.{kind}")
+    return ended
+
+
+def poorly_tracked(result: FitResult) -> list[str]:
+    """The joints whose tracking error after the fit is above POOR_TRACKING_SHARE of their recorded motion."""
+    measured = np.concatenate(result.measured)
+    motion = np.sqrt(np.mean((measured - measured.mean(axis=0)) ** 2, axis=0))
+    joints = list(result.identified)
+    return [joints[i] for i in np.flatnonzero(result.rms_after > POOR_TRACKING_SHARE * motion)]
+
+
+def quality_warning(result: FitResult) -> str | None:
+    """One line saying why the fitted values should not be trusted as they are, or None for a sound fit."""
+    problems = []
+    ended = at_bounds(result)
+    if ended:
+        low, high = FACTOR_BOUNDS
+        problems.append(
+            f"{_listed(ended)} ended at the edge of the search range ({low:g}x to {high:g}x the nominal value), so "
+            "the arm's value may lie beyond it"
+        )
+    missed = poorly_tracked(result)
+    if missed:
+        problems.append(
+            f"the calibrated model still misses the recordings of {_listed(missed)} by over "
+            f"{POOR_TRACKING_SHARE:.0%} of their motion (a parameter left out of --fit, or something the model lacks)"
+        )
+    if not problems:
+        return None
+    return f"poor fit: {'; '.join(problems)}; check the model (units, actuators, nominal values) before using it"
+
+
+def _listed(names: list[str], shown: int = 4) -> str:
+    """The first `shown` names, comma-separated, and how many more."""
+    more = f" and {len(names) - shown} more" if len(names) > shown else ""
+    return ", ".join(names[:shown]) + more
 
 
 def _simulate(residual: Callable[..., tuple], parameters: sysid.ParameterDict) -> tuple[list, list]:

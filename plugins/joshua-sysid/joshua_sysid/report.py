@@ -12,7 +12,7 @@ import numpy as np
 
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json
 from joshua_core.outputs import check_inside
-from joshua_sysid.fit import KINDS, FitResult, write_value
+from joshua_sysid.fit import KINDS, FitResult, at_bounds, poorly_tracked, write_value
 from joshua_sysid.recordings import Recording, Servo
 
 REPORT_FILE = "report.json"
@@ -106,7 +106,12 @@ def report_document(
             "overall_after": after,
             "reduction_factor": before / after if after > 0 else None,
         },
-        "fit": {"iterations": result.iterations, "seconds": result.seconds},
+        "fit": {
+            "iterations": result.iterations,
+            "seconds": result.seconds,
+            "at_bounds": at_bounds(result),  # parameters that ended at an end of their search range
+            "poorly_tracked": poorly_tracked(result),  # joints the calibrated model still misses
+        },
         "outputs": outputs,
     }
 

@@ -77,7 +77,8 @@ def test_fit_finds_the_true_parameters_and_writes_a_model_that_compiles(recorded
     for joint in truth:
         assert tracking["after"][joint] * 5 <= tracking["before"][joint], (joint, tracking)
     assert tracking["overall_before"] > 0.02  # the nominal model was clearly off
-    assert "joint_1" in done.stdout and "tracking RMS" in done.stdout
+    assert "joint_1" in done.stdout and "tracking RMS" in done.stdout and "warning" not in done.stderr
+    assert report["fit"]["at_bounds"] == report["fit"]["poorly_tracked"] == []
     # The calibrated model compiles from its own folder (meshes copied beside it) and holds the fitted values.
     model = mujoco.MjModel.from_xml_path(str(run / report["outputs"]["model"]))
     assert model.nmesh == mujoco.MjModel.from_xml_path(str(ARM)).nmesh > 0
@@ -232,6 +233,37 @@ def test_a_fit_that_fails_while_writing_leaves_no_run_folder(tmp_path: Path, mon
     arguments = [str(recording), "--model", str(model), "--max-iters", "1", "--fit", "kp", "--run-name", "r"]
     assert main(["sysid", *arguments, "--output-dir", "out"]) == 2
     assert list((tmp_path / "out").iterdir()) == []
+
+
+ONE_JOINT = (
+    '<mujoco><worldbody><body><joint name="j" axis="0 0 1" damping="0.1"/><geom size="0.05" pos="0.1 0 0"/></body>'
+    '</worldbody><actuator><position name="j_position" joint="j" kp="{kp}" ctrlrange="-1 1"/></actuator></mujoco>'
+)
+
+
+@pytest.mark.parametrize(
+    ("fitted", "field", "expected"),
+    [
+        ("kp,damping", "at_bounds", "j.kp ended at the edge of the search range (0.2x to 5x the nominal value)"),
+        ("damping", "poorly_tracked", "still misses the recordings of j by over 10% of their motion"),
+    ],
+)
+def test_a_poor_fit_is_one_warning(tmp_path: Path, capsys, monkeypatch, fitted: str, field: str, expected: str) -> None:
+    """The arm's servo is 20 times stiffer than its model's. Fitted, kp stops at 5x and damping bends to make up for
+    it, so the tracking error is small and only the bound tells; left out, most of the tracking error stays."""
+    model = tmp_path / "arm.xml"
+    model.write_text(ONE_JOINT.format(kp=2))
+    arm = mujoco.MjModel.from_xml_string(ONE_JOINT.format(kp=40))
+    servos = recordings.model_servos(arm, model)
+    synthetic.write_csv(tmp_path / "rec.csv", servos, *synthetic.simulate(arm, servos, 0, 2.0, RATE_HZ))
+    monkeypatch.chdir(tmp_path)
+    arguments = ["rec.csv", "--model", str(model), "--fit", fitted, "--output-dir", "out", "--run-name", "r"]
+    assert main(["sysid", *arguments]) == 0
+    [warning] = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert warning.startswith("joshua: warning: poor fit: ") and expected in warning, warning
+    assert json.loads((tmp_path / "out" / "r" / report.REPORT_FILE).read_text())["fit"][field] == [
+        "j.kp" if field == "at_bounds" else "j"
+    ]
 
 
 def test_max_iters_runs_exactly_that_many_iterations(tmp_path: Path) -> None:
