@@ -104,7 +104,7 @@ class DemosCommand(Command):
         )
 
     def run(self, args: argparse.Namespace, plugins: PluginHost) -> int:
-        from joshua_lerobot.scripted_rollouts import SCRIPTED_TASK
+        from joshua_lerobot.scripted_rollouts import SCRIPTED_TASKS
 
         check_frame_size(args.width, args.height)  # before any rollout, not at the first frame written
         units = units_from_arguments(args)
@@ -112,10 +112,9 @@ class DemosCommand(Command):
         if not (args.preset or args.config):
             args.preset = DEFAULT_PRESET
         training = finalize(load(args, plugins.options())).training
-        if training.task != SCRIPTED_TASK:
-            raise UsageError(
-                f"the config's task is '{training.task}'; the scripted controller demonstrates '{SCRIPTED_TASK}'"
-            )
+        if training.task not in SCRIPTED_TASKS:
+            tasks = " or ".join(f"'{task}'" for task in SCRIPTED_TASKS)
+            raise UsageError(f"the config's task is '{training.task}'; the scripted controller demonstrates {tasks}")
         producer = make_producer(args, training, plugins)
         try:
             report = record_demonstrations(
@@ -161,7 +160,7 @@ def make_producer(args: argparse.Namespace, training: TrainingConfig, plugins: P
     from joshua_lerobot.scripted_rollouts import ScriptedMuJoCoProducer
 
     task_config = training.task_config if training.HasField("task_config") else None
-    return ScriptedMuJoCoProducer(task_config=task_config, **common)
+    return ScriptedMuJoCoProducer(task=training.task, task_config=task_config, **common)
 
 
 def chosen_physics(requested: str) -> str:

@@ -1,6 +1,7 @@
 """The GPU episode producer: joshua-mujoco's scripted pick-and-place controller (`PickPlaceScript`) driving
-`so_arm100_pick_place` in the `mjx` backend's JAX environments on MuJoCo Warp, each environment's cameras rendered
-by Warp's batched ray tracer inside the compiled step (joshua_mjx's cameras, `every_steps` = the frame stride).
+an arm's pick-and-place task in the `mjx` backend's JAX environments on MuJoCo Warp, each environment's cameras
+rendered by Warp's batched ray tracer inside the compiled step (joshua_mjx's cameras, `every_steps` = the frame
+stride).
 
 Where the script runs: its inverse kinematics (damped least squares on a CPU model, up to 200 iterations a step)
 depends only on where the arm, the cube and the goal start, not on what the servos measure on the way
@@ -38,14 +39,14 @@ from joshua_core.plugins import PluginHost
 from joshua_core.progress import status_line
 from joshua_core.resources import resolve_data_path
 from joshua_lerobot.rollouts import EpisodeProducer, Rollout, frame_stride
-from joshua_lerobot.scripted_rollouts import SCRIPTED_TASK, actuated_joints, camera_name, script_steps
+from joshua_lerobot.scripted_rollouts import actuated_joints, camera_name, script_steps
 
 CHUNK_BYTES = 256 * 2**20  # frames a compiled chunk keeps on the device before they are pulled
 MAX_BATCH_BYTES = 16 * 2**30  # frames of one batch on the host
 
 
 class ScriptedMjxProducer(EpisodeProducer):
-    """Rollouts of `PickPlaceScript` in `num_envs` MuJoCo Warp environments of `so_arm100_pick_place` (the model,
+    """Rollouts of `PickPlaceScript` in `num_envs` MuJoCo Warp environments of `training`'s task (the model,
     events and Warp capacities `training` names; events at full strength), `seed` starting the stream of resets;
     frames of `cameras` ("" = the model's first) at `size` (w, h), one every `fps`-th of a second."""
 
@@ -68,7 +69,7 @@ class ScriptedMjxProducer(EpisodeProducer):
 
         physics = replace(Physics.from_training(training), impl=WARP)  # cameras render on Warp only
         physics.leave_memory_to_warp()
-        spec = load_task_spec(SCRIPTED_TASK, plugins)
+        spec = load_task_spec(training.task, plugins)
         path = resolve_data_path(training.model_path) if training.model_path else mjx_variant(spec.model_path)
         model = compile_model(path, plugins=plugins)
         task_config = training.task_config if training.HasField("task_config") else None

@@ -1,11 +1,11 @@
-"""The CPU episode producer: joshua-mujoco's scripted pick-and-place controller (`PickPlaceScript`) driving
-`so_arm100_pick_place` in its batched CPU environments (mujoco.batch), each environment's cameras rendered by
-the simulation's own renderer (`BatchedVectorEnv.render_frame`: the environment's randomized model, the goal
-drawn as a green sphere, so that a policy trained on the images sees where to put the cube).
+"""The CPU episode producer: joshua-mujoco's scripted pick-and-place controller (`PickPlaceScript`) driving an
+arm's pick-and-place task (`SCRIPTED_TASKS`) in its batched CPU environments (mujoco.batch), each environment's
+cameras rendered by the simulation's own renderer (`BatchedVectorEnv.render_frame`: the environment's randomized
+model, the goal drawn as a green sphere, so that a policy trained on the images sees where to put the cube).
 
-It simulates the task's own scene (so_arm100/pick_place.xml), whatever scene a config names: the MJX presets name
-pick_place_mjx.xml, whose contacts are set up for MJX, and there mujoco's CPU solver lets the script place no
-cube (0 of 8 attempts, with and without the randomization), where the CPU scene places most."""
+It simulates the task's own scene (so_arm100/pick_place.xml, so101/pick_place.xml), whatever scene a config names:
+the MJX presets name pick_place_mjx.xml, whose contacts are set up for MJX, and there mujoco's CPU solver lets the
+script place no cube (0 of 8 attempts, with and without the randomization), where the CPU scene places most."""
 
 from __future__ import annotations
 
@@ -18,19 +18,21 @@ from numpy.typing import NDArray
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import UsageError
 from joshua_core.plugins import PluginHost
+from joshua_core.tasks.builtin import ARMS, pick_place
 from joshua_lerobot.rollouts import EpisodeProducer, Rollout, frame_stride
 
-SCRIPTED_TASK = "so_arm100_pick_place"  # the task PickPlaceScript solves
+SCRIPTED_TASKS = tuple(pick_place(arm).name for arm in ARMS)  # the tasks PickPlaceScript solves
 
 
 class ScriptedMuJoCoProducer(EpisodeProducer):
-    """Rollouts of `PickPlaceScript` in `num_envs` CPU environments of `so_arm100_pick_place` (randomized by
+    """Rollouts of `PickPlaceScript` in `num_envs` CPU environments of `task`, one of `SCRIPTED_TASKS` (randomized by
     `task_config`'s events at full strength), `seed` starting the stream of resets;
     frames of `cameras` ("" = the model's first) at `size` (w, h), one every `fps`-th of a second."""
 
     def __init__(
         self,
         *,
+        task: str,
         num_envs: int,
         cameras: Sequence[str],
         size: tuple[int, int],
@@ -41,7 +43,7 @@ class ScriptedMuJoCoProducer(EpisodeProducer):
     ) -> None:
         from joshua_mujoco import make_vector_env
 
-        self.env = make_vector_env(SCRIPTED_TASK, num_envs, seed=seed, task_config=task_config, plugins=plugins)
+        self.env = make_vector_env(task, num_envs, seed=seed, task_config=task_config, plugins=plugins)
         simulation = self.env.simulation
         model, task = simulation.model, simulation.task
         try:

@@ -193,3 +193,23 @@ def test_ctrl_c_writes_the_episodes_kept_before_it_as_a_dataset(tmp_path: Path) 
     (video,) = (out / "videos").rglob("*.mp4")
     with av.open(str(video)) as container:  # every frame kept is in the video, decodable
         assert sum(1 for _ in container.decode(video=0)) == 30 * kept
+
+
+def test_the_cpu_producer_demonstrates_the_so101_under_its_presets_randomization() -> None:
+    """`joshua demos --preset so101_pick_place_mjx_dr` rolls the script out on the SO-101's own task: its joints,
+    named as LeRobot's motors, and the cube placed under the randomized preset's events."""
+    from joshua_core.plugins import PluginHost
+    from joshua_lerobot.joints import SO101_JOINTS
+    from joshua_lerobot.scripted_rollouts import ScriptedMuJoCoProducer
+
+    training = finalize(load_preset("so101_pick_place_mjx_dr", LENIENT)).training
+    producer = ScriptedMuJoCoProducer(
+        task=training.task, num_envs=1, cameras=[""], size=(WIDTH, HEIGHT), fps=1, seed=0,
+        plugins=PluginHost.discover(), task_config=training.task_config,
+    )  # fmt: skip
+    try:
+        rollout = next(producer.rollouts())
+    finally:
+        producer.close()
+    assert producer.joint_names == tuple(SO101_JOINTS.values())
+    assert rollout.success and rollout.length == 6  # 300 control steps at 50 Hz, a frame a second
