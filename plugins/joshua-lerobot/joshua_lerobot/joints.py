@@ -11,7 +11,7 @@ written into the servo, so ticks are read with it applied and no formula needs i
 JOSHUA's SO-ARM100 (models/so_arm100/so_arm100.xml) has joint_1 .. joint_6 in radians, its SO-101
 (models/so101/so101.xml, so101_follower) the motors' own names; both have the calibrated SO-10x ranges, a tick is
 2 pi / 4095 rad as lerobot's degrees count it, and the middle of the calibrated range is the middle of the model
-joint's range (docs/sim-to-real.md, "Joint zeros" and "The SO-101"). So a body
+joint's range (docs/sim-to-real.md, "Joint zeros", and docs/so101.md). So a body
 angle a (degrees) is mid + radians(a), a body value r (range) mid + r / 100 * half span of the calibrated
 range, and the gripper g low + g / 100 * (high - low) over the model's range, or over the calibrated range
 when a calibration is given. Directions are taken to agree (the SO-ARM100 follows the SO-100 URDF's axes, the
