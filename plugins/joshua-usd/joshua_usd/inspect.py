@@ -1,10 +1,12 @@
 """`joshua usd inspect FILE`: what the importer makes of a USD robot, as plain text (SI units, radians and
-degrees), read back from the compiled MuJoCo model so it shows exactly what simulates."""
+degrees), read back from the compiled MuJoCo model so it shows exactly what simulates, and every authored physics
+attribute the import did not use, so that nothing is dropped unseen."""
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -12,16 +14,22 @@ from pxr import Usd
 
 from joshua_usd import physx_schema
 from joshua_usd.importer import Imported, compile_spec, import_usd
+from joshua_usd.importer.stage import prims
 
 JOINT_TYPES = {0: "free", 1: "ball (spherical)", 2: "prismatic (slide)", 3: "revolute (hinge)"}
+# Physics attributes: UsdPhysics' (physics:*, drive:*:physics:*, limit:*:physics:*), PhysX's (physx*:*), Newton's
+# (newton:*) and MuJoCo's (mjc:*).
+PHYSICS_NAMESPACES = ("newton", "mjc")
+SHOWN_ITEMS = 8  # of an array value
 
 
 def describe(path: Path) -> str:
-    """Bodies with masses, joints with limits, drives in SI units, colliders, the check against the PhysX schemas
-    and the import's warnings."""
+    """Bodies with masses, joints with limits, drives in SI units, colliders, the check against the PhysX schemas,
+    the authored physics attributes the import did not use and the import's warnings."""
     imported = import_usd(path)
     model = compile_spec(imported.spec, imported.report)
     frame = imported.frame
+    stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
     lines = [
         f"{path}: metersPerUnit {frame.meters_per_unit:g}, kilogramsPerUnit {frame.kilograms_per_unit:g}, "
         f"upAxis {frame.up_axis} (imported in metres, kilograms, Z up)",
@@ -32,7 +40,8 @@ def describe(path: Path) -> str:
         *_joints(model, imported),
         *_actuators(model),
         *_colliders(model, imported),
-        *physx_check(Usd.Stage.Open(str(path))),
+        *physx_check(stage),
+        *unused_attributes(stage, imported.report.used),
         f"warnings ({len(imported.report.warnings)}):",
         *(f"  {warning}" for warning in imported.report.warnings),
     ]
@@ -46,6 +55,36 @@ def physx_check(stage: Usd.Stage) -> list[str]:
         return [f"PhysX schemas: not checked, {physx_schema.missing_reason()}"]
     problems = physx_schema.check_stage(stage)
     return [f"PhysX schemas ({len(problems)} problems):", *(f"  {problem}" for problem in problems)]
+
+
+def unused_attributes(stage: Usd.Stage, used: set[tuple[str, str]]) -> list[str]:
+    """A summary line and a line `PRIM: ATTRIBUTE = VALUE` per authored physics attribute of the composed stage that
+    is not in `used` (the import's (prim path, attribute) pairs): what the MuJoCo model does not reflect."""
+    lines = [
+        f"  {prim.GetPath()}: {attribute.GetName()} = {_show(attribute.Get())}"
+        for prim in prims(stage)
+        for attribute in prim.GetAuthoredAttributes()
+        if _physics(attribute.GetName()) and (str(prim.GetPath()), attribute.GetName()) not in used
+    ]
+    return [f"physics attributes not used ({len(lines)}):", *lines]
+
+
+def _physics(name: str) -> bool:
+    """Whether attribute `name` belongs to a physics schema (UsdPhysics, PhysX, Newton, MuJoCo)."""
+    parts = name.split(":")
+    return parts[0] in PHYSICS_NAMESPACES or parts[0].startswith("physx") or "physics" in parts[:-1]
+
+
+def _show(value: Any) -> str:
+    """An attribute value in one short line: numbers to 6 significant digits, long arrays cut."""
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if hasattr(value, "GetReal"):
+        value = [value.GetReal(), *value.GetImaginary()]
+    if not isinstance(value, str) and hasattr(value, "__len__"):
+        items = [_show(item) for item in list(value)[:SHOWN_ITEMS]]
+        return "[" + ", ".join(items + (["..."] if len(value) > SHOWN_ITEMS else [])) + "]"
+    return str(value)
 
 
 def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, index: int) -> str:

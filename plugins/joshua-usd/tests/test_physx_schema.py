@@ -87,4 +87,6 @@ def test_inspect_lists_the_problems_before_the_warnings(tmp_path: Path) -> None:
     text = describe(tmp_path / "robot.usda")
     assert "\nPhysX schemas (1 problems):\n  /World/robot/elbow: physxJoint:armature is not defined" in text
     assert "armature 0.05 kg m^2" in text  # still imported: Isaac assets before the PhysX schemas write it
-    assert "PhysX schemas (0 problems):\nwarnings (0):" in describe(models_dir() / "isaac" / "so100.usd")
+    assert "PhysX schemas (0 problems):\nphysics attributes not used (0):\nwarnings (0):" in describe(
+        models_dir() / "isaac" / "so100.usd"
+    )

@@ -12,15 +12,17 @@ import mujoco
 import numpy as np
 from pxr import Sdf, Usd
 
-from joshua_usd.importer.drives import add_drive, joint_properties
+from joshua_usd.importer.drives import add_drive
 from joshua_usd.importer.geoms import add_geom, shapes
+from joshua_usd.importer.joint_dynamics import joint_properties
 from joshua_usd.importer.joints import add_joint, place
 from joshua_usd.importer.mass import probe, set_inertial
 from joshua_usd.importer.mjc_actuators import add_mjc_actuators, mjc_actuators
 from joshua_usd.importer.pose import IDENTITY, Pose, Vec
 from joshua_usd.importer.report import ImportReport
-from joshua_usd.importer.scene import set_articulations, set_collision_groups, set_scene
+from joshua_usd.importer.scene import physics_scene, set_articulations, set_collision_groups, set_scene
 from joshua_usd.importer.sensors import add_cameras, add_sensors
+from joshua_usd.importer.solver_options import angle_unit
 from joshua_usd.importer.stage import StageFrame, open_stage, read
 from joshua_usd.importer.topology import Link, build_tree, enclosing_body, joint_prims, rigid_bodies, walk
 
@@ -58,7 +60,8 @@ def import_usd(path: Path) -> Imported:
     spec.modelname = path.stem
     spec.compiler.degree = False
     names = unique_names((link.prim.GetPath() for link in links), reserved={"world"})
-    made, joints, targets = _add_links(spec, links, names, frame, report)
+    scene = physics_scene(stage, report)
+    made, joints, targets = _add_links(spec, links, names, frame, angle_unit(scene, report), report)
     found_actuators = list(mjc_actuators(stage))
     actuator_names = unique_names(
         (prim.GetPath() for prim in found_actuators), reserved={actuator.name for actuator in spec.actuators}
@@ -75,10 +78,10 @@ def import_usd(path: Path) -> Imported:
         geom = add_geom(spec, body.spec, body.pose, shape, geom_names[shape.prim.GetPath()], frame, report)
         if geom is not None and shape.collider:
             colliders[shape.prim.GetPath()] = geom
-    set_scene(spec, stage, frame, report)
+    scene_iterations = scene is not None and set_scene(spec, scene, frame, report)
     set_collision_groups(stage, colliders, report)
     static = {shape.prim.GetPath() for shape in found if shape.owner is None and shape.collider}
-    set_articulations(spec, stage, roots, names, static, report)
+    set_articulations(spec, stage, roots, names, static, report, scene_iterations=scene_iterations)
     model = probe(spec, report)
     for link in links:
         body = made[link.prim.GetPath()]
@@ -99,10 +102,16 @@ def import_usd(path: Path) -> Imported:
 
 
 def _add_links(
-    spec: mujoco.MjSpec, links: list[Link], names: dict[Sdf.Path, str], frame: StageFrame, report: ImportReport
+    spec: mujoco.MjSpec,
+    links: list[Link],
+    names: dict[Sdf.Path, str],
+    frame: StageFrame,
+    angle: float,
+    report: ImportReport,
 ) -> tuple[dict[Sdf.Path, _Body], dict[Sdf.Path, mujoco.MjsJoint], list[float]]:
-    """Add every link (parents first) as a body with its joint and drive; returns the bodies and the MuJoCo
-    joints by prim path and the drive targets in actuator order."""
+    """Add every link (parents first) as a body with its joint and drive (`angle`: radians per unit of MuJoCo's
+    angles in mjc:* attributes); returns the bodies and the MuJoCo joints by prim path and the drive targets in
+    actuator order."""
     joint_names = unique_names(link.joint.prim.GetPath() for link in links if link.joint is not None)
     made: dict[Sdf.Path, _Body] = {}
     joints: dict[Sdf.Path, mujoco.MjsJoint] = {}
@@ -122,7 +131,7 @@ def _add_links(
         joint = add_joint(body, link, placement, joint_name, frame, report)
         if joint is not None:
             joints[link.joint.prim.GetPath()] = joint
-            joint_properties(link.joint.prim, joint, frame, report)
+            joint_properties(link.joint.prim, joint, frame, angle, report)
             target = add_drive(spec, link.joint.prim, joint, frame, report)
             targets += [] if target is None else [target]
     return made, joints, targets

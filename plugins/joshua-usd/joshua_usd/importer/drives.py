@@ -1,6 +1,5 @@
-"""DriveAPI drives as MuJoCo actuators (named after their joint, or as the exporter's joshua:actuator* say) and
-PhysX joint attributes MuJoCo has an equivalent of. USD angular drives are per degree; everything here is
-converted to SI."""
+"""DriveAPI drives as MuJoCo actuators (named after their joint, or as the exporter's joshua:actuator* say). USD
+angular drives are per degree; everything here is converted to SI."""
 
 from __future__ import annotations
 
@@ -10,26 +9,7 @@ import mujoco
 from pxr import Usd, UsdPhysics
 
 from joshua_usd.importer.report import ImportReport
-from joshua_usd.importer.stage import StageFrame, positive, read, read_physx
-from joshua_usd.physx_schema import JOINT_AXES, attribute_name
-
-# Above this (deg/s or units/s) PhysX's max joint velocity is Isaac's "unlimited" default: not warned about.
-UNLIMITED_VELOCITY = 1e6
-# PhysxJointAPI: gone from the PhysX schemas (physx-usd-schemas 25.11; ovphysx 0.7 ignores it), still in Isaac assets
-# written before: its attributes are read by name, per joint, where the joint's PhysxJointAxisAPI has no value.
-LEGACY_JOINT_NAMESPACE = "physxJoint"
-FRICTION_ATTRIBUTES = (f"{LEGACY_JOINT_NAMESPACE}:jointFriction", "physics:jointFriction")
-# The PhysxJointAxisAPI instances read per joint type: PhysX's, and "angular" on ball joints too (exports before
-# the PhysX schemas wrote it there).
-AXIS_INSTANCES = {**JOINT_AXES, mujoco.mjtJoint.mjJNT_BALL: ("angular", *JOINT_AXES[mujoco.mjtJoint.mjJNT_BALL])}
-
-
-def _units(angular: bool, frame: StageFrame) -> tuple[float, float]:
-    """(SI per stage unit of position, SI per stage unit of force/torque) for an angular or linear joint."""
-    kilograms, meters = frame.kilograms_per_unit, frame.meters_per_unit
-    if angular:
-        return math.pi / 180, kilograms * meters**2
-    return meters, kilograms * meters
+from joshua_usd.importer.stage import StageFrame, positive, read
 
 
 def add_drive(
@@ -46,7 +26,7 @@ def add_drive(
         report.warn(prim.GetPath(), f"{api} does not drive a {joint.type.name} joint: ignored")
     if not prim.HasAPI(UsdPhysics.DriveAPI, instance):
         return None
-    position_unit, force_unit = _units(angular, frame)
+    position_unit, force_unit = frame.joint_units(angular)
     gear = _gear(prim, report)
     attribute = f"drive:{instance}:physics:"
     stiffness, damping = (
@@ -97,72 +77,3 @@ def _gear(prim: Usd.Prim, report: ImportReport) -> float:
     if gear == 0:
         raise report.error(prim.GetPath(), "joshua:actuator:gear", "must not be zero")
     return 1.0 if gear is None else float(gear)
-
-
-def joint_properties(prim: Usd.Prim, joint: mujoco.MjsJoint, frame: StageFrame, report: ImportReport) -> None:
-    """PhysX joint attributes, per axis (PhysxJointAxisAPI) before per joint (PhysxJointAPI): armature, viscous
-    friction (MuJoCo's damping), friction effort (frictionloss) and max velocity (warned)."""
-    angular = joint.type != mujoco.mjtJoint.mjJNT_SLIDE
-    instances = AXIS_INSTANCES[joint.type]
-    position_unit, force_unit = _units(angular, frame)
-    armature = _joint_value(prim, instances, "armature", report)
-    if armature:  # an inertia (kg unit^2) for angular joints, a mass for linear ones
-        inertia_unit = frame.kilograms_per_unit * (frame.meters_per_unit**2 if angular else 1.0)
-        joint.armature = positive(prim, armature[0], armature[1], report) * inertia_unit
-    viscous = _joint_value(prim, instances, "viscousFrictionCoefficient", report, joint_level=False)
-    if viscous:  # per degree on angular axes, like drive damping
-        joint.damping[0] = positive(prim, viscous[0], viscous[1], report) * force_unit / position_unit
-    friction = _friction_effort(prim, instances, report)
-    if friction:
-        joint.frictionloss = positive(prim, friction[0], friction[1], report) * force_unit
-    velocity = _joint_value(prim, instances, "maxJointVelocity", report, allow_inf=True)
-    if velocity and velocity[1] < UNLIMITED_VELOCITY:
-        report.warn(prim.GetPath(), f"{velocity[0]} {velocity[1]:.6g} is not enforced by MuJoCo")
-
-
-def _joint_value(
-    prim: Usd.Prim,
-    instances: tuple[str, ...],
-    key: str,
-    report: ImportReport,
-    *,
-    joint_level: bool = True,
-    allow_inf: bool = False,
-) -> tuple[str, float] | None:
-    """(attribute, value) of PhysxJointAxisAPI's <key> for the joint's axis instances (the largest where a ball
-    joint's differ: MuJoCo has one value per joint, warned), else of physxJoint:<key>; None if unauthored."""
-    found = {
-        attribute_name("PhysxJointAxisAPI", key, instance): value
-        for instance in instances
-        if (value := read_physx(prim, "PhysxJointAxisAPI", key, report, instance=instance, allow_inf=allow_inf))
-        is not None
-    }
-    if len(set(found.values())) > 1:
-        report.warn(prim.GetPath(), f"{key} differs between axes: MuJoCo uses the largest on every axis")
-    if found:
-        name = max(found, key=found.__getitem__)
-        return name, float(found[name])
-    name = f"{LEGACY_JOINT_NAMESPACE}:{key}"
-    value = read(prim, name, report, allow_inf=allow_inf) if joint_level else None
-    return None if value is None else (name, float(value))
-
-
-def _friction_effort(prim: Usd.Prim, instances: tuple[str, ...], report: ImportReport) -> tuple[str, float] | None:
-    """The joint's Coulomb friction torque (force): dynamicFrictionEffort, else staticFrictionEffort (warned where
-    both differ), else PhysX's joint friction coefficient taken as one (warned)."""
-    dynamic = _joint_value(prim, instances, "dynamicFrictionEffort", report, joint_level=False)
-    static = _joint_value(prim, instances, "staticFrictionEffort", report, joint_level=False)
-    if dynamic and static and abs(dynamic[1] - static[1]) > 1e-9:
-        report.warn(
-            prim.GetPath(),
-            f"staticFrictionEffort {static[1]:.6g} differs from dynamicFrictionEffort "
-            f"{dynamic[1]:.6g}: MuJoCo's frictionloss is the dynamic one",
-        )
-    if dynamic or static:
-        return dynamic or static
-    for name in FRICTION_ATTRIBUTES:
-        friction = read(prim, name, report)
-        if friction:
-            report.warn(prim.GetPath(), f"{name} (a PhysX coefficient) is used as MuJoCo's frictionloss in SI units")
-            return name, float(friction)
-    return None

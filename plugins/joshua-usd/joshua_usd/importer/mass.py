@@ -9,7 +9,7 @@ from pxr import Usd, UsdPhysics
 
 from joshua_usd.importer.pose import Vec
 from joshua_usd.importer.report import ImportReport
-from joshua_usd.importer.stage import StageFrame, positive, read, read_quat
+from joshua_usd.importer.stage import StageFrame, positive, read, read_array, read_authored, read_quat
 
 # What a body with no mass and no colliders gets (as PhysX does, with a warning): 1 kg, a 10 cm solid sphere.
 FALLBACK_MASS = 1.0
@@ -46,18 +46,22 @@ def set_inertial(
         return
     authored_mass = read(prim, "physics:mass", report) or 0.0  # 0 (the default) means "from density"
     mass = positive(prim, "physics:mass", authored_mass, report) * frame.kilograms_per_unit
-    diagonal = np.asarray(read(prim, "physics:diagonalInertia", report) or np.zeros(3), dtype=np.float64)
+    full = _full_inertia(prim, report)
+    diagonal = np.zeros(3) if full is not None else read(prim, "physics:diagonalInertia", report)
+    diagonal = np.asarray(diagonal if diagonal is not None else np.zeros(3), dtype=np.float64)
     for value in diagonal:
         positive(prim, "physics:diagonalInertia", value, report)
     center = read(prim, "physics:centerOfMass", report, allow_inf=True)
-    if empty and (not mass or not diagonal.any()):
+    if empty and (not mass or (full is None and not diagonal.any())):
         report.warn(
             prim.GetPath(), "no collider to weigh: its mass is 1 kg unless authored, its inertia a 10 cm sphere's"
         )
     mass = mass or (FALLBACK_MASS if empty else geometric)
     body.explicitinertial = True
     body.mass = mass
-    if diagonal.any():
+    if full is not None:
+        body.fullinertia = full * frame.kilograms_per_unit * frame.meters_per_unit**2
+    elif diagonal.any():
         body.inertia = diagonal * frame.kilograms_per_unit * frame.meters_per_unit**2
         axes = read_quat(prim, "physics:principalAxes", report)
         body.iquat = axes if axes is not None else [1.0, 0, 0, 0]
@@ -70,3 +74,15 @@ def set_inertial(
         body.ipos = scale * np.asarray(center, dtype=np.float64)
     else:
         body.ipos = model.body_ipos[index]
+
+
+def _full_inertia(prim: Usd.Prim, report: ImportReport) -> np.ndarray | None:
+    """NewtonMassAPI's newton:inertia, [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] in the body frame, which overrides
+    diagonalInertia and principalAxes; None when unauthored or empty (no opinion)."""
+    value = read_authored(prim, "newton:inertia", report)
+    if value is None or not len(value):
+        return None
+    full = read_array(prim, "newton:inertia", 6, report)
+    for moment in full[:3]:
+        positive(prim, "newton:inertia", float(moment), report)
+    return full

@@ -15,7 +15,7 @@ import numpy as np
 from pxr import Sdf, Usd
 
 from joshua_usd.importer.report import ImportReport
-from joshua_usd.importer.stage import StageFrame, prims, read, read_number
+from joshua_usd.importer.stage import StageFrame, applied, prims, read, read_number
 
 ACTUATOR_TYPE = "MjcActuator"
 ACTUATOR_API = "MjcActuatorAPI"
@@ -55,7 +55,7 @@ UNSUPPORTED_RELATIONSHIPS = ("mjc:refSite", "mjc:sliderSite")
 def mjc_actuators(stage: Usd.Stage) -> Iterator[Usd.Prim]:
     """The stage's MjcActuator prims and prims with MjcActuatorAPI, in stage order."""
     for prim in prims(stage):
-        if prim.GetTypeName() == ACTUATOR_TYPE or ACTUATOR_API in prim.GetAppliedSchemas():
+        if prim.GetTypeName() == ACTUATOR_TYPE or applied(prim, ACTUATOR_API):
             yield prim
 
 

@@ -1,5 +1,6 @@
-"""Scene-wide settings: PhysicsScene gravity and time step, PhysX articulation solver iterations and
-self-collision, CollisionGroups as contype/conaffinity bits and FilteredPairsAPI as MuJoCo contact exclusions."""
+"""Scene-wide settings: PhysicsScene gravity, time step and solver options (Newton's, MuJoCo's, PhysX's),
+articulation self-collision, CollisionGroups as contype/conaffinity bits and FilteredPairsAPI as MuJoCo contact
+exclusions."""
 
 from __future__ import annotations
 
@@ -12,24 +13,28 @@ import numpy as np
 from pxr import Sdf, Usd, UsdPhysics
 
 from joshua_usd.importer.report import ImportReport
-from joshua_usd.importer.stage import StageFrame, prims, read, read_physx
+from joshua_usd.importer.solver_options import set_solver_options
+from joshua_usd.importer.stage import StageFrame, applied, prims, read, read_authored, read_number, read_physx
 from joshua_usd.importer.topology import Link, walk
 from joshua_usd.physx_schema import attribute_name
 
 EARTH_GRAVITY = 9.80665  # m/s^2, UsdPhysics' default magnitude
-OPTION_PREFIX = "joshua:option:"  # MuJoCo solver settings the exporter writes on the PhysicsScene
+NEWTON_STEPS_PER_SECOND = 1000  # NewtonSceneAPI's fallback of newton:timeStepsPerSecond
 MAX_GROUPS = 31  # MuJoCo's contype/conaffinity have 32 bits: one per group and one for colliders in none
 
 
-def set_scene(spec: mujoco.MjSpec, stage: Usd.Stage, frame: StageFrame, report: ImportReport) -> None:
-    """Gravity (direction and magnitude in stage units, default: Earth's along -up), the time step
-    (physxScene:timeStepsPerSecond; MuJoCo's default otherwise) and joshua:option:* of the first PhysicsScene."""
+def physics_scene(stage: Usd.Stage, report: ImportReport) -> Usd.Prim | None:
+    """The first PhysicsScene (further ones are warned about and ignored), None when there is none."""
     scenes = [prim for prim in prims(stage) if prim.IsA(UsdPhysics.Scene)]
     for extra in scenes[1:]:
         report.warn(extra.GetPath(), "only the first PhysicsScene is used: ignored")
-    if not scenes:
-        return
-    scene = scenes[0]
+    return scenes[0] if scenes else None
+
+
+def set_scene(spec: mujoco.MjSpec, scene: Usd.Prim, frame: StageFrame, report: ImportReport) -> bool:
+    """Gravity (direction and magnitude in stage units, default: Earth's along -up; newton:gravityEnabled), the time
+    step and MuJoCo's solver options of the PhysicsScene `scene`. Returns whether the scene set the solver iterations
+    (newton:maxSolverIterations or mjc:option:iterations), which then take precedence over PhysX's articulations'."""
     direction = np.asarray(read(scene, "physics:gravityDirection", report), dtype=np.float64)
     magnitude = read(scene, "physics:gravityMagnitude", report, allow_inf=True)
     if np.linalg.norm(direction) > 0:
@@ -39,32 +44,52 @@ def set_scene(spec: mujoco.MjSpec, stage: Usd.Stage, frame: StageFrame, report: 
         direction = np.array([0.0, 0.0, -1.0])
     gravity = EARTH_GRAVITY if magnitude is None or math.isinf(magnitude) else magnitude * frame.meters_per_unit
     spec.option.gravity = direction * gravity
-    steps = read_physx(scene, "PhysxSceneAPI", "timeStepsPerSecond", report)
-    if steps is not None:
-        if steps <= 0:
-            name = attribute_name("PhysxSceneAPI", "timeStepsPerSecond")
-            raise report.error(scene.GetPath(), name, f"must be positive, got {steps}")
-        spec.option.timestep = 1.0 / steps
-    _set_options(spec, scene, report)
+    _set_timestep(spec, scene, report)
+    set_solver_options(spec, scene, report)
+    enabled = read_number(scene, "newton:gravityEnabled", report, authored=True)
+    if enabled is not None:
+        gravity_bit = int(mujoco.mjtDisableBit.mjDSBL_GRAVITY)
+        spec.option.disableflags = spec.option.disableflags & ~gravity_bit | (0 if enabled else gravity_bit)
+    return _set_iterations(spec, scene, report)
 
 
-def _set_options(spec: mujoco.MjSpec, scene: Usd.Prim, report: ImportReport) -> None:
-    """The exporter's joshua:option:* (integrator, cone, impratio): MuJoCo settings UsdPhysics has no
-    attribute for; unknown names are warned about and MuJoCo's defaults kept."""
-    for name, enum, prefix in (("integrator", mujoco.mjtIntegrator, "mjINT_"), ("cone", mujoco.mjtCone, "mjCONE_")):
-        value = read(scene, OPTION_PREFIX + name, report)
+def _set_timestep(spec: mujoco.MjSpec, scene: Usd.Prim, report: ImportReport) -> None:
+    """The first authored of newton:timeStepsPerSecond (Hz), mjc:option:timestep (s, deprecated by Newton's) and
+    physxScene:timeStepsPerSecond (Hz); else NewtonSceneAPI's fallback of 1000 Hz where it (or MjcSceneAPI, which
+    includes it) is applied; else MuJoCo's 0.002 s. A non-positive value is a ModelError."""
+    physx = attribute_name("PhysxSceneAPI", "timeStepsPerSecond")
+    candidates = (("newton:timeStepsPerSecond", True), ("mjc:option:timestep", False), (physx, True))
+    found = next(
+        (
+            (name, value, hertz)
+            for name, hertz in candidates
+            if (value := read_number(scene, name, report, authored=True)) is not None
+        ),
+        None,
+    )
+    if found is None:
+        if not any(applied(scene, api) for api in ("NewtonSceneAPI", "MjcSceneAPI")):
+            return
+        found = ("newton:timeStepsPerSecond", NEWTON_STEPS_PER_SECOND, True)
+    name, value, hertz = found
+    if value <= 0:
+        raise report.error(scene.GetPath(), name, f"must be positive, got {value}")
+    spec.option.timestep = 1.0 / value if hertz else value
+
+
+def _set_iterations(spec: mujoco.MjSpec, scene: Usd.Prim, report: ImportReport) -> bool:
+    """newton:maxSolverIterations (-1: the solver's own, MuJoCo's 100), else the deprecated mjc:option:iterations,
+    as MuJoCo's solver iterations; whether either is authored."""
+    for name in ("newton:maxSolverIterations", "mjc:option:iterations"):
+        value = read_number(scene, name, report, integer=True, authored=True)
         if value is None:
             continue
-        member = getattr(enum, prefix + str(value).upper(), None)
-        if member is None:
-            report.warn(scene.GetPath(), f"{OPTION_PREFIX}{name} {value!r} is not a MuJoCo {name}: ignored")
-        else:
-            setattr(spec.option, name, member)
-    impratio = read(scene, OPTION_PREFIX + "impratio", report)
-    if impratio is not None:
-        if impratio <= 0:
-            raise report.error(scene.GetPath(), OPTION_PREFIX + "impratio", f"must be positive, got {impratio}")
-        spec.option.impratio = float(impratio)
+        if value < -1 or (value in (-1, 0) and name == "mjc:option:iterations"):
+            raise report.error(scene.GetPath(), name, f"must be -1 or positive, got {value}")
+        if value > 0:
+            spec.option.iterations = int(value)
+        return True
+    return False
 
 
 def set_articulations(
@@ -74,18 +99,24 @@ def set_articulations(
     names: dict[Sdf.Path, str],
     static: set[Sdf.Path],
     report: ImportReport,
+    *,
+    scene_iterations: bool,
 ) -> None:
-    """Per ArticulationRootAPI prim: enabledSelfCollisions false excludes contacts between all its bodies;
-    the largest solverPositionIterationCount becomes MuJoCo's solver iterations. FilteredPairsAPI targets are
+    """Per ArticulationRootAPI prim: self-collision disabled (newton:selfCollisionEnabled, else PhysX's
+    enabledSelfCollisions) excludes contacts between all its bodies; the largest solverPositionIterationCount
+    becomes MuJoCo's solver iterations unless the scene set them (`scene_iterations`). FilteredPairsAPI targets are
     rigid bodies or `static` colliders (the world's)."""
     iterations = []
     for prim in prims(stage):
         if not prim.HasAPI(UsdPhysics.ArticulationRootAPI):
             continue
-        count = read_physx(prim, "PhysxArticulationAPI", "solverPositionIterationCount", report)
-        if count is not None:
-            iterations.append(int(count))
-        if read_physx(prim, "PhysxArticulationAPI", "enabledSelfCollisions", report) is False:
+        if not scene_iterations:
+            count = read_physx(prim, "PhysxArticulationAPI", "solverPositionIterationCount", report)
+            iterations += [] if count is None else [int(count)]
+        self_collisions = read_authored(prim, "newton:selfCollisionEnabled", report)
+        if self_collisions is None:
+            self_collisions = read_physx(prim, "PhysxArticulationAPI", "enabledSelfCollisions", report)
+        if self_collisions is not None and not self_collisions:
             bodies = [link.prim.GetPath() for link in _articulation(prim.GetPath(), roots)]
             for first, second in itertools.combinations(bodies, 2):
                 spec.add_exclude(bodyname1=names[first], bodyname2=names[second])

@@ -14,8 +14,9 @@ from pxr import Sdf, Usd, UsdGeom
 
 from joshua_usd.importer.pose import Pose, Vec
 from joshua_usd.importer.report import ImportReport
-from joshua_usd.importer.stage import StageFrame, prims, read
+from joshua_usd.importer.stage import StageFrame, prims, read, read_physx
 from joshua_usd.importer.topology import enclosing_body
+from joshua_usd.physx_schema import attribute_name
 
 IMU_TYPE = "IsaacImuSensor"
 CONTACT_TYPE = "IsaacContactSensor"
@@ -72,6 +73,8 @@ def add_sensors(
         if read(prim, "enabled", report) is False:
             report.warn(prim.GetPath(), "a disabled sensor: not imported")
             continue
+        if is_contact:
+            _report_threshold(owner, report)
         body, pose = body_of(prim)
         site_name = str(read(prim, "joshua:sensor:site", report) or prim.GetName())
         key = (body.name, site_name)
@@ -83,6 +86,16 @@ def add_sensors(
                 _sensor(spec, prim, sensor_kind, f"{prim.GetName()}_{suffix}", site, report)
         else:
             _sensor(spec, prim, str(kind or "touch"), prim.GetName(), site, report)
+
+
+def _report_threshold(body: Usd.Prim, report: ImportReport) -> None:
+    """Warn about a positive PhysxContactReportAPI threshold on a contact sensor's body: MuJoCo's touch sensor reads
+    every contact, as PhysX's threshold of 0 does."""
+    threshold = read_physx(body, "PhysxContactReportAPI", "threshold", report)
+    if threshold:
+        message = f"contact report threshold {threshold:.6g}: MuJoCo's touch sensor reads every contact"
+        report.warn(body.GetPath(), message)
+        report.ignore(body.GetPath(), attribute_name("PhysxContactReportAPI", "threshold"))
 
 
 def _site(

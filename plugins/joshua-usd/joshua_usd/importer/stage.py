@@ -81,6 +81,14 @@ class StageFrame:
         matrix[:3, :3] = meters * (np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]) if up == "Y" else np.eye(3))
         return cls(meters, kilograms, up, matrix, report)
 
+    def joint_units(self, angular: bool) -> tuple[float, float]:
+        """(SI per stage unit of position, SI per stage unit of force or torque) of an angular or linear joint: USD
+        measures angles in degrees."""
+        kilograms, meters = self.kilograms_per_unit, self.meters_per_unit
+        if angular:
+            return math.pi / 180, kilograms * meters**2
+        return meters, kilograms * meters
+
     def world_matrix(self, prim: Usd.Prim | None) -> NDArray[np.float64]:
         """The prim's local-to-world matrix in MuJoCo's world (column vectors); None is the world itself. A singular
         one (a scale of 0 on the prim or above it) is a ModelError naming the prim whose own transform collapses."""
@@ -134,10 +142,13 @@ def _local_matrix(prim: Usd.Prim) -> NDArray[np.float64]:
 
 def read(prim: Usd.Prim, name: str, report: ImportReport, *, allow_inf: bool = False) -> Any:
     """The value of attribute `name` (authored or the schema fallback), None when it has none; a NaN (or an
-    infinity unless `allow_inf`) is a ModelError naming the prim and attribute."""
+    infinity unless `allow_inf`) is a ModelError naming the prim and attribute. An authored value counts as used
+    (`ImportReport.used`) unless the caller says otherwise (`ImportReport.ignore`)."""
     attribute = prim.GetAttribute(name)
     if not attribute or not attribute.HasValue():
         return None
+    if attribute.HasAuthoredValue():
+        report.used.add((str(prim.GetPath()), name))
     value = attribute.Get()
     numbers = np.asarray(_numeric(value), dtype=np.float64)
     if numbers.size and (np.isnan(numbers).any() or (not allow_inf and np.isinf(numbers).any())):
@@ -145,11 +156,19 @@ def read(prim: Usd.Prim, name: str, report: ImportReport, *, allow_inf: bool = F
     return value
 
 
-def read_number(prim: Usd.Prim, name: str, report: ImportReport, *, integer: bool = False) -> float | None:
-    """The value of attribute `name` as a number (checked as `read` checks), None when it has none. A value of
-    another type (a string, an array) is a ModelError naming the prim and attribute, as is, where `integer`, one
-    that is not a whole number MuJoCo's 32-bit integers hold."""
-    value = read(prim, name, report)
+def read_number(
+    prim: Usd.Prim,
+    name: str,
+    report: ImportReport,
+    *,
+    integer: bool = False,
+    authored: bool = False,
+    allow_inf: bool = False,
+) -> float | None:
+    """The value of attribute `name` as a number (checked as `read` checks), None when it has none (or, where
+    `authored`, none authored). A value of another type (a string, an array) is a ModelError naming the prim and
+    attribute, as is, where `integer`, one that is not a whole number MuJoCo's 32-bit integers hold."""
+    value = (read_authored if authored else read)(prim, name, report, allow_inf=allow_inf)
     if value is None:
         return None
     if not isinstance(value, int | float):  # bool is an int: USD's bool attributes read as 0 or 1
@@ -159,14 +178,38 @@ def read_number(prim: Usd.Prim, name: str, report: ImportReport, *, integer: boo
     return int(value) if integer else float(value)
 
 
+def read_authored(prim: Usd.Prim, name: str, report: ImportReport, *, allow_inf: bool = False) -> Any:
+    """The authored value of attribute `name`, None when unauthored (a registered schema's fallback is not read:
+    the importer names the fallbacks it relies on itself, so a stage imports the same with or without the schema
+    registered). Checked as `read` checks."""
+    return read(prim, name, report, allow_inf=allow_inf) if prim.GetAttribute(name).HasAuthoredValue() else None
+
+
+def applied(prim: Usd.Prim, api: str) -> bool:
+    """Whether the API schema `api` is applied to `prim`, registered with USD or not (MuJoCo's and Newton's
+    schemas usually are not)."""
+    return api in prim.GetPrimTypeInfo().GetAppliedAPISchemas()
+
+
+def read_array(prim: Usd.Prim, name: str, size: int, report: ImportReport) -> np.ndarray | None:
+    """The authored array of `size` numbers at attribute `name`, None when unauthored; another length or type is a
+    ModelError naming the prim and attribute (MuJoCo holds exactly `size` numbers there)."""
+    value = read_authored(prim, name, report)
+    if value is None:
+        return None
+    numbers = np.asarray(_numeric(value), dtype=np.float64)
+    if isinstance(value, str) or numbers.shape != (size,):
+        raise report.error(prim.GetPath(), name, f"must be {size} numbers, got {reprlib.repr(value)}")
+    return numbers
+
+
 def read_physx(
     prim: Usd.Prim, api: str, key: str, report: ImportReport, *, instance: str = "", allow_inf: bool = False
 ) -> Any:
     """The authored value of property `key` of the PhysX API schema `api` (its `instance` where multiple-apply),
     named by the PhysX schemas; None when unauthored: their fallbacks are PhysX's defaults, not MuJoCo's, so a
     stage imports the same with the schemas registered or not. Checked as `read` checks."""
-    name = attribute_name(api, key, instance)
-    return read(prim, name, report, allow_inf=allow_inf) if prim.GetAttribute(name).HasAuthoredValue() else None
+    return read_authored(prim, attribute_name(api, key, instance), report, allow_inf=allow_inf)
 
 
 def _numeric(value: Any) -> Any:
