@@ -13,8 +13,9 @@
 #                       joshua-lerobot (LeRobot datasets in and out: pyarrow, PyAV)
 #   ./setup.sh --dev    --all and what the tests need: pytest, ruff, protoc (grpcio-tools), trimesh,
 #                       Gymnasium's MuJoCo environments (the reference of bench/cpu_env_throughput.py),
-#                       Xvfb, xwd and xdotool for the viewer tests, chromium and its driver for the web display's, and the real lerobot 0.4.4 for
-#                       joshua-lerobot's tests in .cache/lerobot-site (with FFmpeg's libraries from apt)
+#                       Xvfb, xwd and xdotool for the viewer tests, chromium and its driver for the web display's, the real lerobot 0.4.4 for
+#                       joshua-lerobot's tests in .cache/lerobot-site (with FFmpeg's libraries from apt), and NVIDIA's
+#                       mujoco-usd-converter for joshua-usd's in .cache/usd-converter (a venv of its own)
 # Versions come from constraints.txt. pip's cache stays inside the clone (.cache/pip).
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -91,6 +92,17 @@ if [[ -n $option ]]; then
   "${pip_install[@]}" -c constraints.txt --no-deps ovphysx ovstage physx-usd-schemas
 fi
 compile_sites .venv/lib
+CONVERTER_REQUIREMENTS=plugins/joshua-usd/tests/converter-requirements.txt
+if [[ $option == --dev ]] && ! cmp -s $CONVERTER_REQUIREMENTS .cache/usd-converter/requirements.txt; then
+  # NVIDIA/Newton's mujoco-usd-converter for joshua-usd's tests, in a venv of its own: it pins mujoco<3.17 and its
+  # usd-exchange ships a `pxr` that must not share an environment with usd-core. Rebuilt whole when the pins change
+  # (the venv keeps a copy of the requirements it was installed from, written last).
+  echo "setup: installing mujoco-usd-converter (tests only) into .cache/usd-converter"
+  rm -rf .cache/usd-converter
+  "$PYTHON" -m venv --without-pip .cache/usd-converter
+  .venv/bin/pip --python .cache/usd-converter/bin/python install -q --no-deps -r $CONVERTER_REQUIREMENTS
+  cp $CONVERTER_REQUIREMENTS .cache/usd-converter/requirements.txt
+fi
 if [[ -n $lerobot_site ]]; then
   wait $lerobot_site  # its failure fails the setup (set -e)
   compile_sites .cache/lerobot-site.partial
