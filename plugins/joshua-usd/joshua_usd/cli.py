@@ -19,7 +19,8 @@ class UsdCommand(Command):
         inspect = actions.add_parser(
             "inspect",
             help="print the bodies, joints (limits in radians and degrees), drives in SI units, "
-            "colliders, masses and warnings the importer reads from a USD file",
+            "colliders, masses and warnings the importer reads from a USD file, and every authored physics "
+            "attribute it did not use",
         )
         inspect.add_argument("file", type=Path, help="a .usd/.usda/.usdc/.usdz stage")
         export = actions.add_parser("export", help="write a MuJoCo model as a UsdPhysics articulation Isaac loads")
