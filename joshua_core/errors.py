@@ -37,3 +37,8 @@ class PluginNotFoundError(UsageError):
 
 class PluginLoadError(JoshuaError):
     """An installed plugin is broken: it failed to import or registered something invalid."""
+
+
+class TrainingDiverged(JoshuaError):
+    """A loss or the policy's parameters became NaN or infinite; training stopped before writing anything from
+    that state (a run failure: exit 1, as any trainer's)."""

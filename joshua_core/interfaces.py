@@ -112,7 +112,8 @@ class EnvKind(enum.Enum):
     camera, width, height)`, `model` (the `mujoco.MjModel` simulated) and `qpos` (the (num_envs, nq) joint positions
     now, for drawing) and these infos from `step`: "reward_terms" and "metrics" (name -> (N,)
     arrays of this step); where an episode ended, "final_obs" (valid where "_final_obs") and "episode"
-    ("r" return, "l" length, "reward/<term>" the term's episode sum; valid where "_episode").
+    ("r" return, "l" length, "reward/<term>" the term's episode sum, "failed" whether its simulation blew up;
+    valid where "_episode").
 
     JAX: a functional environment whose methods are pure JAX functions of all environments at once: `reset(key) ->
     state`, `step(state, action) -> state` (jit-compatible, and callable inside `jax.shard_map` on each device's

@@ -17,14 +17,18 @@ from joshua_core.tasks.context import (
     set_columns,
 )
 from joshua_core.tasks.episodes import (
+    FAILED_EPISODES,
     MAX_POSITION,
     MAX_SPEED,
     METRIC_PREFIX,
+    MIN_ENDED_EPISODES,
     REWARD_PREFIX,
     Episode,
     EpisodeSums,
+    SimulationsBlewUp,
     StepOutcome,
     account_step,
+    check_blow_ups,
     nonfinite,
 )
 from joshua_core.tasks.handles import (
@@ -56,11 +60,13 @@ from joshua_core.tasks.task import BoundTerm, Task, build_task, load_task_spec
 __all__ = [
     "CAMERA_KINDS",
     "DERIVED_FIELDS",
+    "FAILED_EPISODES",
     "INERTIAL_FIELDS",
     "KINEMATIC_FIELDS",
     "MAX_POSITION",
     "MAX_SPEED",
     "METRIC_PREFIX",
+    "MIN_ENDED_EPISODES",
     "MODEL_FIELDS",
     "REWARD_PREFIX",
     "STATE_FIELDS",
@@ -85,6 +91,7 @@ __all__ = [
     "Range",
     "SceneCameras",
     "Sensor",
+    "SimulationsBlewUp",
     "Site",
     "StepOutcome",
     "Task",
@@ -95,6 +102,7 @@ __all__ = [
     "Touch",
     "account_step",
     "build_task",
+    "check_blow_ups",
     "delayed_action",
     "episode_params",
     "load_task_spec",

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
+from joshua_core.errors import JoshuaError
 from joshua_core.tasks.context import TermContext
 from joshua_core.tasks.task import Task
 
@@ -31,6 +32,28 @@ METRIC_PREFIX = "metrics/"
 # 1e4 rad/s (a hobby servo: about 10)
 MAX_POSITION = 1e3  # of any qpos entry (metres or radians)
 MAX_SPEED = 1e4  # of any qvel entry (m/s or rad/s)
+# Where trainers log how many of the episodes that ended blew up (their record's `failed`).
+FAILED_EPISODES = "failed_episodes"
+# Training stops where more than this share of at least MIN_ENDED_EPISODES ended episodes blew up: a policy learns
+# nothing but blow-ups from them. A share below it is counted (FAILED_EPISODES) and training goes on.
+MAX_FAILED_SHARE = 0.5
+MIN_ENDED_EPISODES = 16
+
+
+class SimulationsBlewUp(JoshuaError):
+    """Most simulations of a stretch of training blew up: training stopped before learning from them."""
+
+
+def check_blow_ups(ended: float, failed: float, where: str) -> None:
+    """Raise SimulationsBlewUp when more than MAX_FAILED_SHARE of at least MIN_ENDED_EPISODES episodes that ended
+    (those of `where`, e.g. "iteration 3") blew up; the message names the likely causes."""
+    if ended >= MIN_ENDED_EPISODES and failed > MAX_FAILED_SHARE * ended:
+        raise SimulationsBlewUp(
+            f"{failed:.0f} of the {ended:.0f} episodes that ended in {where} blew up (a state not finite, or beyond "
+            f"{MAX_POSITION:g} or {MAX_SPEED:g} per second); the last checkpoint before it is kept. Likely causes: a "
+            "timestep too large for the model (its option timestep), masses or gains in the model far off, or "
+            "randomization ranges too wide (task_config.events: masses, gains, frictions)"
+        )
 
 
 class Episode(NamedTuple):

@@ -274,8 +274,9 @@ class BatchedVectorEnv(VectorEnv):
       rows valid where infos["_final_obs"]).
     - infos["reward_terms"]: each reward term's weighted value of this step, (num_envs,) arrays.
     - infos["metrics"]: the task's metrics (e.g. "distance", "success") of this step.
-    - infos["episode"]: on the step an episode ends, "r" (return), "l" (length) and
-      "reward/<term>" (sum of that term over the episode), valid where infos["_episode"].
+    - infos["episode"]: on the step an episode ends, "r" (return), "l" (length),
+      "reward/<term>" (sum of that term over the episode) and "failed" (its simulation blew up), valid where
+      infos["_episode"].
     - Rewards, terminations, truncations and the episode records follow `joshua_core.tasks.episodes`.
     """
 
@@ -340,7 +341,11 @@ class BatchedVectorEnv(VectorEnv):
             done = episode.done
             infos["final_obs"] = np.where(done[:, None], observation, 0.0).astype(np.float32)
             infos["_final_obs"] = done
-            record = {"r": np.where(done, episode.return_, 0.0), "l": np.where(done, episode.length, 0)}
+            record = {
+                "r": np.where(done, episode.return_, 0.0),
+                "l": np.where(done, episode.length, 0),
+                "failed": episode.failed,
+            }
             for name, sums in episode.reward_terms.items():
                 record[REWARD_PREFIX + name] = np.where(done, sums, 0.0)
             infos["episode"], infos["_episode"] = record, done

@@ -55,8 +55,9 @@ def test_same_step_autoreset_reports_the_final_observation_and_episode(plugins: 
         assert not terminated.any()
         assert truncated.all() == (step == 5)
     assert infos["_final_obs"].all() and infos["_episode"].all()
-    assert set(infos["episode"]) == {"r", "l", "reward/distance", "reward/near", "reward/action_rate"}
+    assert set(infos["episode"]) == {"r", "l", "failed", "reward/distance", "reward/near", "reward/action_rate"}
     np.testing.assert_array_equal(infos["episode"]["l"], [5, 5, 5])
+    assert infos["episode"]["failed"].tolist() == [False, False, False]
     # the final observation is of the moved arm; the returned one is the new episode's first (action 0)
     last_action = slice(-6, None)
     np.testing.assert_allclose(infos["final_obs"][:, last_action], 0.5)

@@ -19,8 +19,8 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 
-from joshua_core.errors import ConfigError, JoshuaError
-from joshua_core.tasks import MAX_POSITION, MAX_SPEED
+from joshua_core.errors import ConfigError, TrainingDiverged
+from joshua_core.tasks import check_blow_ups
 from joshua_ppo.envs import JaxEnv
 from joshua_ppo.iteration import FAILED, make_iteration
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
@@ -48,20 +48,6 @@ class IterationReport:
     wall_seconds: float  # since train_ppo was called
     compile_seconds: float  # before the first iteration: environments reset and the iteration compiled, at once
     metrics: dict[str, float] = field(default_factory=dict)
-
-
-class TrainingDiverged(JoshuaError):
-    """A loss or parameter became NaN or infinite; training stopped before writing anything from that state."""
-
-
-class SimulationsBlewUp(JoshuaError):
-    """Most simulations of an iteration blew up: training stopped before learning from such a batch."""
-
-
-# an iteration in which more than this share of at least MIN_ENDED_EPISODES ended episodes blew up stops training:
-# a policy learns nothing but blow-ups from it. A share below it is counted (failed_episodes) and training goes on
-MAX_FAILED_SHARE = 0.5
-MIN_ENDED_EPISODES = 16
 
 
 ProgressCallback = Callable[[IterationReport, Any], None]  # the report and the trainer's state
@@ -164,7 +150,7 @@ def run_iterations(
                 state, pending = _copy(state), _queue(env, compiled, state)  # the copy is queued first
             values = {name: float(value) for name, value in jax.device_get(metrics).items()}
             _check_finite(values, progress)
-            _check_blow_ups(values, progress)
+            check_blow_ups(values["episodes"], values[FAILED], f"iteration {progress.iteration + 1}")
             read = time.perf_counter()
             elapsed, last_read = read - last_read, read
             progress = Progress(progress.iteration + 1, progress.env_steps + steps_per_iteration)
@@ -223,17 +209,4 @@ def _check_finite(values: dict[str, float], progress: Progress) -> None:
             f"training diverged in iteration {progress.iteration + 1} ({progress.env_steps} steps done): {what}; "
             "the last checkpoint written before it is kept. Lower training.learning_rate, set the trainer's "
             "max_grad_norm, or check the task's rewards and observations for huge values"
-        )
-
-
-def _check_blow_ups(values: dict[str, float], progress: Progress) -> None:
-    """Raise SimulationsBlewUp when more than MAX_FAILED_SHARE of an iteration's ended episodes blew up."""
-    ended, failed = values["episodes"], values[FAILED]
-    if ended >= MIN_ENDED_EPISODES and failed > MAX_FAILED_SHARE * ended:
-        raise SimulationsBlewUp(
-            f"{failed:.0f} of the {ended:.0f} episodes that ended in iteration {progress.iteration + 1} blew up (a "
-            f"state not finite, or beyond {MAX_POSITION:g} or {MAX_SPEED:g} per second); the last checkpoint before "
-            "it is kept. Likely "
-            "causes: a timestep too large for the model (its option timestep), or randomization ranges too wide "
-            "(task_config.events: masses, gains, frictions)"
         )

@@ -20,8 +20,7 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.options import parse_dict
 from joshua_core.plugins import PluginHost, PluginInfo, Registrar
 from joshua_core.run_context import RunContext
-from joshua_core.tasks import MAX_SPEED, nonfinite
-from joshua_ppo.train import SimulationsBlewUp
+from joshua_core.tasks import MAX_SPEED, SimulationsBlewUp, nonfinite
 from joshua_ppo.trainer import PpoTrainer
 
 UNSTABLE = dataclasses.replace(

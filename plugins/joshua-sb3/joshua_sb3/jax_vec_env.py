@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
 
-from joshua_sb3.vec_env import BatchVecEnv, episode_info
+from joshua_sb3.vec_env import FAILED_KEY, BatchVecEnv, episode_info
 
 
 class JaxVecEnv(BatchVecEnv):
@@ -81,6 +81,7 @@ class JaxVecEnv(BatchVecEnv):
                 "t": elapsed,
                 "reward_terms": {name: float(sums[index]) for name, sums in episode.reward_terms.items()},
                 "metrics": {name: float(values[index]) for name, values in episode.metrics.items()},
+                FAILED_KEY: bool(episode.failed[index]),
             }
             infos[index] = episode_info(final_observation[index], terminated[index], truncated[index], record)
 

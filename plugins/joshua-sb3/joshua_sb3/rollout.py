@@ -19,7 +19,7 @@ from stable_baselines3.common.vec_env import VecEnv
 from joshua_core.interfaces import EpisodeResults
 from joshua_core.statistics import SUCCESS_METRIC, SUCCESS_THRESHOLD
 from joshua_render import GridVideoWriter, episode_label, render_optional
-from joshua_sb3.vec_env import METRICS_KEY
+from joshua_sb3.vec_env import FAILED_KEY, METRICS_KEY
 
 
 def roll_out(
@@ -63,6 +63,7 @@ def roll_out(
         returns=[float(episode["r"]) for episode in ordered],
         lengths=[float(episode["l"]) for episode in ordered],
         metrics={name: [float(episode[METRICS_KEY][name]) for episode in ordered] for name in ordered[0][METRICS_KEY]},
+        failed=[bool(episode.get(FAILED_KEY, False)) for episode in ordered],
     )
 
 

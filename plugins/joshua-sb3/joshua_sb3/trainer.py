@@ -27,7 +27,7 @@ from joshua_core.atomic import atomic_write_json
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.defaults import DEFAULT_NUMPY_NUM_ENVS
 from joshua_core.determinism import use_determinism
-from joshua_core.errors import ConfigError, CorruptCheckpointError, UsageError
+from joshua_core.errors import ConfigError, CorruptCheckpointError, TrainingDiverged, UsageError
 from joshua_core.interfaces import EnvKind, EpisodeResults, Trainer
 from joshua_core.interrupts import StopRequest, resume_command, stop_requests
 from joshua_core.options import message_to_dict, options_of
@@ -45,7 +45,7 @@ from joshua_core.runs import (
     resume_run,
     saved_training,
 )
-from joshua_core.tasks import METRIC_PREFIX, REWARD_PREFIX
+from joshua_core.tasks import FAILED_EPISODES, METRIC_PREFIX, MIN_ENDED_EPISODES, REWARD_PREFIX, check_blow_ups
 from joshua_sb3 import options_pb2
 from joshua_sb3.export import saved_policy
 from joshua_sb3.rollout import roll_out
@@ -58,7 +58,7 @@ from joshua_sb3.run_folder import (
     write_checkpoint,
 )
 from joshua_sb3.settings import Settings
-from joshua_sb3.vec_env import METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv
+from joshua_sb3.vec_env import FAILED_KEY, METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv
 from joshua_sb3.web_page import PagePublisher, open_page
 
 TRAINER_NAME = "sb3"
@@ -94,7 +94,8 @@ class MetricsHistory(KVWriter):
 
 
 class TrainingMonitor(BaseCallback):
-    """Progress bar, per-term reward and task-metric logging, and periodic checkpoints."""
+    """Progress bar, per-term reward and task-metric logging, blow-ups counted (and stopped where they are most of
+    the episodes, as the JAX trainers do: `check_blow_ups`), and periodic checkpoints."""
 
     def __init__(self, run: RunWriter, bar: Any, next_checkpoint: int, stop: StopRequest) -> None:
         super().__init__()
@@ -102,9 +103,17 @@ class TrainingMonitor(BaseCallback):
         self.stop = stop
         self.bar = bar
         self.next_checkpoint = next_checkpoint
+        self.failed = 0  # episodes of this rollout that blew up
+        self.logged_failed = 0  # of the rollouts since the logger last wrote its values
+        self.stretch = (0, 0, run.start_step)  # episodes ended, of them blown up, since the step: for check_blow_ups
 
     def _on_step(self) -> bool:
         self.bar.update(self.model.num_timesteps - self.bar.n)
+        infos = self.locals["infos"]
+        ended = [infos[index].get("episode", {}) for index in np.flatnonzero(self.locals["dones"])]
+        failed = sum(bool(episode.get(FAILED_KEY, False)) for episode in ended)
+        self.failed += failed
+        self.stretch = (self.stretch[0] + len(ended), self.stretch[1] + failed, self.stretch[2])
         return not self.stop.requested  # SB3 ends learn() cleanly: the checkpoint after it is consistent
 
     def _on_rollout_start(self) -> None:
@@ -115,6 +124,15 @@ class TrainingMonitor(BaseCallback):
                 self.next_checkpoint += self.run.settings.checkpoint_interval
 
     def _on_rollout_end(self) -> None:
+        if FAILED_EPISODES not in self.logger.name_to_value:  # the logger wrote its values since: count afresh
+            self.logged_failed = 0
+        self.logged_failed += self.failed
+        self.failed = 0
+        self.logger.record(FAILED_EPISODES, self.logged_failed)
+        ended, failed, since = self.stretch
+        if ended >= MIN_ENDED_EPISODES:  # before learning from a batch of blow-ups
+            check_blow_ups(ended, failed, f"steps {since} to {self.model.num_timesteps}")
+            self.stretch = (0, 0, self.model.num_timesteps)
         episodes = list(self.model.ep_info_buffer or [])
         if not episodes:
             return
@@ -152,15 +170,20 @@ class RunWriter:
 
     def metrics_document(self, step: int) -> dict[str, Any]:
         elapsed = time.perf_counter() - self.started
+        history = [record for record in self.records if record["step"] <= step]
         return {
             "num_timesteps": step,
             "wall_seconds": round(elapsed, 3),
             "steps_per_second": round((step - self.start_step) / elapsed, 1) if elapsed > 0 else 0.0,
-            "history": [record for record in self.records if record["step"] <= step],
+            FAILED_EPISODES: int(sum(record.get(FAILED_EPISODES, 0) for record in history)),
+            "history": history,
         }
 
     def save_checkpoint(self, model: BaseAlgorithm) -> Path:
+        """Write a checkpoint of `model`; a policy that is no longer finite is TrainingDiverged, never saved."""
         step = int(model.num_timesteps)
+        if not _finite_policy(model):
+            raise _diverged(step)
 
         def save(folder: Path) -> None:
             model.save(folder / MODEL_FILE)
@@ -174,6 +197,30 @@ class RunWriter:
         checkpoint = write_checkpoint(self.run, step, save, documents, keep_replay_buffer=False)
         update_run_metrics(self.run_dir, metrics, title=f"{self.config.task}: sb3 {self.settings.algorithm}")
         return checkpoint
+
+
+def _finite_policy(model: BaseAlgorithm) -> bool:
+    """Whether every parameter of the model's policy (and critics) is finite."""
+    return all(bool(torch.isfinite(parameter).all()) for parameter in model.policy.parameters())
+
+
+def _refused_by_distribution(error: ValueError) -> bool:
+    """Whether `error` is torch.distributions refusing the policy's outputs (a NaN mean, a zero standard deviation
+    from a log-std driven to -1e30): the policy diverged, though its parameters may still be finite numbers."""
+    frame = error.__traceback__
+    while frame is not None and frame.tb_next is not None:
+        frame = frame.tb_next
+    return frame is not None and str(frame.tb_frame.f_globals.get("__name__", "")).startswith("torch.distributions")
+
+
+def _diverged(step: int) -> TrainingDiverged:
+    """The one-line error of a training whose policy diverged at `step`, with what to try."""
+    return TrainingDiverged(
+        f"training diverged at {step} steps: the policy's parameters became NaN or infinite, or too large for its "
+        "action distribution; the last checkpoint written before it is kept. Lower training.learning_rate, keep "
+        f"the observations normalised (no {OPTIONS}.disable_normalization), or check the model and the task's "
+        "rewards and observations for huge values"
+    )
 
 
 def _version(distribution: str) -> str:
@@ -292,7 +339,9 @@ class Sb3Trainer(Trainer):
             if page is not None:
                 page.close()
             environments.close()
-        print(f"sb3: {model.num_timesteps} steps; checkpoint {checkpoint}")
+        failed = run.metrics_document(int(model.num_timesteps))[FAILED_EPISODES]
+        blown = f"; {failed} episodes blew up" if failed else ""
+        print(f"sb3: {model.num_timesteps} steps{blown}; checkpoint {checkpoint}")
         return checkpoint
 
     def evaluate(
@@ -350,12 +399,17 @@ def _learn(
         if remaining <= 0:
             return resolve_checkpoint(run.run_dir)
         monitor = TrainingMonitor(run, bar, run.start_step + run.settings.checkpoint_interval, stop)
-        model.learn(
-            remaining,
-            callback=CallbackList([monitor, *extra_callbacks]),
-            reset_num_timesteps=False,
-            progress_bar=False,
-        )
+        try:
+            model.learn(
+                remaining,
+                callback=CallbackList([monitor, *extra_callbacks]),
+                reset_num_timesteps=False,
+                progress_bar=False,
+            )
+        except ValueError as error:
+            if _finite_policy(model) and not _refused_by_distribution(error):
+                raise
+            raise _diverged(int(model.num_timesteps)) from None
         checkpoint = run.save_checkpoint(model)
         if stop.requested:
             print(

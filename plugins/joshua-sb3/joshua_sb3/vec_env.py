@@ -7,8 +7,9 @@ a list of per-environment dicts) and in how truncation is reported. This adapter
 batch with array operations; only environments whose episode ended get per-environment work.
 
 It also keeps the episode statistics SB3's `Monitor` would (`info["episode"]` with return `r`,
-length `l` and time `t`), plus each reward term's episode sum and the task's metrics at the end of
-the episode, so callbacks can log them from `model.ep_info_buffer`.
+length `l` and time `t`), plus each reward term's episode sum, the task's metrics at the end of
+the episode and whether its simulation blew up (`failed`), so callbacks can log them from
+`model.ep_info_buffer`.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvIndices, VecEnvO
 
 REWARD_TERMS_KEY = "reward_terms"  # infos[key][name]: per-environment weighted reward of one term this step
 METRICS_KEY = "metrics"  # infos[key][name]: per-environment task metric (e.g. "distance") after this step
+FAILED_KEY = "failed"  # info["episode"][key]: the episode ended because its simulation blew up
 
 
 class BatchVecEnv(VecEnv):
@@ -63,7 +65,7 @@ def episode_info(
     episode: dict[str, Any],
 ) -> dict[str, Any]:
     """SB3's info of an environment whose episode just ended: its last observation, whether the time limit ended
-    it, and `episode` (r, l, t, reward_terms, metrics), which Monitor-style loggers and the trainer read."""
+    it, and `episode` (r, l, t, reward_terms, metrics, failed), which Monitor-style loggers and the trainer read."""
     return {
         "terminal_observation": np.asarray(final_observation),
         "TimeLimit.truncated": bool(truncated and not terminated),
@@ -126,6 +128,7 @@ class SameStepVecEnv(BatchVecEnv):
         """Fill SB3's per-environment info of the environments whose episode ended, and restart their sums."""
         final_observations = infos["final_obs"]
         metrics = infos.get(METRICS_KEY, {})
+        failed = infos.get("episode", {}).get(FAILED_KEY, np.zeros(self.num_envs, bool))  # a backend may not say
         elapsed = round(time.perf_counter() - self._started, 6)
         for index in finished:
             episode = {
@@ -134,6 +137,7 @@ class SameStepVecEnv(BatchVecEnv):
                 "t": elapsed,
                 REWARD_TERMS_KEY: {name: float(sums[index]) for name, sums in self._term_sums.items()},
                 METRICS_KEY: {name: float(values[index]) for name, values in metrics.items()},
+                FAILED_KEY: bool(failed[index]),
             }
             env_infos[index] = episode_info(final_observations[index], terminated[index], truncated[index], episode)
         self._returns[finished] = 0.0
