@@ -93,10 +93,14 @@ def _restore(path: Path, data: bytes, target: Any) -> Any:
 
 
 def read_json(path: Path) -> dict[str, Any]:
+    """The JSON object in `path` (a run's config.json or metrics.json); a file that does not read as one is a
+    CorruptCheckpointError naming it."""
     try:
         document = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
         raise CorruptCheckpointError(f"cannot read {path}: {error}") from None
+    except RecursionError:  # json recurses once per level: deep nesting (100000 lists) exhausts Python's stack
+        raise CorruptCheckpointError(f"cannot read {path}: nested too deeply") from None
     if not isinstance(document, dict):
         raise CorruptCheckpointError(f"{path} does not hold a JSON object")
     return document

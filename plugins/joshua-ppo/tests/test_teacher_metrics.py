@@ -33,6 +33,14 @@ def test_metrics_of_other_types_are_one_corrupt_checkpoint_error(
     assert str(caught.value) == f"{tmp_path / 'metrics.json'}: {problem}" and caught.value.exit_code == 2
 
 
+def test_a_deeply_nested_metrics_file_is_one_corrupt_checkpoint_error(tmp_path: Path) -> None:
+    (tmp_path / "metrics.json").write_text("[" * 100_000 + "]" * 100_000)  # json.loads recurses past Python's limit
+    with pytest.raises(CorruptCheckpointError) as caught:
+        _described(tmp_path)
+    assert str(caught.value) == f"cannot read {tmp_path / 'metrics.json'}: nested too deeply"
+    assert caught.value.exit_code == 2
+
+
 def test_the_last_record_describes_the_teacher(tmp_path: Path) -> None:
     record = {"step": 4096, "mean_return": 12.345, "metrics/success": 0.25}
     (tmp_path / "metrics.json").write_text(json.dumps({"history": [{"step": 0}, record]}))
