@@ -130,7 +130,7 @@ def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunF
         check_run_name(name, "run name")
         run = None if run_checkpoints(root, name) else _claim(root, name) or _take_over(root, name)
         if run is None:
-            if (root / name).is_dir():
+            if (root / name / LOCK_FILE).is_file():  # a run's folder; no lock file is added to any other
                 open_run(root, name).close()  # raises RunInUseError while another process trains it
             resume = "" if options.startswith("--") else f"continue it with --set {options}.resume=true, or "
             raise ConfigError(f"run folder {root / name} exists; {resume}choose another {_name_option(options)}")

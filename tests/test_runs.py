@@ -197,6 +197,11 @@ def test_a_command_line_run_name_in_use_says_choose_another(tmp_path: Path) -> N
     with pytest.raises(ConfigError) as raised:
         create_run(tmp_path, "fit", stem="sysid", options="--run-name")
     assert str(raised.value) == f"run folder {tmp_path / 'fit'} exists; choose another --run-name"
+    (tmp_path / "photos").mkdir()  # a folder no run made: refused as it is, no lock file added to it
+    (tmp_path / "photos" / "beach.jpg").write_bytes(b"jpeg")
+    with pytest.raises(ConfigError, match="photos exists; choose another --run-name"):
+        create_run(tmp_path, "photos", stem="sysid", options="--run-name")
+    assert [path.name for path in (tmp_path / "photos").iterdir()] == ["beach.jpg"]
 
 
 def test_a_run_killed_before_writing_anything_leaves_its_name_usable(

@@ -76,10 +76,10 @@ class SysidCommand(Command):
         servos = recordings.model_servos(model, model_path)
         loaded = recordings.load_recordings(args.recordings, model, servos, plugins, episode=args.episode)
         root = writable_folder(args.output_dir, "--output-dir")
-        if args.run_name and (root / args.run_name).exists():
-            raise UsageError(f"run folder {root / args.run_name} exists; choose another --run-name")
-        result = fit.fit(spec, servos, loaded, kinds, args.max_iters)
+        # claimed before the fit, which may take minutes: a name in use is refused at once, a folder left holding
+        # only the lock of a run that died is taken over, and a fit that fails leaves no folder (RunFolder)
         with create_run(root, args.run_name, stem=RUN_STEM, options="--run-name") as run:
+            result = fit.fit(spec, servos, loaded, kinds, args.max_iters)
             try:
                 model_file = report.write_model(
                     spec, result, servos, run.path, report.calibrated_model_name(model_path)

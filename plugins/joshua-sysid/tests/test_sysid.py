@@ -19,6 +19,7 @@ import pytest
 
 from joshua_core.cli import main
 from joshua_core.resources import models_dir
+from joshua_core.runs import LOCK_FILE
 from joshua_sysid import fit, recordings, report, synthetic
 
 JOSHUA = Path(sys.executable).parent / "joshua"
@@ -264,6 +265,28 @@ def test_a_poor_fit_is_one_warning(tmp_path: Path, capsys, monkeypatch, fitted: 
     assert json.loads((tmp_path / "out" / "r" / report.REPORT_FILE).read_text())["fit"][field] == [
         "j.kp" if field == "at_bounds" else "j"
     ]
+
+
+def test_a_name_a_dead_run_held_is_taken_over_and_a_failed_fit_leaves_no_folder(
+    tmp_path: Path, capsys, monkeypatch
+) -> None:
+    model, recording = one_servo_model(tmp_path)
+    ended = subprocess.Popen([sys.executable, "-c", ""])
+    ended.wait()
+    (tmp_path / "out" / "r").mkdir(parents=True)
+    (tmp_path / "out" / "r" / LOCK_FILE).write_text(f"{ended.pid}\n")  # what a run killed while starting leaves
+    monkeypatch.chdir(tmp_path)
+    arguments = [str(recording), "--model", str(model), "--max-iters", "1", "--fit", "kp", "--output-dir", "out"]
+    assert main(["sysid", *arguments, "--run-name", "r"]) == 0
+    assert f"held only the lock of process {ended.pid}, which ended before writing anything" in capsys.readouterr().err
+    assert (tmp_path / "out" / "r" / report.REPORT_FILE).is_file()
+
+    def interrupted(*_: object) -> fit.FitResult:
+        raise KeyboardInterrupt  # Ctrl-C during the fit, in the run folder it claimed first
+
+    monkeypatch.setattr(fit, "fit", interrupted)
+    assert main(["sysid", *arguments, "--run-name", "s"]) == 130
+    assert [path.name for path in (tmp_path / "out").iterdir()] == ["r"]
 
 
 def test_max_iters_runs_exactly_that_many_iterations(tmp_path: Path) -> None:
