@@ -237,16 +237,16 @@ class Run(ABC):
                 self.viewer.close()
                 self.viewer = None
         if self.page is not None:
-            self.publish_to_page(report, state)
+            self.publish_to_page(self.page, report, state)
 
-    def publish_to_page(self, report: IterationReport, state: State) -> None:
+    def publish_to_page(self, page: TrainingPage, report: IterationReport, state: State) -> None:
         """The shown environments as this iteration's rollout left them (moved by the policy before its update) and
         the mean return of the episodes that ended in it; the page's own thread sends them, training never waits."""
-        qpos = _first_local(state.env_state.data.qpos, self.page.envs)
-        self.page.publish_poses(qpos, self._page_policy_step)
+        qpos = _first_local(state.env_state.data.qpos, page.envs)
+        page.publish_poses(qpos, self._page_policy_step)
         self._page_policy_step = report.env_steps  # the policy just updated makes the next iteration's poses
         if report.metrics["episodes"] > 0:
-            self.page.publish_return(report.env_steps, report.metrics["mean_return"])
+            page.publish_return(report.env_steps, report.metrics["mean_return"], int(report.metrics[FAILED]))
 
     def report_compiled(self, reads_before: tuple[int, int]) -> None:
         """The line after the first iteration: how long compiling took and how much of it came from the cache."""

@@ -1,5 +1,5 @@
-"""A running training in the browser: a few of its environments side by side, moved by the current policy, and the
-return curve (viser's uPlot), for a trainer on a machine with no display.
+"""A running training in the browser: a few of its environments side by side, moved by the current policy, the
+return curve (viser's uPlot) and how many episodes blew up, for a trainer on a machine with no display.
 
 The trainer only publishes: `publish_poses` and `publish_return` copy a few numbers under a lock and return. A thread
 of the page's own turns the newest poses into body poses and sends them at most `TrainingPage.PUSH_HZ` times a second,
@@ -27,7 +27,8 @@ RETURN_COLOUR = "rgb(220, 20, 60)"  # the return curve's stroke (crimson: apart 
 
 
 class TrainingPage:
-    """`envs` copies of `model` side by side, the policy's step count, and the mean episode return per update."""
+    """`envs` copies of `model` side by side, the policy's step count, the mean episode return per update and the
+    run's count of episodes whose simulation blew up (a run that learns from blow-ups should be seen to)."""
 
     # Poses sent at most this often (publishing more often only replaces the pending ones). Below the replays' rate:
     # the policy changes once per update, and each pose sent costs the training's process its kinematics and viser's
@@ -56,6 +57,7 @@ class TrainingPage:
         gui = server.gui
         self._policy = gui.add_text("policy after (steps)", initial_value="0", disabled=True)
         self._points = gui.add_text("return points", initial_value="0", disabled=True)
+        self._blown_up = gui.add_text("episodes blown up", initial_value="0", disabled=True)
         self._curve = gui.add_uplot(
             data=(np.zeros(0), np.zeros(0)),
             series=(uplot.Series(label="steps"), uplot.Series(label="mean return", stroke=RETURN_COLOUR, width=2)),
@@ -69,6 +71,7 @@ class TrainingPage:
         self._steps: list[float] = []
         self._returns: list[float] = []
         self._curve_length = 0
+        self._failed = 0  # episodes that blew up, over every published update
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="joshua-training-page", daemon=True)
         self._thread.start()
@@ -83,11 +86,13 @@ class TrainingPage:
         with self._lock:
             self._poses, self._policy_step = poses, policy_step
 
-    def publish_return(self, step: int, mean_return: float) -> None:
-        """One point of the return curve: the mean return of the episodes finished by `step`."""
+    def publish_return(self, step: int, mean_return: float, failed_episodes: int = 0) -> None:
+        """One point of the return curve: the mean return of the episodes finished by `step`, of which
+        `failed_episodes` ended because their simulation blew up (added to the page's count)."""
         with self._lock:
             self._steps.append(float(step))
             self._returns.append(float(mean_return))
+            self._failed += int(failed_episodes)
 
     def _run(self) -> None:
         while not self._stop.wait(1.0 / self.PUSH_HZ):
@@ -99,12 +104,14 @@ class TrainingPage:
                 curve = None
                 if len(self._steps) != self._curve_length:
                     curve = (np.array(self._steps), np.array(self._returns))
+                failed = self._failed
             if poses is not None:
                 self._show(poses, policy_step)
             if curve is not None:
                 self._curve.data = curve
                 self._points.value = str(len(curve[0]))
                 self._curve_length = len(curve[0])
+                self._blown_up.value = str(failed)
 
     def _show(self, poses: np.ndarray, policy_step: int) -> None:
         import mujoco

@@ -115,8 +115,9 @@ SLIDER_MJCF = """<mujoco><worldbody>
 
 def test_training_page_sends_poses_only_while_a_client_is_connected() -> None:
     """With nobody watching, the page's thread looks for clients and sends nothing; once one connects, the newest
-    published pose is sent (the body frame moves to it). viser counts a client from its first camera message, which
-    a browser sends once the page has loaded; this client sends one of its own."""
+    published pose is sent (the body frame moves to it), then the return curve and the count of blown-up episodes.
+    viser counts a client from its first camera message, which a browser sends once the page has loaded; this client
+    sends one of its own."""
     import msgspec
     import mujoco
     import viser
@@ -155,6 +156,14 @@ def test_training_page_sends_poses_only_while_a_client_is_connected() -> None:
                 looked_enough.clear()
                 looked_enough.wait(timeout=1)  # the page's next look
             np.testing.assert_allclose(frame.position, (0.3, 0.0, 0.0), atol=1e-9)  # the slide joint's 0.3 m
+            page.publish_return(10, 1.0, failed_episodes=3)
+            page.publish_return(20, 2.0, failed_episodes=2)
+            deadline = time.monotonic() + 30
+            while page._blown_up.value != "5" and time.monotonic() < deadline:
+                looked_enough.clear()
+                looked_enough.wait(timeout=1)
+            assert page._blown_up.value == "5"  # the run's blown-up episodes, summed over the updates
+            assert page._points.value == "2"
     finally:
         page.close()
 

@@ -1,5 +1,6 @@
 """The web page of an SB3 training (`training.web`, `--web`): a few training environments moved by the policy being
-trained, and the mean episode return of each rollout, published to joshua_render's TrainingPage."""
+trained, the mean episode return of each rollout and the episodes that blew up, published to joshua_render's
+TrainingPage."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_render import TrainingPage, open_training_page
+from joshua_sb3.vec_env import FAILED_KEY
 
 PAGE_ENVS = 4  # environments shown side by side (fewer when the run has fewer)
 
@@ -24,7 +26,8 @@ def open_page(config: TrainingConfig, environments: Any, title: str) -> Training
 
 class PagePublisher(BaseCallback):
     """Publishes the shown environments' poses at most TrainingPage.PUSH_HZ times a second (a clock read per step
-    otherwise) and each rollout's mean return; the page's own thread does the rest, so training never waits."""
+    otherwise), each rollout's mean return and its blown-up episodes; the page's own thread does the rest, so
+    training never waits."""
 
     def __init__(self, page: TrainingPage, environments: Any) -> None:
         super().__init__()
@@ -32,12 +35,17 @@ class PagePublisher(BaseCallback):
         self.environments = environments
         self.next_push = 0.0
         self.policy_step = 0  # the step at which the policy last changed: the end of the last rollout
+        self.failed = 0  # episodes of this rollout whose simulation blew up
 
     def _on_step(self) -> bool:
         now = time.perf_counter()
         if now >= self.next_push:
             self.next_push = now + 1.0 / TrainingPage.PUSH_HZ
             self.page.publish_poses(self.environments.qpos, self.policy_step)
+        infos = self.locals["infos"]
+        self.failed += sum(
+            bool(infos[index].get("episode", {}).get(FAILED_KEY)) for index in np.flatnonzero(self.locals["dones"])
+        )
         return True
 
     def _on_rollout_start(self) -> None:
@@ -46,4 +54,6 @@ class PagePublisher(BaseCallback):
     def _on_rollout_end(self) -> None:
         episodes = list(self.model.ep_info_buffer or [])
         if episodes:
-            self.page.publish_return(self.model.num_timesteps, float(np.mean([episode["r"] for episode in episodes])))
+            mean_return = float(np.mean([episode["r"] for episode in episodes]))
+            self.page.publish_return(self.model.num_timesteps, mean_return, self.failed)
+            self.failed = 0
