@@ -85,7 +85,7 @@ def use_compile_cache() -> CompileCache:
     _use_warp_cache(enabled)
     if not enabled:
         return CompileCache(None, 0)
-    folder = jax.config.jax_compilation_cache_dir  # one the user gave (JAX_COMPILATION_CACHE_DIR) is kept
+    folder = jax.config.values["jax_compilation_cache_dir"]  # one the user gave (JAX_COMPILATION_CACHE_DIR) is kept
     if not folder:
         folder = str(user_cache_dir() / "jax")
         jax.config.update("jax_compilation_cache_dir", folder)

@@ -151,7 +151,7 @@ def apply_override(config: JoshuaConfig, assignment: str, options: OptionSet) ->
     for depth, part in enumerate(parts):
         match = _PATH_PART.match(part)
         field = field_or_option(message.DESCRIPTOR, match["name"], options) if match else None
-        if field is None:
+        if match is None or field is None:
             if options.lenient:
                 return
             raise UsageError(_unknown_name(assignment, ".".join(parts[:depth]), message, part, options))

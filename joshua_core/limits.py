@@ -92,8 +92,8 @@ def check_numbers(message: Message, source: str, prefix: str = "") -> None:
                 check_numbers(value, source, f"{path}.")
             continue
         items = list(enumerate(value)) if field.is_repeated else [(None, value)]
-        for index, item in items:
-            where = path if index is None else f"{path}[{index}]"
+        for position, item in items:
+            where = path if position is None else f"{path}[{position}]"
             _check_value(field, item, f"{source}: {where}")
 
 

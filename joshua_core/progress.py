@@ -36,6 +36,8 @@ class _Bar(tqdm):
     """A tqdm bar whose total grows when the work overshoots it (a trainer's last batch can end past the
     requested steps), so the last line reads 100% with the true count."""
 
+    total: float | None  # tqdm's own attribute (tqdm ships no types); None for a bar without a total
+
     def update(self, n: float | None = 1) -> bool | None:
         if self.total is not None and n is not None and self.n + n > self.total:
             self.total = self.n + n

@@ -20,7 +20,11 @@ from joshua_core.tasks.handles import _lookup
 CAMERA_KINDS = ("rgb", "depth", "segmentation")
 DEFAULT_SIZE = 64  # pixels on each side, where a camera gives no width or height
 _CHANNELS = {"rgb": 3, "depth": 1, "segmentation": 1}
-_DTYPES = {"rgb": np.dtype(np.uint8), "depth": np.dtype(np.float32), "segmentation": np.dtype(np.int32)}
+_DTYPES: dict[str, np.dtype] = {
+    "rgb": np.dtype(np.uint8),
+    "depth": np.dtype(np.float32),
+    "segmentation": np.dtype(np.int32),
+}
 
 
 @dataclass(frozen=True)

@@ -216,9 +216,9 @@ def resolve_handle(model: Any, handle_type: type, value: Any) -> Any:
         names = _name_list(value, kind)
         if not names:
             raise ValueError(f"name at least one {kind}")
-        ids = tuple(_lookup(model, kind, name) for name in names)
+        indices = tuple(_lookup(model, kind, name) for name in names)
         modes = model.cam_mode if handle_type is SceneCameras else model.light_mode
-        return handle_type(tuple(names), ids, tuple(int(modes[i]) == _FIXED_MODE for i in ids))
+        return handle_type(tuple(names), indices, tuple(int(modes[i]) == _FIXED_MODE for i in indices))
     raise TypeError(f"not a model handle type: {handle_type!r}")
 
 

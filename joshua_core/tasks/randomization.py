@@ -179,7 +179,7 @@ def _shown_rgba(model: Any) -> np.ndarray:
     as the geom's own colour, it shows the same, and a drawn colour changes that geom alone."""
     rgba = np.array(model.geom_rgba, dtype=np.float64)
     material = np.asarray(model.geom_matid)
-    uses_material = (material >= 0) & np.all(rgba == np.float32([0.5, 0.5, 0.5, 1.0]), axis=1)
+    uses_material = (material >= 0) & np.all(rgba == np.array([0.5, 0.5, 0.5, 1.0], dtype=np.float32), axis=1)
     rgba[uses_material] = np.asarray(model.mat_rgba, dtype=np.float64)[material[uses_material]]
     return rgba
 

@@ -27,7 +27,7 @@ with numpy, so rewards and observations match the `mujoco` backend's.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -122,7 +122,7 @@ class MjxEnv:
         num_envs: int,
         *,
         source: str | Path = "<model>",
-        devices: list[jax.Device] | None = None,
+        devices: Sequence[jax.Device] | None = None,
         desync_episodes: bool = False,
         curriculum: bool = False,
         physics: Physics | None = None,
@@ -236,7 +236,8 @@ class MjxEnv:
             self._context(data, data.qpos, action, action, episode_step, commands, params, strength)
         )
         sums = EpisodeSums.zeros(jnp, self.task, n, jnp.float32)
-        images, camera_step = {}, None
+        images: dict[str, jax.Array] = {}
+        camera_step: jax.Array | None = None
         if self.cameras:
             fields = self.randomization.model_params(params)
             images, data = self.cameras.render(lambda f, d: self._physics(f, fields, d), data)
@@ -320,6 +321,7 @@ class MjxEnv:
         previous_qpos = jnp.where(done[:, None], data.qpos, state.data.qpos)
         images, camera_step = state.images, state.camera_step
         if self.cameras:
+            assert camera_step is not None  # a state of an environment with cameras counts their steps
             camera_step = (camera_step + 1) % self.cameras.period
             fields = self.randomization.model_params(params)
             images, data = self.cameras.update(lambda f, d: self._physics(f, fields, d), data, camera_step, images)

@@ -170,7 +170,7 @@ def _load_warp_kernels(device: jax.Device) -> None:
     import warp as wp
 
     wp.init()  # resolves the kernel cache folder
-    folder = Path(wp.config.kernel_cache_dir) if wp.config.cache_kernels else None
+    folder = Path(wp.config.kernel_cache_dir) if wp.config.cache_kernels and wp.config.kernel_cache_dir else None
     with building_into(folder, "MuJoCo Warp's kernels"):
         wp.force_load(device=f"cuda:{device.local_hardware_id}", max_workers=os.cpu_count() or 1)
 

@@ -78,8 +78,9 @@ def simulate(engine: Engine, *, keyframe: str | None, duration: float, web: str 
     held = f"held at keyframe '{name}' by its actuators" if name else "from its initial state"
     viewer: ViewerDisplay | InteractivePage
     if web is None:
-        controls: _Controls | InteractiveControls = _Controls()
-        viewer = ViewerDisplay(engine.model, engine.data, key_callback=controls.on_key)
+        keys = _Controls()
+        controls: _Controls | InteractiveControls = keys
+        viewer = ViewerDisplay(engine.model, engine.data, key_callback=keys.on_key)
         print(
             f"MuJoCo viewer: {engine.model.nbody - 1} bodies, {held}. Space: pause/resume, Right: step while "
             "paused; close the window or press Ctrl-C to quit",

@@ -59,7 +59,7 @@ class PassiveMode(Mode):
                 refusal="not replayed because simulation.replay.strict is set (--strict)",
                 plugins=context.plugins,
             )
-            display = None
+            display: Display | None = None
             if config.web or viewer.display == ViewerOptions.WEB:
                 display = open_web_display(
                     engine.model,

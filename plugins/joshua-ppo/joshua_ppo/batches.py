@@ -56,5 +56,5 @@ class Unroll(NamedTuple):
     terminated: jax.Array
     truncated: jax.Array
     final_value: jax.Array
-    last_observation: jax.Array  # (obs,): after the unroll's last step, to bootstrap from
+    last_observation: jax.Array | None  # (obs,): after the unroll's last step, to bootstrap from
     last_value_observation: jax.Array | None

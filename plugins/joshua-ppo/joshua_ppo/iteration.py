@@ -102,7 +102,7 @@ class _Iteration:
         self,
         params: Any,
         stats: RunningStatistics,
-        observation: jax.Array,
+        observation: jax.Array | None,
         value_observation: jax.Array | None,
         views: dict[str, dict[str, jax.Array]] | None = None,
     ) -> tuple[jax.Array, ...]:
@@ -112,9 +112,10 @@ class _Iteration:
             None if x is None else normalize(stats, x, self.network.normalize_observations)
             for x in (observation, value_observation)
         ]
+        # flax types apply's result as `output | (output, variables)`; without `mutable` it is the output
         if self.network.pixels is not None:
-            return self.net.apply({"params": params}, *inputs, views)
-        return self.net.apply({"params": params}, *(x for x in inputs if x is not None))
+            return self.net.apply({"params": params}, *inputs, views)  # type: ignore[return-value]
+        return self.net.apply({"params": params}, *(x for x in inputs if x is not None))  # type: ignore[return-value]
 
     def value_view(self, value_observation: jax.Array | None) -> jax.Array | None:
         """What the value network sees apart from the policy: the environment's observation without noise, for
@@ -157,7 +158,8 @@ class _Iteration:
 
         def gathered() -> jax.Array:
             (rows,) = jnp.nonzero(truncated, size=self.final_rows, fill_value=0)  # padded with environment 0
-            _, _, values = self.apply(params, stats, *(None if x is None else x[rows] for x in final))
+            observation, value_observation = (None if x is None else x[rows] for x in final)
+            _, _, values = self.apply(params, stats, observation, value_observation)
             return jnp.zeros(truncated.shape, values.dtype).at[rows].set(jnp.where(truncated[rows], values, 0.0))
 
         def everywhere() -> jax.Array:
@@ -195,7 +197,7 @@ class _Iteration:
         self, params: Any, stats: RunningStatistics, batch: Sample | Unroll, key: jax.Array
     ) -> tuple[jax.Array, Metrics]:
         mean, log_std, value = self.apply(params, stats, batch.observation, batch.value_observation, batch.views)
-        if self.recompute:
+        if isinstance(batch, Unroll):  # the minibatches are whole unrolls exactly when advantages are recomputed
             advantage, target = self.current_advantages(params, stats, batch, value)
         else:
             advantage, target = batch.advantage, batch.target
@@ -235,6 +237,7 @@ class _Iteration:
         losses["learning_rate"] = opt_state.hyperparams["learning_rate"]
         if not guarded:
             return carry._replace(params=params, opt_state=opt_state), losses
+        assert kl is not None  # a guarded update watches the KL
         stopped = carry.stopped | (kl > self.optimization.max_kl)
         # a skipped step leaves the parameters and Adam's moments as they were; its count still advances, so
         # that an annealed learning rate keeps to its schedule in environment steps

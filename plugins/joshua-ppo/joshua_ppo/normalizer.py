@@ -14,7 +14,7 @@ from joshua_ppo.settings import OBSERVATION_CLIP
 class RunningStatistics(NamedTuple):
     """Running mean and variance of observations (Chan et al.'s parallel update)."""
 
-    count: jax.Array
+    count: jax.Array  # type: ignore[assignment]  # a field that shadows tuple.count, which is unused
     mean: jax.Array
     variance: jax.Array
 

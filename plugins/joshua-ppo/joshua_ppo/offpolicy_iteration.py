@@ -132,11 +132,14 @@ def init_state(env: JaxEnv, settings: OffPolicySettings) -> OffPolicyState:
     )["params"]
     optimizer = optimizers(settings)
     log_alpha = jnp.log(jnp.asarray(settings.initial_alpha, jnp.float32))
-    copy = jax.tree.map(jnp.copy, (params, critic))  # the targets start equal, in buffers of their own
+    target_actor, target_critic = jax.tree.map(
+        jnp.copy, (params, critic)
+    )  # the targets start equal, in buffers of their own
     learner = Learner(
         params,
         critic,
-        *copy,
+        target_actor,
+        target_critic,
         {
             "actor": optimizer["actor"].init(params),
             "critic": optimizer["critic"].init(critic),
@@ -197,7 +200,7 @@ class _Iteration:
         return normalize(stats, observation, self.settings.normalize_observations)
 
     def head(self, params: Any, stats: RunningStatistics, observation: jax.Array, views: Any) -> jax.Array:
-        return self.actor.apply({"params": params}, self.normalized(stats, observation), views)
+        return self.actor.apply({"params": params}, self.normalized(stats, observation), views)  # type: ignore[return-value]  # without mutable, apply gives the output alone
 
     def policy(self, params: Any, stats: RunningStatistics, observation: jax.Array, views: Any, key: jax.Array):
         """A sampled action in [-1, 1] and (SAC) its log-probability; TD3's is its deterministic action."""
@@ -207,7 +210,7 @@ class _Iteration:
         return deterministic_action(head, False), None
 
     def q(self, critic: Any, stats: RunningStatistics, observation: jax.Array, action: jax.Array) -> jax.Array:
-        return self.critics.apply({"params": critic}, self.normalized(stats, observation), action)
+        return self.critics.apply({"params": critic}, self.normalized(stats, observation), action)  # type: ignore[return-value]  # without mutable, apply gives the output alone
 
     def augmented(self, views: Any, key: jax.Array) -> Any:
         """A pixel actor's views with every image shifted at random by up to `image_shift` pixels (DrQ)."""
@@ -238,7 +241,7 @@ class _Iteration:
         ended = next_state.terminated | next_state.truncated
 
         def after(final: jax.Array | None, current: jax.Array | None) -> jax.Array | None:
-            return None if current is None else jnp.where(ended[:, None], final, current)
+            return None if final is None or current is None else jnp.where(ended[:, None], final, current)
 
         step = Step(
             observation=env_state.observation,
@@ -248,7 +251,7 @@ class _Iteration:
             reward=next_state.reward * self.settings.reward_scaling,
             terminated=next_state.terminated,
             ended=ended,
-            next_observation=after(next_state.final_observation, next_state.observation),
+            next_observation=jnp.where(ended[:, None], next_state.final_observation, next_state.observation),
             next_critic_observation=after(next_state.final_value_observation, next_state.value_observation),
         )
         replay = add(state.replay, step)
@@ -414,7 +417,7 @@ def make_iteration(
     replay_spec = jax.tree.map(
         lambda leaf: PartitionSpec(None, steps.axis) if leaf.ndim >= 2 else replicated, abstract.replay
     )
-    state_spec = OffPolicyState(replicated, None, replicated, replicated, replay_spec, split)
+    state_spec = OffPolicyState(replicated, None, replicated, replicated, replay_spec, split)  # type: ignore[arg-type]  # a tree of specs shaped like the state
     sharded = jax.shard_map(
         steps.local,
         mesh=env.mesh,

@@ -49,7 +49,7 @@ def offpolicy_policy(env: JaxEnv, settings: OffPolicySettings) -> Act:
     def act(params: Any, stats: RunningStatistics, state: Any) -> jax.Array:
         observation = normalize(stats, state.observation, settings.normalize_observations)
         head = actor.apply({"params": params}, observation, camera_views(state, settings.pixels))
-        return deterministic_action(head, gaussian)
+        return deterministic_action(head, gaussian)  # type: ignore[arg-type]  # without mutable, apply gives the output alone
 
     return act
 

@@ -23,7 +23,7 @@ POLICY_CAMERA_KINDS = ("rgb", "depth")  # images an encoder reads as intensities
 def make_network(env: JaxEnv, network: NetworkSettings) -> Network:
     """The actor-critic network for the environment's action size (and, for a pixel policy, its cameras and
     observation terms: a ConfigError names one the task lacks)."""
-    shape = {"activation": network.activation, "state_dependent_std": network.state_dependent_std}
+    shape: dict[str, Any] = {"activation": network.activation, "state_dependent_std": network.state_dependent_std}
     if network.pixels is not None:
         return PixelActorCritic(
             env.action_size,
@@ -124,7 +124,7 @@ def policy_actions(
     pixel policy sees beside the observation (`policy_views`)."""
     observation = normalize(stats, observation, network.normalize_observations)
     inputs = (observation,) if views is None else (observation, None, views)
-    mean, _, _ = net.apply({"params": params}, *inputs)
+    mean, _, _ = net.apply({"params": params}, *inputs)  # type: ignore[misc]  # without mutable, apply gives the output alone
     return env_actions(mean, network)
 
 

@@ -34,7 +34,7 @@ class Replay(NamedTuple):
     next_observation: jax.Array  # (capacity, envs, obs)
     next_critic_observation: jax.Array | None
     position: jax.Array  # () int32
-    count: jax.Array  # () int32
+    count: jax.Array  # type: ignore[assignment]  # () int32; a field that shadows tuple.count, which is unused
 
 
 class Step(NamedTuple):
@@ -71,17 +71,17 @@ class Sample(NamedTuple):
 def empty_replay(step: Step, capacity: int) -> Replay:
     """A buffer of `capacity` steps shaped like `step` (one step of every environment), holding nothing yet."""
     zeros = jax.tree.map(lambda leaf: jnp.zeros((capacity, *leaf.shape), leaf.dtype), step)
-    return Replay(*zeros, position=jnp.zeros((), jnp.int32), count=jnp.zeros((), jnp.int32))
+    return Replay(**zeros._asdict(), position=jnp.zeros((), jnp.int32), count=jnp.zeros((), jnp.int32))
 
 
 def add(replay: Replay, step: Step) -> Replay:
     """The buffer with `step` written at its position (over the oldest step once it is full)."""
     capacity = replay.reward.shape[0]
     written = jax.tree.map(
-        lambda stored, new: stored.at[replay.position].set(new), Step(*replay[: len(Step._fields)]), step
+        lambda stored, new: stored.at[replay.position].set(new), Step._make(replay[: len(Step._fields)]), step
     )
     return Replay(
-        *written,
+        **written._asdict(),
         position=(replay.position + 1) % capacity,
         count=jnp.minimum(replay.count + 1, capacity),
     )

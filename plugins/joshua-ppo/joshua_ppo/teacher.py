@@ -35,7 +35,7 @@ class Teacher(NamedTuple):
         """The teacher's Gaussian (mean, log_std, before any squashing) for raw flat observations; constants to the
         gradient."""
         inputs = normalize(self.normalizer, observation, self.network.normalize_observations)
-        mean, log_std, _ = self.net.apply({"params": self.params}, inputs)
+        mean, log_std, _ = self.net.apply({"params": self.params}, inputs)  # type: ignore[misc]  # without mutable, apply gives the output alone
         return jax.lax.stop_gradient((mean, jnp.broadcast_to(log_std, mean.shape)))
 
 

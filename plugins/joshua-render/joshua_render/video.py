@@ -12,7 +12,7 @@ import tempfile
 from fractions import Fraction
 from pathlib import Path
 from types import TracebackType
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Final
 
 import av
 import cv2
@@ -23,7 +23,7 @@ from joshua_core.atomic import atomic_write_bytes, remove_stale_temporaries, tem
 from joshua_core.errors import JoshuaError
 from joshua_core.interrupts import signals_deferred
 
-ENCODER = "libx264"
+ENCODER: Final = "libx264"
 ENCODER_OPTIONS = {"preset": "veryfast", "crf": "20"}  # visually near-lossless at a few hundred kB per minute
 FPS_DENOMINATOR_LIMIT = 1001  # a float rate becomes a fraction, e.g. 29.97 -> 30000/1001
 TEMPORARY_SUFFIX = ".tmp.mp4"  # `.offscreen.mp4.<pid>.<random>.tmp.mp4` while being written

@@ -62,17 +62,17 @@ WORLD = Pose(np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]))
 def axis_frame(axis: ArrayLike) -> tuple[str, NDArray[np.float64]]:
     """The USD joint axis token (X, Y or Z: the one nearest `axis`) and the rotation taking it onto
     `axis`, so any MuJoCo axis becomes a standard USD axis in a rotated joint frame."""
-    axis = np.asarray(axis, float) / np.linalg.norm(axis)
-    index = int(np.argmax(np.abs(axis)))
+    direction = np.asarray(axis, float) / np.linalg.norm(axis)
+    index = int(np.argmax(np.abs(direction)))
     unit = np.eye(3)[index]
-    if axis[index] > 0:
-        return AXES[index], _turn(unit, axis)
+    if direction[index] > 0:
+        return AXES[index], _turn(unit, direction)
     flip = np.concatenate(([0.0], np.eye(3)[(index + 1) % 3]))  # half turn: unit -> -unit
-    return AXES[index], quat_mul(_turn(-unit, axis), flip)
+    return AXES[index], quat_mul(_turn(-unit, direction), flip)
 
 
 def gf_quatf(quat: ArrayLike) -> Gf.Quatf:
-    w, x, y, z = (float(v) for v in quat)
+    w, x, y, z = (float(v) for v in np.asarray(quat, float))
     return Gf.Quatf(w, x, y, z)
 
 
@@ -83,13 +83,13 @@ def _steady(value: float) -> float:
 
 
 def gf_quatd(quat: ArrayLike) -> Gf.Quatd:
-    w, x, y, z = (_steady(v) for v in quat)
+    w, x, y, z = (_steady(v) for v in np.asarray(quat, float))
     return Gf.Quatd(w, x, y, z)
 
 
 def gf_vec3f(vec: ArrayLike) -> Gf.Vec3f:
-    return Gf.Vec3f(*(float(v) for v in vec))
+    return Gf.Vec3f(*(float(v) for v in np.asarray(vec, float)))
 
 
 def gf_vec3d(vec: ArrayLike) -> Gf.Vec3d:
-    return Gf.Vec3d(*(_steady(v) for v in vec))
+    return Gf.Vec3d(*(_steady(v) for v in np.asarray(vec, float)))

@@ -104,6 +104,7 @@ def add_geom(
 def _mjc_contact(geom: mujoco.MjsGeom, prim: Usd.Prim, report: ImportReport) -> None:
     """MjcCollisionAPI's condim, priority, solmix, solref, solimp and group, where authored."""
     for attribute, field, size in MJC_CONTACT:
+        value: np.ndarray | float | None
         if size:
             value = read_array(prim, attribute, size, report)
         else:

@@ -39,9 +39,9 @@ def place(link: Link, frame: StageFrame, report: ImportReport) -> Placement:
         return Placement(frame.world_pose(link.prim)[0], IDENTITY, AXES["Z"], 0.0)
     joint = link.joint
     ends = ((joint.body0, joint.frame0, "0"), (joint.body1, joint.frame1, "1"))
-    (parent_body, *parent_end), (child_body, *child_end) = ends[::-1] if link.reversed else ends
-    parent_pose, parent_frame = _joint_frame(joint.prim, parent_body, *parent_end, frame, report)
-    child_pose, child_frame = _joint_frame(joint.prim, child_body, *child_end, frame, report)
+    parent_end, child_end = ends[::-1] if link.reversed else ends
+    parent_pose, parent_frame = _joint_frame(joint.prim, *parent_end, frame, report)
+    child_pose, child_frame = _joint_frame(joint.prim, *child_end, frame, report)
     axis = AXES.get(str(read(joint.prim, "physics:axis", report) or "X"), AXES["X"]) * (-1 if link.reversed else 1)
     relative = (parent_pose * parent_frame).inverse() * (child_pose * child_frame)
     motion, value = _joint_motion(joint.kind, axis, relative)
@@ -54,7 +54,7 @@ def place(link: Link, frame: StageFrame, report: ImportReport) -> Placement:
             "beyond the joint's motion: the child body is placed by the joint frames",
         )
     in_parent = parent_frame * motion * child_frame.inverse()
-    if parent_body is None:  # MuJoCo's world frame is not the stage's: it is metres and Z up
+    if parent_end[0] is None:  # MuJoCo's world frame is not the stage's: it is metres and Z up
         in_parent = parent_pose * in_parent
     return Placement(in_parent, child_frame, axis, value)
 

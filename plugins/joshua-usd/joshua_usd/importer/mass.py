@@ -83,6 +83,7 @@ def _full_inertia(prim: Usd.Prim, report: ImportReport) -> np.ndarray | None:
     if value is None or not len(value):
         return None
     full = read_array(prim, "newton:inertia", 6, report)
+    assert full is not None  # authored and not empty
     for moment in full[:3]:
         positive(prim, "newton:inertia", float(moment), report)
     return full

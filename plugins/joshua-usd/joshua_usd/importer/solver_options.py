@@ -50,7 +50,9 @@ DEGREE = math.pi / 180
 def angle_unit(scene: Usd.Prim | None, report: ImportReport) -> float:
     """Radians per unit of MuJoCo's angles in mjc:* attributes: `mjc:compiler:angle` "radian" or, as MjcSceneAPI's
     fallback (and MJCF's), "degree"."""
-    token = read_authored(scene, "mjc:compiler:angle", report) if scene is not None else None
+    if scene is None:
+        return DEGREE
+    token = read_authored(scene, "mjc:compiler:angle", report)
     if token is None or str(token) == "degree":
         return DEGREE
     if str(token) == "radian":

@@ -166,6 +166,7 @@ def _grow(
             used.add(joint.prim.GetPath())
             reverse = (joint.body0.GetPath() if joint.body0 else None) != path
             child = joint.body0 if reverse else joint.body1
+            assert child is not None  # a joint is reached from a body at one end, so the other end is a body
             if child.GetPath() in links:
                 rel = "physics:body0" if reverse else "physics:body1"
                 raise report.error(joint.prim.GetPath(), rel, f"closes a kinematic loop at <{child.GetPath()}>")
