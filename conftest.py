@@ -5,6 +5,7 @@ of it, for the tests of the viewers, and a headless chromium for the tests of th
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import queue
 import re
@@ -51,6 +52,23 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     worker running them while the other idles."""
     slow_files = {item.path for item in items if item.get_closest_marker("slow")}
     items.sort(key=lambda item: item.path not in slow_files)  # stable: the order within each group is kept
+
+
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    """Skip a test marked `gpu` where JAX sees no CUDA GPU. Asked in the worker that runs the test, so that the
+    collecting process never starts a GPU backend (which would claim GPU memory the workers need)."""
+    if item.get_closest_marker("gpu") and not _jax_sees_a_gpu():
+        pytest.skip("needs a CUDA GPU that JAX sees (jax[cuda13]): the GPU tier of docs/testing.md")
+
+
+@functools.cache
+def _jax_sees_a_gpu() -> bool:
+    """Whether JAX is installed and its default backend is a GPU."""
+    try:
+        import jax
+    except ImportError:
+        return False
+    return jax.default_backend() == "gpu"
 
 
 def _compile_for_short_programs() -> None:
