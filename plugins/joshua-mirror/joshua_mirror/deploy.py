@@ -1,9 +1,12 @@
-"""`joshua deploy POLICY_DIR`: run an exported policy (joshua-export) on a robot over ROS 2.
+"""`joshua deploy POLICY_DIR`: run an exported policy (joshua-export) on a robot over ROS 2 or through LeRobot.
 
 The MIRROR config says how the robot talks: its encoder topics (Float64 per joint or one JointState) with
 each joint's offset, and `simulation.mirror.command_topics`, where each actuator's target goes (Float64, in
-encoder units). The policy's contract says the rest: task, robot model, observation terms, action mapping,
-control rate. Everything is checked before the node starts; bad input is one line, exit 2.
+encoder units). With `--lerobot so10x_follower --port PORT --calibration JSON` the arm is reached through
+lerobot's robot API instead (`LeRobotArm`), and the config gives only the joints and their offsets. The
+policy's contract says the rest: task, robot model, observation terms, action mapping, control rate. Everything
+is checked before the loop starts; bad input is one line, exit 2. Either way the same loop (`DeployLoop`) runs
+the same safety.
 """
 
 from __future__ import annotations
@@ -11,7 +14,9 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import math
+import os
 import sys
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Any
 
@@ -30,14 +35,16 @@ from joshua_core.runs import check_run_name, create_run
 from joshua_mirror import options_pb2
 from joshua_mirror.controller import COMMAND, PolicyController, unmapped_joints
 from joshua_mirror.deploy_loop import DeployLoop
-from joshua_mirror.graph import TypeChecker
 from joshua_mirror.joints import MirroredJoint, resolve_joints
-from joshua_mirror.link import RobotLink, RobotUnits
+from joshua_mirror.lerobot_arm import ESTOP_SIGNAL, FOLLOWERS, LeRobotArm
+from joshua_mirror.link import RobotLink, RosTransport
 from joshua_mirror.names import topic_argument
 from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.ros import RosSession
+from joshua_mirror.transport import ArmTransport, RobotUnits
 
 DEFAULT_PRESET = "sim_mirror"
+LEROBOT_PRESETS = {"so100_follower": "sim_mirror", "so101_follower": "so101_sim_mirror"}  # the arm's joints
 UNITS = ("radians", "degrees", "range")  # the robot's: the model's own, or LeRobot's two (joshua_lerobot.BodyUnits)
 DEFAULT_STALE_AFTER_S = 0.2
 # rad/s (m/s for a slide joint): under the SO-ARM100 servos' top speed (STS3215: 0.222 s/60 deg at 7.4 V, 4.7 rad/s);
@@ -51,11 +58,20 @@ MAX_TARGET_M = 1000.0  # metres from the model's origin: farther is no target a 
 
 
 class DeployCommand(Command):
-    """Runs an exported policy as a ROS 2 node: encoders in, joint targets out, at the contract's rate."""
+    """Runs an exported policy on a robot, as a ROS 2 node or through LeRobot: joint values in, joint targets out,
+    at the contract's rate."""
 
     def add_arguments(self, parser: argparse.ArgumentParser) -> None:
         parser.add_argument("policy", type=Path, help="folder with policy.onnx and policy.json (joshua export)")
         add_config_arguments(parser, verb=f"read the robot's topics (default: preset {DEFAULT_PRESET}) from")
+        parser.add_argument(
+            "--lerobot",
+            choices=FOLLOWERS,
+            metavar="ROBOT",
+            help=f"drive the arm through lerobot's robot API ({', '.join(FOLLOWERS)}) instead of ROS 2; needs "
+            f"--port and --calibration; e-stop: kill -{ESTOP_SIGNAL.name.removeprefix('SIG')} PID",
+        )
+        parser.add_argument("--port", metavar="DEVICE", help="the arm's serial port with --lerobot (/dev/ttyACM0)")
         parser.add_argument("--target", metavar="X,Y,Z", help="the task's target command, in model coordinates (m)")
         parser.add_argument(
             "--target-topic",
@@ -86,16 +102,14 @@ class DeployCommand(Command):
         parser.add_argument(
             "--estop-topic",
             type=topic_argument("--estop-topic"),
-            default=DEFAULT_ESTOP_TOPIC,
             help=f"std_msgs/Bool; true stops the arm in place until restart (default {DEFAULT_ESTOP_TOPIC})",
         )
         parser.add_argument(
             "--units",
             choices=UNITS,
-            default=UNITS[0],
-            help="the robot's units on the encoder and command topics: radians (default), or LeRobot's for an "
-            "SO-100 driven by its follower: degrees (use_degrees=True) or range (use_degrees=False, needs "
-            "--calibration); needs joshua-lerobot",
+            help="the robot's units on the encoder and command topics: radians (default over ROS), or LeRobot's "
+            "for an SO-10x driven by its follower: degrees (use_degrees=True, the default with --lerobot) or range "
+            "(use_degrees=False, needs --calibration); needs joshua-lerobot",
         )
         parser.add_argument(
             "--calibration", type=Path, metavar="JSON", help="the arm's LeRobot calibration file (lerobot-calibrate)"
@@ -109,6 +123,7 @@ class DeployCommand(Command):
         if args.run_name is not None:
             check_run_name(args.run_name, "--run-name")
         target = _parse_target(args.target)
+        _check_transport(args)
         if target is None and not args.target_topic:
             raise UsageError("give the policy a target: --target X,Y,Z and/or --target-topic TOPIC")
         for name in ("stale_after", "max_speed", "status_period"):
@@ -116,7 +131,7 @@ class DeployCommand(Command):
         if not math.isfinite(args.duration) or args.duration < 0:
             raise UsageError(f"--duration must be 0 or more seconds (got {args.duration:g})")
         if not args.preset and not args.config:
-            args.preset = DEFAULT_PRESET
+            args.preset = LEROBOT_PRESETS[args.lerobot] if args.lerobot else DEFAULT_PRESET
         config = finalize(load(args, plugins.options())).simulation
         if simulation_mode(config) != "MIRROR":
             mode = simulation_mode(config)
@@ -124,33 +139,34 @@ class DeployCommand(Command):
         policy, contract, observer = _load(args.policy, plugins)
         rate = contract["control_hz"] if args.rate is None else args.rate
         options = options_of(config, options_pb2.mirror)
-        joints, commanded = _robot_joints(observer, contract, config, options)
-        units = _robot_units(args.units, args.calibration, joints)
+        joints, commanded = _robot_joints(observer, contract, config, options, by_topics=not args.lerobot)
+        units = _robot_units(args.units or ("degrees" if args.lerobot else UNITS[0]), args.calibration, joints)
+        _check_arm(args.lerobot, units)
         controller = PolicyController(policy, contract, observer, joints, args.max_speed / rate)
         root = writable_folder(args.output_dir, "--output-dir")
         if args.run_name and (root / args.run_name).exists():
             raise UsageError(f"run folder {root / args.run_name} exists; choose another --run-name")
-        with create_run(root, args.run_name, stem=RUN_STEM, options="--run-name") as run, RosSession(NODE_NAME) as ros:
-            link = RobotLink(ros, joints, options, commanded, args.estop_topic, args.target_topic, units)
-            types = TypeChecker(ros.node, link.expected_types, reader="deploy")
+        with create_run(root, args.run_name, stem=RUN_STEM, options="--run-name") as run, ExitStack() as stack:
+            transport = _open_transport(stack, args, joints, options, commanded, units, rate)
+            link = RobotLink(transport, commanded)
             loop = DeployLoop(
                 link,
                 controller,
-                types,
                 rate=rate,
                 stale_after=args.stale_after,
                 status_period=args.status_period,
                 fixed_target=target,
             )
+            estop = f"kill -{ESTOP_SIGNAL.name.removeprefix('SIG')} {os.getpid()}" if args.lerobot else args.estop_topic
             print(
                 f"joshua: deploy: {args.policy} ({contract['task']}) on {len(joints)} joints at {rate:g} Hz; "
-                f"e-stop: {args.estop_topic}",
+                f"e-stop: {estop}",
                 file=sys.stderr,
                 flush=True,
             )
             stopped_by = loop.run(args.duration)
-            ros.close()  # no callback changes the counts while they are reported
-            report = _report(args, contract, rate, loop, link, stopped_by, types)
+            transport.close()  # nothing changes the counts while they are reported
+            report = _report(args, contract, rate, loop, link, stopped_by)
             path = run.path / REPORT_FILE
             atomic_write_json(path, json_safe(report))
         estop = "latched" if link.estop_at else "no"
@@ -158,10 +174,51 @@ class DeployCommand(Command):
             f"deployed {contract['task']} for {loop.wall_seconds:.1f} s ({stopped_by}): {loop.stats.steps} steps, "
             f"{loop.stats.hold_episodes} holds, e-stop {estop}; report: {path}"
         )
-        problem = types.error()
+        problem = transport.error()
         if problem:
             raise ConfigError(problem)
         return 0
+
+
+def _check_transport(args: argparse.Namespace) -> None:
+    """The options of one transport only: --port with --lerobot, the topics without it."""
+    if args.lerobot:
+        given = [name for name in ("target_topic", "estop_topic") if getattr(args, name)]
+        if given:
+            option = "--" + given[0].replace("_", "-")
+            raise UsageError(f"{option} is a ROS 2 topic; with --lerobot give --target, stop with Ctrl-C or SIGUSR1")
+        if not args.port:
+            raise UsageError("--lerobot needs the arm's serial port: --port /dev/ttyACM0 (lerobot-find-port)")
+        if args.calibration is None:
+            raise UsageError("--lerobot needs the arm's calibration: --calibration JSON (what lerobot-calibrate wrote)")
+    elif args.port:
+        raise UsageError("--port is the serial port of a LeRobot arm: give --lerobot with it")
+    args.estop_topic = args.estop_topic or DEFAULT_ESTOP_TOPIC
+
+
+def _check_arm(robot_type: str | None, units: RobotUnits) -> None:
+    """A LeRobot follower drives the arm of the policy's model: SO-ARM100 joints for so100, SO-101's for so101."""
+    if robot_type is None:
+        return
+    if units.robot_type != robot_type:
+        raise UsageError(f"--lerobot {robot_type} is another arm than the policy's model ({units.robot_type})")
+
+
+def _open_transport(
+    stack: ExitStack,
+    args: argparse.Namespace,
+    joints: list[MirroredJoint],
+    options: MirrorOptions,
+    commanded: list[MirroredJoint],
+    units: RobotUnits,
+    rate: float,
+) -> ArmTransport:
+    """The arm's transport for this run, closed when `stack` closes: a LeRobot robot or a ROS 2 node."""
+    if args.lerobot:
+        arm = LeRobotArm(args.lerobot, args.port, args.calibration, units, joints, period=0.5 / rate, estop_signal=True)
+        return stack.enter_context(arm)
+    ros = stack.enter_context(RosSession(NODE_NAME))
+    return RosTransport(ros, joints, options, commanded, args.estop_topic, args.target_topic, units)
 
 
 def _load(folder: Path, plugins: PluginHost) -> tuple[Any, dict[str, Any], Any]:
@@ -207,14 +264,15 @@ def _robot_units(name: str, calibration: Path | None, joints: list[MirroredJoint
     if robot_type is None:
         raise UsageError(f"--units {name} is for the SO-100's six joints; the config mirrors {len(joints)} others")
     lerobot = LeRobotUnits(BodyUnits(name), None if calibration is None else read_calibration(calibration))
-    return RobotUnits(lerobot, {joint.joint: feature for joint, feature in zip(joints, names, strict=True)})
+    features = {joint.joint: feature for joint, feature in zip(joints, names, strict=True)}
+    return RobotUnits(lerobot, features, robot_type)
 
 
 def _robot_joints(
-    observer: Any, contract: dict[str, Any], config: Any, options: MirrorOptions
+    observer: Any, contract: dict[str, Any], config: Any, options: MirrorOptions, *, by_topics: bool
 ) -> tuple[list[MirroredJoint], list[MirroredJoint]]:
     """The mapped joints (checked against the policy's model: all its joints measured, position actuators) and,
-    in the contract's action order, those the policy drives, each with its command topic."""
+    in the contract's action order, those the policy drives, each with its command topic when `by_topics`."""
     checked = MirrorOptions()
     checked.CopyFrom(options)
     checked.apply = MirrorOptions.ACTUATOR  # targets are joint positions: only position actuators take them
@@ -230,7 +288,7 @@ def _robot_joints(
     for problem, names in (
         ("a mapping (simulation.mirror_topic_mappings)", [name for name in actuators if name not in by_actuator]),
         ("a command topic (simulation.mirror.command_topics)",
-         [name for name in actuators if name in by_actuator and not by_actuator[name].command_topic]),
+         [name for name in actuators if by_topics and name in by_actuator and not by_actuator[name].command_topic]),
     ):  # fmt: skip
         if names:
             raise ConfigError(f"the policy drives actuators without {problem}: {', '.join(names)}")
@@ -261,7 +319,6 @@ def _report(
     loop: DeployLoop,
     link: RobotLink,
     stopped_by: str,
-    types: TypeChecker,
 ) -> dict[str, Any]:
     """deploy_report.json: the settings, what the loop did, and per joint what came in and went out."""
     controller = loop.controller
@@ -280,7 +337,7 @@ def _report(
             "command_topic": joint.command_topic or None,
             "last_target_sent": None
             if last is None or position is None
-            else link.robot_value(joint, float(last[position])),
+            else link.transport.units.from_radians(joint, float(last[position]) - joint.offset),
             "limited": entry.limited if entry else 0,
             "slowed": entry.slowed if entry else 0,
         }
@@ -293,13 +350,11 @@ def _report(
         "rate_hz": rate,
         "stale_after_s": args.stale_after,
         "max_speed": args.max_speed,
-        "estop_topic": args.estop_topic,
-        "target_topic": args.target_topic,
+        **link.transport.report(),
         "target": None if target is None else [float(value) for value in target],
         "targets_received": link.targets_received,
         "stopped_by": stopped_by,
         "wall_seconds": loop.wall_seconds,
         **loop.stats.report(),
         "joints": joints,
-        "type_mismatches": types.seen,
     }

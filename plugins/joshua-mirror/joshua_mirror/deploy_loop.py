@@ -5,7 +5,8 @@ runs at once when that state arrives late). It does not run, and nothing is publ
 last value is older than `stale_after` (HOLD: the servos keep their last target), while there is no target,
 and ever again after an e-stop (latched until the process restarts). At the e-stop, and when the loop ends, one
 last message stops the arm in place: each driven joint's target set to its measured position (not when a value
-is stale: where the joint is is not known, so its last target stays).
+is stale: where the joint is is not known, so its last target stays). The loop sees the arm only through the
+link and its transport (`ArmTransport`: ROS 2 topics or a LeRobot robot), so both get the same safety.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ from typing import Any
 
 from joshua_core.interrupts import StopRequest, stop_requests
 from joshua_mirror.controller import PolicyController
-from joshua_mirror.graph import TypeChecker
 from joshua_mirror.link import RobotLink
 from joshua_mirror.mirror import APPLY_LATENCY_SAMPLES, percentiles
 
@@ -58,13 +58,13 @@ class LoopStats:
 
 
 class DeployLoop:
-    """Runs the controller on the link's values at `rate`, until the duration, Ctrl-C/SIGTERM or a wrong type."""
+    """Runs the controller on the link's values at `rate`, until the duration, Ctrl-C/SIGTERM or a transport
+    problem (a wrong message type, a lost port)."""
 
     def __init__(
         self,
         link: RobotLink,
         controller: PolicyController,
-        types: TypeChecker,
         *,
         rate: float,
         stale_after: float,
@@ -73,7 +73,7 @@ class DeployLoop:
     ) -> None:
         self.link = link
         self.controller = controller
-        self.types = types
+        self.transport = link.transport
         self.period = 1.0 / rate
         self.stale_after = stale_after
         self.status_period = status_period
@@ -103,8 +103,8 @@ class DeployLoop:
     def _loop(self, start: float, deadline: float, request: StopRequest) -> str:
         self.start = start
         next_due, next_status = start, start + self.status_period
-        if self._wrong_types():
-            return "wrong message type"
+        if problem := self._problems():
+            return problem
         while True:
             if request.requested:
                 return str(request.interrupted())  # the signal's name
@@ -113,8 +113,8 @@ class DeployLoop:
                 return "duration"
             if now >= next_status:
                 next_status = now + self.status_period
-                if self._wrong_types():
-                    return "wrong message type"
+                if problem := self._problems():
+                    return problem
                 _say(self._status_line(now))
             self._update_state(now)
             if self.state == RUNNING and now >= next_due and self._step():
@@ -191,10 +191,11 @@ class DeployLoop:
         if self.state == HOLD:
             self.stats.hold_seconds += now - self.state_since
 
-    def _wrong_types(self) -> bool:
-        for line in self.types.poll():
-            _say(f"joshua: deploy: wrong message type: {line}")
-        return bool(self.types.current)
+    def _problems(self) -> str | None:
+        """Say the transport's new problems; what stops the run, if anything does."""
+        for line in self.transport.poll():
+            _say(f"joshua: deploy: {line}")
+        return self.transport.broken()
 
     def _status_line(self, now: float) -> str:
         stats = self.stats
@@ -207,7 +208,7 @@ class DeployLoop:
         state = self.state + (f" {self.reason}" if self.reason else "")
         return (
             f"[deploy {now - self.start:6.1f} s] {state} | {rate:.0f} steps/s{timing} | "
-            f"limited {limited} slowed {slowed}"
+            f"limited {limited} slowed {slowed}{self.transport.status()}"
         )
 
 

@@ -22,6 +22,7 @@ class SignallingLink:
 
     def __init__(self) -> None:
         self.joints = [type("Joint", (), {"joint": f"joint_{i}"})() for i in range(JOINTS)]
+        self.transport = Quiet()
         self.target: Any = np.zeros(3)
         self.estop_at: float | None = None
         self.sent = 0
@@ -65,18 +66,19 @@ class Holding:
         pass
 
 
-class NoWrongTypes:
-    current: dict[str, str] = {}
+class Quiet:
+    """A transport with nothing to say."""
 
     def poll(self) -> list[str]:
         return []
 
+    def broken(self) -> None:
+        return None
+
 
 def test_a_ctrl_c_while_targets_go_out_stops_after_the_step_with_every_target_counted() -> None:
     link = SignallingLink()
-    loop = DeployLoop(
-        link, Holding(), NoWrongTypes(), rate=1000.0, stale_after=1.0, status_period=10.0, fixed_target=np.zeros(3)
-    )  # type: ignore[arg-type]
+    loop = DeployLoop(link, Holding(), rate=1000.0, stale_after=1.0, status_period=10.0, fixed_target=np.zeros(3))  # type: ignore[arg-type]
     stopped_by = loop.run(duration=30.0)
     assert stopped_by == "SIGINT"
     assert loop.stats.steps == 3  # the step under way finished; no step after it

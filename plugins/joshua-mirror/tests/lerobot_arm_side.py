@@ -1,0 +1,164 @@
+"""Runs `joshua deploy --lerobot` and the MIRROR mode on LeRobot arms that are `feetech_bus.FeetechArm`s, with the
+real lerobot (started by test_lerobot_arm.py with lerobot's site on PYTHONPATH): each scenario is the real
+command (`joshua_core.cli.main`) in this one process, so lerobot and torch are imported once for all. Prints one
+JSON line: per scenario its exit status, stderr lines and what the arm saw.
+
+    python lerobot_arm_side.py OUT_DIR
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import re
+import signal
+import sys
+import threading
+from collections.abc import Callable
+from contextlib import redirect_stderr
+from pathlib import Path
+from typing import Any
+
+from feetech_bus import MOTORS, FeetechArm
+
+from joshua_core.cli import main
+from joshua_core.resources import models_dir
+
+POLICY = models_dir() / "policies" / "so_arm100_reach"
+TARGET = "0.22,0.05,0.15"
+RANGE = (1024, 3072)  # every motor's calibrated range, ticks: its middle 2048 is the model's zero
+WAIT_S = 30.0  # a line that never comes fails the scenario, it does not hang
+
+
+class Lines(io.TextIOBase):
+    """stderr as lines, kept and watched: `wait_for` blocks until a line matching a pattern was written."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+        self.partial = ""
+        self.ended = False  # the command returned: no line will come
+        self.changed = threading.Condition()
+
+    def write(self, text: str) -> int:
+        with self.changed:
+            *done, self.partial = (self.partial + text).split("\n")
+            self.lines.extend(done)
+            self.changed.notify_all()
+        return len(text)
+
+    def wait_for(self, pattern: str, after: int = 0) -> int:
+        """The index of the first line from `after` on that matches `pattern`."""
+        with self.changed:
+            self.changed.wait_for(lambda: self.ended or self._find(pattern, after) is not None, WAIT_S)
+            if self._find(pattern, after) is None:
+                raise TimeoutError(f"no line matching {pattern!r}")
+            return self._find(pattern, after)  # type: ignore[return-value]
+
+    def end(self) -> None:
+        with self.changed:
+            self.ended = True
+            self.changed.notify_all()
+
+    def _find(self, pattern: str, after: int) -> int | None:
+        return next((i for i, line in enumerate(self.lines[after:], after) if re.search(pattern, line)), None)
+
+
+def calibration(folder: Path, name: str = "arm") -> Path:
+    path = folder / f"{name}.json"
+    entries = {
+        motor: {"id": index, "drive_mode": 0, "homing_offset": 0, "range_min": RANGE[0], "range_max": RANGE[1]}
+        for index, motor in enumerate(MOTORS, 1)
+    }
+    path.write_text(json.dumps(entries))
+    return path
+
+
+def calibrated_arm(ticks: dict[int, float] | None = None) -> FeetechArm:
+    """An arm whose servos hold the calibration `calibration` writes (lerobot-calibrate wrote both)."""
+    arm = FeetechArm(ticks)
+    for servo in arm.servos.values():
+        servo.memory[9:11] = RANGE[0].to_bytes(2, "little")
+        servo.memory[11:13] = RANGE[1].to_bytes(2, "little")
+    return arm
+
+
+def run(argv: list[str], driver: Callable[[Lines], None] | None = None) -> dict[str, Any]:
+    """`joshua ARGV` on this (main) thread, its stderr watched by `driver` on another; exit status and lines."""
+    lines = Lines()
+    failure: list[str] = []
+
+    def drive() -> None:
+        try:
+            assert driver is not None
+            driver(lines)
+        except Exception as error:  # reported, and the command stopped: the test fails on it
+            failure.append(repr(error))
+            os.kill(os.getpid(), signal.SIGINT)
+
+    thread = threading.Thread(target=drive) if driver else None
+    with redirect_stderr(lines):
+        if thread:
+            thread.start()
+        try:
+            status = main(argv)
+        except SystemExit as exit_:
+            status = int(exit_.code or 0)
+        lines.end()
+        if thread:
+            thread.join()
+    return {"status": status, "lines": lines.lines, "driver_failed": failure}
+
+
+def deploy_scenarios(out: Path) -> dict[str, Any]:
+    results: dict[str, Any] = {}
+    good = calibration(out)
+    base = ["deploy", str(POLICY), "--lerobot", "so100_follower", "--target", TARGET, "--status-period", "0.1"]
+    with calibrated_arm() as arm:
+
+        def drive(lines: Lines) -> None:
+            running = lines.wait_for(r"deploy: RUNNING")
+            assert arm.wait_reads(20, WAIT_S)
+            arm.muted.set()  # the arm stops answering: the deploy holds
+            held = lines.wait_for(r"deploy: HOLD", running)
+            assert arm.wait_reads(1, WAIT_S)  # the bus is in order: every goal sent before the HOLD has arrived
+            results["goals_at_hold"] = arm.goals_written
+            lines.wait_for(r"does not answer", running)
+            lines.wait_for(r"\[deploy .* HOLD", held)  # a status period in HOLD
+            results["goals_before_answering"] = arm.goals_written
+            arm.muted.clear()
+            again = lines.wait_for(r"deploy: RUNNING", held)
+            lines.wait_for(r"answers again", running)
+            assert arm.wait_reads(150, WAIT_S)  # time to reach the target
+            os.kill(os.getpid(), signal.SIGUSR1)  # the e-stop
+            lines.wait_for(r"deploy: E-STOP", again)
+            assert arm.wait_reads(1, WAIT_S)  # the stop in place has arrived
+            results["goals_at_estop"] = arm.goals_written
+            assert arm.wait_reads(20, WAIT_S)
+            results["goals_after_estop"] = arm.goals_written
+            os.kill(os.getpid(), signal.SIGTERM)
+
+        argv = [*base, "--port", arm.port, "--calibration", str(good), "--output-dir", str(out), "--run-name", "ok"]
+        results["run"] = run(argv, drive)
+        results["ticks"] = arm.ticks()
+        results["goals"] = arm.goals()
+        results["goal_writes"] = arm.goal_writes
+        results["torque"] = arm.torque()
+    results["report"] = json.loads((out / "ok" / "deploy_report.json").read_text())
+    results["bad_port"] = run([*base, "--port", str(out / "ttyACM9"), "--calibration", str(good)])
+    with calibrated_arm() as arm:
+        results["no_calibration"] = run([*base, "--port", arm.port, "--calibration", str(out / "missing.json")])
+        for servo in arm.servos.values():
+            servo.memory[11:13] = (RANGE[1] - 100).to_bytes(2, "little")  # this arm was calibrated otherwise
+        results["other_calibration"] = run([*base, "--port", arm.port, "--calibration", str(good)])
+        results["other_torque"] = arm.torque()
+    with calibrated_arm() as arm:
+        arm.muted.set()
+        results["silent"] = run([*base, "--port", arm.port, "--calibration", str(good)])
+        results["silent_torque"] = arm.torque()
+    return results
+
+
+if __name__ == "__main__":
+    folder = Path(sys.argv[1])
+    print(json.dumps({"deploy": deploy_scenarios(folder)}))
