@@ -52,6 +52,14 @@ PYTHON=${PYTHON:-python3.11}
 command -v "$PYTHON" >/dev/null || PYTHON=python3
 [[ -x .venv/bin/python ]] || "$PYTHON" -m venv .venv
 export PIP_CACHE_DIR="$PWD/.cache/pip" PIP_DISABLE_PIP_VERSION_CHECK=1
+pinned_mujoco=$(sed -n 's/^mujoco==\([^ ]*\).*/\1/p' constraints.txt)
+installed_mujoco=$(.venv/bin/python -c 'from importlib.metadata import version; print(version("mujoco"))' 2>/dev/null || true)
+if [[ -n $installed_mujoco && $installed_mujoco != "$pinned_mujoco" ]]; then
+  # mujoco 4 split its compiled library into mujoco-core: upgraded in place, files one version's package owns can be
+  # removed by the other's uninstall, so both go first and the pinned pair is installed afresh below
+  echo "setup: replacing mujoco $installed_mujoco with $pinned_mujoco"
+  .venv/bin/pip uninstall -q -y mujoco mujoco-core
+fi
 # --no-compile: pip byte-compiles one file after another; compile_sites below does it on every core once the
 # packages are in (left to Python's first import instead, the tests' processes compiled the same modules side by
 # side and a clean clone's pytest took 70 s longer)
