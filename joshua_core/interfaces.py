@@ -205,6 +205,12 @@ class Backend(ABC):
         """Batched environments of `kind` (see EnvKind) for `spec`, with tasks and terms from `plugins`."""
         raise ConfigError(f"backend {type(self).__name__} provides no {kind.name} environments")
 
+    def model_variant(self, model_path: Path) -> Path:
+        """The model file this backend simulates for a task whose model is `model_path`: the file itself, unless the
+        backend keeps a variant of its own beside it (mjx: `NAME_mjx.xml`). Asked so that code matching a model file
+        to its task (e.g. `joshua_ppo.train_mjx`) knows the variants without importing a backend."""
+        return model_path
+
 
 class Mode(ABC):
     """A simulation mode, registered under the name `simulation.mode` selects (e.g. "OFFSCREEN")."""

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from joshua_core.compile_cache import use_compile_cache
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, EnvKind, EnvSpec
-from joshua_mjx.engine import MjxEngine
+from joshua_mjx.engine import MjxEngine, mjx_variant
 from joshua_mjx.env import MjxEnv, mjx_envs
 from joshua_mjx.impl import Physics
 
@@ -39,3 +39,6 @@ class MjxBackend(Backend):
         use_compile_cache()  # before the environments' reset and step compile
         Physics.from_training(spec.training).leave_memory_to_warp()  # before JAX starts its backends, if it has not
         return mjx_envs(spec, plugins)
+
+    def model_variant(self, model_path: Path) -> Path:
+        return mjx_variant(model_path)

@@ -9,7 +9,7 @@ from typing import Any
 from google.protobuf import json_format
 
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.defaults import training_output_dir
+from joshua_core.defaults import training_output_dir, training_plugins
 from joshua_core.errors import ConfigError
 from joshua_core.kinds import Kind
 from joshua_core.options import parse_dict
@@ -17,7 +17,6 @@ from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_core.run_context import RunContext
 from joshua_core.tasks import load_task_spec
-from joshua_mjx import MJX_SUFFIX
 from joshua_ppo.trainer import PpoTrainer
 
 
@@ -34,7 +33,8 @@ def train_mjx(
     `config` holds TrainingConfig fields by name (num_envs, num_steps, num_epochs, minibatch_size,
     learning_rate, gamma, gae_lambda, clip_epsilon, total_timesteps, seed, task, checkpoint_dir, and
     `ppo`: {...} for PpoOptions); unknown names are a ConfigError. The task defaults to the registered
-    task whose model is `model_path` (its `_mjx` variant counts too), e.g. ant/ant.xml -> ant_locomotion.
+    task whose model is `model_path` (or the variant of it the backend simulates, e.g. ant/ant_mjx.xml on mjx),
+    e.g. ant/ant.xml -> ant_locomotion.
     Runs go to `checkpoint_dir`, else the config's, else the folder the `joshua` command uses
     (`joshua_core.config.training_output_dir`).
     """
@@ -45,18 +45,20 @@ def train_mjx(
     except json_format.ParseError as error:
         raise ConfigError(f"train_mjx config: {error}") from None
     training.model_path = str(resolve_data_path(model_path))
-    training.task = task or training.task or _task_for_model(Path(training.model_path), host)
+    training.task = task or training.task or _task_for_model(Path(training.model_path), training, host)
     training.checkpoint_dir = str(checkpoint_dir or training_output_dir(training))
     return PpoTrainer().train(training, RunContext(host, Path(training.checkpoint_dir)))
 
 
-def _task_for_model(model_path: Path, plugins: PluginHost) -> str:
-    """The registered task whose model file is `model_path` or the file it is the MJX variant of."""
-    stem = model_path.stem.removesuffix(MJX_SUFFIX)
+def _task_for_model(model_path: Path, training: TrainingConfig, plugins: PluginHost) -> str:
+    """The registered task whose model file is `model_path`, or has `model_path` as the variant that the training's
+    backend simulates (asked of the backend, so the trainer knows no backend's file names)."""
+    backend = plugins.backend(training_plugins(training)[1])
     matches = []
     for name in plugins.names(Kind.TASK):
         spec_path = resolve_data_path(load_task_spec(name, plugins).model_path)
-        if spec_path.parent == model_path.parent and spec_path.stem == stem:
+        same = spec_path.parent == model_path.parent and spec_path.stem == model_path.stem
+        if same or backend.model_variant(spec_path) == model_path:
             matches.append(name)
     if len(matches) != 1:
         found = f"tasks {', '.join(matches)} use it" if matches else "no registered task uses it"
