@@ -32,6 +32,7 @@ ENTRY_POINTS = {
     ("joshua_core.cli", "main"): "the `joshua` command",
     ("joshua_ppo.api", "train_mjx"): "the documented Python entry to training (docs/training-mjx.md)",
     ("joshua_modes.offscreen", "run_offscreen"): "the documented Python API for frames of a replay",
+    ("joshua_modes.interactive", "run_interactive"): "the documented Python API for the viewer (joshua-modes README)",
     ("joshua_mujoco.engine", "__init__"): "MuJoCoEngine(model_path=...), the documented API, given a USD file",
     ("joshua_mujoco.envs", "__init__"): "TaskEnv: the Gymnasium entry point of gymnasium.make('joshua/...')",
     ("joshua_mujoco.envs", "register_envs"): "run on import of joshua_mujoco.envs: Gymnasium ids of all tasks",

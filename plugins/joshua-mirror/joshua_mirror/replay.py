@@ -87,7 +87,7 @@ class MirrorReplayCommand(Command):
             raise ConfigError(f"mirror-replay needs a MIRROR config; this one is {simulation_mode(config)}")
         if args.joint_state:
             options_of(config, options_pb2.mirror).message_type = MirrorOptions.JOINT_STATE
-        joints, model_joints = _joints_of(config)
+        joints, model_joints = _joints_of(config, plugins)
         trajectory = read_trajectory(resolve_data_path(args.csv, what="trajectory"), model_joints)
         trajectory.require_playable()
         columns = _columns(trajectory, joints, args.csv)
@@ -115,14 +115,13 @@ class MirrorReplayCommand(Command):
         return 0
 
 
-def _joints_of(config: SimulationConfig) -> tuple[list[MirroredJoint], list[str]]:
+def _joints_of(config: SimulationConfig, plugins: PluginHost) -> tuple[list[MirroredJoint], list[str]]:
     """The config's mapped joints (checked against its model, like the mirror does), and the model's hinge and
-    slide joints: the columns a trajectory of this model may have (the rule of every trajectory reader)."""
+    slide joints: the columns a trajectory of this model may have (the rule of every trajectory reader). The model
+    is the engine's of the backend the config names, as the mirror's is."""
     import mujoco
 
-    from joshua_mujoco import MuJoCoEngine
-
-    with MuJoCoEngine(config.model_path) as engine:
+    with plugins.backend(config.backend).create_engine(Path(config.model_path), plugins) as engine:
         options = options_of(config, options_pb2.mirror)
         model = engine.model
         scalar = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}

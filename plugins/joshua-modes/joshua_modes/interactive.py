@@ -14,13 +14,14 @@ import time
 from pathlib import Path
 
 from joshua_core.config_pb2 import SimulationConfig
+from joshua_core.defaults import DEFAULT_SIMULATION_BACKEND
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import Engine, Mode
 from joshua_core.options import options_of
+from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
 from joshua_modes import options_pb2
 from joshua_modes.options_pb2 import ViewerOptions
-from joshua_mujoco import MuJoCoEngine
 from joshua_render import InteractiveControls, InteractivePage, ViewerDisplay, open_interactive_page
 
 KEY_SPACE = 32  # GLFW key codes, as the viewer's key_callback reports them
@@ -56,14 +57,22 @@ class _Controls:
         return False
 
 
-def run_interactive(model_path: str | Path, *, keyframe: str | None = None, duration: float = 0.0) -> None:
+def run_interactive(
+    model_path: str | Path,
+    *,
+    keyframe: str | None = None,
+    duration: float = 0.0,
+    plugins: PluginHost | None = None,
+    backend: str = DEFAULT_SIMULATION_BACKEND,
+) -> None:
     """Open the MuJoCo viewer on `model_path`, held at `keyframe` (None: the model's first keyframe, if any).
 
     Returns when the window is closed, or after `duration` simulated seconds when it is positive.
-    No usable display raises UsageError suggesting sim_offscreen, Xvfb or DISPLAY.
+    No usable display raises UsageError suggesting sim_offscreen, Xvfb or DISPLAY. The engine comes from the
+    backend named `backend` of `plugins`; a top-level entry point, so without `plugins` it finds them itself.
     """
-    engine = MuJoCoEngine(model_path)
-    with engine:
+    plugins = plugins or PluginHost.discover()
+    with plugins.backend(backend).create_engine(Path(model_path), plugins) as engine:
         simulate(engine, keyframe=keyframe, duration=duration)
 
 

@@ -23,6 +23,7 @@ from numpy.typing import NDArray  # noqa: E402
 
 from joshua_core.atomic import staged_outputs  # noqa: E402
 from joshua_core.config_pb2 import SimulationConfig  # noqa: E402
+from joshua_core.defaults import DEFAULT_SIMULATION_BACKEND  # noqa: E402
 from joshua_core.errors import ConfigError, UsageError  # noqa: E402
 from joshua_core.headless import warn_no_web_page  # noqa: E402
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, render_size  # noqa: E402
@@ -36,7 +37,6 @@ from joshua_modes import options_pb2  # noqa: E402
 from joshua_modes.options_pb2 import OffscreenOptions  # noqa: E402
 from joshua_modes.replay import Replayer, model_joint_ranges  # noqa: E402
 from joshua_modes.validation import validate, validated_replayer  # noqa: E402
-from joshua_mujoco import MuJoCoEngine  # noqa: E402
 from joshua_render import VideoWriter, camera_id, create_renderer, write_png  # noqa: E402
 
 DEFAULT_FPS = 30.0
@@ -117,14 +117,16 @@ def iter_offscreen_frames(
     shadows: bool = True,
     episode: int = 0,
     plugins: PluginHost,
+    backend: str = DEFAULT_SIMULATION_BACKEND,
 ) -> Iterator[NDArray[np.uint8]]:
     """Yield (height, width, 3) uint8 frames of the trajectory replayed kinematically (or `tracked`),
     one per 1/fps of trajectory time. Rows with a bad timestamp or a non-finite value are skipped.
 
     Relative paths resolve like config paths: the working directory, then the shipped models folder. `plugins`
-    (the run's host) reads models and trajectories in other formats (USD, a LeRobot dataset).
+    (the run's host) reads models and trajectories in other formats (USD, a LeRobot dataset) and provides the
+    engine, from the backend named `backend` (as `simulation.backend` names it for the mode).
     """
-    engine = MuJoCoEngine(model_path, render_width=width, render_height=height, plugins=plugins)
+    engine = plugins.backend(backend).create_engine(Path(model_path), plugins, render_width=width, render_height=height)
     with engine:
         engine.reset(keyframe)
         path = resolve_data_path(trajectory_path, what="trajectory", folders=True)
