@@ -38,7 +38,8 @@ ENTRY_POINTS = {
     ("joshua_mujoco.envs", "register_envs"): "run on import of joshua_mujoco.envs: Gymnasium ids of all tasks",
     ("joshua_mujoco.vector", "make_vector_env"): "documented convenience (joshua-mujoco README), gymnasium.make_vec",
     ("joshua_mjx.env", "make_mjx_env"): "documented convenience (joshua-mjx README)",
-    ("joshua_sb3.task_envs", "task_vec_env"): "documented convenience behind AntEnv/TrilegEnv (docs/usd.md)",
+    ("joshua_sb3.task_envs", "task_vec_env"): "documented convenience: any task as an SB3 VecEnv (docs/usd.md)",
+    ("joshua_sb3.task_envs", "alias_env"): "`from joshua_sb3 import AntEnv`: a task's alias (docs/usd.md)",
 }
 MAX_LINES = 600
 MAX_FUNCTION_LINES = 120

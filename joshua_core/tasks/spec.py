@@ -95,6 +95,9 @@ class TaskSpec:
     action: ActionSpec = ActionSpec()
     curriculum: Curriculum | None = None  # eases the events in on training environments; None: full strength
     cameras: tuple[CameraSpec, ...] = ()  # scene cameras rendered as image observations (joshua_core.tasks.cameras)
+    # other names the task goes by (Isaac Lab's `AntEnv`), declared by the plugin that provides it, so that a
+    # convenience such as `from joshua_sb3 import AntEnv` finds the task without naming another plugin's tasks
+    aliases: tuple[str, ...] = ()
 
     def terms(self, kind: TermKind) -> tuple[TermSpec, ...]:
         return getattr(self, _FIELD_OF_KIND[kind])

@@ -4,8 +4,9 @@ The package stays light (the `joshua` entry point imports `joshua_sb3.plugin`); 
 stable-baselines3 are imported by `joshua_sb3.trainer` and the adapters when a run uses them.
 Exported for users and other plugins: `SameStepVecEnv` (an SB3 VecEnv over any NUMPY vector
 environment), `JaxVecEnv` (one over JAX environments), their base `BatchVecEnv`, `episode_info`
-(SB3's info of an ended episode), and `task_vec_env`, `AntEnv`, `TrilegEnv` (a registered task's
-environments as an SB3 VecEnv, `joshua_sb3.task_envs`).
+(SB3's info of an ended episode), and `task_vec_env` (a registered task's environments as an SB3 VecEnv,
+`joshua_sb3.task_envs`). A task's alias (`TaskSpec.aliases`, e.g. `AntEnv`) is a name of this package too: the
+task as a VecEnv factory (`task_envs.alias_env`), found among the installed tasks when it is first used.
 """
 
 from __future__ import annotations
@@ -14,15 +15,13 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from joshua_sb3.jax_vec_env import JaxVecEnv
-    from joshua_sb3.task_envs import AntEnv, TrilegEnv, task_vec_env
+    from joshua_sb3.task_envs import task_vec_env
     from joshua_sb3.vec_env import BatchVecEnv, SameStepVecEnv, episode_info
 
 __all__ = [
-    "AntEnv",
     "BatchVecEnv",
     "JaxVecEnv",
     "SameStepVecEnv",
-    "TrilegEnv",
     "episode_info",
     "task_vec_env",
 ]
@@ -40,4 +39,8 @@ def __getattr__(name: str) -> Any:
             exported = import_module(f"joshua_sb3.{module}")
             if hasattr(exported, name):
                 return getattr(exported, name)
+    if name[:1].isupper() and name.endswith("Env"):  # a task's alias, such as AntEnv
+        from joshua_sb3.task_envs import alias_env
+
+        return alias_env(name)
     raise AttributeError(f"module 'joshua_sb3' has no attribute '{name}'")

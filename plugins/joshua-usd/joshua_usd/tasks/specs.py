@@ -69,6 +69,7 @@ ISAAC_ANT_LOCOMOTION = TaskSpec(
         TermSpec("reset_qvel_normal", params={"scale": 0.1}),
     ),
     metrics=_METRICS,
+    aliases=("AntEnv",),  # Isaac Lab's name: `from joshua_sb3 import AntEnv`
 )
 
 TRILEG_FEET = ("shin_1", "shin_2", "shin_3")
@@ -92,4 +93,5 @@ ISAAC_TRILEG = TaskSpec(
     ),
     metrics=_METRICS,
     action=ActionSpec("offset", 0.6),
+    aliases=("TrilegEnv",),  # named like AntEnv
 )
