@@ -87,6 +87,37 @@ def test_layering_and_discovery_rules_are_found(tmp_path: Path) -> None:
     assert f"deep.py:1: imports {trainer_package.name}.inner; import from {trainer_package.name} (its __all__)" in found
 
 
+def plugin(root: Path, distribution: str, files: dict[str, str]) -> str:
+    """A plugin distribution in a fake repository, its package's modules by name; returns the package name."""
+    package = root / "plugins" / distribution / distribution.replace("-", "_")
+    package.mkdir(parents=True)
+    (package.parent / "pyproject.toml").write_text(f'[project]\nname = "{distribution}"\n')
+    for name, text in {"__init__.py": "", **files}.items():
+        (package / name).write_text(text)
+    return package.name
+
+
+def test_arrows_one_way_rules_are_found(tmp_path: Path) -> None:
+    """A trainer importing a backend, a mode constructing a backend's engine, a plugin naming another's task."""
+    check = load_tool("check_architecture")
+    catalog = json.loads((REPO_ROOT / "joshua_core" / "providers.json").read_text())
+    trainer = next(name for name, provided in catalog.items() if "trainer" in provided)
+    backend, task = next((name, provided["task"][0]) for name, provided in catalog.items() if "task" in provided)
+    mode = next(name for name, provided in catalog.items() if "mode" in provided and "backend" not in provided)
+    fake_repository(tmp_path, {})
+    backend_package = plugin(
+        tmp_path, backend, {"__init__.py": '__all__ = ["DemoEngine", "make"]\n', "tasks.py": f'NAME = "{task}"\n'}
+    )
+    plugin(tmp_path, trainer, {"api.py": f"from {backend_package} import make\n"})
+    plugin(tmp_path, mode, {"run.py": f'from {backend_package} import DemoEngine\nTASK = "{task}"\n'})
+    found = check.findings(tmp_path)
+    assert len(found) == 3, found  # the backend may name its own task
+    lines = "\n".join(found)
+    assert f"api.py:1: trainer {trainer} imports backend {backend_package}; ask the run for environments" in lines
+    assert f"run.py:1: {mode} imports {backend_package}.DemoEngine, a backend's class" in lines
+    assert f"run.py:2: names {backend}'s task '{task}'" in lines
+
+
 def test_the_layer_picture_is_drawn_from_the_current_imports() -> None:
     spec = importlib.util.spec_from_file_location("architecture_layers", REPO_ROOT / "docs" / "architecture_layers.py")
     layers = importlib.util.module_from_spec(spec)

@@ -7,8 +7,13 @@
   do not, they never run);
 - the core imports no plugin;
 - a plugin imports from another only the names that one lists in its `__init__.py` `__all__`;
-- a backend distribution never imports a trainer distribution (which is which: what each registers, from
-  `joshua_core/providers.json`);
+- a backend distribution never imports a trainer distribution, and a trainer distribution never imports a backend
+  one: trainers ask the run for environments (which is which: what each registers, `joshua_core/providers.json`);
+- a distribution that provides no backend imports no backend's engine or backend class (a name ending in `Engine`
+  or `Backend`): modes and commands get their engine from the backend the run names (`RunContext.create_engine`,
+  `PluginHost.backend`);
+- no source names, as a string, a task another distribution registers: a task's other names are its own
+  (`TaskSpec.aliases`), declared by the plugin that provides it;
 - `PluginHost.discover()` only in the entry points listed in ENTRY_POINTS: library code takes the run's host;
 - no source file over 600 lines and no function over 120, unless the file says "long because" (a reason).
   Split by meaning, never to meet these numbers.
@@ -22,6 +27,7 @@ import ast
 import json
 import sys
 from pathlib import Path
+from typing import NamedTuple
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -61,12 +67,51 @@ def module_circles(package: Package, imports: dict[str, list[Import]]) -> list[l
     return circles(graph)
 
 
-def roles(root: Path) -> tuple[set[str], set[str]]:
-    """(backend distributions, trainer distributions), from what each registers (providers.json)."""
+class Roles(NamedTuple):
+    """What each first-party distribution registers, from providers.json (a NamedTuple: tests load this script
+    without registering it as a module, which a dataclass would need)."""
+
+    backends: set[str]  # distributions that register a backend
+    trainers: set[str]  # distributions that register a trainer
+    tasks: dict[str, str]  # task name -> the distribution that registers it
+
+
+def roles(root: Path) -> Roles:
+    """Backend and trainer distributions, and who registers each task (joshua_core/providers.json)."""
     catalog = json.loads((root / "joshua_core" / "providers.json").read_text(encoding="utf-8"))
-    backends = {name for name, provided in catalog.items() if "backend" in provided}
-    trainers = {name for name, provided in catalog.items() if "trainer" in provided}
-    return backends, trainers
+    return Roles(
+        backends={name for name, provided in catalog.items() if "backend" in provided},
+        trainers={name for name, provided in catalog.items() if "trainer" in provided},
+        tasks={task: name for name, provided in catalog.items() for task in provided.get("task", ())},
+    )
+
+
+def layering(package: Package, other: Package, item: Import, roles: Roles) -> list[str]:
+    """The role rules one import between two plugin distributions breaks, as messages without their place."""
+    found: list[str] = []
+    if package.distribution in roles.backends and other.distribution in roles.trainers:
+        found.append(f"backend {package.distribution} imports trainer {item.target}")
+    if package.distribution in roles.trainers and other.distribution in roles.backends:
+        found.append(f"trainer {package.distribution} imports backend {item.target}; ask the run for environments")
+    if package.distribution not in roles.backends and other.distribution in roles.backends:
+        for name in item.names:
+            if name.endswith(("Engine", "Backend")):
+                found.append(
+                    f"{package.distribution} imports {other.name}.{name}, a backend's class; get the engine from "
+                    "the backend the run names (RunContext.create_engine, PluginHost.backend)"
+                )
+    return found
+
+
+def foreign_tasks(path: Path, distribution: str, tasks: dict[str, str]) -> list[tuple[int, str, str]]:
+    """(line, task, its distribution) of each string in a file that is the name of another distribution's task."""
+    return [
+        (node.lineno, node.value, tasks[node.value])
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+        if isinstance(node, ast.Constant)
+        and isinstance(node.value, str)
+        and tasks.get(node.value, distribution) != distribution
+    ]
 
 
 def discover_calls(path: Path) -> list[tuple[int, str | None]]:
@@ -105,7 +150,7 @@ def findings(root: Path = ROOT) -> list[str]:
     """One line per broken rule."""
     known = packages(root)
     modules = all_imports(root)
-    backends, trainers = roles(root)
+    registered = roles(root)
     found: list[str] = []
     by_package: dict[str, dict[str, list[Import]]] = {}
     for module, (package, path, imports) in modules.items():
@@ -118,8 +163,7 @@ def findings(root: Path = ROOT) -> list[str]:
             if package.name == "joshua_core":
                 found.append(f"{where}:{item.line}: the core imports plugin module {item.target}")
                 continue
-            if package.distribution in backends and other.distribution in trainers:
-                found.append(f"{where}:{item.line}: backend {package.distribution} imports trainer {item.target}")
+            found += [f"{where}:{item.line}: {message}" for message in layering(package, other, item, registered)]
             exported = other.exported()
             if item.target != other.name:
                 found.append(f"{where}:{item.line}: imports {item.target}; import from {other.name} (its __all__)")
@@ -133,6 +177,10 @@ def findings(root: Path = ROOT) -> list[str]:
                     f"{where}:{line}: PluginHost.discover() in library code ({function or 'module level'}); "
                     "take the run's host as an argument (entry points: tools/check_architecture.py ENTRY_POINTS)"
                 )
+        for line, task, owner in foreign_tasks(path, package.distribution, registered.tasks):
+            found.append(
+                f"{where}:{line}: names {owner}'s task '{task}'; let {owner} declare its other names (TaskSpec.aliases)"
+            )
         found += sizes(path, root)
     for name, imports in sorted(by_package.items()):
         for circle in module_circles(known[name], imports):
