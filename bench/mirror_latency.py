@@ -2,7 +2,7 @@
 
 A publisher process (this script with --publisher) sends N messages at a fixed rate, noting the
 CLOCK_MONOTONIC time (system-wide, so comparable across processes) right before each publish().
-This process runs the mirror's own subscription code (`joshua_mirror.mode._subscribe` feeding a
+This process runs the mirror's own subscription code (`joshua_mirror.mode.MirrorTopics` feeding a
 `Mirror` on the SO-ARM100 of the sim_mirror preset, KINEMATIC: qpos written + mj_forward) and notes
 the time right after the state was updated. Each message carries a unique value, which pairs the
 two. Reference, measured in the same run: a bare rclpy subscription whose callback only notes the
@@ -82,7 +82,7 @@ def measure(case: str, topic: str, joint_state: bool, count: int, rate: float, e
     from rclpy.qos import qos_profile_sensor_data
 
     from joshua_mirror.mirror import Mirror
-    from joshua_mirror.mode import _subscribe
+    from joshua_mirror.mode import MirrorTopics
     from joshua_mirror.ros import RosSession, message_types
     from joshua_mujoco import MuJoCoEngine
 
@@ -113,7 +113,7 @@ def measure(case: str, topic: str, joint_state: bool, count: int, rate: float, e
                     received[value] = time.monotonic_ns()
 
             mirror.on_applied = on_applied
-            _subscribe(ros, mirror, options)
+            MirrorTopics(ros, mirror, options, None).start(mirror)
         publisher = subprocess.run(
             [
                 sys.executable,

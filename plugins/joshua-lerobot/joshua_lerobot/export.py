@@ -133,6 +133,8 @@ def export_trajectory(
     task: str = DEFAULT_TASK,
     episode: int = 0,
     plugins: PluginHost,
+    units: LeRobotUnits = DEFAULT_UNITS,
+    mappings: Sequence[TopicMapping] = (),
     overwrite: bool = False,
     option: str = "--out",
 ) -> Path:
@@ -147,6 +149,8 @@ def export_trajectory(
         tasks=[task],
         episode=episode,
         plugins=plugins,
+        units=units,
+        mappings=mappings,
         overwrite=overwrite,
         option=option,
     )

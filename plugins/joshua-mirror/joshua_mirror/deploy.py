@@ -12,7 +12,6 @@ the same safety.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import math
 import os
 import sys
@@ -36,7 +35,7 @@ from joshua_mirror import options_pb2
 from joshua_mirror.controller import COMMAND, PolicyController, unmapped_joints
 from joshua_mirror.deploy_loop import DeployLoop
 from joshua_mirror.joints import MirroredJoint, resolve_joints
-from joshua_mirror.lerobot_arm import ESTOP_SIGNAL, FOLLOWERS, LeRobotArm
+from joshua_mirror.lerobot_arm import ESTOP_SIGNAL, FOLLOWERS, LeRobotArm, lerobot_units
 from joshua_mirror.link import RobotLink, RosTransport
 from joshua_mirror.names import topic_argument
 from joshua_mirror.options_pb2 import MirrorOptions
@@ -250,22 +249,12 @@ def _load(folder: Path, plugins: PluginHost) -> tuple[Any, dict[str, Any], Any]:
 
 
 def _robot_units(name: str, calibration: Path | None, joints: list[MirroredJoint]) -> RobotUnits:
-    """The robot's units `name` (--units) for the mirrored `joints`: LeRobot's need joshua-lerobot and the
-    SO-ARM100's joints, each mapped to its SO-100 motor."""
+    """The robot's units `name` (--units) for the mirrored `joints`: radians, or LeRobot's (`lerobot_units`)."""
     if name == UNITS[0]:
         if calibration is not None:
             raise UsageError("--calibration is for LeRobot's units: give --units degrees or range with it")
         return RobotUnits()
-    if importlib.util.find_spec("joshua_lerobot") is None:
-        raise PluginNotFoundError(f"--units {name} converts with joshua-lerobot: pip install joshua-lerobot")
-    from joshua_lerobot import BodyUnits, LeRobotUnits, feature_names, read_calibration
-
-    names, robot_type = feature_names([joint.joint for joint in joints])
-    if robot_type is None:
-        raise UsageError(f"--units {name} is for the SO-100's six joints; the config mirrors {len(joints)} others")
-    lerobot = LeRobotUnits(BodyUnits(name), None if calibration is None else read_calibration(calibration))
-    features = {joint.joint: feature for joint, feature in zip(joints, names, strict=True)}
-    return RobotUnits(lerobot, features, robot_type)
+    return lerobot_units(name, calibration, joints, option=f"--units {name}")
 
 
 def _robot_joints(
@@ -276,7 +265,7 @@ def _robot_joints(
     checked = MirrorOptions()
     checked.CopyFrom(options)
     checked.apply = MirrorOptions.ACTUATOR  # targets are joint positions: only position actuators take them
-    joints = resolve_joints(observer.model, config.mirror_topic_mappings.mappings, checked)
+    joints = resolve_joints(observer.model, config.mirror_topic_mappings.mappings, checked, by_topics=by_topics)
     missing = unmapped_joints(observer.model, joints)
     if missing:
         raise ConfigError(

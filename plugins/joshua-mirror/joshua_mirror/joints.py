@@ -38,15 +38,16 @@ class MirroredJoint:
 
 
 def resolve_joints(
-    model: mujoco.MjModel, mappings: Sequence[TopicMapping], options: MirrorOptions
+    model: mujoco.MjModel, mappings: Sequence[TopicMapping], options: MirrorOptions, *, by_topics: bool = True
 ) -> list[MirroredJoint]:
     """Check every mapping against the model and the options, reporting all problems at once as ConfigError; then
-    the config's ROS names (`check_config_names`)."""
+    the config's ROS names (`check_config_names`). Without `by_topics` (an arm read through LeRobot) the topics
+    are neither needed nor checked, so no ROS 2 is needed either."""
     if not mappings:
         raise ConfigError(f"{MAPPINGS_FIELD} is empty: the MIRROR mode needs at least one topic -> actuator mapping")
     problems: list[str] = []
     joints: list[MirroredJoint] = []
-    by_float64 = options.message_type == MirrorOptions.FLOAT64
+    by_float64 = by_topics and options.message_type == MirrorOptions.FLOAT64
     actuator_names = [model.actuator(i).name for i in range(model.nu)]
     for index, mapping in enumerate(mappings):
         where = f"{MAPPINGS_FIELD}[{index}]"
@@ -60,7 +61,7 @@ def resolve_joints(
     for label, values in (
         ("actuator", [m.mujoco_actuator for m in mappings if m.mujoco_actuator]),
         ("joint", [joint.joint for joint in joints]),
-        ("ros_topic" if by_float64 else "JointState name", [joint.source for joint in joints]),
+        ("ros_topic" if by_float64 else "JointState name", [joint.source for joint in joints] if by_topics else []),
     ):
         for value, count in Counter(values).items():
             if count > 1:
@@ -74,6 +75,8 @@ def resolve_joints(
             )
     if problems:
         raise ConfigError("the mirror mapping does not fit the model:\n- " + "\n- ".join(problems))
+    if not by_topics:
+        return joints
     topics = {f"{MAPPINGS_FIELD}[{index}].ros_topic": joint.source for index, joint in enumerate(joints) if by_float64}
     topics |= {f"simulation.mirror.command_topics['{j.actuator}']": j.command_topic for j in joints if j.command_topic}
     check_config_names(options, topics)

@@ -4,7 +4,10 @@ and of the MIRROR mode's `simulation.mirror.lerobot`.
 lerobot's follower (`so100_follower`, `so101_follower`) or leader (`so100_leader`, `so101_leader`) is made from
 its own config: the port, the calibration file (`calibration_dir`/`id`.json, as lerobot-calibrate wrote it) and
 `use_degrees`. It is connected without lerobot's interactive calibration, and refused when the servos hold another
-calibration than the file: the file's ranges are what the values are converted with. A thread reads the arm
+calibration than the file: the file's ranges are what the values are converted with. A `read_only` follower (the
+mirror's) is connected at its bus only: the handshake and the reads, never lerobot's configure (which turns the
+torque on) nor a goal, so the arm stays as it was; a leader is connected as lerobot-teleoperate connects it (its
+torque off, so a hand moves it) and only read. A thread reads the arm
 (`get_observation`, or a leader's `get_action`: one SYNC_READ of the six servos) every `period` and delivers the
 values in radians through joshua-lerobot's joint table; `send` writes goal positions (`send_action`) under the
 same lock, since the bus carries one packet at a time. A read the arm does not answer delivers nothing, so the
@@ -17,6 +20,7 @@ goal, where the stop in place put them, instead of letting the arm fall.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import signal
 import threading
 import time
@@ -26,7 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from joshua_core.errors import UsageError
+from joshua_core.errors import PluginNotFoundError, UsageError
 from joshua_mirror.joints import MirroredJoint
 from joshua_mirror.transport import ArmEvents, ArmTransport, RobotUnits
 
@@ -48,11 +52,13 @@ class LeRobotArm(ArmTransport):
         *,
         period: float,
         estop_signal: bool = False,
+        read_only: bool = False,
     ) -> None:
         self.robot_type, self.port, self.units, self.joints = robot_type, port, units, joints
         self.period = period
         self.estop_signal = estop_signal
-        self.device = _connect(robot_type, port, calibration, units)
+        self.read_only = read_only or robot_type in LEADERS
+        self.device = _connect(robot_type, port, calibration, units, bus_only=read_only and robot_type in FOLLOWERS)
         self.read = self.device.get_action if robot_type in LEADERS else self.device.get_observation
         self.lock = threading.Lock()  # one packet at a time on the bus: reads and writes
         self.stop = threading.Event()
@@ -95,6 +101,7 @@ class LeRobotArm(ArmTransport):
             events.on_values(updates, arrived)
 
     def send(self, joints: Any, targets: NDArray[np.float64]) -> None:
+        assert not self.read_only, "a read-only arm is never sent goals"
         action = {
             self.units.features[joint.joint]: self.units.from_radians(joint, float(target))
             for joint, target in zip(joints, targets, strict=True)
@@ -109,7 +116,8 @@ class LeRobotArm(ArmTransport):
         self.said_silence = silence
         if silence is None:
             return [f"the arm on {self.port} answers again"]
-        return [f"the arm on {self.port} does not answer ({silence}); the servos hold their last goal"]
+        holding = "" if self.read_only else "; the servos hold their last goal"
+        return [f"the arm on {self.port} does not answer ({silence}){holding}"]
 
     def broken(self) -> str | None:
         return "arm lost" if self.lost else None
@@ -142,9 +150,31 @@ class LeRobotArm(ArmTransport):
         self.close()
 
 
-def _connect(robot_type: str, port: str, calibration: Path, units: RobotUnits) -> Any:
+def follower_of(robot_type: str) -> str:
+    """The follower whose arm (joints, units) `robot_type` has: a leader's follower, or the follower itself."""
+    return robot_type.replace("_leader", "_follower")
+
+
+def lerobot_units(body: str, calibration: Path | None, joints: list[MirroredJoint], *, option: str) -> RobotUnits:
+    """LeRobot's units (`body`: degrees or range, with the arm's calibration file) for the mirrored `joints`, which
+    must be the SO-ARM100's or the SO-101's six, each mapped to its SO-10x motor; `option` names where the units
+    were asked for in the one-line errors. Converting needs joshua-lerobot."""
+    if importlib.util.find_spec("joshua_lerobot") is None:
+        raise PluginNotFoundError(f"{option} converts with joshua-lerobot: pip install joshua-lerobot")
+    from joshua_lerobot import BodyUnits, LeRobotUnits, feature_names, read_calibration
+
+    names, robot_type = feature_names([joint.joint for joint in joints])
+    if robot_type is None:
+        raise UsageError(f"{option} is for the SO-10x's six joints; the config mirrors {len(joints)} others")
+    lerobot = LeRobotUnits(BodyUnits(body), None if calibration is None else read_calibration(calibration))
+    features = {joint.joint: feature for joint, feature in zip(joints, names, strict=True)}
+    return RobotUnits(lerobot, features, robot_type)
+
+
+def _connect(robot_type: str, port: str, calibration: Path, units: RobotUnits, *, bus_only: bool) -> Any:
     """lerobot's robot (or leader) on `port` with the calibration file `calibration` (read by joshua-lerobot
-    already), connected; each problem one UsageError line, and the arm, if it was reached, left as it was."""
+    already), connected (`bus_only`: its motor bus only, nothing written); each problem one UsageError line, and the
+    arm, if it was reached, left as it was."""
     try:
         if robot_type in LEADERS:
             importlib.import_module("lerobot.teleoperators.so_leader")  # registers the leaders' configs
@@ -152,8 +182,8 @@ def _connect(robot_type: str, port: str, calibration: Path, units: RobotUnits) -
             from lerobot.teleoperators.utils import make_teleoperator_from_config as make
         else:
             importlib.import_module("lerobot.robots.so_follower")  # registers the followers' configs
-            from lerobot.robots import RobotConfig as Config  # type: ignore[assignment]
-            from lerobot.robots.utils import make_robot_from_config as make  # type: ignore[assignment]
+            from lerobot.robots import RobotConfig as Config  # type: ignore[assignment, unused-ignore]
+            from lerobot.robots.utils import make_robot_from_config as make  # type: ignore[assignment, unused-ignore]
         config_class = Config.get_choice_class(robot_type)
         extra = {} if robot_type in LEADERS else {"disable_torque_on_disconnect": False}
         config = config_class(
@@ -170,7 +200,10 @@ def _connect(robot_type: str, port: str, calibration: Path, units: RobotUnits) -
             "pip install 'lerobot[feetech]'"
         ) from None
     try:
-        device.connect(calibrate=False)
+        if bus_only:
+            device.bus.connect()
+        else:
+            device.connect(calibrate=False)
     except ConnectionError as error:
         cause = error.__cause__ or error
         raise UsageError(

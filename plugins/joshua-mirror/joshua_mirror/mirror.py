@@ -1,6 +1,7 @@
 """`Mirror`: writes checked encoder values into a MuJoCo simulation and keeps the per-joint statistics.
 
-`receive` runs on the ROS thread for every message; the main thread steps physics, renders
+`receive` runs on the transport's thread (ROS 2's or a LeRobot arm's reader) for every message or reading, the
+`ArmEvents` of `joshua_mirror.transport`; the main thread steps physics, renders
 and prints status. One lock guards `MjData`; `receive` holds it only to write qpos/ctrl and run
 mj_forward (tens of microseconds), and the main thread holds it for one physics step at a time.
 """
@@ -130,6 +131,16 @@ class Mirror:
             stats.last_accepted_at = now
             if self.on_applied is not None:
                 self.on_applied(index, value)
+
+    def on_values(self, updates: list[tuple[int, float]], arrived_ns: int) -> None:
+        """A transport's values (`ArmEvents`): received as messages are."""
+        self.receive(updates, arrived_ns)
+
+    def on_estop(self) -> None:
+        """A transport's e-stop (`ArmEvents`): the mirror only watches the arm, so there is nothing to stop."""
+
+    def on_target(self, target: Any) -> None:
+        """A transport's task target (`ArmEvents`): the mirror runs no task."""
 
     def _checked_target(self, index: int, value: float) -> float | None:
         """value + offset, clamped into the joint range within the margin; None (counted) if it is rejected."""

@@ -1,9 +1,11 @@
-"""The MIRROR mode: a ROS 2 digital twin. Encoder messages move the simulated robot as they arrive.
+"""The MIRROR mode: a digital twin. The real arm's joint values move the simulated robot as they arrive.
 
-Threads: the ROS thread applies every message the moment it arrives (`Mirror.receive`) and counts the
-messages lost before it (`TopicLoss`); the main thread steps physics in real time when tracking through
-actuators, checks staleness, prints the status line and loss warnings and feeds the display from a copy of the
-state, so rendering never delays a message.
+The arm is read through an `ArmTransport`: ROS 2 topics (`MirrorTopics`: Float64 per joint or one JointState), or
+an SO-10x arm through LeRobot (`LeRobotArm`, `simulation.mirror.lerobot`), a follower mirrored or a leader whose
+values drive the simulated arm's actuators (teleoperation). Threads: the transport's thread applies every value the
+moment it arrives (`Mirror.receive`; over ROS 2 it counts the messages lost before it, `TopicLoss`); the main
+thread steps physics in real time when tracking through actuators, checks staleness, prints the status line and
+the transport's warnings and feeds the display from a copy of the state, so rendering never delays a value.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import sys
 import time
 from collections.abc import Callable
 from contextlib import ExitStack, nullcontext
+from pathlib import Path
 from typing import Any
 
 import mujoco
@@ -20,16 +23,19 @@ from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.interfaces import Engine, Mode
+from joshua_core.limits import MAX_CONTROL_HZ, MIN_CONTROL_HZ
 from joshua_core.options import options_of
 from joshua_core.run_context import RunContext
 from joshua_mirror import options_pb2
 from joshua_mirror.graph import TypeChecker
 from joshua_mirror.joints import MirroredJoint, resolve_joints
+from joshua_mirror.lerobot_arm import FOLLOWERS, LEADERS, LeRobotArm, follower_of, lerobot_units
 from joshua_mirror.loss import TopicLoss
 from joshua_mirror.mirror import Mirror
-from joshua_mirror.options_pb2 import MirrorOptions
+from joshua_mirror.options_pb2 import MirrorLeRobot, MirrorOptions
 from joshua_mirror.recorder import Recorder
 from joshua_mirror.ros import RosSession, message_types, sensor_qos
+from joshua_mirror.transport import ArmEvents, ArmTransport, RobotUnits
 
 REPORT_FILE = "mirror_report.json"
 DEFAULT_JOINT_STATE_TOPIC = "/joint_states"
@@ -44,18 +50,24 @@ MAX_CATCH_UP_S = 0.25  # physics further behind the wall clock than this skips a
 GIL_SWITCH_INTERVAL_S = 2e-4  # the ROS thread gets the GIL within this while the main thread runs Python
 FLOAT64_TYPE = "std_msgs/msg/Float64"
 JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
+DEFAULT_ARM_RATE_HZ = 60.0  # reads of a LeRobot arm per second: lerobot-teleoperate's default
+LEROBOT_OPTION = "simulation.mirror.lerobot"
 
 
 class MirrorMode(Mode):
-    """Mirrors the mapped encoder topics into the simulation until `duration` wall seconds pass or Ctrl-C."""
+    """Mirrors the real arm (its encoder topics, or a LeRobot arm) into the simulation until `duration` wall seconds
+    pass, Ctrl-C, or the arm's port fails."""
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         options = options_of(config, options_pb2.mirror)
+        _check_lerobot(options)
         with ExitStack() as stack:
             engine = stack.enter_context(context.create_engine(config))
             _check_mujoco(engine)
-            joints = resolve_joints(engine.model, config.mirror_topic_mappings.mappings, options)
-            ros = stack.enter_context(RosSession(options.node_name or DEFAULT_NODE_NAME))
+            mappings = config.mirror_topic_mappings.mappings
+            joints = resolve_joints(engine.model, mappings, options, by_topics=not options.lerobot.robot_type)
+            units = _arm_units(options.lerobot, joints)
+            arm = _open_arm(stack, options.lerobot, joints, units)  # before the twin's clock starts: lerobot loads
             mirror = Mirror(
                 engine.model,
                 engine.data,
@@ -63,17 +75,19 @@ class MirrorMode(Mode):
                 options,
                 stale_timeout=options.stale_timeout or DEFAULT_STALE_TIMEOUT_S,
             )
-            recorder = Recorder(joints, options.record) if options.record.csv or options.record.lerobot else None
-            watcher = _subscribe(ros, mirror, options)
-            _subscribe_commands(ros, recorder)
-            types = TypeChecker(ros.node, _expected_types(ros, mirror, options))
+            recorder = None
+            if options.record.csv or options.record.lerobot:
+                teleop = options.lerobot.robot_type in LEADERS
+                recorder = Recorder(joints, options.record, units=units, teleop=teleop)
+            transport = arm or _open_topics(stack, options, mirror, recorder)
+            transport.start(mirror)
             display = _open_display(stack, config, context, mirror)
-            loop = _MainLoop(engine, mirror, watcher, display, options, types)
+            loop = _MainLoop(engine, mirror, transport, display, options)
             with recorder.sampling(mirror) if recorder else nullcontext():
                 stopped_by = loop.run(config.duration)
-            _warn_types(types.poll())  # a last look: a publisher that came during the final status period
-            ros.close()  # no callback may change the state while it is reported
-            report = {**_report(config, mirror, loop, stopped_by), "type_mismatches": types.seen}
+            _warn(transport.poll())  # a last look: a problem that came during the final status period
+            transport.close()  # nothing may change the state while it is reported
+            report = {**_report(config, mirror, loop, stopped_by), **transport.report()}
             report["recording"] = recorder.write(config, context) if recorder else None
         path = context.output_dir / REPORT_FILE
         atomic_write_json(path, json_safe(report))  # NaN/inf are not JSON: null
@@ -88,9 +102,69 @@ class MirrorMode(Mode):
             f"applied, {rejected} rejected, {lost} messages lost, stale at the end: {', '.join(stale) or 'none'}; "
             f"report: {path}"
         )
-        problem = types.error()
+        problem = transport.error()
         if problem:
             raise ConfigError(problem)
+
+
+def _check_lerobot(options: MirrorOptions) -> None:
+    """`simulation.mirror.lerobot`, when set, names a LeRobot arm, its port and calibration, and nothing that only
+    ROS 2 topics give; a leader drives the simulated arm's actuators."""
+    arm = options.lerobot
+    if not arm.robot_type:
+        if arm.port or arm.calibration:
+            raise ConfigError(f"{LEROBOT_OPTION} needs robot_type: one of {', '.join(FOLLOWERS + LEADERS)}")
+        return
+    if arm.robot_type not in FOLLOWERS + LEADERS:
+        raise ConfigError(
+            f"{LEROBOT_OPTION}.robot_type '{arm.robot_type}' is no LeRobot SO-10x arm: one of "
+            f"{', '.join(FOLLOWERS + LEADERS)}"
+        )
+    if not arm.port:
+        raise ConfigError(f"{LEROBOT_OPTION}.port is empty: the arm's serial port (lerobot-find-port lists them)")
+    if not arm.calibration:
+        raise ConfigError(f"{LEROBOT_OPTION}.calibration is empty: the arm's file, as lerobot-calibrate wrote it")
+    if not MIN_CONTROL_HZ <= (arm.rate or DEFAULT_ARM_RATE_HZ) <= MAX_CONTROL_HZ:
+        raise ConfigError(f"{LEROBOT_OPTION}.rate must be {MIN_CONTROL_HZ:g} to {MAX_CONTROL_HZ:g} reads per second")
+    if options.command_topics:
+        raise ConfigError(f"simulation.mirror.command_topics are ROS 2 topics; {LEROBOT_OPTION} reads no topic")
+    if arm.robot_type in LEADERS and options.apply != MirrorOptions.ACTUATOR:
+        raise ConfigError(
+            f"a leader arm ({arm.robot_type}) teleoperates the simulated arm through its actuators: "
+            "set simulation.mirror.apply=ACTUATOR"
+        )
+
+
+def _arm_units(arm: MirrorLeRobot, joints: list[MirroredJoint]) -> RobotUnits:
+    """The units the arm's values are in: radians over ROS 2, LeRobot's (with the arm's calibration) through LeRobot,
+    whose arm must be the model's (SO-100 or SO-101 joints)."""
+    if not arm.robot_type:
+        return RobotUnits()
+    body = MirrorLeRobot.Units.Name(arm.units).lower()
+    units = lerobot_units(body, Path(arm.calibration).expanduser(), joints, option=LEROBOT_OPTION)
+    if units.robot_type != follower_of(arm.robot_type):
+        raise ConfigError(
+            f"{LEROBOT_OPTION}.robot_type {arm.robot_type} is another arm than the model's ({units.robot_type} joints)"
+        )
+    return units
+
+
+def _open_arm(
+    stack: ExitStack, arm: MirrorLeRobot, joints: list[MirroredJoint], units: RobotUnits
+) -> LeRobotArm | None:
+    """The LeRobot arm of `arm`, connected and only read, closed when `stack` closes; None over ROS 2."""
+    if not arm.robot_type:
+        return None
+    period = 1.0 / (arm.rate or DEFAULT_ARM_RATE_HZ)
+    calibration = Path(arm.calibration).expanduser()
+    reader = LeRobotArm(arm.robot_type, arm.port, calibration, units, joints, period=period, read_only=True)
+    return stack.enter_context(reader)
+
+
+def _open_topics(stack: ExitStack, options: MirrorOptions, mirror: Mirror, recorder: Recorder | None) -> MirrorTopics:
+    """The ROS 2 topics of the mirror's mappings, read by a node that `stack` closes."""
+    ros = stack.enter_context(RosSession(options.node_name or DEFAULT_NODE_NAME))
+    return MirrorTopics(ros, mirror, options, recorder)
 
 
 def _check_mujoco(engine: Engine) -> None:
@@ -128,9 +202,52 @@ class _UnknownTopicWatcher:
         return count
 
 
-def _subscribe(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> _UnknownTopicWatcher | None:
-    """Create the subscriptions whose callbacks feed `mirror` (their topic names checked by `resolve_joints`) and
-    count the messages lost on each."""
+class MirrorTopics(ArmTransport):
+    """The arm behind ROS 2 topics, as the mirror reads them: the encoder subscriptions (counting the messages lost
+    on each, unknown JointState names and malformed messages into `mirror`), unmapped Float64 topics beside the
+    mapped ones (counted), the recorder's command topics, and publishers of another type in the graph."""
+
+    def __init__(self, ros: RosSession, mirror: Mirror, options: MirrorOptions, recorder: Recorder | None) -> None:
+        self.ros = ros
+        self.mirror = mirror
+        self.options = options
+        self.recorder = recorder
+        self.joints = mirror.joints
+        self.units = RobotUnits()
+        self.watcher: _UnknownTopicWatcher | None = None
+        self.types = TypeChecker(ros.node, _expected_types(ros, mirror, options))
+
+    def start(self, events: ArmEvents) -> None:
+        self.watcher = _subscribe(self.ros, self.mirror, events, self.options)
+        _subscribe_commands(self.ros, self.recorder)
+
+    def poll(self) -> list[str]:
+        if self.watcher is not None:
+            self.watcher.poll()
+        return [f"wrong message type: {line}" for line in self.types.poll()]
+
+    def error(self) -> str | None:
+        return self.types.error()
+
+    def status(self) -> str:
+        return self.types.status()
+
+    def page(self) -> list[str]:
+        wrong = sorted(self.types.current.items())
+        return [f"- **WRONG TYPE** {topic}: published as {kinds}" for topic, kinds in wrong]
+
+    def report(self) -> dict[str, Any]:
+        return {"type_mismatches": self.types.seen}
+
+    def close(self) -> None:
+        self.ros.close()
+
+
+def _subscribe(
+    ros: RosSession, mirror: Mirror, events: ArmEvents, options: MirrorOptions
+) -> _UnknownTopicWatcher | None:
+    """Create the subscriptions whose callbacks feed `events` (their topic names checked by `resolve_joints`) and
+    count the messages lost on each into `mirror`."""
     float64, joint_state = message_types()
     qos = sensor_qos(QUEUE_DEPTH)
     node = ros.node
@@ -152,7 +269,7 @@ def _subscribe(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> _Unkn
                         mirror.count_unknown(name)
                     else:
                         updates.append((index, position))
-                mirror.receive(updates, entered)
+                events.on_values(updates, entered)
             loss.see(info["publication_sequence_number"])  # after the update: it adds no latency
 
         ros.subscribe(joint_state, topic, on_joint_state, qos)
@@ -162,7 +279,7 @@ def _subscribe(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> _Unkn
     for index, joint in enumerate(mirror.joints):
         topic = node.resolve_topic_name(joint.source)
         loss = mirror.track_loss(topic, lambda topic=topic: node.count_publishers(topic))
-        ros.subscribe(float64, topic, _float64_callback(mirror, index, loss), qos)
+        ros.subscribe(float64, topic, _float64_callback(events, index, loss), qos)
         mapped.add(topic)
     return _UnknownTopicWatcher(ros, mirror, mapped, float64)
 
@@ -190,14 +307,15 @@ def _expected_types(ros: RosSession, mirror: Mirror, options: MirrorOptions) -> 
     return expected
 
 
-def _warn_types(lines: list[str]) -> None:
+def _warn(lines: list[str]) -> None:
+    """The transport's problems, one line each (e.g. a wrong message type, an arm that does not answer)."""
     for line in lines:
-        print(f"joshua: mirror: wrong message type: {line}", file=sys.stderr, flush=True)
+        print(f"joshua: mirror: {line}", file=sys.stderr, flush=True)
 
 
-def _float64_callback(mirror: Mirror, index: int, loss: TopicLoss) -> Any:
+def _float64_callback(events: ArmEvents, index: int, loss: TopicLoss) -> Any:
     def on_float64(message: Any, info: dict[str, Any]) -> None:
-        mirror.receive(((index, message.data),), time.perf_counter_ns())
+        events.on_values([(index, message.data)], time.perf_counter_ns())
         loss.see(info["publication_sequence_number"])  # after the update: it adds no latency
 
     return on_float64
@@ -270,15 +388,16 @@ class _DisplayFeed:
         self.shown += 1
         return still_open
 
-    def show_status(self, mirror: Mirror, types: TypeChecker) -> None:
-        """The topics' status on a web page (each status period); nothing for the viewer or a recording."""
+    def show_status(self, mirror: Mirror, transport: ArmTransport) -> None:
+        """The arm's status on a web page (each status period); nothing for the viewer or a recording."""
         if self.shows_status:
-            self.display.set_report(status_page(mirror, types))
+            self.display.set_report(status_page(mirror, transport))
 
 
-def status_page(mirror: Mirror, types: TypeChecker) -> str:
+def status_page(mirror: Mirror, transport: ArmTransport) -> str:
     """The mirror's status as Markdown: per joint its last value, age, STALE and rejections, and the tracking error
-    when physics follows the values; then lost messages, wrong message types and unknown names."""
+    when physics follows the values; then lost messages, the transport's lines (wrong message types) and unknown
+    names."""
     now = mirror.clock()
     lines = ["**mirror status**", ""]
     for joint, stats in zip(mirror.joints, mirror.stats, strict=True):
@@ -298,7 +417,7 @@ def status_page(mirror: Mirror, types: TypeChecker) -> str:
     lost = {topic: loss.lost for topic, loss in sorted(mirror.loss.items()) if loss.lost}
     lines.append("")
     lines.append("lost messages: " + (", ".join(f"{topic} {n}" for topic, n in lost.items()) or "none"))
-    lines.extend(f"- **WRONG TYPE** {topic}: published as {kinds}" for topic, kinds in sorted(types.current.items()))
+    lines.extend(transport.page())
     unknown = sum(mirror.unknown_names.values())
     if unknown:
         lines.append(f"unknown names or topics: {unknown} messages")
@@ -312,15 +431,13 @@ class _MainLoop:
         self,
         engine: Engine,
         mirror: Mirror,
-        watcher: _UnknownTopicWatcher | None,
+        transport: ArmTransport,
         display: _DisplayFeed | None,
         options: MirrorOptions,
-        types: TypeChecker,
     ) -> None:
         self.engine = engine
-        self.types = types
         self.mirror = mirror
-        self.watcher = watcher
+        self.transport = transport
         self.display = display
         period = options.status_period or DEFAULT_STATUS_PERIOD_S
         self.print_status = period > 0  # a negative period turns the lines off; the watcher still polls
@@ -330,7 +447,7 @@ class _MainLoop:
         self.wall_seconds = 0.0
 
     def run(self, duration: float) -> str:
-        """Loop until `duration` wall seconds (0: until Ctrl-C); return what stopped it."""
+        """Loop until `duration` wall seconds (0: until Ctrl-C) or the transport breaks; return what stopped it."""
         switch_interval = sys.getswitchinterval()
         sys.setswitchinterval(GIL_SWITCH_INTERVAL_S)
         start = time.monotonic()
@@ -346,7 +463,7 @@ class _MainLoop:
         timestep = self.engine.timestep
         next_stale_check = start + STALE_CHECK_PERIOD_S
         next_status = start + self.status_period
-        _warn_types(self.types.poll())
+        _warn(self.transport.poll())
         next_frame = start
         while True:
             now = time.monotonic()
@@ -359,12 +476,13 @@ class _MainLoop:
                 _warn_stale(self.mirror.update_staleness(), self.mirror.stale_timeout)
             if now >= next_status:
                 next_status = now + self.status_period
-                if self.watcher is not None:
-                    self.watcher.poll()
-                _warn_types(self.types.poll())
+                _warn(self.transport.poll())
+                broken = self.transport.broken()
+                if broken:
+                    return broken
                 _warn_loss(self.mirror.loss_warning())
                 if self.display is not None:
-                    self.display.show_status(self.mirror, self.types)
+                    self.display.show_status(self.mirror, self.transport)
                 if self.print_status:
                     print(self._status_line(), file=sys.stderr, flush=True)
             if self.display is not None and now >= next_frame:
@@ -377,7 +495,7 @@ class _MainLoop:
             time.sleep(max(0.0, wake - time.monotonic()))
 
     def _status_line(self) -> str:
-        line = self.mirror.status_line(self.status_period) + self.types.status()
+        line = self.mirror.status_line(self.status_period) + self.transport.status()
         return line if self.display is None else f"{line} | display {self.display.shown} frames"
 
     def _step_physics(self, elapsed: float, timestep: float) -> None:
@@ -405,7 +523,7 @@ def _warn_stale(joints: list[MirroredJoint], timeout: float) -> None:
 
 def _warn_loss(line: str | None) -> None:
     if line:
-        print(f"joshua: mirror: {line}", file=sys.stderr, flush=True)
+        _warn([line])
 
 
 def _report(config: SimulationConfig, mirror: Mirror, loop: _MainLoop, stopped_by: str) -> dict[str, Any]:

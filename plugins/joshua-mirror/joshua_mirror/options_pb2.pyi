@@ -11,7 +11,7 @@ MIRROR_FIELD_NUMBER: _ClassVar[int]
 mirror: _descriptor.FieldDescriptor
 
 class MirrorOptions(_message.Message):
-    __slots__ = ("apply", "message_type", "joint_state_topic", "joint_state_names", "stale_timeout", "status_period", "range_margin", "display", "display_fps", "camera", "node_name", "command_topics", "record")
+    __slots__ = ("apply", "message_type", "joint_state_topic", "joint_state_names", "stale_timeout", "status_period", "range_margin", "display", "display_fps", "camera", "node_name", "command_topics", "record", "lerobot")
     class Apply(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         KINEMATIC: _ClassVar[MirrorOptions.Apply]
@@ -65,6 +65,7 @@ class MirrorOptions(_message.Message):
     NODE_NAME_FIELD_NUMBER: _ClassVar[int]
     COMMAND_TOPICS_FIELD_NUMBER: _ClassVar[int]
     RECORD_FIELD_NUMBER: _ClassVar[int]
+    LEROBOT_FIELD_NUMBER: _ClassVar[int]
     apply: MirrorOptions.Apply
     message_type: MirrorOptions.MessageType
     joint_state_topic: str
@@ -78,7 +79,28 @@ class MirrorOptions(_message.Message):
     node_name: str
     command_topics: _containers.ScalarMap[str, str]
     record: MirrorRecording
-    def __init__(self, apply: _Optional[_Union[MirrorOptions.Apply, str]] = ..., message_type: _Optional[_Union[MirrorOptions.MessageType, str]] = ..., joint_state_topic: _Optional[str] = ..., joint_state_names: _Optional[_Mapping[str, str]] = ..., stale_timeout: _Optional[float] = ..., status_period: _Optional[float] = ..., range_margin: _Optional[float] = ..., display: _Optional[_Union[MirrorOptions.Display, str]] = ..., display_fps: _Optional[float] = ..., camera: _Optional[str] = ..., node_name: _Optional[str] = ..., command_topics: _Optional[_Mapping[str, str]] = ..., record: _Optional[_Union[MirrorRecording, _Mapping]] = ...) -> None: ...
+    lerobot: MirrorLeRobot
+    def __init__(self, apply: _Optional[_Union[MirrorOptions.Apply, str]] = ..., message_type: _Optional[_Union[MirrorOptions.MessageType, str]] = ..., joint_state_topic: _Optional[str] = ..., joint_state_names: _Optional[_Mapping[str, str]] = ..., stale_timeout: _Optional[float] = ..., status_period: _Optional[float] = ..., range_margin: _Optional[float] = ..., display: _Optional[_Union[MirrorOptions.Display, str]] = ..., display_fps: _Optional[float] = ..., camera: _Optional[str] = ..., node_name: _Optional[str] = ..., command_topics: _Optional[_Mapping[str, str]] = ..., record: _Optional[_Union[MirrorRecording, _Mapping]] = ..., lerobot: _Optional[_Union[MirrorLeRobot, _Mapping]] = ...) -> None: ...
+
+class MirrorLeRobot(_message.Message):
+    __slots__ = ("robot_type", "port", "calibration", "units", "rate")
+    class Units(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+        __slots__ = ()
+        DEGREES: _ClassVar[MirrorLeRobot.Units]
+        RANGE: _ClassVar[MirrorLeRobot.Units]
+    DEGREES: MirrorLeRobot.Units
+    RANGE: MirrorLeRobot.Units
+    ROBOT_TYPE_FIELD_NUMBER: _ClassVar[int]
+    PORT_FIELD_NUMBER: _ClassVar[int]
+    CALIBRATION_FIELD_NUMBER: _ClassVar[int]
+    UNITS_FIELD_NUMBER: _ClassVar[int]
+    RATE_FIELD_NUMBER: _ClassVar[int]
+    robot_type: str
+    port: str
+    calibration: str
+    units: MirrorLeRobot.Units
+    rate: float
+    def __init__(self, robot_type: _Optional[str] = ..., port: _Optional[str] = ..., calibration: _Optional[str] = ..., units: _Optional[_Union[MirrorLeRobot.Units, str]] = ..., rate: _Optional[float] = ...) -> None: ...
 
 class MirrorRecording(_message.Message):
     __slots__ = ("csv", "lerobot", "fps", "task", "cameras")

@@ -14,7 +14,7 @@ def joshua_register_modes(registry: Registrar) -> None:
     registry.add(
         "MIRROR",
         "joshua_mirror.mode:MirrorMode",
-        "ROS 2 digital twin: mirrors encoder topics (Float64 or JointState) into the simulation in real time",
+        "digital twin: mirrors encoder topics (Float64, JointState) or a LeRobot arm into the simulation in real time",
     )
 
 

@@ -2,7 +2,12 @@
 fixed rate on a thread of its own, written at the end as a trajectory CSV (and, through joshua-lerobot, as a
 LeRobot dataset). The sampling thread is its own so that the recording keeps its rate whatever the main loop
 does (rendering a frame of the display takes longer than a sample period). Values and commands arrive on the
-ROS executor thread; a float store is atomic in Python."""
+transport's thread; a float store is atomic in Python.
+
+A teleoperation (a LeRobot leader driving the simulated arm) records what a LeRobot dataset of a real arm holds:
+the state is the simulated arm's joint positions, the action the leader's values (+ offset), the targets its
+actuators were given. A LeRobot arm's dataset is written in that arm's units (its calibration, `use_degrees`, the
+mappings' offsets), so its values are the arm's own."""
 
 from __future__ import annotations
 
@@ -24,6 +29,7 @@ from joshua_core.trajectory import Trajectory, write_trajectory
 from joshua_mirror.joints import MirroredJoint
 from joshua_mirror.mirror import Mirror
 from joshua_mirror.options_pb2 import MirrorRecording
+from joshua_mirror.transport import RobotUnits
 
 CSV_NAME = "mirror_recording.csv"
 LEROBOT_NAME = "mirror_lerobot"
@@ -32,9 +38,12 @@ DEFAULT_TASK = "mirror"
 
 
 class Recorder:
-    """Samples the mirror's joint values and the latest commands; `period` seconds apart."""
+    """Samples the mirror's joint values and the latest commands (`teleop`: the simulated joints' positions and the
+    leader's values); `period` seconds apart. `units`: what the arm's values are in, and the dataset's."""
 
-    def __init__(self, joints: list[MirroredJoint], options: MirrorRecording) -> None:
+    def __init__(
+        self, joints: list[MirroredJoint], options: MirrorRecording, *, units: RobotUnits, teleop: bool = False
+    ) -> None:
         if options.lerobot and importlib.util.find_spec("joshua_lerobot") is None:
             raise ConfigError(
                 "simulation.mirror.record.lerobot needs joshua-lerobot: pip install -e plugins/joshua-lerobot"
@@ -43,6 +52,8 @@ class Recorder:
             raise ConfigError(f"simulation.mirror.record.fps must be positive, got {options.fps}")
         self.joints = joints
         self.options = options
+        self.units = units
+        self.teleop = teleop
         self.fps = options.fps or DEFAULT_FPS
         self.period = 1.0 / self.fps
         self.commands = np.full(len(joints), np.nan)
@@ -87,8 +98,13 @@ class Recorder:
             return
         if self.started_at is None:
             self.started_at = now
-        positions = [joint.to_sim(value) for joint, value in zip(self.joints, values, strict=True)]
-        self.rows.append([now - self.started_at, *positions, *self.commands.tolist()])
+        values_sim = [joint.to_sim(value) for joint, value in zip(self.joints, values, strict=True)]
+        if self.teleop:
+            with mirror.lock:
+                positions = [float(mirror.data.qpos[joint.qpos_address]) for joint in self.joints]
+            self.rows.append([now - self.started_at, *positions, *values_sim])
+        else:
+            self.rows.append([now - self.started_at, *values_sim, *self.commands.tolist()])
 
     def write(self, config: SimulationConfig, context: RunContext) -> dict[str, Any]:
         """Write the CSV (and the LeRobot dataset); what was written, for the report."""
@@ -102,13 +118,16 @@ class Recorder:
             timestamps=table[:, 0],
             positions=table[:, 1 : 1 + count],
             lines=np.arange(len(table)),
-            targets=table[:, 1 + count :] if any(joint.command_topic for joint in self.joints) else None,
+            targets=table[:, 1 + count :] if self.teleop or any(joint.command_topic for joint in self.joints) else None,
         )
         write_trajectory(trajectory.path, trajectory, comment=f"recorded by the MIRROR mode from {config.model_path}")
         written: dict[str, Any] = {"rows": len(table), "csv": str(trajectory.path), "lerobot": None}
         if self.options.lerobot:
             from joshua_lerobot import export_trajectory
 
+            arm_units: dict[str, Any] = {}
+            if self.units.lerobot is not None:  # the arm's own values, as lerobot-record would write them
+                arm_units = {"units": self.units.lerobot, "mappings": list(config.mirror_topic_mappings.mappings)}
             written["lerobot"] = str(
                 export_trajectory(
                     trajectory.path,
@@ -121,6 +140,7 @@ class Recorder:
                     plugins=context.plugins,
                     overwrite=True,  # the recording of an earlier run into this output_dir, as the CSV beside
                     option="simulation.output_dir",
+                    **arm_units,
                 )
             )
         return written

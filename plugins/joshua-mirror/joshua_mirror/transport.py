@@ -66,6 +66,11 @@ class ArmTransport(abc.ABC):
         """The status line's part of the transport ('' when nothing to say)."""
         return ""
 
+    def page(self) -> list[str]:
+        """The transport's lines (Markdown) on the mirror's status web page: by default the status line's part."""
+        status = self.status().removeprefix(" | ")
+        return [f"- {status}"] if status else []
+
     def report(self) -> dict[str, Any]:
         """What the report keeps of the transport."""
         return {}

@@ -1,4 +1,5 @@
-"""Fixtures of the mirror and deploy tests: a ROS environment on loopback, and publishers of the wrong type."""
+"""Fixtures of the mirror and deploy tests: a ROS environment on loopback, publishers of the wrong type, and the
+scenarios on LeRobot arms (lerobot_arm_side.py) run with the real lerobot."""
 
 from __future__ import annotations
 
@@ -17,6 +18,11 @@ import pytest
 from joshua_mirror.ros import local_only_environment
 
 PUBLISHER = Path(__file__).with_name("publisher.py")
+REPO = Path(__file__).resolve().parents[3]
+LEROBOT_SITE = REPO / ".cache" / "lerobot-site"
+NO_TORCHVISION = REPO / "plugins" / "joshua-lerobot" / "tests" / "no_torchvision"  # stands in for torchvision
+LEROBOT_SIDE = Path(__file__).with_name("lerobot_arm_side.py")
+LEROBOT_SIDE_TIMEOUT_S = 120
 
 
 def _domain_id() -> int:
@@ -57,3 +63,32 @@ def hold_publishers() -> Iterator[HoldPublishers]:
     for holder in holders:
         holder.send_signal(signal.SIGINT)
         holder.communicate(timeout=30)
+
+
+RunLeRobotSide = Callable[[str], dict[str, Any]]
+
+
+@pytest.fixture(scope="session")
+def lerobot_side(tmp_path_factory: pytest.TempPathFactory) -> RunLeRobotSide:
+    """Runs one group of lerobot_arm_side.py's scenarios ("deploy", "mirror") in a process with lerobot 0.4.4 and its
+    scservo SDK importable (`./setup.sh --dev` installs them in .cache/lerobot-site); returns its JSON result."""
+
+    def run(group: str) -> dict[str, Any]:
+        if not (LEROBOT_SITE / "scservo_sdk").is_dir():
+            pytest.fail(f"lerobot with the scservo SDK is not installed in {LEROBOT_SITE}: run ./setup.sh --dev")
+        folder = tmp_path_factory.mktemp(f"lerobot_{group}")
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join([str(LEROBOT_SITE), str(NO_TORCHVISION), env.get("PYTHONPATH", "")])
+        env |= {"HF_HUB_OFFLINE": "1", "HF_HOME": str(folder / "hf"), "HF_LEROBOT_HOME": str(folder / "hf/lerobot")}
+        result = subprocess.run(
+            [sys.executable, str(LEROBOT_SIDE), group, str(folder)],
+            cwd=LEROBOT_SIDE.parent,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=LEROBOT_SIDE_TIMEOUT_S,
+        )
+        assert result.returncode == 0, result.stderr[-4000:]
+        return dict(json.loads(result.stdout.strip().splitlines()[-1]))
+
+    return run

@@ -1,9 +1,11 @@
 """Runs `joshua deploy --lerobot` and the MIRROR mode on LeRobot arms that are `feetech_bus.FeetechArm`s, with the
-real lerobot (started by test_lerobot_arm.py with lerobot's site on PYTHONPATH): each scenario is the real
-command (`joshua_core.cli.main`) in this one process, so lerobot and torch are imported once for all. Prints one
+real lerobot (started by conftest.py's `lerobot_side` with lerobot's site on PYTHONPATH): each scenario is the real
+command (`joshua_core.cli.main`) in this one process, so lerobot and torch are imported once for a group. Prints one
 JSON line: per scenario its exit status, stderr lines and what the arm saw.
 
-    python lerobot_arm_side.py OUT_DIR
+    python lerobot_arm_side.py deploy OUT_DIR   joshua deploy --lerobot on an SO-100 follower
+    python lerobot_arm_side.py mirror OUT_DIR   the mirror of an SO-101 follower, and an SO-101 leader teleoperating
+                                                the simulated arm into a LeRobot dataset that lerobot then loads
 """
 
 from __future__ import annotations
@@ -92,9 +94,11 @@ def run(argv: list[str], driver: Callable[[Lines], None] | None = None) -> dict[
         try:
             assert driver is not None
             driver(lines)
-        except Exception as error:  # reported, and the command stopped: the test fails on it
+        except Exception as error:  # reported, and the command stopped if it still runs: the test fails on it
             failure.append(repr(error))
-            os.kill(os.getpid(), signal.SIGINT)
+            with lines.changed:
+                if not lines.ended:
+                    os.kill(os.getpid(), signal.SIGINT)
 
     thread = threading.Thread(target=drive) if driver else None
     with redirect_stderr(lines):
@@ -106,7 +110,10 @@ def run(argv: list[str], driver: Callable[[Lines], None] | None = None) -> dict[
             status = int(exit_.code or 0)
         lines.end()
         if thread:
-            thread.join()
+            try:
+                thread.join()
+            except KeyboardInterrupt:  # the driver's stop, sent as the command ended: it had nothing to stop
+                thread.join()
     return {"status": status, "lines": lines.lines, "driver_failed": failure}
 
 
@@ -159,6 +166,96 @@ def deploy_scenarios(out: Path) -> dict[str, Any]:
     return results
 
 
+MIRROR = [
+    "--preset",
+    "so101_sim_mirror",
+    "--set",
+    "simulation.mirror.display=NONE",
+    "--set",
+    "simulation.mirror.status_period=0.1",
+]
+POSE_A = {1: 2300, 2: 1800, 3: 2500, 4: 1700, 5: 2200, 6: 1900}  # ticks of servos 1..6, inside every joint's range
+POSE_B = {1: 1800, 2: 2250, 3: 1750, 4: 2400, 5: 1900, 6: 2350}
+TELEOP_PERIODS = 6  # status periods (0.1 s) at each pose: time for the simulated arm to get there
+TELEOP_FPS = 10  # few frames: the dataset's video is rendered in software
+ALL_READ = r"^\[mirror (?!.*never)"  # a status line once every joint has a value
+
+
+def arm_sets(robot_type: str, port: str, calibration_file: Path) -> list[str]:
+    """`--set`s of `simulation.mirror.lerobot`: the arm `robot_type` on `port`, calibrated as `calibration_file`."""
+    values = {"robot_type": robot_type, "port": port, "calibration": str(calibration_file)}
+    return [arg for name, value in values.items() for arg in ("--set", f"simulation.mirror.lerobot.{name}={value}")]
+
+
+def place(arm: FeetechArm, pose: dict[int, int]) -> None:
+    for servo, ticks in pose.items():
+        arm.place(servo, ticks)
+
+
+def follow_then(arm: FeetechArm, poses: list[dict[int, int]], periods: int) -> Callable[[Lines], None]:
+    """A driver: once every joint has a value, put the arm in each of `poses` in turn, each until the mirror has read
+    it (later reads came) and `periods` status periods passed; then Ctrl-C."""
+
+    def drive(lines: Lines) -> None:
+        lines.wait_for(ALL_READ)
+        for pose in poses:
+            place(arm, pose)
+            assert arm.wait_reads(3, WAIT_S)  # the reader read the pose and handed it on before it read again
+            seen = len(lines.lines) - 1  # the status lines from here on came after the mirror had the pose
+            for _ in range(periods):
+                seen = lines.wait_for(ALL_READ, seen + 1)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    return drive
+
+
+def mirror_scenarios(out: Path) -> dict[str, Any]:
+    """The twin follows a follower read through LeRobot; a leader teleoperates the simulated arm, recorded as a
+    LeRobot dataset that lerobot loads; the refusals."""
+    results: dict[str, Any] = {}
+    good = calibration(out)
+    record = ["--set", "simulation.mirror.record.csv=true", "--set", f"simulation.output_dir={out}/f"]
+    with calibrated_arm(dict(POSE_A)) as arm:
+        argv = [*MIRROR, *arm_sets("so101_follower", arm.port, good), *record]
+        results["follow"] = run(argv, follow_then(arm, [POSE_B], periods=2))
+        results["follow_torque"], results["follow_goals"] = arm.torque(), arm.goals_written
+    results["follow_report"] = json.loads((out / "f" / "mirror_report.json").read_text())
+    results["follow_csv"] = (out / "f" / "mirror_recording.csv").read_text()
+    teleop = [
+        *("--set", "simulation.mirror.apply=ACTUATOR"),
+        *("--set", "simulation.mirror.record.lerobot=true", "--set", f"simulation.mirror.record.fps={TELEOP_FPS}"),
+        *("--set", "simulation.render_width=64", "--set", "simulation.render_height=48"),
+        *("--set", f"simulation.output_dir={out}/t"),
+    ]
+    with calibrated_arm(dict(POSE_A)) as leader:
+        argv = [*MIRROR, *arm_sets("so101_leader", leader.port, good), *teleop]
+        results["teleop"] = run(argv, follow_then(leader, [POSE_A, POSE_B], periods=TELEOP_PERIODS))
+    results["teleop_report"] = json.loads((out / "t" / "mirror_report.json").read_text())
+    results["dataset"] = load_dataset(out / "t" / "mirror_lerobot")
+    missing = out / "missing.json"
+    results["bad_port"] = run([*MIRROR, *arm_sets("so101_follower", str(out / "ttyACM9"), good)])
+    with calibrated_arm() as arm:
+        results["no_calibration"] = run([*MIRROR, *arm_sets("so101_follower", arm.port, missing)])
+        arm.muted.set()
+        results["silent"] = run([*MIRROR, *arm_sets("so101_follower", arm.port, good)])
+    return results
+
+
+def load_dataset(root: Path) -> dict[str, Any]:
+    """The dataset at `root` as lerobot's own LeRobotDataset reads it: robot type, joint names, state and action."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    dataset = LeRobotDataset("local/joshua_teleop", root=root)
+    frames = [dataset[i] for i in range(len(dataset))]
+    return {
+        "robot_type": dataset.meta.robot_type,
+        "names": dataset.meta.features["action"]["names"],
+        "state": [frame["observation.state"].tolist() for frame in frames],
+        "action": [frame["action"].tolist() for frame in frames],
+    }
+
+
 if __name__ == "__main__":
-    folder = Path(sys.argv[1])
-    print(json.dumps({"deploy": deploy_scenarios(folder)}))
+    group, folder = sys.argv[1], Path(sys.argv[2])
+    scenarios = {"deploy": deploy_scenarios, "mirror": mirror_scenarios}[group]
+    print(json.dumps({group: scenarios(folder)}))

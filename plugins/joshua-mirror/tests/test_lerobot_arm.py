@@ -1,7 +1,7 @@
 """`joshua deploy --lerobot` on an SO-100 arm that is a serial-port fake (tests/feetech_bus.py: six STS3215 servos
 speaking Feetech protocol 0 on a pty), driven by the real lerobot 0.4.4 (its follower, FeetechMotorsBus, the
 scservo SDK and pyserial; `./setup.sh --dev` installs them in .cache/lerobot-site). tests/lerobot_arm_side.py runs
-every scenario in one process with lerobot importable, once for the module; each test reads its part.
+every deploy scenario in one process with lerobot importable, once for the module; each test reads its part.
 
 Ticks become model radians independently of joshua-lerobot here: every motor is calibrated over 1024..3072, whose
 middle is the model's zero, and lerobot reads (ticks - middle) x 360 / 4095 degrees; so q = mid + (t - 2048) x
@@ -10,12 +10,8 @@ middle is the model's zero, and lerobot reads (ticks - middle) x 360 / 4095 degr
 
 from __future__ import annotations
 
-import json
 import math
-import os
-import subprocess
-import sys
-from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 import mujoco
@@ -24,10 +20,6 @@ import pytest
 
 from joshua_core.resources import models_dir
 
-REPO = Path(__file__).resolve().parents[3]
-LEROBOT_SITE = REPO / ".cache" / "lerobot-site"
-NO_TORCHVISION = REPO / "plugins" / "joshua-lerobot" / "tests" / "no_torchvision"  # stands in for torchvision
-SIDE = Path(__file__).with_name("lerobot_arm_side.py")
 TARGET = (0.22, 0.05, 0.15)
 # The shipped reach policy under the 4 rad/s speed limit settles within a few cm (docs/sim-to-real.md, Deploy); a
 # unit, sign or joint-order error puts the gripper tens of cm away.
@@ -42,23 +34,8 @@ MAX_SPEED_RAD_S, RATE_HZ = 4.0, 50.0  # joshua deploy's defaults and the policy'
 
 
 @pytest.fixture(scope="module")
-def side(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    if not (LEROBOT_SITE / "scservo_sdk").is_dir():
-        pytest.fail(f"lerobot with the scservo SDK is not installed in {LEROBOT_SITE}: run ./setup.sh --dev")
-    folder = tmp_path_factory.mktemp("lerobot_arm")
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(LEROBOT_SITE), str(NO_TORCHVISION), env.get("PYTHONPATH", "")])
-    env |= {"HF_HUB_OFFLINE": "1", "HF_HOME": str(folder / "hf"), "HF_LEROBOT_HOME": str(folder / "hf/lerobot")}
-    result = subprocess.run(
-        [sys.executable, str(SIDE), str(folder)],
-        cwd=SIDE.parent,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert result.returncode == 0, result.stderr[-4000:]
-    return json.loads(result.stdout.strip().splitlines()[-1])
+def side(lerobot_side: Callable[[str], dict[str, Any]]) -> dict[str, Any]:
+    return lerobot_side("deploy")
 
 
 def model() -> mujoco.MjModel:
