@@ -176,7 +176,7 @@ MIRROR = [
 ]
 POSE_A = {1: 2300, 2: 1800, 3: 2500, 4: 1700, 5: 2200, 6: 1900}  # ticks of servos 1..6, inside every joint's range
 POSE_B = {1: 1800, 2: 2250, 3: 1750, 4: 2400, 5: 1900, 6: 2350}
-TELEOP_PERIODS = 6  # status periods (0.1 s) at each pose: time for the simulated arm to get there
+TELEOP_PERIODS = 6  # status periods (0.1 s) at the second pose: time for the simulated arm to get there
 TELEOP_FPS = 10  # few frames: the dataset's video is rendered in software
 ALL_READ = r"^\[mirror (?!.*never)"  # a status line once every joint has a value
 
@@ -192,13 +192,13 @@ def place(arm: FeetechArm, pose: dict[int, int]) -> None:
         arm.place(servo, ticks)
 
 
-def follow_then(arm: FeetechArm, poses: list[dict[int, int]], periods: int) -> Callable[[Lines], None]:
-    """A driver: once every joint has a value, put the arm in each of `poses` in turn, each until the mirror has read
-    it (later reads came) and `periods` status periods passed; then Ctrl-C."""
+def follow_then(arm: FeetechArm, poses: list[tuple[dict[int, int], int]]) -> Callable[[Lines], None]:
+    """A driver: once every joint has a value, put the arm in each of `poses` (pose, status periods) in turn, each
+    until the mirror has read it (later reads came) and its status periods passed; then Ctrl-C."""
 
     def drive(lines: Lines) -> None:
         lines.wait_for(ALL_READ)
-        for pose in poses:
+        for pose, periods in poses:
             place(arm, pose)
             assert arm.wait_reads(3, WAIT_S)  # the reader read the pose and handed it on before it read again
             seen = len(lines.lines) - 1  # the status lines from here on came after the mirror had the pose
@@ -217,7 +217,7 @@ def mirror_scenarios(out: Path) -> dict[str, Any]:
     record = ["--set", "simulation.mirror.record.csv=true", "--set", f"simulation.output_dir={out}/f"]
     with calibrated_arm(dict(POSE_A)) as arm:
         argv = [*MIRROR, *arm_sets("so101_follower", arm.port, good), *record]
-        results["follow"] = run(argv, follow_then(arm, [POSE_B], periods=2))
+        results["follow"] = run(argv, follow_then(arm, [(POSE_B, 2)]))
         results["follow_torque"], results["follow_goals"] = arm.torque(), arm.goals_written
     results["follow_report"] = json.loads((out / "f" / "mirror_report.json").read_text())
     results["follow_csv"] = (out / "f" / "mirror_recording.csv").read_text()
@@ -229,7 +229,7 @@ def mirror_scenarios(out: Path) -> dict[str, Any]:
     ]
     with calibrated_arm(dict(POSE_A)) as leader:
         argv = [*MIRROR, *arm_sets("so101_leader", leader.port, good), *teleop]
-        results["teleop"] = run(argv, follow_then(leader, [POSE_A, POSE_B], periods=TELEOP_PERIODS))
+        results["teleop"] = run(argv, follow_then(leader, [(POSE_A, 2), (POSE_B, TELEOP_PERIODS)]))
     results["teleop_report"] = json.loads((out / "t" / "mirror_report.json").read_text())
     results["dataset"] = load_dataset(out / "t" / "mirror_lerobot")
     missing = out / "missing.json"
@@ -242,16 +242,20 @@ def mirror_scenarios(out: Path) -> dict[str, Any]:
 
 
 def load_dataset(root: Path) -> dict[str, Any]:
-    """The dataset at `root` as lerobot's own LeRobotDataset reads it: robot type, joint names, state and action."""
+    """The dataset at `root` as lerobot's own LeRobotDataset reads it: robot type, joint names, cameras, and every
+    frame's state and action from its table (decoding the video, which joshua-lerobot's tests do for the same
+    writer, would import torchcodec for seconds)."""
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     dataset = LeRobotDataset("local/joshua_teleop", root=root)
-    frames = [dataset[i] for i in range(len(dataset))]
+    table = dataset.hf_dataset
     return {
         "robot_type": dataset.meta.robot_type,
         "names": dataset.meta.features["action"]["names"],
-        "state": [frame["observation.state"].tolist() for frame in frames],
-        "action": [frame["action"].tolist() for frame in frames],
+        "frames": len(dataset),
+        "cameras": dataset.meta.video_keys,
+        "state": [state.tolist() for state in table["observation.state"]],
+        "action": [action.tolist() for action in table["action"]],
     }
 
 

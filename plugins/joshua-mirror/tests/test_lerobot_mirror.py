@@ -13,14 +13,17 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
 import pytest
 
+from joshua_core.cli import main
 from joshua_core.resources import models_dir
 
 JOINTS = ("shoulder_pan", "shoulder_lift", "elbow_flex", "wrist_flex", "wrist_roll", "gripper")  # servo ids 1..6
@@ -79,6 +82,8 @@ def test_a_leader_teleoperates_the_simulated_arm_into_a_dataset_lerobot_loads(si
     dataset = side["dataset"]
     assert dataset["robot_type"] == "so101_follower"
     assert dataset["names"] == [f"{joint}.pos" for joint in JOINTS]
+    assert dataset["cameras"] == ["observation.images.overview"]  # the model's first camera
+    assert dataset["frames"] == len(dataset["action"]) == len(dataset["state"]) > 1
     actions, states = np.array(dataset["action"]), np.array(dataset["state"])
     a, b = np.array(lerobot_values(POSE_A)), np.array(lerobot_values(POSE_B))
     # The actions are the leader's values: its first pose, its second, and between them only where a frame falls
@@ -107,4 +112,28 @@ def test_a_bad_port_a_missing_calibration_or_a_silent_arm_is_one_line_and_exit_2
     result = side[case]
     assert result["status"] == 2
     errors = [line for line in result["lines"] if line]
+    assert len(errors) == 1 and errors[0].startswith("joshua: error: ") and message in errors[0], errors
+
+
+@pytest.mark.parametrize(
+    ("sets", "message"),
+    [
+        (["robot_type=so101_leader"], "set simulation.mirror.apply=ACTUATOR"),
+        (["robot_type=so100_follower"], "is another arm than the model's (so101_follower joints)"),
+        (["robot_type=koch_follower"], "is no LeRobot SO-10x arm"),
+    ],
+)
+def test_a_lerobot_arm_that_does_not_fit_the_config_is_one_line_and_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], sets: list[str], message: str
+) -> None:
+    """Checked before lerobot is imported or a port opened: these run without lerobot."""
+    calibration = tmp_path / "arm.json"
+    entries = {joint: {"id": i, "drive_mode": 0, "homing_offset": 0, "range_min": RANGE[0], "range_max": RANGE[1]}
+               for i, joint in enumerate(JOINTS, 1)}  # fmt: skip
+    calibration.write_text(json.dumps(entries))
+    arm = [*sets, "port=/dev/ttyACM0", f"calibration={calibration}"]
+    overrides = [arg for value in arm for arg in ("--set", f"simulation.mirror.lerobot.{value}")]
+    status = main(["--preset", "so101_sim_mirror", "--set", f"simulation.output_dir={tmp_path}", *overrides])
+    errors = [line for line in capsys.readouterr().err.splitlines() if line]
+    assert status == 2
     assert len(errors) == 1 and errors[0].startswith("joshua: error: ") and message in errors[0], errors
