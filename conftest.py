@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import importlib.util
 import os
 import queue
 import re
@@ -25,6 +26,20 @@ from typing import Any
 import numpy as np
 import pytest
 from numpy.typing import NDArray
+
+
+def pytest_report_header(config: pytest.Config) -> list[str]:
+    """Which real lerobot joshua-lerobot's tests run against: setup.sh installs 0.4.4 for Python 3.11 and 0.6 for
+    3.12, each in a site of its own (plugins/joshua-lerobot/tests/lerobot_harness.py says where)."""
+    harness = Path(__file__).parent / "plugins/joshua-lerobot/tests/lerobot_harness.py"
+    spec = importlib.util.spec_from_file_location("_lerobot_harness_header", harness)
+    if not harness.is_file() or spec is None or spec.loader is None:  # a checkout without that plugin's tests
+        return []
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    site = Path(module.LEROBOT_SITE).relative_to(Path(__file__).parent)
+    found = module.lerobot_version()
+    return [f"lerobot (joshua-lerobot's tests): {found or 'not installed'} in {site}, Python {module.PYTHON_VERSION}"]
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -1,5 +1,6 @@
-"""The real `lerobot` 0.4.4, run in a subprocess by test_lerobot.py with the pinned packages of
-lerobot-requirements.txt first on PYTHONPATH (so they never change .venv). Prints one JSON document.
+"""The real `lerobot` (0.4.4 on Python 3.11, 0.6 on 3.12), run in a subprocess by the tests (lerobot_harness.py) with
+the pinned packages of this Python's lerobot-requirements file first on PYTHONPATH (so they never change the venv).
+Prints one JSON document.
 
     python lerobot_side.py load ROOT      LeRobotDataset(root=ROOT): every frame's state, action, timestamp,
                                           episode, and each camera's decoded frames (shape, mean per frame)
@@ -11,11 +12,12 @@ lerobot-requirements.txt first on PYTHONPATH (so they never change .venv). Print
     python lerobot_side.py normalize FILE lerobot's `MotorsBus._normalize` of the SO-100 follower's motors, with
                                           FILE's calibration, on FILE's ticks: per motor, the values with
                                           use_degrees=True and with use_degrees=False
-    python lerobot_side.py sac FILE       a small SACPolicy with FILE's input features and action range, saved with
-                                          its pre/post-processors (save_pretrained) in FILE's "out" folder
+    python lerobot_side.py sac FILE       a small SAC actor (SACPolicy; GaussianActorPolicy from lerobot 0.6) with
+                                          FILE's input features and action range, saved with its pre/post-processors
+                                          (save_pretrained) in FILE's "out" folder
 
-torchvision is not installed (its PyPI wheels for torch 2.13 are CUDA builds): tests/no_torchvision/sitecustomize.py
-puts placeholders in its place whose use raises.
+torchvision is not installed (on 3.11 its PyPI wheels are CUDA builds beside a CPU torch):
+tests/no_torchvision/sitecustomize.py puts placeholders in its place whose use raises.
 """
 
 from __future__ import annotations
@@ -160,7 +162,7 @@ def write(root: Path) -> dict[str, Any]:
 
 
 def sac(request: Path) -> dict[str, Any]:
-    """A SACPolicy (lerobot's own class, no torchvision in it: ACT's backbone is torchvision's ResNet) taking
+    """A SAC actor (lerobot's own class, no torchvision in it: ACT's backbone is torchvision's ResNet) taking
     `request`'s "inputs" ({key: shape}, images channels first) with an action of `len(action_min)` values, small
     enough to load and run in a moment, saved in `request`'s "out" with its pre/post-processors. The action is
     unnormalized from [-1, 1] over the dataset statistics' [action_min, action_max] (MIN_MAX): where the two are
@@ -168,9 +170,14 @@ def sac(request: Path) -> dict[str, Any]:
     import torch
     from lerobot.configs.types import FeatureType, PolicyFeature
     from lerobot.policies.factory import make_pre_post_processors
-    from lerobot.policies.sac.configuration_sac import SACConfig
-    from lerobot.policies.sac.modeling_sac import SACPolicy
     from lerobot.utils.constants import ACTION, OBS_STATE
+
+    try:  # lerobot 0.6: SAC's policy is its actor, `gaussian_actor` (the critics moved to lerobot.rl)
+        from lerobot.policies.gaussian_actor.configuration_gaussian_actor import GaussianActorConfig as SACConfig
+        from lerobot.policies.gaussian_actor.modeling_gaussian_actor import GaussianActorPolicy as SACPolicy
+    except ModuleNotFoundError:  # lerobot 0.4
+        from lerobot.policies.sac.configuration_sac import SACConfig
+        from lerobot.policies.sac.modeling_sac import SACPolicy
 
     spec = json.loads(request.read_text())
     inputs = {
@@ -193,7 +200,8 @@ def sac(request: Path) -> dict[str, Any]:
         latent_dim=8,
         state_encoder_hidden_dim=8,
         image_embedding_pooling_dim=2,
-        use_torch_compile=False,
+        # lerobot 0.4's SACConfig compiles by default; 0.6's actor has no such option
+        **({"use_torch_compile": False} if hasattr(SACConfig, "use_torch_compile") else {}),
     )
     torch.manual_seed(0)
     policy = SACPolicy(config)

@@ -1,4 +1,4 @@
-"""`joshua demos` against the real lerobot 0.4.4 (tests/lerobot_side.py through tests/lerobot_harness.py) and against
+"""`joshua demos` against the real lerobot (tests/lerobot_side.py through tests/lerobot_harness.py) and against
 the simulation: the dataset loads with `delta_timestamps` and decodes, its rows are the simulated joint angles and
 the script's targets in LeRobot's units, and only the attempts that placed the cube are in it."""
 

@@ -1,8 +1,9 @@
-"""LeRobot datasets against the real `lerobot` 0.4.4: ours load in `LeRobotDataset` (frames, values, decoded
-video), and one written by lerobot's own writer replays and validates through `load_trajectory` and PASSIVE.
+"""LeRobot datasets against the real `lerobot` (0.4.4 on Python 3.11, 0.6 on 3.12): ours load in `LeRobotDataset`
+(frames, values, decoded video), and one written by lerobot's own writer replays and validates through
+`load_trajectory` and PASSIVE.
 
 lerobot runs in a subprocess (tests/lerobot_side.py, started by tests/lerobot_harness.py) over the pinned packages
-`./setup.sh --dev` installs in .cache/lerobot-site (tests/lerobot-requirements.txt): they must not change .venv.
+`./setup.sh --dev` installs beside the venv (tests/lerobot-requirements*.txt): they must not change it.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from lerobot_harness import lerobot
+from lerobot_harness import LEROBOT_SITE, PYTHON_VERSION, lerobot, lerobot_version, pinned_lerobot_version
 
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import models_dir
@@ -49,6 +50,14 @@ def motion(ranges: dict[str, tuple[float, float]]) -> Trajectory:
         return mids + 0.25 * spans * np.sin(2 * t[:, None] + np.arange(6))
 
     return Trajectory(Path("motion.csv"), JOINTS, times, at(times), np.arange(31), at(times + 0.05))
+
+
+def test_the_lerobot_tested_is_the_one_pinned_for_this_python() -> None:
+    """The site setup.sh installed holds this Python's pin (0.4.4 on 3.11, 0.6 on 3.12), not a stale one: the
+    pytest header names it too (conftest.py)."""
+    assert lerobot_version() == pinned_lerobot_version(), (
+        f"{LEROBOT_SITE} on Python {PYTHON_VERSION}: run ./setup.sh --dev"
+    )
 
 
 def test_our_dataset_loads_in_lerobot(tmp_path: Path, ranges: dict[str, tuple[float, float]]) -> None:

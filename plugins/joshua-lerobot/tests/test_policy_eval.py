@@ -1,4 +1,4 @@
-"""`joshua eval` of a LeRobot policy: a real lerobot 0.4.4 policy (SACPolicy: it loads and runs without
+"""`joshua eval` of a LeRobot policy: a real lerobot policy (the SAC actor: it loads and runs without
 torchvision, which ACT's ResNet backbone needs; see tests/no_torchvision/sitecustomize.py), saved with
 `save_pretrained` with the features a `joshua demos` dataset has, run by a "LeRobot Python" (tests/lerobot_harness.py)
 while `joshua` runs without lerobot; its actions drive the simulated arm, and bad input is one line, exit 2."""
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from lerobot_harness import lerobot, lerobot_python
+from lerobot_harness import lerobot, lerobot_python, sac_policy_type
 
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.plugins import PluginHost
@@ -34,7 +34,7 @@ SHORT = ("--set", "training.task_config.episode_length=50")  # 1 s episodes: the
 def save_policy(folder: Path, tmp_path: Path, inputs: dict[str, list[int]]) -> Path:
     request = tmp_path / f"{folder.name}.json"
     request.write_text(json.dumps({"inputs": inputs, "action_min": POSE, "action_max": POSE, "out": str(folder)}))
-    assert lerobot("sac", request, tmp_path)["type"] == "sac"
+    assert lerobot("sac", request, tmp_path)["type"] == sac_policy_type()
     return folder
 
 
@@ -45,7 +45,7 @@ def lerobot_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def policy(lerobot_folder: Path) -> Path:
-    """A SACPolicy taking the joint state and the overview camera, as a `joshua demos --camera overview` dataset."""
+    """A SAC actor taking the joint state and the overview camera, as a `joshua demos --camera overview` dataset."""
     inputs = {"observation.state": [6], "observation.images.overview": [3, HEIGHT, WIDTH]}
     return save_policy(lerobot_folder / "policy", lerobot_folder, inputs)
 
@@ -77,7 +77,7 @@ def test_joshua_eval_reports_a_lerobot_policys_success_rate_with_intervals(
 def test_the_policys_actions_drive_the_arm(policy: Path, lerobot_folder: Path) -> None:
     plugins = PluginHost.discover()
     with PolicyProcess(str(lerobot_python(lerobot_folder)), policy, "cpu", DEFAULT_REPLY_SECONDS) as process:
-        assert process.description.type == "sac"
+        assert process.description.type == sac_policy_type()
         evaluation = evaluate_policy(
             process,
             TASK,
@@ -121,7 +121,7 @@ def test_bad_input_is_one_line_and_exit_2(
     else:
         folder = tmp_path / "broken"
         folder.mkdir()
-        (folder / "config.json").write_text(json.dumps({"type": "sac", "input_features": 3}))
+        (folder / "config.json").write_text(json.dumps({"type": sac_policy_type(), "input_features": 3}))
         (folder / "model.safetensors").write_bytes(b"not a model")
     done = joshua_eval(folder, "--no-video", *SHORT, python=python)
     assert done.returncode == 2 and done.stderr.count("\n") == 1 and message in done.stderr, done.stderr
@@ -132,7 +132,7 @@ def test_a_policy_taking_a_camera_the_task_lacks_is_refused_naming_it(lerobot_fo
     folder = save_policy(tmp_path / "wrist", tmp_path, inputs)
     done = joshua_eval(folder, "--no-video", *SHORT, python=lerobot_python(lerobot_folder))
     expected = (
-        "the sac policy takes observation.images.wrist, which the task does not provide (it provides "
+        f"the {sac_policy_type()} policy takes observation.images.wrist, which the task does not provide (it provides "
         "observation.state, observation.images.overview, observation.images.side)"
     )
     assert done.returncode == 2 and done.stderr.count("\n") == 1 and expected in done.stderr, done.stderr

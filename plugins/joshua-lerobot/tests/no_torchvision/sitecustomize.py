@@ -1,6 +1,8 @@
 """torchvision's place in the tests' lerobot subprocesses (tests/lerobot_harness.py puts this folder on their
 PYTHONPATH, so Python runs it at start-up): its PyPI wheels for torch 2.13 are CUDA builds that do not load beside
-the CPU torch (tests/lerobot-requirements.txt).
+the CPU torch (tests/lerobot-requirements.txt). On Python 3.12 the site has the real torchvision (PyPI's torch is a
+CUDA build there too, and lerobot 0.6 imports torchvision's models at `import lerobot.policies`): then this does
+nothing.
 
 lerobot 0.4.4 imports torchvision on every path the tests take: `lerobot.datasets` (PIL-image features, the pyav
 decoder), `lerobot.processor` (`torchvision.transforms.functional`, for crops of human-in-the-loop training) and
@@ -13,6 +15,7 @@ whose `Transform` cannot be instantiated: a test fails loudly should lerobot *us
 from __future__ import annotations
 
 import importlib.machinery
+import importlib.util
 import sys
 import types
 from typing import Any
@@ -40,11 +43,16 @@ class Transform:
         raise RuntimeError("lerobot made a torchvision transform, which this test environment does not have")
 
 
-for _name in MODULES:
-    _module = _Unavailable(_name)
-    _module.__spec__ = importlib.machinery.ModuleSpec(_name, None)
-    sys.modules[_name] = _module
-for _name in MODULES[1:]:
-    _parent, _, _child = _name.rpartition(".")
-    setattr(sys.modules[_parent], _child, sys.modules[_name])
-sys.modules["torchvision.transforms.v2"].Transform = Transform  # type: ignore[attr-defined]
+def _stand_in() -> None:
+    for name in MODULES:
+        module = _Unavailable(name)
+        module.__spec__ = importlib.machinery.ModuleSpec(name, None)
+        sys.modules[name] = module
+    for name in MODULES[1:]:
+        parent, _, child = name.rpartition(".")
+        setattr(sys.modules[parent], child, sys.modules[name])
+    sys.modules["torchvision.transforms.v2"].Transform = Transform  # type: ignore[attr-defined]
+
+
+if importlib.util.find_spec("torchvision") is None:
+    _stand_in()
