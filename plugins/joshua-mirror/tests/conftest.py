@@ -19,7 +19,9 @@ from joshua_mirror.ros import local_only_environment
 
 PUBLISHER = Path(__file__).with_name("publisher.py")
 REPO = Path(__file__).resolve().parents[3]
-LEROBOT_SITE = REPO / ".cache" / "lerobot-site"
+# as setup.sh names them: lerobot 0.4.4 for Python 3.11 in lerobot-site, lerobot 0.6 for 3.12 in lerobot-site-3.12
+_VERSION = f"{sys.version_info[0]}.{sys.version_info[1]}"
+LEROBOT_SITE = REPO / ".cache" / ("lerobot-site" if _VERSION == "3.11" else f"lerobot-site-{_VERSION}")
 NO_TORCHVISION = REPO / "plugins" / "joshua-lerobot" / "tests" / "no_torchvision"  # stands in for torchvision
 LEROBOT_SIDE = Path(__file__).with_name("lerobot_arm_side.py")
 LEROBOT_SIDE_TIMEOUT_S = 120

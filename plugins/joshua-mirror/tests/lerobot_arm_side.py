@@ -117,6 +117,15 @@ def run(argv: list[str], driver: Callable[[Lines], None] | None = None) -> dict[
     return {"status": status, "lines": lines.lines, "driver_failed": failure}
 
 
+def follow(arm: FeetechArm, reads: int) -> list[dict[int, int]]:
+    """The servos' positions at each of the next `reads` reads: the path the policy moves the arm along."""
+    path = []
+    for _ in range(reads):
+        assert arm.wait_reads(1, WAIT_S), "the arm is no longer read"
+        path.append(arm.ticks())
+    return path
+
+
 def deploy_scenarios(out: Path) -> dict[str, Any]:
     results: dict[str, Any] = {}
     good = calibration(out)
@@ -136,7 +145,7 @@ def deploy_scenarios(out: Path) -> dict[str, Any]:
             arm.muted.clear()
             again = lines.wait_for(r"deploy: RUNNING", held)
             lines.wait_for(r"answers again", running)
-            assert arm.wait_reads(150, WAIT_S)  # time to reach the target
+            results["path"] = follow(arm, 150)  # time to reach the target
             os.kill(os.getpid(), signal.SIGUSR1)  # the e-stop
             lines.wait_for(r"deploy: E-STOP", again)
             assert arm.wait_reads(1, WAIT_S)  # the stop in place has arrived
