@@ -38,8 +38,11 @@ events { name: "armature" term: "randomize_joint_armature" mode: RESET params { 
 # the backends part more (1.8e-2 by step 20 even without randomization: contacts, solver), so the check
 # stops at 10 steps.
 PARITY_TOLERANCE = 1e-2
-# rad, MJX-JAX against MuJoCo Warp with the same drawn parameters, both float32 (tests/test_warp_parity.py's)
-JAX_WARP_TOLERANCE = 2e-3
+# rad, MJX-JAX against MuJoCo Warp with the same drawn parameters, both float32 but different kernels: over these
+# 10 contact-rich steps rounding differences grow as between float32 and float64 above (2e-3 to 5e-3), and how far
+# depends on how XLA happens to fuse the step (a change that leaves every value of a finite action as it was moved one
+# joint 2.5e-3); a model that ignored the parameters would be off by more than 5 x PARITY_TOLERANCE (checked below)
+JAX_WARP_TOLERANCE = 5e-3
 
 
 def _config() -> TaskConfig:
