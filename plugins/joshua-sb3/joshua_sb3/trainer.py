@@ -58,7 +58,7 @@ from joshua_sb3.run_folder import (
     write_checkpoint,
 )
 from joshua_sb3.settings import Settings
-from joshua_sb3.vec_env import FAILED_KEY, METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv
+from joshua_sb3.vec_env import METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv, blown_up, ended_episodes
 from joshua_sb3.web_page import PagePublisher, open_page
 
 TRAINER_NAME = "sb3"
@@ -109,9 +109,8 @@ class TrainingMonitor(BaseCallback):
 
     def _on_step(self) -> bool:
         self.bar.update(self.model.num_timesteps - self.bar.n)
-        infos = self.locals["infos"]
-        ended = [infos[index].get("episode", {}) for index in np.flatnonzero(self.locals["dones"])]
-        failed = sum(bool(episode.get(FAILED_KEY, False)) for episode in ended)
+        ended = ended_episodes(self.locals["infos"], self.locals["dones"])
+        failed = blown_up(ended)
         self.failed += failed
         self.stretch = (self.stretch[0] + len(ended), self.stretch[1] + failed, self.stretch[2])
         return not self.stop.requested  # SB3 ends learn() cleanly: the checkpoint after it is consistent

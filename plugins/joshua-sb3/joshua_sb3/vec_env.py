@@ -58,6 +58,16 @@ class BatchVecEnv(VecEnv):
         return [False for _ in self._get_indices(indices)]
 
 
+def ended_episodes(infos: Sequence[dict[str, Any]], dones: NDArray[Any]) -> list[dict[str, Any]]:
+    """The `episode` records SB3's step infos hold for the environments whose episode ended at this step."""
+    return [infos[int(index)].get("episode", {}) for index in np.flatnonzero(dones)]
+
+
+def blown_up(episodes: Sequence[dict[str, Any]]) -> int:
+    """How many of `episodes` (their `episode` records) ended because their simulation blew up."""
+    return sum(bool(episode.get(FAILED_KEY, False)) for episode in episodes)
+
+
 def episode_info(
     final_observation: NDArray[Any],
     terminated: bool,

@@ -12,7 +12,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_render import TrainingPage, open_training_page
-from joshua_sb3.vec_env import FAILED_KEY
+from joshua_sb3.vec_env import blown_up, ended_episodes
 
 PAGE_ENVS = 4  # environments shown side by side (fewer when the run has fewer)
 
@@ -42,10 +42,7 @@ class PagePublisher(BaseCallback):
         if now >= self.next_push:
             self.next_push = now + 1.0 / TrainingPage.PUSH_HZ
             self.page.publish_poses(self.environments.qpos, self.policy_step)
-        infos = self.locals["infos"]
-        self.failed += sum(
-            bool(infos[index].get("episode", {}).get(FAILED_KEY)) for index in np.flatnonzero(self.locals["dones"])
-        )
+        self.failed += blown_up(ended_episodes(self.locals["infos"], self.locals["dones"]))
         return True
 
     def _on_rollout_start(self) -> None:
