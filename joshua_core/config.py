@@ -18,7 +18,7 @@ from google.protobuf import text_format
 from google.protobuf.descriptor import FieldDescriptor
 from google.protobuf.message import Message
 
-from joshua_core import config_text
+from joshua_core import config_text, legacy
 from joshua_core.config_pb2 import JoshuaConfig
 from joshua_core.defaults import simulation_backend, simulation_mode, training_plugins
 from joshua_core.errors import ConfigError, UsageError
@@ -150,6 +150,9 @@ def apply_override(config: JoshuaConfig, assignment: str, options: OptionSet) ->
     parts = path.strip().split(".")
     for depth, part in enumerate(parts):
         match = _PATH_PART.match(part)
+        if match and depth == len(parts) - 1 and legacy.is_renamed(message.DESCRIPTOR.full_name, match["name"]):
+            _set_renamed(message, value.strip(), assignment, options)
+            return
         field = field_or_option(message.DESCRIPTOR, match["name"], options) if match else None
         if match is None or field is None:
             if options.lenient:
@@ -169,6 +172,19 @@ def apply_override(config: JoshuaConfig, assignment: str, options: OptionSet) ->
                 f"--set {assignment}: '{field.name}' is not a list or message: it cannot be indexed or descended into"
             )
         message = _descend(message, field, match["index"], assignment)
+
+
+def _set_renamed(message: Message, value: str, assignment: str, options: OptionSet) -> None:
+    """`--set training.framework=SB3`, an old spelling: set the fields it stands for, with the notice naming them."""
+    fields = legacy.framework_fields(value)
+    if fields is None:
+        if options.lenient:
+            return
+        raise UsageError(f"--set {assignment}: {legacy.unknown_framework(value)}")
+    if not options.lenient:  # the CLI's lenient pass comes first: the notice is printed once, by the strict one
+        legacy.notice(f"--set {assignment}", value)
+    for name, item in fields.items():
+        setattr(message, name, item)
 
 
 def _unknown_name(assignment: str, where: str, message: Message, part: str, options: OptionSet) -> str:

@@ -72,15 +72,8 @@ class TopicMapping(_message.Message):
     def __init__(self, ros_topic: _Optional[str] = ..., mujoco_actuator: _Optional[str] = ..., offset: _Optional[float] = ...) -> None: ...
 
 class TrainingConfig(_message.Message):
-    __slots__ = ("framework", "model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "task_config", "synchronized_episodes", "nthread", "web", "deterministic")
+    __slots__ = ("model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "task_config", "synchronized_episodes", "nthread", "web", "deterministic")
     Extensions: _python_message._ExtensionDict
-    class Framework(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
-        __slots__ = ()
-        MJX: _ClassVar[TrainingConfig.Framework]
-        SB3: _ClassVar[TrainingConfig.Framework]
-    MJX: TrainingConfig.Framework
-    SB3: TrainingConfig.Framework
-    FRAMEWORK_FIELD_NUMBER: _ClassVar[int]
     MODEL_PATH_FIELD_NUMBER: _ClassVar[int]
     NUM_ENVS_FIELD_NUMBER: _ClassVar[int]
     TOTAL_TIMESTEPS_FIELD_NUMBER: _ClassVar[int]
@@ -101,7 +94,6 @@ class TrainingConfig(_message.Message):
     NTHREAD_FIELD_NUMBER: _ClassVar[int]
     WEB_FIELD_NUMBER: _ClassVar[int]
     DETERMINISTIC_FIELD_NUMBER: _ClassVar[int]
-    framework: TrainingConfig.Framework
     model_path: str
     num_envs: int
     total_timesteps: int
@@ -122,7 +114,7 @@ class TrainingConfig(_message.Message):
     nthread: int
     web: str
     deterministic: bool
-    def __init__(self, framework: _Optional[_Union[TrainingConfig.Framework, str]] = ..., model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., synchronized_episodes: _Optional[bool] = ..., nthread: _Optional[int] = ..., web: _Optional[str] = ..., deterministic: _Optional[bool] = ...) -> None: ...
+    def __init__(self, model_path: _Optional[str] = ..., num_envs: _Optional[int] = ..., total_timesteps: _Optional[int] = ..., checkpoint_dir: _Optional[str] = ..., num_steps: _Optional[int] = ..., num_epochs: _Optional[int] = ..., minibatch_size: _Optional[int] = ..., learning_rate: _Optional[float] = ..., gamma: _Optional[float] = ..., gae_lambda: _Optional[float] = ..., clip_epsilon: _Optional[float] = ..., task: _Optional[str] = ..., backend: _Optional[str] = ..., trainer: _Optional[str] = ..., seed: _Optional[int] = ..., task_config: _Optional[_Union[TaskConfig, _Mapping]] = ..., synchronized_episodes: _Optional[bool] = ..., nthread: _Optional[int] = ..., web: _Optional[str] = ..., deterministic: _Optional[bool] = ...) -> None: ...
 
 class TaskConfig(_message.Message):
     __slots__ = ("episode_length", "frame_skip", "terms", "keyframe", "events", "action", "randomization_curriculum", "cameras")

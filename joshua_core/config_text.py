@@ -7,7 +7,10 @@ tracking the message type at each nesting level, and rewrites
 
 - a name that is not a field of its message but a registered option (extension) of it into
   `[full.name]` (a name that is neither is reported here, with the close ones, unless lenient);
-- a bare identifier after `mode:` in `simulation` into a quoted string.
+- a bare identifier after `mode:` in `simulation` into a quoted string;
+- an old spelling of a field that left the core schema (`framework: SB3`) into its new one
+  (`joshua_core.legacy`), naming it in a one-line notice unless lenient (the CLI's first, lenient, pass
+  rewrites it too, without the notice, so that the notice is printed once).
 
 Each edit is recorded, so that an error protobuf finds in the rewritten text is reported at its place
 in the original (`Rewritten.located`). `to_short` does the reverse for `--print-config`.
@@ -21,7 +24,7 @@ from dataclasses import dataclass, field
 from google.protobuf import text_format
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 
-from joshua_core import catalog
+from joshua_core import catalog, legacy
 from joshua_core.errors import ConfigError
 from joshua_core.kinds import Kind
 from joshua_core.options import OptionSet, close_names, field_or_option
@@ -98,6 +101,7 @@ class _Walker:
     def __init__(self, text: str, root: Descriptor, options: OptionSet) -> None:
         self.rewritten = Rewritten(text)
         self.options = options
+        self.names: list[set[str]] = []  # the field names of each open message, innermost last
         self._tokens = text_format.Tokenizer(text.split("\n"))
         self._message(root, closing=None)
 
@@ -108,6 +112,15 @@ class _Walker:
         return self.options.find(message, full_name)
 
     def scalar(self, message_field: FieldDescriptor, token: str, at: tuple[int, int]) -> None:
+        return None
+
+    def renamed(self, message: Descriptor, name: str, value: str, spans: list[tuple[int, int, int]]) -> None:
+        """An old field `name: value` of `message` (`joshua_core.legacy`); `spans`: (line, column, length) of
+        its name, colon and value."""
+        return None
+
+    def closed(self, message: Descriptor | None) -> None:
+        """The message just ended; `self.names[-1]` holds the names it set."""
         return None
 
     def edit(self, at: tuple[int, int], length: int, text: str) -> None:
@@ -124,14 +137,17 @@ class _Walker:
         return token
 
     def _message(self, message: Descriptor | None, closing: str | None) -> None:
+        self.names.append(set())
         while not self._tokens.AtEnd():
             if self._tokens.token == closing:
                 self._advance()
-                return
+                break
             if self._tokens.token in (",", ";"):
                 self._advance()
             else:
                 self._field(message)
+        self.closed(message)
+        self.names.pop()
 
     def _field(self, message: Descriptor | None) -> None:
         at = self._position()
@@ -146,12 +162,27 @@ class _Walker:
             found = self.extension(message, "".join(parts), at, end) if message is not None else None
         elif _BARE.match(self._tokens.token):
             name = self._advance()
+            self.names[-1].add(name)
+            if message is not None and legacy.is_renamed(message.full_name, name):
+                self._renamed(message, name, at)
+                return
             found = self.name(message, name, at) if message is not None else None
         else:
             self._advance()  # not a field name: protobuf reports it
             return
         self._tokens.TryConsume(":")
         self._value(found)
+
+    def _renamed(self, message: Descriptor, name: str, at: tuple[int, int]) -> None:
+        """Read an old field's `: value` (a scalar) and hand its parts to `renamed`."""
+        spans = [(*at, len(name))]
+        if self._tokens.token == ":":
+            spans.append((*self._position(), 1))
+            self._advance()
+        if self._tokens.AtEnd() or self._tokens.token in ("}", ">", "{", "<", "["):
+            return  # not a scalar: left for protobuf to report
+        spans.append((*self._position(), len(self._tokens.token)))
+        self.renamed(message, name, self._advance(), spans)
 
     def _value(self, found: FieldDescriptor | None) -> None:
         token = self._tokens.token
@@ -175,7 +206,29 @@ class _Walker:
 class _ToProtobuf(_Walker):
     def __init__(self, text: str, root: Descriptor, options: OptionSet, source: str) -> None:
         self.source = source
+        # Per open message: the old fields in it, each as its new fields and the spans it takes.
+        self._renames: list[list[tuple[dict[str, str], list[tuple[int, int, int]]]]] = []
         super().__init__(text, root, options)
+
+    def renamed(self, message: Descriptor, name: str, value: str, spans: list[tuple[int, int, int]]) -> None:
+        where = f"{self.source}:{spans[0][0] + 1}:{spans[0][1] + 1}"
+        fields = legacy.framework_fields(value)
+        if fields is None and not self.options.lenient:
+            raise ConfigError(f"{where}: {legacy.unknown_framework(value)}")
+        if not self.options.lenient:
+            legacy.notice(where, value)
+        self._renames[-1].append((fields or {}, spans))
+
+    def closed(self, message: Descriptor | None) -> None:
+        # The new fields are those the old one stood for that the message does not set itself.
+        for fields, spans in self._renames.pop():
+            unset = {name: value for name, value in fields.items() if name not in self.names[-1]}
+            for index, (line, column, length) in enumerate(spans):
+                self.edit((line, column), length, legacy.new_spelling(unset) if index == 0 else "")
+
+    def _message(self, message: Descriptor | None, closing: str | None) -> None:
+        self._renames.append([])
+        super()._message(message, closing)
 
     def name(self, message: Descriptor, name: str, at: tuple[int, int]) -> FieldDescriptor | None:
         found = field_or_option(message, name, self.options)

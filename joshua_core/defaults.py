@@ -1,4 +1,4 @@
-"""What a config means where it leaves a component empty: the framework defaults and the components a config
+"""What a config means where it leaves a component empty: the default components and the components a config
 needs. Policy, not loading: the loader (`joshua_core.config`), the CLI and `RunContext` all read it here, so
 the defaults have one home below all of them."""
 
@@ -7,11 +7,9 @@ from __future__ import annotations
 from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig, TrainingConfig
 from joshua_core.kinds import Kind
 
-# The trainer and backend a framework uses when the config leaves them empty.
-FRAMEWORK_DEFAULTS: dict[int, tuple[str, str]] = {
-    TrainingConfig.MJX: ("ppo", "mjx"),
-    TrainingConfig.SB3: ("sb3", "mujoco"),
-}
+# The trainer and backend a training job uses when the config leaves them empty (each independently of the other).
+DEFAULT_TRAINER = "ppo"
+DEFAULT_TRAINING_BACKEND = "mjx"
 # Environments in a NUMPY (CPU) batch when a training config leaves num_envs 0: the default of the trainers and
 # helpers that step them (trainers on JAX environments, which batch thousands, keep their own).
 DEFAULT_NUMPY_NUM_ENVS = 16
@@ -43,9 +41,8 @@ def training_output_dir(training: TrainingConfig) -> str:
 
 
 def training_plugins(training: TrainingConfig) -> tuple[str, str]:
-    """The (trainer, backend) a training job uses: the ones it names, else its framework's defaults."""
-    trainer, backend = FRAMEWORK_DEFAULTS[training.framework]
-    return training.trainer or trainer, training.backend or backend
+    """The (trainer, backend) a training job uses: the ones it names, else the defaults."""
+    return training.trainer or DEFAULT_TRAINER, training.backend or DEFAULT_TRAINING_BACKEND
 
 
 def required_components(config: JoshuaConfig) -> list[tuple[Kind, str]]:

@@ -19,6 +19,8 @@ from google.protobuf import json_format
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from google.protobuf.message import Message
 
+from joshua_core import legacy
+
 
 @dataclass(frozen=True)
 class OptionSet:
@@ -97,11 +99,18 @@ def parse_dict(data: Mapping[str, Any], message: Message, options: OptionSet) ->
 
 
 def _bracketed(data: Any, descriptor: Descriptor | None, options: OptionSet) -> Any:
-    """A copy of `data` with each option's short name replaced by `[full.name]`, which ParseDict reads."""
+    """A copy of `data` with each option's short name replaced by `[full.name]`, which ParseDict reads, and each
+    old field (`joshua_core.legacy`) by the fields it stood for that `data` does not set itself."""
     if descriptor is None or not isinstance(data, Mapping):
         return data
     result = {}
     for key, value in data.items():
+        if isinstance(key, str) and legacy.is_renamed(descriptor.full_name, key):
+            fields = legacy.framework_fields(value)
+            if fields is None:
+                raise json_format.ParseError(legacy.unknown_framework(value))
+            result.update({name: item for name, item in fields.items() if name not in data})
+            continue
         field = field_or_option(descriptor, key, options) if isinstance(key, str) else None
         if field is not None and field.is_extension:
             key = f"[{field.full_name}]"

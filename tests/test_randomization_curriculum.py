@@ -93,7 +93,7 @@ def test_strengths_rise_after_successes_and_fall_after_failures() -> None:
 def test_training_environments_follow_the_curriculum_and_evaluation_draws_at_full_strength(tmp_path) -> None:
     training = TrainingConfig()
     training.CopyFrom(load_preset("so_arm100_pick_place_mjx_dr", LENIENT).message.training)
-    training.framework = TrainingConfig.Framework.Value("SB3")
+    training.trainer, training.backend = "sb3", "mujoco"
     training.ClearField("model_path")  # the task's own model
     training.ClearField("task_config")
     training.task_config.CopyFrom(randomized('metric: "success"'))

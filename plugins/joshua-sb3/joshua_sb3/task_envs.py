@@ -4,9 +4,9 @@
     env = AntEnv(num_envs=1024, device="cuda")   # the task whose alias is AntEnv, MJX on the GPUs JAX sees
     env = task_vec_env("so_arm100_reach", 16, device="cpu")   # mujoco.batch on a thread pool
 
-`device="cuda"` runs the environments on MJX (the backend of `framework: MJX`) on every GPU JAX sees, and
+`device="cuda"` runs the environments on MJX (the default training backend) on every GPU JAX sees, and
 is a ConfigError saying so when JAX sees none (no silent fall-back to a CPU that is hundreds of times
-slower); `device="cpu"` runs them on `mujoco.batch` (the backend of `framework: SB3`). The task is the
+slower); `device="cpu"` runs them on `mujoco.batch` (the default simulation backend). The task is the
 registered one on its own model, or on `model_path` when given (any format a plugin reads, USD included).
 A task's aliases (`TaskSpec.aliases`, declared by the plugin that provides it, e.g. Isaac Lab's `AntEnv`) are
 names of this package: `alias_env` makes the factory, so this plugin names no other plugin's tasks.
@@ -21,8 +21,7 @@ from typing import Any
 
 from stable_baselines3.common.vec_env import VecEnv
 
-from joshua_core.config_pb2 import TrainingConfig
-from joshua_core.defaults import training_plugins
+from joshua_core.defaults import DEFAULT_SIMULATION_BACKEND, DEFAULT_TRAINING_BACKEND
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import EnvKind, EnvSpec
 from joshua_core.kinds import Kind
@@ -31,8 +30,8 @@ from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import load_task_spec
 from joshua_sb3.vec_env import SameStepVecEnv
 
-# Per device: the environments' kind and the framework whose default backend provides them.
-DEVICES = {"cuda": (EnvKind.JAX, TrainingConfig.MJX), "cpu": (EnvKind.NUMPY, TrainingConfig.SB3)}
+# Per device: the environments' kind and the core's default backend that provides them.
+DEVICES = {"cuda": (EnvKind.JAX, DEFAULT_TRAINING_BACKEND), "cpu": (EnvKind.NUMPY, DEFAULT_SIMULATION_BACKEND)}
 
 TaskEnvFactory = Callable[..., VecEnv]
 
@@ -77,8 +76,7 @@ def task_vec_env(
     if device not in DEVICES:
         raise ConfigError(f"device must be one of {', '.join(DEVICES)}, got {device!r}")
     plugins = plugins or PluginHost.discover()
-    kind, framework = DEVICES[device]
-    _, backend = training_plugins(TrainingConfig(framework=framework))
+    kind, backend = DEVICES[device]
     spec = EnvSpec(task, num_envs, seed=seed, model_path=resolve_data_path(model_path) if model_path else None)
     if kind is EnvKind.NUMPY:
         return SameStepVecEnv(plugins.backend(backend).create_envs(spec, kind, plugins))

@@ -73,7 +73,6 @@ def host() -> PluginHost:
 
 def training(backend: str, run_name: str) -> TrainingConfig:
     config = TrainingConfig(
-        framework=TrainingConfig.SB3,
         trainer="sb3",
         backend=backend,
         task="so_arm100_reach",

@@ -65,7 +65,6 @@ def training(root: Path, *, pull: float, steps: int, learning_rate: float = 3e-4
     model.parent.mkdir(parents=True, exist_ok=True)
     model.write_text(MASS_ON_SLIDES.format(pull=pull))
     config = TrainingConfig(
-        framework=TrainingConfig.SB3,
         trainer="sb3",
         backend="mujoco",
         task=SLIDER.name,
