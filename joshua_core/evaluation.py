@@ -14,7 +14,6 @@ each format declares its own options on this command (`add_plugin_arguments`), a
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -23,6 +22,7 @@ from joshua_core.cli import writable_file
 from joshua_core.compile_cache import add_no_cache_argument, apply_no_cache
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command, EpisodeResults, PolicyFormat
+from joshua_core.json_files import read_json_object
 from joshua_core.kinds import Kind
 from joshua_core.limits import cli_number
 from joshua_core.run_context import RunContext
@@ -123,13 +123,16 @@ class EvalCommand(Command):
 
 def _trainer_run(run_dir: Path) -> bool:
     """Whether `run_dir` looks like a JOSHUA run or checkpoint folder: its config.json names a trainer (or it is
-    no folder with a config.json at all, so that `read_run_config` says what is wrong)."""
+    no folder at all, or its config.json does not read, so that `read_run_config` says what is wrong)."""
     path = run_dir / CONFIG_FILE
-    try:
-        document = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+    if not run_dir.is_dir():
         return True
-    return not run_dir.is_dir() or (isinstance(document, dict) and "trainer" in document)
+    if not path.is_file():
+        return False
+    try:
+        return "trainer" in read_json_object(path, "the run's config")
+    except UsageError:
+        return True
 
 
 def _policy_format(run_dir: Path, plugins: PluginHost) -> tuple[str, PolicyFormat] | None:

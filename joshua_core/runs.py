@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import errno
 import fcntl
-import json
 import os
 import re
 import secrets
@@ -32,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 from joshua_core.atomic import atomic_directory
 from joshua_core.errors import ConfigError, UsageError
+from joshua_core.json_files import read_json_object
 from joshua_core.outputs import MARKER, check_inside, check_name
 
 if TYPE_CHECKING:
@@ -315,7 +315,7 @@ def resolve_checkpoint(path: Path) -> Path:
 
 
 def read_run_config(run_dir: Path) -> dict[str, Any]:
-    """The `config.json` of a run or checkpoint folder; a folder without one is a UsageError."""
+    """The `config.json` of a run or checkpoint folder; a folder without a readable one is a UsageError."""
     path = run_dir / CONFIG_FILE
     if run_dir.exists() and not run_dir.is_dir():
         raise UsageError(f"'{run_dir}' is a file, not a run folder: give the folder a training run wrote")
@@ -323,11 +323,8 @@ def read_run_config(run_dir: Path) -> dict[str, Any]:
         raise UsageError(f"run folder '{run_dir}' does not exist")
     if not path.is_file():
         raise UsageError(f"'{run_dir}' is not a run folder: it has no {CONFIG_FILE} (training runs write one)")
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise UsageError(f"{path}: not valid JSON: {error}") from None
-    if not isinstance(document, dict) or not isinstance(document.get("trainer"), str):
+    document = read_json_object(path, "the run's config")
+    if not isinstance(document.get("trainer"), str):
         raise UsageError(f'{path}: has no "trainer" entry naming the trainer that wrote the run')
     return document
 
@@ -354,8 +351,8 @@ def saved_training(run_dir: Path, run_format: str, options: Any) -> tuple[Path, 
 
 
 def _trainer_of(config: Path) -> str | None:
+    """The trainer a run's config.json names; None where it names none or does not read (not a run to list)."""
     try:
-        document = json.loads(config.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return read_json_object(config, "the run's config").get("trainer")
+    except UsageError:
         return None
-    return document.get("trainer") if isinstance(document, dict) else None

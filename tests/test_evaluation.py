@@ -85,6 +85,15 @@ def test_cli_prints_one_line(run_joshua, tmp_path: Path) -> None:
     )
 
 
+def test_cli_a_deeply_nested_config_is_one_line(run_joshua, tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "config.json").write_text("[" * 100_000 + "]" * 100_000)  # json.loads recurses past Python's limit
+    result = run_joshua("eval", str(run_dir))
+    assert result.returncode == 2 and "Traceback" not in result.stderr, result.stderr[-2000:]
+    assert result.stderr == f"joshua: error: {run_dir}/config.json: cannot read the run's config: nested too deeply\n"
+
+
 class NeverFormat(PolicyFormat):
     """A policy format that accepts no folder, with one option of its own."""
 
