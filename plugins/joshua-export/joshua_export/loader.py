@@ -3,7 +3,6 @@ and the task's observer rebuilt and checked against the contract (same robot mod
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +14,7 @@ from onnxruntime.capi import onnxruntime_pybind11_state as onnxruntime_errors
 
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import UsageError
+from joshua_core.json_files import read_json_object
 from joshua_core.limits import MAX_CONTROL_HZ, MIN_CONTROL_HZ
 from joshua_core.outputs import check_name
 from joshua_core.plugins import PluginHost
@@ -54,13 +54,10 @@ def load_policy(folder: Path) -> tuple[OnnxPolicy, dict[str, Any]]:
     """The policy exported to `folder` and its contract (policy.json); a missing, foreign or changed file is a
     one-line UsageError."""
     path = folder / CONTRACT_FILE
-    try:
-        contract = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise UsageError(f"'{folder}' holds no exported policy: no {CONTRACT_FILE} (see `joshua export`)") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise UsageError(f"{path}: unreadable: {error}") from None
-    if not isinstance(contract, dict) or contract.get("format") != CONTRACT_FORMAT:
+    if not path.exists():
+        raise UsageError(f"'{folder}' holds no exported policy: no {CONTRACT_FILE} (see `joshua export`)")
+    contract = read_json_object(path, "the policy's contract")
+    if contract.get("format") != CONTRACT_FORMAT:
         raise UsageError(f"{path} is not a {CONTRACT_FORMAT} contract")
     rate = contract.get("control_hz")
     if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not MIN_CONTROL_HZ <= rate <= MAX_CONTROL_HZ:

@@ -226,6 +226,11 @@ def edited_model_entry(value: object) -> Callable[[Path], None]:
     return edit
 
 
+def deeply_nested_contract(folder: Path) -> None:
+    """A policy.json that json.loads gives up on (it recurses once per level, past Python's limit)."""
+    (folder / "policy.json").write_text("[" * 100_000 + "]" * 100_000)
+
+
 @pytest.mark.parametrize(
     ("damage", "message"),
     [
@@ -233,6 +238,7 @@ def edited_model_entry(value: object) -> Callable[[Path], None]:
         (edited_model_entry(None), "policy.json: model is None; expected the ONNX file's name and sha256"),
         (edited_model_entry({"file": 7, "sha256": ""}), "expected the ONNX file's name and sha256"),
         (edited_model_entry({"file": "../policy.onnx", "sha256": ""}), "model.file '../policy.onnx' holds a '/'"),
+        (deeply_nested_contract, "policy.json: cannot read the policy's contract: nested too deeply"),
     ],
 )
 def test_a_damaged_exported_policy_is_one_line(tmp_path: Path, damage: Callable[[Path], None], message: str) -> None:

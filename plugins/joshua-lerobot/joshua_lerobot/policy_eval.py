@@ -25,6 +25,7 @@ from joshua_core.cli import add_config_arguments, load
 from joshua_core.config import finalize
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import EpisodeResults, PolicyFormat
+from joshua_core.json_files import read_json_object
 from joshua_core.limits import MAX_FPS, MIN_FPS, cli_number
 from joshua_core.progress import progress_bar
 from joshua_core.run_context import RunContext
@@ -104,15 +105,13 @@ class LeRobotPolicyFormat(PolicyFormat):
         )
 
     def accepts(self, path: Path) -> bool:
-        import json
-
         if not all((path / name).is_file() for name in POLICY_FILES):
             return False
         try:
-            document = json.loads((path / POLICY_FILES[0]).read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+            document = read_json_object(path / POLICY_FILES[0], "the policy's config")
+        except UsageError:
             return False
-        return isinstance(document, dict) and isinstance(document.get("type"), str) and "trainer" not in document
+        return isinstance(document.get("type"), str) and "trainer" not in document
 
     def evaluate(
         self,

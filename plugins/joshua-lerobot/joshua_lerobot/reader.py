@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from joshua_core.atomic import atomic_write_bytes
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import TrajectoryReader
+from joshua_core.json_files import read_json_object
 from joshua_core.trajectory import Trajectory, TrajectoryError
 from joshua_lerobot.joints import (
     DEFAULT_UNITS,
@@ -95,12 +96,7 @@ class LeRobotReader(TrajectoryReader):
 def _info(path: Path) -> dict[str, Any]:
     """meta/info.json, checked: an object with the supported version, `features` an object, `data_path` text."""
     file = path / INFO
-    try:
-        info = json.loads(file.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as error:
-        raise TrajectoryError(f"{file}: cannot read the dataset's info: {error}") from None
-    if not isinstance(info, dict):
-        raise TrajectoryError(f"{file}: holds a JSON {type(info).__name__}, expected an object with the dataset's info")
+    info = read_json_object(file, "the dataset's info", TrajectoryError)
     version = info.get("codebase_version")
     if version != SUPPORTED_VERSION:
         raise TrajectoryError(

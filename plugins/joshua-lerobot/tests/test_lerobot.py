@@ -259,7 +259,8 @@ NAMES = ["shoulder_pan.pos", "shoulder_lift.pos", "elbow_flex.pos", "wrist_flex.
 # (case, damage, file the message names, what else it says)
 MALFORMED = [
     ("info not JSON", write_bytes(INFO, b"{"), INFO, "cannot read the dataset's info"),
-    ("info a list", write_bytes(INFO, b"[]"), INFO, "holds a JSON list, expected an object"),
+    ("info a list", write_bytes(INFO, b"[]"), INFO, "holds a JSON array, not an object"),
+    ("info nested deeply", write_bytes(INFO, b"[" * 100_000 + b"]" * 100_000), INFO, "info: nested too deeply"),
     ("features a list", edit_info(features=[]), INFO, "'features' is missing or not an object"),
     ("no state feature", edit_info(features={}), INFO, f"features.{STATE} is missing or not an object"),
     ("names a string", edit_state_feature(names="abc"), INFO, f"features.{STATE}.names is not a non-empty list"),
@@ -348,7 +349,9 @@ def test_a_malformed_dataset_is_one_line_naming_its_file_and_field(
     assert "\n" not in text and text.startswith(str(root / file)) and message in text, text
 
 
-@pytest.mark.parametrize("case", ["data_path absolute", "data file truncated", "5 names for 6 columns"])
+@pytest.mark.parametrize(
+    "case", ["data_path absolute", "data file truncated", "5 names for 6 columns", "info nested deeply"]
+)
 def test_the_cli_reports_a_malformed_dataset_in_one_line(valid_dataset: Path, tmp_path: Path, case: str) -> None:
     damage, file, message = next(entry[1:] for entry in MALFORMED if entry[0] == case)
     root = damaged(valid_dataset, tmp_path, damage)

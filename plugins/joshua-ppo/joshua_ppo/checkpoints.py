@@ -14,7 +14,6 @@ whole checkpoint or none. msgpack holds only arrays and numbers: loading one nev
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +22,7 @@ from flax import serialization
 
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json, json_safe
 from joshua_core.errors import CorruptCheckpointError
+from joshua_core.json_files import read_json_object
 from joshua_core.runs import RunFolder
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv
@@ -92,18 +92,10 @@ def _restore(path: Path, data: bytes, target: Any) -> Any:
         ) from None
 
 
-def read_json(path: Path) -> dict[str, Any]:
-    """The JSON object in `path` (a run's config.json or metrics.json); a file that does not read as one is a
-    CorruptCheckpointError naming it."""
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise CorruptCheckpointError(f"cannot read {path}: {error}") from None
-    except RecursionError:  # json recurses once per level: deep nesting (100000 lists) exhausts Python's stack
-        raise CorruptCheckpointError(f"cannot read {path}: nested too deeply") from None
-    if not isinstance(document, dict):
-        raise CorruptCheckpointError(f"{path} does not hold a JSON object")
-    return document
+def read_metrics(path: Path) -> dict[str, Any]:
+    """The JSON object in `path`, a run's metrics.json; a file that does not read as one is a damaged checkpoint
+    (CorruptCheckpointError naming it, exit 2)."""
+    return read_json_object(path, "the run's metrics", CorruptCheckpointError)
 
 
 def load_params(

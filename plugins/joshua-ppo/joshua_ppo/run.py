@@ -29,7 +29,7 @@ from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
 from joshua_core.statistics import SUCCESS_METRIC
 from joshua_core.tasks import METRIC_PREFIX
 from joshua_ppo import options_pb2
-from joshua_ppo.checkpoints import RUN_FORMAT, checkpoint_payloads, read_json, write_checkpoint
+from joshua_ppo.checkpoints import RUN_FORMAT, checkpoint_payloads, read_metrics, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.iteration import FAILED
@@ -167,7 +167,7 @@ class Run(ABC):
 
     def resumed_from(self, checkpoint: Path, progress: Progress) -> None:
         """Take on the history and last return of the checkpoint the run resumes from."""
-        previous = read_json(checkpoint / METRICS_FILE)
+        previous = read_metrics(checkpoint / METRICS_FILE)
         self.history = [record for record in previous.get("history", []) if record["step"] <= progress.env_steps]
         saved_return = previous.get("mean_return")  # null where it was not finite (json_safe)
         self.last_return = float("nan") if saved_return is None else float(saved_return)

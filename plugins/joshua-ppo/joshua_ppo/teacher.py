@@ -13,7 +13,7 @@ from joshua_core.errors import ConfigError, CorruptCheckpointError
 from joshua_core.runs import METRICS_FILE, saved_training
 from joshua_core.statistics import SUCCESS_METRIC
 from joshua_core.tasks import METRIC_PREFIX
-from joshua_ppo.checkpoints import RUN_FORMAT, load_params, read_json
+from joshua_ppo.checkpoints import RUN_FORMAT, load_params, read_metrics
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics, normalize
@@ -62,7 +62,7 @@ def _described(checkpoint: Path) -> str:
     success), and the student's log is where that shows first. A metrics.json of other types is a
     CorruptCheckpointError naming the file (exit 2)."""
     path = checkpoint / METRICS_FILE
-    history = read_json(path).get("history") or [{}]
+    history = read_metrics(path).get("history") or [{}]
     record = history[-1] if isinstance(history, list) else None
     if not isinstance(record, dict):
         raise CorruptCheckpointError(f"{path}: 'history' is not a list of records (objects)")

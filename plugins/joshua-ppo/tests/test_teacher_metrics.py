@@ -37,7 +37,7 @@ def test_a_deeply_nested_metrics_file_is_one_corrupt_checkpoint_error(tmp_path: 
     (tmp_path / "metrics.json").write_text("[" * 100_000 + "]" * 100_000)  # json.loads recurses past Python's limit
     with pytest.raises(CorruptCheckpointError) as caught:
         _described(tmp_path)
-    assert str(caught.value) == f"cannot read {tmp_path / 'metrics.json'}: nested too deeply"
+    assert str(caught.value) == f"{tmp_path / 'metrics.json'}: cannot read the run's metrics: nested too deeply"
     assert caught.value.exit_code == 2
 
 

@@ -32,6 +32,7 @@ from typing import Any
 from joshua_core.atomic import atomic_create_bytes, atomic_write_json, json_safe
 from joshua_core.curves import write_training_curves
 from joshua_core.errors import UsageError
+from joshua_core.json_files import read_json_object
 from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
 from joshua_core.tasks import METRIC_PREFIX
 
@@ -133,10 +134,10 @@ def _untrusted_reason(checkpoint: Path, names: list[str]) -> str | None:
     if not manifest_path.is_file():
         return f"it has no {MANIFEST_FILE}, so joshua-sb3 did not write it"
     try:
-        manifest = json.loads(manifest_path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError):
-        return f"its {MANIFEST_FILE} is not valid JSON"
-    if not isinstance(manifest, dict) or manifest.get("format") != MANIFEST_FORMAT:
+        manifest = read_json_object(manifest_path, "the checkpoint's manifest")
+    except UsageError as error:
+        return str(error)
+    if manifest.get("format") != MANIFEST_FORMAT:
         return f"its {MANIFEST_FILE} is not a {MANIFEST_FORMAT} manifest"
     key = signing_key(create=False)
     if key is None:

@@ -6,7 +6,6 @@ The run folder layout and the checkpoint trust rules are in `joshua_sb3.run_fold
 
 from __future__ import annotations
 
-import json
 import sys
 import time
 from importlib import metadata
@@ -30,6 +29,7 @@ from joshua_core.determinism import use_determinism
 from joshua_core.errors import ConfigError, CorruptCheckpointError, TrainingDiverged, UsageError
 from joshua_core.interfaces import EnvKind, EpisodeResults, Trainer
 from joshua_core.interrupts import StopRequest, resume_command, stop_requests
+from joshua_core.json_files import read_json_object
 from joshua_core.options import message_to_dict, options_of
 from joshua_core.policy import ExportedPolicy
 from joshua_core.progress import progress_bar
@@ -320,7 +320,10 @@ class Sb3Trainer(Trainer):
         if resume_from is None:  # also a resumed run killed before its first checkpoint: its config is rewritten
             atomic_write_json(run_dir / CONFIG_FILE, run.config_document())
         else:
-            previous = json.loads((run_dir / METRICS_FILE).read_text()) if (run_dir / METRICS_FILE).is_file() else {}
+            metrics = run_dir / METRICS_FILE
+            previous = (
+                read_json_object(metrics, "the run's metrics", CorruptCheckpointError) if metrics.is_file() else {}
+            )
             run.records = [r for r in previous.get("history", []) if r["step"] <= model.num_timesteps]
         run.start_step = int(model.num_timesteps)
         model.set_logger(
