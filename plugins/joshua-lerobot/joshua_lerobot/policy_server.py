@@ -63,7 +63,10 @@ def receive(stream: IO[bytes], max_bytes: int | None = None) -> tuple[dict[str, 
     length = HEADER.unpack(size)[0]
     if length > MAX_HEADER_BYTES:
         raise ValueError(f"a header of {length} bytes (at most {MAX_HEADER_BYTES})")
-    header = json.loads(_read_exactly(stream, length))
+    try:
+        header = json.loads(_read_exactly(stream, length))
+    except RecursionError:  # json recurses once per level; joshua_core, whose reader says so for files, is not here
+        raise ValueError("a header nested too deeply") from None
     listed = header.pop("arrays", None) if isinstance(header, dict) else None
     if not isinstance(listed, list):
         raise ValueError("the header is not an object listing its arrays")

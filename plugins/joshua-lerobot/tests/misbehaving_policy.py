@@ -61,6 +61,8 @@ def main() -> None:
             send(replies, {}, {"action": np.array([["a"] * JOINTS] * batch)})
         elif answer == "not_json":
             raw(replies, b"{not json")
+        elif answer == "deep_json":
+            raw(replies, b"[" * 100_000 + b"]" * 100_000)
         elif answer == "huge_length":
             replies.write(struct.pack("<I", 2**32 - 1))
             replies.flush()

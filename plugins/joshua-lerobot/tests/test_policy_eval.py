@@ -159,6 +159,7 @@ def misbehaving_python(tmp_path: Path, answer: str) -> str:
         ("nan", "answered with non-finite actions (NaN or infinity) in 1 of 4 rows"),
         ("strings", "sent what is not a reply (array 'action': dtype <U1 is not a number)"),
         ("not_json", "sent what is not a reply (Expecting property name enclosed in double quotes"),
+        ("deep_json", "sent what is not a reply (a header nested too deeply)"),
         ("huge_length", "sent what is not a reply (a header of 4294967295 bytes (at most 1048576))"),
         ("huge_shape", "sent what is not a reply (array 'action': shape [1099511627776, 1099511627776] is not"),
         ("huge_total", "sent what is not a reply (arrays of 4398046511104 bytes (at most 67108864))"),
