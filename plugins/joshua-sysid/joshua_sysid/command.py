@@ -18,6 +18,7 @@ from joshua_core.resources import resolve_data_path
 from joshua_core.runs import LOCK_FILE, check_run_name, create_run
 from joshua_mujoco import read_spec
 from joshua_sysid import fit, recordings, report
+from joshua_sysid.calibrated import calibrated_model_name
 from joshua_sysid.fit import KINDS
 
 DEFAULT_MODEL = "so_arm100/so_arm100.xml"  # the arm alone: calibration motions touch nothing
@@ -81,9 +82,7 @@ class SysidCommand(Command):
         with create_run(root, args.run_name, stem=RUN_STEM, options="--run-name") as run:
             result = fit.fit(spec, servos, loaded, kinds, args.max_iters)
             try:
-                model_file = report.write_model(
-                    spec, result, servos, run.path, report.calibrated_model_name(model_path)
-                )
+                model_file = report.write_model(spec, result, servos, run.path, calibrated_model_name(model_path))
                 report.write_plot(result, servos, run.path / report.PLOT_FILE)
                 outputs = {"model": model_file.name, "plot": report.PLOT_FILE}
                 document = report.report_document(result, servos, loaded, model_path, outputs)

@@ -12,16 +12,12 @@ import numpy as np
 
 from joshua_core.atomic import atomic_write_bytes, atomic_write_json
 from joshua_core.outputs import check_inside
+from joshua_sysid.calibrated import REPORT_FILE
 from joshua_sysid.fit import KINDS, FitResult, at_bounds, poorly_tracked, write_value
 from joshua_sysid.recordings import Recording, Servo
 
-REPORT_FILE = "report.json"
 PLOT_FILE = "tracking.png"
 ASSETS_DIR = "assets"  # the model's mesh, texture, height-field and skin files, copied beside it
-
-
-def calibrated_model_name(model_path: Path) -> str:
-    return f"{model_path.stem}_calibrated.xml"
 
 
 def write_model(spec: mujoco.MjSpec, result: FitResult, servos: list[Servo], folder: Path, name: str) -> Path:
