@@ -28,12 +28,13 @@ from pathlib import Path
 import numpy as np
 
 from joshua_core.config import load_preset
-from joshua_core.options import LENIENT
+from joshua_core.plugins import PluginHost
 from joshua_core.resources import models_dir
+from joshua_mirror.joints import topic_mappings
 from joshua_mirror.ros import local_only_environment
 
 POLICY = models_dir() / "policies" / "so_arm100_reach"
-MAPPINGS = load_preset("sim_mirror", LENIENT).message.simulation.mirror_topic_mappings.mappings
+MAPPINGS = topic_mappings(load_preset("sim_mirror", PluginHost.discover().options()).message.simulation)
 ENCODERS = [m.ros_topic for m in MAPPINGS]
 COMMANDS = [f"/command/{m.mujoco_actuator}" for m in MAPPINGS]
 HOME = [0.0, -0.33, 0.37, 1.0, 0.0, 0.4]  # encoder values near the home pose

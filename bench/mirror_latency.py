@@ -103,9 +103,9 @@ def measure(case: str, topic: str, joint_state: bool, count: int, rate: float, e
                 joint_state_type if joint_state else float64, topic, on_message, qos_profile_sensor_data
             )
         else:
-            from joshua_mirror.joints import resolve_joints
+            from joshua_mirror.joints import resolve_joints, topic_mappings
 
-            joints = resolve_joints(engine.model, config.mirror_topic_mappings.mappings, options)
+            joints = resolve_joints(engine.model, topic_mappings(config), options)
             mirror = Mirror(engine.model, engine.data, joints, options, stale_timeout=1.0)
 
             def on_applied(index: int, value: float) -> None:

@@ -29,12 +29,11 @@ class JoshuaConfig(_message.Message):
     def __init__(self, operation_mode: _Optional[_Union[JoshuaConfig.OperationMode, str]] = ..., simulation: _Optional[_Union[SimulationConfig, _Mapping]] = ..., training: _Optional[_Union[TrainingConfig, _Mapping]] = ..., description: _Optional[str] = ..., extends: _Optional[str] = ...) -> None: ...
 
 class SimulationConfig(_message.Message):
-    __slots__ = ("mode", "model_path", "trajectory_path", "mirror_topic_mappings", "render_width", "render_height", "backend", "keyframe", "duration", "output_dir", "web")
+    __slots__ = ("mode", "model_path", "trajectory_path", "render_width", "render_height", "backend", "keyframe", "duration", "output_dir", "web")
     Extensions: _python_message._ExtensionDict
     MODE_FIELD_NUMBER: _ClassVar[int]
     MODEL_PATH_FIELD_NUMBER: _ClassVar[int]
     TRAJECTORY_PATH_FIELD_NUMBER: _ClassVar[int]
-    MIRROR_TOPIC_MAPPINGS_FIELD_NUMBER: _ClassVar[int]
     RENDER_WIDTH_FIELD_NUMBER: _ClassVar[int]
     RENDER_HEIGHT_FIELD_NUMBER: _ClassVar[int]
     BACKEND_FIELD_NUMBER: _ClassVar[int]
@@ -45,7 +44,6 @@ class SimulationConfig(_message.Message):
     mode: str
     model_path: str
     trajectory_path: str
-    mirror_topic_mappings: MirrorTopicMappings
     render_width: int
     render_height: int
     backend: str
@@ -53,23 +51,7 @@ class SimulationConfig(_message.Message):
     duration: float
     output_dir: str
     web: str
-    def __init__(self, mode: _Optional[str] = ..., model_path: _Optional[str] = ..., trajectory_path: _Optional[str] = ..., mirror_topic_mappings: _Optional[_Union[MirrorTopicMappings, _Mapping]] = ..., render_width: _Optional[int] = ..., render_height: _Optional[int] = ..., backend: _Optional[str] = ..., keyframe: _Optional[str] = ..., duration: _Optional[float] = ..., output_dir: _Optional[str] = ..., web: _Optional[str] = ...) -> None: ...
-
-class MirrorTopicMappings(_message.Message):
-    __slots__ = ("mappings",)
-    MAPPINGS_FIELD_NUMBER: _ClassVar[int]
-    mappings: _containers.RepeatedCompositeFieldContainer[TopicMapping]
-    def __init__(self, mappings: _Optional[_Iterable[_Union[TopicMapping, _Mapping]]] = ...) -> None: ...
-
-class TopicMapping(_message.Message):
-    __slots__ = ("ros_topic", "mujoco_actuator", "offset")
-    ROS_TOPIC_FIELD_NUMBER: _ClassVar[int]
-    MUJOCO_ACTUATOR_FIELD_NUMBER: _ClassVar[int]
-    OFFSET_FIELD_NUMBER: _ClassVar[int]
-    ros_topic: str
-    mujoco_actuator: str
-    offset: float
-    def __init__(self, ros_topic: _Optional[str] = ..., mujoco_actuator: _Optional[str] = ..., offset: _Optional[float] = ...) -> None: ...
+    def __init__(self, mode: _Optional[str] = ..., model_path: _Optional[str] = ..., trajectory_path: _Optional[str] = ..., render_width: _Optional[int] = ..., render_height: _Optional[int] = ..., backend: _Optional[str] = ..., keyframe: _Optional[str] = ..., duration: _Optional[float] = ..., output_dir: _Optional[str] = ..., web: _Optional[str] = ...) -> None: ...
 
 class TrainingConfig(_message.Message):
     __slots__ = ("model_path", "num_envs", "total_timesteps", "checkpoint_dir", "num_steps", "num_epochs", "minibatch_size", "learning_rate", "gamma", "gae_lambda", "clip_epsilon", "task", "backend", "trainer", "seed", "task_config", "synchronized_episodes", "nthread", "web", "deterministic")

@@ -26,12 +26,19 @@ from joshua_core.errors import ConfigError, ModelError, UsageError
 from joshua_core.options import LENIENT, OptionSet, message_to_dict, options_of, parse_dict
 from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import models_dir
+from joshua_mirror import options_pb2 as mirror_options
 from joshua_modes import options_pb2 as modes_options
 from joshua_ppo import options_pb2 as ppo_options
 
 OPTIONS = PluginHost.discover().options()  # the installed plugins' options, which the presets use
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
+
+
+def mappings_of(simulation: SimulationConfig):
+    """The mirror's mappings in a simulation config (joshua-mirror's option)."""
+    return options_of(simulation, mirror_options.mirror_topic_mappings).mappings
+
 
 SEED_PRESETS = {
     "so_arm100_sim_interactive",
@@ -59,12 +66,12 @@ def test_committed_generated_code_matches_every_schema(tmp_path: Path, monkeypat
 
 def test_simulation_config_keeps_the_seed_field_numbers() -> None:
     fields = {f.name: f.number for f in SimulationConfig.DESCRIPTOR.fields}
-    assert {k: fields[k] for k in ("mode", "model_path", "trajectory_path", "mirror_topic_mappings")} == {
+    assert {k: fields[k] for k in ("mode", "model_path", "trajectory_path")} == {
         "mode": 1,
         "model_path": 2,
         "trajectory_path": 3,
-        "mirror_topic_mappings": 4,
     }
+    assert 4 not in fields.values()  # mirror_topic_mappings, now joshua-mirror's option: never reused
     assert (fields["render_width"], fields["render_height"]) == (5, 6)
     assert (
         SimulationConfig.DESCRIPTOR.fields_by_name["mode"].type
@@ -109,7 +116,7 @@ def test_preset_model_paths_resolve_against_shipped_models_from_any_cwd(tmp_path
 
 
 def test_mirror_preset_carries_the_seed_offsets() -> None:
-    mappings = load_preset("sim_mirror", OPTIONS).message.simulation.mirror_topic_mappings.mappings
+    mappings = mappings_of(load_preset("sim_mirror", OPTIONS).message.simulation)
     assert [(m.ros_topic, m.mujoco_actuator) for m in mappings] == [
         (f"/encoder/joint_{i}", f"joint_{i}_position") for i in range(1, 7)
     ]
@@ -145,7 +152,7 @@ def test_custom_file_extends_a_preset_and_replaces_its_lists(tmp_path: Path) -> 
     assert message.simulation.mode == "MIRROR"  # from the preset
     assert message.simulation.model_path == "so_arm100/scene.xml"  # from the preset
     assert message.simulation.render_width == 320  # from the file
-    assert [m.ros_topic for m in message.simulation.mirror_topic_mappings.mappings] == ["/arm/j1"]
+    assert [m.ros_topic for m in mappings_of(message.simulation)] == ["/arm/j1"]
 
 
 def test_extends_of_an_unknown_preset_suggests_close_names(tmp_path: Path) -> None:
@@ -173,7 +180,7 @@ def test_overrides_set_scalars_enums_strings_and_list_items() -> None:
     assert config.simulation.render_width == 1280
     assert config.simulation.mode == "OFFSCREEN"
     assert config.simulation.keyframe == "home"
-    mappings = config.simulation.mirror_topic_mappings.mappings
+    mappings = mappings_of(config.simulation)
     assert mappings[1].offset == pytest.approx(0.25)
     assert len(mappings) == 7 and mappings[6].ros_topic == "/encoder/extra"
 
@@ -364,7 +371,7 @@ def test_bad_option_overrides_list_close_fields_and_options(assignment: str, mes
     with pytest.raises(UsageError, match=re.escape(message)) as caught:
         apply_override(load_preset("sim_offscreen", OPTIONS).message, assignment, OPTIONS)
     if "offscren" in assignment:
-        assert "options: mirror, offscreen, replay, viewer" in str(caught.value)
+        assert "options: mirror, mirror_topic_mappings, offscreen, replay, viewer" in str(caught.value)
 
 
 def test_lenient_reading_skips_names_it_does_not_know(tmp_path: Path) -> None:

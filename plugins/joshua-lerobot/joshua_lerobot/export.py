@@ -16,18 +16,26 @@ from numpy.typing import NDArray
 
 from joshua_core.cli import add_config_arguments, load
 from joshua_core.config import finalize
-from joshua_core.config_pb2 import TopicMapping
+from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.defaults import DEFAULT_OUTPUT_DIR
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command
 from joshua_core.limits import MAX_FPS, MAX_IMAGE_SIDE, MIN_FPS, MIN_IMAGE_SIDE, cli_number
+from joshua_core.options import sub_message
 from joshua_core.outputs import check_replaceable
 from joshua_core.plugins import PluginHost
 from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
 from joshua_core.trajectory import Trajectory
 from joshua_core.trajectory_sources import load_trajectory
-from joshua_lerobot.joints import DEFAULT_UNITS, LeRobotUnits, add_units_arguments, joint_offsets, units_from_arguments
+from joshua_lerobot.joints import (
+    DEFAULT_UNITS,
+    LeRobotUnits,
+    TopicMapping,
+    add_units_arguments,
+    joint_offsets,
+    units_from_arguments,
+)
 from joshua_lerobot.writer import DatasetEpisode, write_dataset
 
 DEFAULT_MODEL = "so_arm100/scene.xml"
@@ -97,7 +105,7 @@ class LeRobotExportCommand(Command):
         units = units_from_arguments(args)
         mappings = []
         if args.preset or args.config:
-            mappings = list(finalize(load(args, plugins.options())).simulation.mirror_topic_mappings.mappings)
+            mappings = mirror_mappings(finalize(load(args, plugins.options())).simulation, plugins)
         elif args.overrides:
             raise UsageError("--set changes the config of --preset or --config; give one of them")
         check_replaceable(args.out, overwrite=args.overwrite, option="--out")
@@ -120,6 +128,17 @@ class LeRobotExportCommand(Command):
         )
         print(f"LeRobot dataset: {path}")
         return 0
+
+
+# joshua-mirror's option holding the mirror's mappings, found among the run's options by its name.
+MAPPINGS_OPTION = "mirror_topic_mappings"
+
+
+def mirror_mappings(simulation: SimulationConfig, plugins: PluginHost) -> list[TopicMapping]:
+    """The mirror's mappings the config sets (`simulation.mirror_topic_mappings`); none without joshua-mirror, whose
+    option it is (a config that sets it then fails to load, naming the plugin)."""
+    option = plugins.options().find(SimulationConfig.DESCRIPTOR, MAPPINGS_OPTION)
+    return list(sub_message(simulation, option).mappings) if option is not None else []
 
 
 def export_trajectory(

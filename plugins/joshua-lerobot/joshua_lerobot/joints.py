@@ -32,14 +32,22 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from joshua_core.config_pb2 import TopicMapping
 from joshua_core.errors import UsageError
 from joshua_core.trajectory import MAX_MAGNITUDE, TrajectoryError
+
+
+class TopicMapping(Protocol):
+    """What an offset is read from: one of the mirror's mappings (joshua-mirror's option
+    `simulation.mirror_topic_mappings`), read by name, since this plugin does not depend on the mirror."""
+
+    mujoco_actuator: str
+    offset: float
+
 
 SO100_ROBOT_TYPE = "so100_follower"
 SO100_JOINTS = {

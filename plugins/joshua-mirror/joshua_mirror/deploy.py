@@ -34,7 +34,7 @@ from joshua_core.runs import check_run_name, create_run
 from joshua_mirror import options_pb2
 from joshua_mirror.controller import COMMAND, PolicyController, unmapped_joints
 from joshua_mirror.deploy_loop import DeployLoop
-from joshua_mirror.joints import MirroredJoint, resolve_joints
+from joshua_mirror.joints import MirroredJoint, resolve_joints, topic_mappings
 from joshua_mirror.lerobot_arm import ESTOP_SIGNAL, FOLLOWERS, LeRobotArm, lerobot_units
 from joshua_mirror.link import RobotLink, RosTransport
 from joshua_mirror.names import topic_argument
@@ -265,7 +265,7 @@ def _robot_joints(
     checked = MirrorOptions()
     checked.CopyFrom(options)
     checked.apply = MirrorOptions.ACTUATOR  # targets are joint positions: only position actuators take them
-    joints = resolve_joints(observer.model, config.mirror_topic_mappings.mappings, checked, by_topics=by_topics)
+    joints = resolve_joints(observer.model, topic_mappings(config), checked, by_topics=by_topics)
     missing = unmapped_joints(observer.model, joints)
     if missing:
         raise ConfigError(

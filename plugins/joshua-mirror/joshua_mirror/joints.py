@@ -10,12 +10,19 @@ from dataclasses import dataclass
 
 import mujoco
 
-from joshua_core.config_pb2 import TopicMapping
+from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
+from joshua_core.options import options_of
+from joshua_mirror import options_pb2
 from joshua_mirror.names import check_config_names
-from joshua_mirror.options_pb2 import MirrorOptions
+from joshua_mirror.options_pb2 import MirrorOptions, TopicMapping
 
 MAPPINGS_FIELD = "simulation.mirror_topic_mappings.mappings"
+
+
+def topic_mappings(config: SimulationConfig) -> Sequence[TopicMapping]:
+    """The config's mappings (`simulation.mirror_topic_mappings`, this plugin's option); none when it sets none."""
+    return options_of(config, options_pb2.mirror_topic_mappings).mappings
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,7 @@ from joshua_core.options import options_of
 from joshua_core.run_context import RunContext
 from joshua_mirror import options_pb2
 from joshua_mirror.graph import TypeChecker
-from joshua_mirror.joints import MirroredJoint, resolve_joints
+from joshua_mirror.joints import MirroredJoint, resolve_joints, topic_mappings
 from joshua_mirror.lerobot_arm import FOLLOWERS, LEADERS, LeRobotArm, follower_of, lerobot_units
 from joshua_mirror.loss import TopicLoss
 from joshua_mirror.mirror import Mirror
@@ -64,7 +64,7 @@ class MirrorMode(Mode):
         with ExitStack() as stack:
             engine = stack.enter_context(context.create_engine(config))
             _check_mujoco(engine)
-            mappings = config.mirror_topic_mappings.mappings
+            mappings = topic_mappings(config)
             joints = resolve_joints(engine.model, mappings, options, by_topics=not options.lerobot.robot_type)
             units = _arm_units(options.lerobot, joints)
             arm = _open_arm(stack, options.lerobot, joints, units)  # before the twin's clock starts: lerobot loads

@@ -25,7 +25,7 @@ _sym_db = _symbol_database.Default()
 from joshua_core import config_pb2 as joshua_dot_config__pb2
 
 
-DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x1bjoshua_mirror/options.proto\x12\rjoshua_mirror\x1a\x13joshua/config.proto\"\xe3\x06\n\rMirrorOptions\x12\x31\n\x05\x61pply\x18\x01 \x01(\x0e\x32\".joshua_mirror.MirrorOptions.Apply\x12>\n\x0cmessage_type\x18\x02 \x01(\x0e\x32(.joshua_mirror.MirrorOptions.MessageType\x12\x19\n\x11joint_state_topic\x18\x03 \x01(\t\x12L\n\x11joint_state_names\x18\x04 \x03(\x0b\x32\x31.joshua_mirror.MirrorOptions.JointStateNamesEntry\x12\x15\n\rstale_timeout\x18\x05 \x01(\x01\x12\x15\n\rstatus_period\x18\x06 \x01(\x01\x12\x14\n\x0crange_margin\x18\x07 \x01(\x01\x12\x35\n\x07\x64isplay\x18\x08 \x01(\x0e\x32$.joshua_mirror.MirrorOptions.Display\x12\x13\n\x0b\x64isplay_fps\x18\t \x01(\x01\x12\x0e\n\x06\x63\x61mera\x18\n \x01(\t\x12\x11\n\tnode_name\x18\x0b \x01(\t\x12G\n\x0e\x63ommand_topics\x18\x0c \x03(\x0b\x32/.joshua_mirror.MirrorOptions.CommandTopicsEntry\x12.\n\x06record\x18\r \x01(\x0b\x32\x1e.joshua_mirror.MirrorRecording\x12-\n\x07lerobot\x18\x0e \x01(\x0b\x32\x1c.joshua_mirror.MirrorLeRobot\x1a\x36\n\x14JointStateNamesEntry\x12\x0b\n\x03key\x18\x01 \x01(\t\x12\r\n\x05value\x18\x02 \x01(\t:\x02\x38\x01\x1a\x34\n\x12\x43ommandTopicsEntry\x12\x0b\n\x03key\x18\x01 \x01(\t\x12\r\n\x05value\x18\x02 \x01(\t:\x02\x38\x01\"@\n\x05\x41pply\x12\r\n\tKINEMATIC\x10\x00\x12\x0c\n\x08\x41\x43TUATOR\x10\x01\x12\x1a\n\x16KINEMATIC_AND_ACTUATOR\x10\x02\"+\n\x0bMessageType\x12\x0b\n\x07\x46LOAT64\x10\x00\x12\x0f\n\x0bJOINT_STATE\x10\x01\">\n\x07\x44isplay\x12\x08\n\x04\x41UTO\x10\x00\x12\x08\n\x04NONE\x10\x01\x12\n\n\x06VIEWER\x10\x02\x12\n\n\x06RECORD\x10\x03\x12\x07\n\x03WEB\x10\x04\"\xa8\x01\n\rMirrorLeRobot\x12\x12\n\nrobot_type\x18\x01 \x01(\t\x12\x0c\n\x04port\x18\x02 \x01(\t\x12\x13\n\x0b\x63\x61libration\x18\x03 \x01(\t\x12\x31\n\x05units\x18\x04 \x01(\x0e\x32\".joshua_mirror.MirrorLeRobot.Units\x12\x0c\n\x04rate\x18\x05 \x01(\x01\"\x1f\n\x05Units\x12\x0b\n\x07\x44\x45GREES\x10\x00\x12\t\n\x05RANGE\x10\x01\"[\n\x0fMirrorRecording\x12\x0b\n\x03\x63sv\x18\x01 \x01(\x08\x12\x0f\n\x07lerobot\x18\x02 \x01(\x08\x12\x0b\n\x03\x66ps\x18\x03 \x01(\x05\x12\x0c\n\x04task\x18\x04 \x01(\t\x12\x0f\n\x07\x63\x61meras\x18\x05 \x03(\t:G\n\x06mirror\x12\x18.joshua.SimulationConfig\x18\xf2\x07 \x01(\x0b\x32\x1c.joshua_mirror.MirrorOptionsB\x05\x92\x03\x02\x08\x02\x62\x08\x65\x64itionsp\xe8\x07')
+DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x1bjoshua_mirror/options.proto\x12\rjoshua_mirror\x1a\x13joshua/config.proto\"D\n\x13MirrorTopicMappings\x12-\n\x08mappings\x18\x01 \x03(\x0b\x32\x1b.joshua_mirror.TopicMapping\"J\n\x0cTopicMapping\x12\x11\n\tros_topic\x18\x01 \x01(\t\x12\x17\n\x0fmujoco_actuator\x18\x02 \x01(\t\x12\x0e\n\x06offset\x18\x03 \x01(\x02\"\xe3\x06\n\rMirrorOptions\x12\x31\n\x05\x61pply\x18\x01 \x01(\x0e\x32\".joshua_mirror.MirrorOptions.Apply\x12>\n\x0cmessage_type\x18\x02 \x01(\x0e\x32(.joshua_mirror.MirrorOptions.MessageType\x12\x19\n\x11joint_state_topic\x18\x03 \x01(\t\x12L\n\x11joint_state_names\x18\x04 \x03(\x0b\x32\x31.joshua_mirror.MirrorOptions.JointStateNamesEntry\x12\x15\n\rstale_timeout\x18\x05 \x01(\x01\x12\x15\n\rstatus_period\x18\x06 \x01(\x01\x12\x14\n\x0crange_margin\x18\x07 \x01(\x01\x12\x35\n\x07\x64isplay\x18\x08 \x01(\x0e\x32$.joshua_mirror.MirrorOptions.Display\x12\x13\n\x0b\x64isplay_fps\x18\t \x01(\x01\x12\x0e\n\x06\x63\x61mera\x18\n \x01(\t\x12\x11\n\tnode_name\x18\x0b \x01(\t\x12G\n\x0e\x63ommand_topics\x18\x0c \x03(\x0b\x32/.joshua_mirror.MirrorOptions.CommandTopicsEntry\x12.\n\x06record\x18\r \x01(\x0b\x32\x1e.joshua_mirror.MirrorRecording\x12-\n\x07lerobot\x18\x0e \x01(\x0b\x32\x1c.joshua_mirror.MirrorLeRobot\x1a\x36\n\x14JointStateNamesEntry\x12\x0b\n\x03key\x18\x01 \x01(\t\x12\r\n\x05value\x18\x02 \x01(\t:\x02\x38\x01\x1a\x34\n\x12\x43ommandTopicsEntry\x12\x0b\n\x03key\x18\x01 \x01(\t\x12\r\n\x05value\x18\x02 \x01(\t:\x02\x38\x01\"@\n\x05\x41pply\x12\r\n\tKINEMATIC\x10\x00\x12\x0c\n\x08\x41\x43TUATOR\x10\x01\x12\x1a\n\x16KINEMATIC_AND_ACTUATOR\x10\x02\"+\n\x0bMessageType\x12\x0b\n\x07\x46LOAT64\x10\x00\x12\x0f\n\x0bJOINT_STATE\x10\x01\">\n\x07\x44isplay\x12\x08\n\x04\x41UTO\x10\x00\x12\x08\n\x04NONE\x10\x01\x12\n\n\x06VIEWER\x10\x02\x12\n\n\x06RECORD\x10\x03\x12\x07\n\x03WEB\x10\x04\"\xa8\x01\n\rMirrorLeRobot\x12\x12\n\nrobot_type\x18\x01 \x01(\t\x12\x0c\n\x04port\x18\x02 \x01(\t\x12\x13\n\x0b\x63\x61libration\x18\x03 \x01(\t\x12\x31\n\x05units\x18\x04 \x01(\x0e\x32\".joshua_mirror.MirrorLeRobot.Units\x12\x0c\n\x04rate\x18\x05 \x01(\x01\"\x1f\n\x05Units\x12\x0b\n\x07\x44\x45GREES\x10\x00\x12\t\n\x05RANGE\x10\x01\"[\n\x0fMirrorRecording\x12\x0b\n\x03\x63sv\x18\x01 \x01(\x08\x12\x0f\n\x07lerobot\x18\x02 \x01(\x08\x12\x0b\n\x03\x66ps\x18\x03 \x01(\x05\x12\x0c\n\x04task\x18\x04 \x01(\t\x12\x0f\n\x07\x63\x61meras\x18\x05 \x03(\t:G\n\x06mirror\x12\x18.joshua.SimulationConfig\x18\xf2\x07 \x01(\x0b\x32\x1c.joshua_mirror.MirrorOptions:\\\n\x15mirror_topic_mappings\x12\x18.joshua.SimulationConfig\x18\xf3\x07 \x01(\x0b\x32\".joshua_mirror.MirrorTopicMappingsB\x05\x92\x03\x02\x08\x02\x62\x08\x65\x64itionsp\xe8\x07')
 
 _globals = globals()
 _builder.BuildMessageAndEnumDescriptors(DESCRIPTOR, _globals)
@@ -37,22 +37,26 @@ if not _descriptor._USE_C_DESCRIPTORS:
   _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_options = b'8\001'
   _globals['_MIRROROPTIONS_COMMANDTOPICSENTRY']._loaded_options = None
   _globals['_MIRROROPTIONS_COMMANDTOPICSENTRY']._serialized_options = b'8\001'
-  _globals['_MIRROROPTIONS']._serialized_start=68
-  _globals['_MIRROROPTIONS']._serialized_end=935
-  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_start=652
-  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_end=706
-  _globals['_MIRROROPTIONS_COMMANDTOPICSENTRY']._serialized_start=708
-  _globals['_MIRROROPTIONS_COMMANDTOPICSENTRY']._serialized_end=760
-  _globals['_MIRROROPTIONS_APPLY']._serialized_start=762
-  _globals['_MIRROROPTIONS_APPLY']._serialized_end=826
-  _globals['_MIRROROPTIONS_MESSAGETYPE']._serialized_start=828
-  _globals['_MIRROROPTIONS_MESSAGETYPE']._serialized_end=871
-  _globals['_MIRROROPTIONS_DISPLAY']._serialized_start=873
-  _globals['_MIRROROPTIONS_DISPLAY']._serialized_end=935
-  _globals['_MIRRORLEROBOT']._serialized_start=938
-  _globals['_MIRRORLEROBOT']._serialized_end=1106
-  _globals['_MIRRORLEROBOT_UNITS']._serialized_start=1075
-  _globals['_MIRRORLEROBOT_UNITS']._serialized_end=1106
-  _globals['_MIRRORRECORDING']._serialized_start=1108
-  _globals['_MIRRORRECORDING']._serialized_end=1199
+  _globals['_MIRRORTOPICMAPPINGS']._serialized_start=67
+  _globals['_MIRRORTOPICMAPPINGS']._serialized_end=135
+  _globals['_TOPICMAPPING']._serialized_start=137
+  _globals['_TOPICMAPPING']._serialized_end=211
+  _globals['_MIRROROPTIONS']._serialized_start=214
+  _globals['_MIRROROPTIONS']._serialized_end=1081
+  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_start=798
+  _globals['_MIRROROPTIONS_JOINTSTATENAMESENTRY']._serialized_end=852
+  _globals['_MIRROROPTIONS_COMMANDTOPICSENTRY']._serialized_start=854
+  _globals['_MIRROROPTIONS_COMMANDTOPICSENTRY']._serialized_end=906
+  _globals['_MIRROROPTIONS_APPLY']._serialized_start=908
+  _globals['_MIRROROPTIONS_APPLY']._serialized_end=972
+  _globals['_MIRROROPTIONS_MESSAGETYPE']._serialized_start=974
+  _globals['_MIRROROPTIONS_MESSAGETYPE']._serialized_end=1017
+  _globals['_MIRROROPTIONS_DISPLAY']._serialized_start=1019
+  _globals['_MIRROROPTIONS_DISPLAY']._serialized_end=1081
+  _globals['_MIRRORLEROBOT']._serialized_start=1084
+  _globals['_MIRRORLEROBOT']._serialized_end=1252
+  _globals['_MIRRORLEROBOT_UNITS']._serialized_start=1221
+  _globals['_MIRRORLEROBOT_UNITS']._serialized_end=1252
+  _globals['_MIRRORRECORDING']._serialized_start=1254
+  _globals['_MIRRORRECORDING']._serialized_end=1345
 # @@protoc_insertion_point(module_scope)

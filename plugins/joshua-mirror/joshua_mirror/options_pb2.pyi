@@ -9,6 +9,24 @@ from typing import ClassVar as _ClassVar, Optional as _Optional, Union as _Union
 DESCRIPTOR: _descriptor.FileDescriptor
 MIRROR_FIELD_NUMBER: _ClassVar[int]
 mirror: _descriptor.FieldDescriptor
+MIRROR_TOPIC_MAPPINGS_FIELD_NUMBER: _ClassVar[int]
+mirror_topic_mappings: _descriptor.FieldDescriptor
+
+class MirrorTopicMappings(_message.Message):
+    __slots__ = ("mappings",)
+    MAPPINGS_FIELD_NUMBER: _ClassVar[int]
+    mappings: _containers.RepeatedCompositeFieldContainer[TopicMapping]
+    def __init__(self, mappings: _Optional[_Iterable[_Union[TopicMapping, _Mapping]]] = ...) -> None: ...
+
+class TopicMapping(_message.Message):
+    __slots__ = ("ros_topic", "mujoco_actuator", "offset")
+    ROS_TOPIC_FIELD_NUMBER: _ClassVar[int]
+    MUJOCO_ACTUATOR_FIELD_NUMBER: _ClassVar[int]
+    OFFSET_FIELD_NUMBER: _ClassVar[int]
+    ros_topic: str
+    mujoco_actuator: str
+    offset: float
+    def __init__(self, ros_topic: _Optional[str] = ..., mujoco_actuator: _Optional[str] = ..., offset: _Optional[float] = ...) -> None: ...
 
 class MirrorOptions(_message.Message):
     __slots__ = ("apply", "message_type", "joint_state_topic", "joint_state_names", "stale_timeout", "status_period", "range_margin", "display", "display_fps", "camera", "node_name", "command_topics", "record", "lerobot")

@@ -21,6 +21,11 @@ def joshua_register_modes(registry: Registrar) -> None:
 @hookimpl
 def joshua_register_options(registry: Registrar) -> None:
     registry.add("mirror", "joshua_mirror.options_pb2:mirror", "MIRROR: how encoder values reach the simulation")
+    registry.add(
+        "mirror_topic_mappings",
+        "joshua_mirror.options_pb2:mirror_topic_mappings",
+        "MIRROR, deploy: the encoder topic, actuator and offset of each joint",
+    )
 
 
 @hookimpl

@@ -26,7 +26,7 @@ from joshua_core.errors import ConfigError
 from joshua_core.interfaces import render_size
 from joshua_core.run_context import RunContext
 from joshua_core.trajectory import Trajectory, write_trajectory
-from joshua_mirror.joints import MirroredJoint
+from joshua_mirror.joints import MirroredJoint, topic_mappings
 from joshua_mirror.mirror import Mirror
 from joshua_mirror.options_pb2 import MirrorRecording
 from joshua_mirror.transport import RobotUnits
@@ -127,7 +127,7 @@ class Recorder:
 
             arm_units: dict[str, Any] = {}
             if self.units.lerobot is not None:  # the arm's own values, as lerobot-record would write them
-                arm_units = {"units": self.units.lerobot, "mappings": list(config.mirror_topic_mappings.mappings)}
+                arm_units = {"units": self.units.lerobot, "mappings": list(topic_mappings(config))}
             written["lerobot"] = str(
                 export_trajectory(
                     trajectory.path,

@@ -29,7 +29,7 @@ from joshua_core.progress import progress_bar
 from joshua_core.resources import resolve_data_path
 from joshua_core.trajectory import Trajectory, read_trajectory
 from joshua_mirror import options_pb2
-from joshua_mirror.joints import MirroredJoint, resolve_joints
+from joshua_mirror.joints import MirroredJoint, resolve_joints, topic_mappings
 from joshua_mirror.mode import DEFAULT_JOINT_STATE_TOPIC
 from joshua_mirror.options_pb2 import MirrorOptions
 from joshua_mirror.ros import RosSession, message_types
@@ -126,7 +126,7 @@ def _joints_of(config: SimulationConfig, plugins: PluginHost) -> tuple[list[Mirr
         model = engine.model
         scalar = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
         names = [model.joint(j).name for j in range(model.njnt) if int(model.jnt_type[j]) in scalar]
-        return resolve_joints(model, config.mirror_topic_mappings.mappings, options), names
+        return resolve_joints(model, topic_mappings(config), options), names
 
 
 def _columns(trajectory: Trajectory, joints: list[MirroredJoint], csv: Path) -> list[int]:

@@ -22,15 +22,16 @@ import mujoco
 import pytest
 
 from joshua_core.config import load_preset
-from joshua_core.options import LENIENT
+from joshua_core.plugins import PluginHost
 from joshua_core.resources import models_dir
+from joshua_mirror.joints import topic_mappings
 
 JOSHUA = Path(sys.executable).parent / "joshua"
 POLICY = models_dir() / "policies" / "so_arm100_reach"
 SIM_ROBOT = Path(__file__).with_name("sim_robot.py")
 TARGET = (0.22, 0.05, 0.15)  # inside the task's target box
 REACHED_M = 0.03
-MAPPINGS = load_preset("sim_mirror", LENIENT).message.simulation.mirror_topic_mappings.mappings
+MAPPINGS = topic_mappings(load_preset("sim_mirror", PluginHost.discover().options()).message.simulation)
 COMMANDS = "".join(
     f'    command_topics {{ key: "{m.mujoco_actuator}" value: "/command/{m.mujoco_actuator}" }}\n' for m in MAPPINGS
 )

@@ -24,17 +24,17 @@ import pytest
 
 from joshua_core.config import load_preset
 from joshua_core.errors import PluginNotFoundError
-from joshua_core.options import LENIENT
 from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import models_dir
 from joshua_core.trajectory import Trajectory, read_trajectory, write_trajectory
 from joshua_core.trajectory_sources import load_trajectory
+from joshua_mirror.joints import topic_mappings
 
 JOSHUA = Path(sys.executable).parent / "joshua"
 PUBLISHER = Path(__file__).with_name("publisher.py")
 OFFSETS = {
     m.mujoco_actuator.removesuffix("_position"): m.offset
-    for m in load_preset("sim_mirror", LENIENT).message.simulation.mirror_topic_mappings.mappings
+    for m in topic_mappings(load_preset("sim_mirror", PluginHost.discover().options()).message.simulation)
 }
 JOINTS = [f"joint_{i}" for i in range(1, 7)]
 FAST = ["--set", "simulation.mirror.display=NONE", "--set", "simulation.mirror.status_period=0.2"]
