@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import enum
-import json
 import math
 import sys
 from collections.abc import Mapping, Sequence
@@ -38,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from joshua_core.errors import UsageError
+from joshua_core.json_files import read_json_object
 from joshua_core.trajectory import MAX_MAGNITUDE, TrajectoryError
 
 
@@ -129,15 +129,8 @@ def read_calibration(path: Path) -> dict[str, MotorRange]:
     ~/.cache/huggingface/lerobot/calibration/robots/so100_follower/<id>.json): motor name -> {id, drive_mode,
     homing_offset, range_min, range_max}; every SO-100 motor must be there. A problem is one UsageError; a range
     no STS3215 arm has (outside 0..4095 ticks, or under a degree wide) is read and warned about in one line."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except RecursionError:  # json gives up on deep nesting (e.g. 100000 nested lists) by recursing too deep
-        raise UsageError(f"{path}: cannot read the LeRobot calibration: nested too deeply") from None
-    except (OSError, ValueError) as error:
-        raise UsageError(f"{path}: cannot read the LeRobot calibration: {error}") from None
+    data = read_json_object(path, "the LeRobot calibration")
     motors = [name.removesuffix(POSITION_SUFFIX) for name in SO100_JOINTS]
-    if not isinstance(data, dict):
-        raise UsageError(f"{path}: not a LeRobot calibration (an object of motors: {', '.join(motors)})")
     missing = [motor for motor in motors if motor not in data]
     if missing:
         raise UsageError(f"{path}: the LeRobot calibration has no motor {', '.join(missing)}")
