@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -15,6 +14,7 @@ import mujoco
 import numpy as np
 
 from joshua_core.errors import UsageError
+from joshua_core.json_files import read_json_object
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
 from joshua_core.runs import CONFIG_FILE, METRICS_FILE, read_run_config, resolve_checkpoint, saved_training
@@ -94,11 +94,7 @@ def _last_record(path: Path) -> dict[str, Any] | None:
     """The last record of metrics.json's history, or None without the file; a damaged file is a UsageError."""
     if not path.is_file():
         return None
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise UsageError(f"{path}: not valid JSON: {error}") from None
-    history = document.get("history") if isinstance(document, dict) else None
+    history = read_json_object(path, "the run's metrics").get("history")
     if not isinstance(history, list) or not all(isinstance(record, dict) for record in history):
         raise UsageError(f"{path}: 'history' is not a list of records (objects)")
     return history[-1] if history else None

@@ -115,6 +115,7 @@ def test_a_damaged_export_is_a_problem_of_the_checklist(
         ("empty", "is not a run folder"),
         ("config", "not valid JSON"),
         ("metrics", "not valid JSON"),
+        ("deep", "metrics.json: cannot read the run's metrics: nested too deeply"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(
@@ -129,7 +130,7 @@ def test_bad_input_is_one_line_and_exit_2(
             shutil.copytree(run, target)
             shutil.copytree(run.parent / "reach_step_16", target.parent / "reach_step_16")
             damaged = target.parent / "reach_step_16" / ("config.json" if damage == "config" else "metrics.json")
-            damaged.write_text("{not json")
+            damaged.write_text("[" * 100_000 + "]" * 100_000 if damage == "deep" else "{not json")
     status, out, err = checklist(capsys, str(target))
     assert status == 2 and not out
     lines = err.strip().splitlines()

@@ -6,13 +6,12 @@ Imports nothing heavy: reading a report needs neither mujoco nor the fit.
 
 from __future__ import annotations
 
-import json
 import xml.etree.ElementTree as ElementTree
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from joshua_core.errors import UsageError
+from joshua_core.json_files import read_json_object
 
 REPORT_FILE = "report.json"
 CALIBRATED_SUFFIX = "_calibrated.xml"
@@ -43,13 +42,7 @@ def fit_of(model_path: Path) -> Fit | None:
         seen.add(path)
         report = path.parent / REPORT_FILE
         if path.name.endswith(CALIBRATED_SUFFIX) and report.is_file():
-            try:
-                document = json.loads(report.read_text(encoding="utf-8"))
-            except (UnicodeDecodeError, json.JSONDecodeError) as error:
-                raise UsageError(f"{report}: not valid JSON: {error}") from None
-            if not isinstance(document, dict):
-                raise UsageError(f"{report}: not a joshua sysid report (an object)")
-            return Fit(path, document)
+            return Fit(path, read_json_object(report, "the sysid report"))
         pending.extend(_includes(path, model_path.resolve().parent))
     return None
 

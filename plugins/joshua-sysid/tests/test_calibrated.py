@@ -36,8 +36,11 @@ def test_a_model_without_a_fit_has_none(tmp_path: Path) -> None:
     assert fit_of(tmp_path / "missing.xml") is None
 
 
-def test_a_damaged_report_is_one_line(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("text", "reason"), [("{not json", "not valid JSON"), ("[" * 100_000 + "]" * 100_000, "nested too deeply")]
+)
+def test_a_damaged_report_is_one_line(tmp_path: Path, text: str, reason: str) -> None:
     path = scene(tmp_path, "so_arm100_calibrated.xml")
-    (tmp_path / "fit" / "report.json").write_text("{not json")
-    with pytest.raises(UsageError, match="report.json: not valid JSON"):
+    (tmp_path / "fit" / "report.json").write_text(text)
+    with pytest.raises(UsageError, match=f"report.json: cannot read the sysid report: {reason}"):
         fit_of(path)
