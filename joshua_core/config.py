@@ -92,7 +92,7 @@ def _parse_file(path: Path, seen: tuple[str, ...], options: OptionSet) -> Joshua
         raise ConfigError(f"{path}: extends a chain of more than {MAX_EXTENDS_DEPTH} presets; shorten it")
     merged = _parse_file(preset_path(own.extends), (*seen, own.extends), options)
     _clear_repeated_fields_set_in(own, merged)
-    _read_text(text, str(path), merged, options, merge=True)
+    _read_text(text, str(path), merged, options, merge=True, notices=False)  # its notices came with `own`
     merged.ClearField("extends")  # applied; the result stands on its own (e.g. in --print-config)
     return merged
 
@@ -104,9 +104,12 @@ def parse_text(text: str, source: str, options: OptionSet) -> JoshuaConfig:
     return config
 
 
-def _read_text(text: str, source: str, config: JoshuaConfig, options: OptionSet, *, merge: bool) -> None:
-    """Parse (or merge) `text` into `config` after the short-name pass; errors at their original place."""
-    rewritten = config_text.to_protobuf(text, JoshuaConfig.DESCRIPTOR, options, source)
+def _read_text(
+    text: str, source: str, config: JoshuaConfig, options: OptionSet, *, merge: bool, notices: bool = True
+) -> None:
+    """Parse (or merge) `text` into `config` after the short-name pass; errors at their original place.
+    `notices`: print the notices of old spellings (once per file: not again when it is merged over its preset)."""
+    rewritten = config_text.to_protobuf(text, JoshuaConfig.DESCRIPTOR, options, source, notices=notices)
     read = text_format.Merge if merge else text_format.Parse
     try:
         read(rewritten.text, config, allow_unknown_extension=options.lenient, allow_unknown_field=options.lenient)

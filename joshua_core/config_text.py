@@ -204,8 +204,9 @@ class _Walker:
 
 
 class _ToProtobuf(_Walker):
-    def __init__(self, text: str, root: Descriptor, options: OptionSet, source: str) -> None:
+    def __init__(self, text: str, root: Descriptor, options: OptionSet, source: str, notices: bool) -> None:
         self.source = source
+        self.notices = notices and not options.lenient
         # Per open message: the old fields in it, each as its new fields and the spans it takes.
         self._renames: list[list[tuple[dict[str, str], list[tuple[int, int, int]]]]] = []
         super().__init__(text, root, options)
@@ -215,7 +216,7 @@ class _ToProtobuf(_Walker):
         fields = legacy.framework_fields(value)
         if fields is None and not self.options.lenient:
             raise ConfigError(f"{where}: {legacy.unknown_framework(value)}")
-        if not self.options.lenient:
+        if self.notices:
             legacy.notice(where, value)
         self._renames[-1].append((fields or {}, spans))
 
@@ -276,10 +277,11 @@ def provider_hint(name: str) -> str:
     return f" '{name}' is an option of {provider}, which is not installed or is disabled: pip install {provider}"
 
 
-def to_protobuf(text: str, root: Descriptor, options: OptionSet, source: str) -> Rewritten:
-    """`text` as protobuf's parser reads it: options bracketed, bare modes quoted; unknown names are located
-    ConfigErrors unless `options` is lenient."""
-    return _ToProtobuf(text, root, options, source).rewritten
+def to_protobuf(text: str, root: Descriptor, options: OptionSet, source: str, *, notices: bool = True) -> Rewritten:
+    """`text` as protobuf's parser reads it: options bracketed, bare modes quoted, old spellings in their new one
+    (with a notice when `notices` and not lenient); unknown names are located ConfigErrors unless `options` is
+    lenient."""
+    return _ToProtobuf(text, root, options, source, notices).rewritten
 
 
 def to_short(text: str, root: Descriptor, options: OptionSet) -> str:
