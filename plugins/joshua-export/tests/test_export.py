@@ -30,8 +30,10 @@ from joshua_mujoco import load_task_model
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
 SAMPLES = 1000
 TOLERANCE = 1e-5
-PPO_TINY = {  # 4 environments x 5 steps, one iteration: enough for a normaliser and weights that moved
+PPO_TINY = {  # 4 environments x 5 steps, one iteration: enough for a normaliser and weights that moved; MuJoCo
+    # Warp's physics (the export reads only the network), whose iteration compiles far sooner than MJX-JAX's
     "task": "so_arm100_reach", "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1,
+    "mjx": {"impl": "WARP"},
     "total_timesteps": 20, "ppo": {"run_name": "tiny", "video_interval": -1, "hidden_sizes": [32, 16]},
 }  # fmt: skip
 
