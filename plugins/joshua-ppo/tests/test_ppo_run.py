@@ -31,9 +31,10 @@ from joshua_ppo.trainer import PpoTrainer
 pytestmark = pytest.mark.slow  # every test here trains
 
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
-# The resume and divergence tests' Ant runs step MuJoCo Warp: it compiles in seconds on the CPU where MJX-JAX takes
-# tens (the resume test: 32 s in the suite against 66 s). The other runs stay on MJX-JAX, cheaper for them in the
-# suite: other tests compile the same programs into the run's cache, and long rollouts step faster there.
+# The Ant runs (resume, divergence, the Brax-style network) step MuJoCo Warp: it compiles in seconds on the CPU
+# where MJX-JAX takes tens (the resume test: 32 s in the suite against 66 s). The other runs stay on MJX-JAX, cheaper
+# for them in the suite: other tests compile the same programs into the run's cache, and long rollouts step faster
+# there.
 WARP = {"impl": "WARP"}
 REACH = {  # 16 envs x 25 steps per iteration, 15 iterations: about 60 s on 2 cores after a 35 s compile
     "num_envs": 16,
@@ -183,7 +184,9 @@ def test_brax_style_network_round_trips_through_eval(tmp_path: Path) -> None:
         "advantage": "LAMBDA_RETURN",
         "anneal_learning_rate": True,
     }
-    checkpoint = train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": options}, checkpoint_dir=tmp_path)
+    # the network is the subject: any physics, and episodes short enough for `joshua eval` to roll out at once
+    config = {**ANT, "mjx": WARP, "task_config": {"episode_length": 20}, "ppo": options}
+    checkpoint = train_mjx(model_path="ant/ant_mjx.xml", config=config, checkpoint_dir=tmp_path)
     params = from_bytes(None, (checkpoint / "params.msgpack").read_bytes())["params"]
     kernels = sorted(tuple(np.shape(layer["kernel"])) for name, layer in params.items() if name.startswith("Dense"))
     observation_size = 105
