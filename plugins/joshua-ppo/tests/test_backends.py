@@ -36,7 +36,7 @@ class JaxTestBackend(Backend):
         raise NotImplementedError
 
     def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> Any:
-        from joshua_mjx import MjxEnv
+        from joshua_mjx import MjxEnv, Physics
         from joshua_mujoco import compile_model
 
         MADE.append(spec)
@@ -44,7 +44,8 @@ class JaxTestBackend(Backend):
         path = spec.model_path or resolve_data_path(task.model_path)
         model = compile_model(path)
         built = build_task(task, model, plugins, spec.task_config)
-        return MjxEnv(built, model, spec.num_envs, source=path, devices=spec.devices)
+        # MuJoCo Warp's physics: the plumbing is the subject, and Warp's programs compile far sooner than MJX-JAX's
+        return MjxEnv(built, model, spec.num_envs, source=path, devices=spec.devices, physics=Physics("warp"))
 
 
 class NothingBackend(JaxTestBackend):
