@@ -19,8 +19,10 @@ from joshua_ppo import train_mjx
 pytestmark = pytest.mark.slow  # every test here trains
 
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
-TINY = {  # 4 environments x 5 steps, one iteration
+TINY = {  # 4 environments x 5 steps, one iteration; the checkpoint's files are the subject, not the physics: MuJoCo
+    # Warp's, whose programs compile far sooner than MJX-JAX's, and episodes short enough for an eval to end at once
     "task": "ant_locomotion", "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1,
+    "mjx": {"impl": "WARP"}, "task_config": {"episode_length": 20},
     "total_timesteps": 20, "ppo": {"run_name": "tiny", "video_interval": -1, "hidden_sizes": [16]},
 }  # fmt: skip
 
