@@ -20,6 +20,7 @@ import pytest
 
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.tasks.episodes import Episode
+from joshua_mjx import Physics
 from joshua_mjx.env import MjxEnv, make_mjx_env
 from joshua_ppo.iteration import _Iteration, episode_metrics, episode_sums, make_iteration
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
@@ -35,7 +36,9 @@ NETWORK = NetworkSettings(
 
 @pytest.fixture(scope="module")
 def env() -> MjxEnv:
-    return make_mjx_env("ant_locomotion", ENVS, model_path="ant/ant_mjx.xml", task_config=TaskConfig(episode_length=3))
+    # the networks' work is the subject, not the physics: MuJoCo Warp's, whose step compiles far sooner than MJX-JAX's
+    config, physics = TaskConfig(episode_length=3), Physics("warp")
+    return make_mjx_env("ant_locomotion", ENVS, model_path="ant/ant_mjx.xml", task_config=config, physics=physics)
 
 
 def network_evaluations(env: MjxEnv, recompute: bool, minibatch_size: int) -> Counter[tuple[str, str]]:
