@@ -1,4 +1,5 @@
-"""Entry point of joshua-mirror: registers the MIRROR mode, its options, `joshua mirror-replay` and `joshua deploy`.
+"""Entry point of joshua-mirror: registers the MIRROR mode, its options, `joshua mirror-replay`, `joshua deploy`
+and `joshua checklist`.
 
 Imports nothing heavy: the options module (options_pb2) imports only protobuf and the core schema.
 """
@@ -39,4 +40,9 @@ def joshua_register_commands(registry: Registrar) -> None:
         "deploy",
         "joshua_mirror.deploy:DeployCommand",
         "run an exported policy (joshua export) on a robot over ROS 2, through a MIRROR config's topics",
+    )
+    registry.add(
+        "checklist",
+        "joshua_mirror.checklist:ChecklistCommand",
+        "print the arm-side checklist of a trained run: what JOSHUA checked, what to verify on the arm, how to deploy",
     )
