@@ -56,6 +56,7 @@ from joshua_core.config import apply_override, finalize, load_file, load_preset
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.defaults import training_output_dir
 from joshua_core.interrupts import reported
+from joshua_core.json_files import read_json_object
 from joshua_core.options import OptionSet
 from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
@@ -64,7 +65,7 @@ from joshua_core.tasks import METRIC_PREFIX, REWARD_PREFIX
 from joshua_mjx import MjxEnv, Physics
 from joshua_mjx.physics import mjx
 from joshua_ppo import offpolicy_iteration, offpolicy_train
-from joshua_ppo.checkpoints import checkpoint_payloads, load_state, read_json, resume_payloads, write_payloads
+from joshua_ppo.checkpoints import checkpoint_payloads, load_state, resume_payloads, write_payloads
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import environment as ppo_environment
 from joshua_ppo.normalizer import RunningStatistics
@@ -153,7 +154,7 @@ class Resumed(NamedTuple):
 def resume_from(folder: Path, env: MjxEnv, trainer: Learner) -> Resumed:
     """The run saved in `folder` (an earlier --out), on `env` (its environments freshly reset)."""
     state, progress = trainer.load(folder / "state", env)
-    return Resumed(state, progress, read_json(folder / "time_to_target.json"))
+    return Resumed(state, progress, read_json_object(folder / "time_to_target.json", "the bench's record"))
 
 
 def evaluated(resume: Resumed | None, taken: list[dict], results: list[dict[str, Any]]) -> list[dict[str, Any]]:
