@@ -49,6 +49,11 @@ if [[ -z $PYTHON ]]; then
   command -v "$PYTHON" >/dev/null || PYTHON=python3
 fi
 [[ $PYTHON =~ ^[0-9]+\.[0-9]+$ ]] && PYTHON=python$PYTHON  # --python 3.12
+# pyenv's shim for python3.12 refuses to run unless 3.12 is selected (pyenv shell/local); take the newest 3.12 it has
+if ! "$PYTHON" -c '' 2>/dev/null && [[ $PYTHON =~ ^python(3\.[0-9]+)$ ]] && command -v pyenv >/dev/null; then
+  pyenv_version=$(pyenv versions --bare 2>/dev/null | grep -E "^${BASH_REMATCH[1]//./\\.}\.[0-9]+$" | sort -V | tail -1)
+  [[ -n $pyenv_version ]] && PYTHON=$(pyenv root)/versions/$pyenv_version/bin/$PYTHON
+fi
 if ! python_version=$("$PYTHON" -c 'import sys; print("%d.%d" % sys.version_info[:2])' 2>/dev/null); then
   echo "setup: cannot run Python '$PYTHON' (PYTHON or --python)" >&2
   exit 2
