@@ -3,7 +3,7 @@
 # checkout can hold both):
 #   PYTHON=python3.12 ./setup.sh --dev   or   ./setup.sh --dev --python 3.12   (an X.Y, a command or a path)
 #   ./setup.sh          the runtime: joshua-core, joshua-render (rendering, video, viewer), the joshua-mujoco backend,
-#                       joshua-modes (viewer, replay, offscreen)
+#                       joshua-modes (viewer, replay, offscreen), joshua-tasks (the robots' tasks)
 #   ./setup.sh --all    every plugin and the web display (viser): also joshua-mirror (rclpy + Fast DDS wheels, no ROS install),
 #                       joshua-sb3 (stable-baselines3 with torch: its CPU wheel on 3.11), joshua-mjx and joshua-ppo
 #                       (MJX with MuJoCo Warp, JAX, Flax, Optax; JAX for the CPU: on a GPU machine add
@@ -119,7 +119,7 @@ if [[ $option == --dev ]] && ! cmp -s "$LEROBOT_REQUIREMENTS" "$lerobot_site/req
   trap 'kill $lerobot_job 2>/dev/null || true' EXIT  # a setup that stops early stops it too
 fi
 
-requirements=(-e . -e plugins/joshua-render -e plugins/joshua-mujoco -e plugins/joshua-modes)
+requirements=(-e . -e plugins/joshua-render -e plugins/joshua-mujoco -e plugins/joshua-modes -e plugins/joshua-tasks)
 if [[ -n $option ]]; then
   requirements=("${requirements[@]/plugins\/joshua-render/plugins/joshua-render[web]}")  # --web: the browser display
   requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e 'plugins/joshua-mjx[warp]' -e plugins/joshua-ppo -e plugins/joshua-usd -e plugins/joshua-sysid -e plugins/joshua-export -e plugins/joshua-lerobot)

@@ -34,7 +34,7 @@ COUNTED = {"task", "term"}  # many names: shown as a count
 def description(distribution: str, provided: dict[str, list[str]]) -> str:
     """One line of what a distribution registers."""
     if distribution == CORE:
-        return "config, plugin host, ABCs, tasks, run folders, CLI"
+        return "config, plugin host, ABCs, task layer, run folders, CLI"
     if not provided:
         return "a library: registers nothing"
     parts = []

@@ -1,11 +1,13 @@
-"""JOSHUA's own plugin: the components that ship with joshua-core and need no other distribution."""
+"""JOSHUA's own plugin: the components that ship with joshua-core and need no other distribution.
+
+It registers no task: robot tasks live with the plugin that provides the robot, or in joshua-tasks.
+"""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
 from joshua_core.hookspecs import hookimpl
-from joshua_core.tasks.builtin import BUILTIN_TASKS
 from joshua_core.tasks.grasping import GRASP_TERMS
 from joshua_core.tasks.randomization import RANDOMIZATION_TERMS
 from joshua_core.tasks.terms import BUILTIN_TERMS
@@ -21,12 +23,6 @@ def joshua_register_modes(registry: Registrar) -> None:
         "joshua_core.headless:HeadlessMode",
         "physics only, no rendering: steps the model, checks it stays finite, reports speed",
     )
-
-
-@hookimpl
-def joshua_register_tasks(registry: Registrar) -> None:
-    for name, spec in BUILTIN_TASKS.items():
-        registry.add(name, spec, spec.summary)
 
 
 @hookimpl

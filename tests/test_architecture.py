@@ -102,7 +102,9 @@ def test_arrows_one_way_rules_are_found(tmp_path: Path) -> None:
     check = load_tool("check_architecture")
     catalog = json.loads((REPO_ROOT / "joshua_core" / "providers.json").read_text())
     trainer = next(name for name, provided in catalog.items() if "trainer" in provided)
-    backend, task = next((name, provided["task"][0]) for name, provided in catalog.items() if "task" in provided)
+    backend, task = next(
+        (name, provided["task"][0]) for name, provided in catalog.items() if {"task", "backend"} <= set(provided)
+    )
     mode = next(name for name, provided in catalog.items() if "mode" in provided and "backend" not in provided)
     fake_repository(tmp_path, {})
     backend_package = plugin(
@@ -116,6 +118,36 @@ def test_arrows_one_way_rules_are_found(tmp_path: Path) -> None:
     assert f"api.py:1: trainer {trainer} imports backend {backend_package}; ask the run for environments" in lines
     assert f"run.py:1: {mode} imports {backend_package}.DemoEngine, a backend's class" in lines
     assert f"run.py:2: names {backend}'s task '{task}'" in lines
+
+
+def test_a_task_the_core_defines_is_found(tmp_path: Path) -> None:
+    """A TaskSpec constructed in the core, or a task hook implemented there, is a finding; in a plugin neither is."""
+    check = load_tool("check_architecture")
+    task = 'TaskSpec(name="arm_reach", model_path="arm/scene.xml")\n'
+    hook = "@hookimpl\ndef joshua_register_tasks(registry):\n    pass\n"
+    fake_repository(
+        tmp_path,
+        {
+            "joshua_core/tasks.py": f"from joshua_core.spec import TaskSpec\nARM = {task}",
+            "joshua_core/own_plugin.py": f"from joshua_core.hooks import hookimpl\n{hook}",
+            "joshua_core/hooks.py": "@hookspec\ndef joshua_register_tasks(registry):\n    pass\n",  # the spec
+        },
+    )
+    plugin(tmp_path, "joshua-arm", {"tasks.py": f"from joshua_core import spec\nARM = spec.{task}", "plugin.py": hook})
+    found = check.findings(tmp_path)
+    assert len(found) == 2, found
+    lines = "\n".join(found)
+    assert "joshua_core/tasks.py:2: the core constructs a TaskSpec; a robot's tasks live with the plugin" in lines
+    assert "joshua_core/own_plugin.py:3: the core implements joshua_register_tasks" in lines
+
+
+def test_the_core_task_rule_names_the_real_class_and_hook() -> None:
+    """The rule above looks for names the core defines: a rename would let it pass without looking at anything."""
+    check = load_tool("check_architecture")
+    spec = (REPO_ROOT / "joshua_core" / "tasks" / "spec.py").read_text(encoding="utf-8")
+    hooks = (REPO_ROOT / "joshua_core" / "hookspecs.py").read_text(encoding="utf-8")
+    assert f"\nclass {check.TASK_CLASS}:" in spec
+    assert f"@hookspec\ndef {check.TASK_HOOK}(" in hooks
 
 
 def test_the_layer_picture_is_drawn_from_the_current_imports() -> None:

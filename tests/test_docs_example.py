@@ -182,7 +182,7 @@ def test_the_third_party_trainer_reuses_what_the_core_and_backend_offer(tmp_path
     from joshua_core.resources import resolve_data_path
     from joshua_core.run_context import RunContext
     from joshua_core.runs import CONFIG_FILE, list_runs
-    from joshua_core.tasks.builtin import BUILTIN_TASKS
+    from joshua_tasks import TASKS
 
     sys.path.insert(0, str(REPO_ROOT / "docs" / "examples" / "random_trainer"))
     try:
@@ -196,15 +196,17 @@ def test_the_third_party_trainer_reuses_what_the_core_and_backend_offer(tmp_path
             registry.add("random", random_trainer.RandomTrainer, "random actions", env_kinds=("numpy",))
 
     import joshua_mujoco.plugin
+    import joshua_tasks.plugin
 
     host = PluginHost(
         [
             (PluginInfo("core", "joshua-core", "0", "core"), builtin_plugin),
             (PluginInfo("mujoco", "joshua-mujoco", "0", "joshua_mujoco.plugin"), joshua_mujoco.plugin),
+            (PluginInfo("tasks", "joshua-tasks", "0", "joshua_tasks.plugin"), joshua_tasks.plugin),
             (PluginInfo("random", "joshua-random", "0", "random_trainer"), RandomPlugin()),
         ]
     )
-    spec = BUILTIN_TASKS["so_arm100_reach"]
+    spec = TASKS["so_arm100_reach"]
     training = TrainingConfig(
         trainer="random",
         backend="mujoco",

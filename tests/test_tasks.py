@@ -21,10 +21,10 @@ from joshua_core.errors import ConfigError
 from joshua_core.plugins import PluginHost, PluginInfo, Registrar
 from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import BoundTerm, Task, TaskSpec, TermContext, TermKind, TermSpec, build_task, load_task_spec
-from joshua_core.tasks.builtin import BUILTIN_TASKS
 from joshua_core.tasks.grasping import GRASP_TERMS
 from joshua_core.tasks.handles import Actuators, Body, Joints, resolve_handle
 from joshua_core.tasks.terms import BUILTIN_TERMS
+from joshua_tasks import TASKS
 
 NUM_ENVS = 4
 # Built-in terms no built-in task uses, with parameters for the SO-ARM100 scene.
@@ -175,7 +175,7 @@ def on_jax(term: BoundTerm, ctx: TermContext, random: ReplayRandom | None) -> An
 
 def all_bound_terms(plugins: PluginHost) -> list[tuple[Task, mujoco.MjModel, BoundTerm]]:
     found = []
-    for spec in (*BUILTIN_TASKS.values(), EXTRA_TERMS, EXTRA_ANT_TERMS):
+    for spec in (*TASKS.values(), EXTRA_TERMS, EXTRA_ANT_TERMS):
         model = compile_model(spec)
         task = build_task(spec, model, plugins)
         for kind in TermKind:
@@ -227,14 +227,14 @@ def test_every_builtin_term_gives_the_same_values_on_numpy_and_in_jax_jit(plugin
 
 def test_every_builtin_task_builds_and_reads_only_what_it_needs(plugins: PluginHost) -> None:
     sizes = {}
-    for name, spec in BUILTIN_TASKS.items():
+    for name, spec in TASKS.items():
         task = build_task(load_task_spec(name, plugins), compile_model(spec), plugins)
         sizes[name] = task.observation_size
         assert {"qpos", "action"} <= task.fields
     assert sizes["ant_locomotion"] == 105  # Gymnasium Ant-v5: 13 qpos + 14 qvel + 13 bodies x 6 forces
-    ant = build_task(BUILTIN_TASKS["ant_locomotion"], compile_model(BUILTIN_TASKS["ant_locomotion"]), plugins)
+    ant = build_task(TASKS["ant_locomotion"], compile_model(TASKS["ant_locomotion"]), plugins)
     assert "cfrc_ext" in ant.fields and "site_xpos" not in ant.fields
-    pick_place = build_task("so_arm100_pick_place", compile_model(BUILTIN_TASKS["so_arm100_pick_place"]), plugins)
+    pick_place = build_task("so_arm100_pick_place", compile_model(TASKS["so_arm100_pick_place"]), plugins)
     layout = dict(pick_place.observation_layout)  # (name, width) of each observation term, in order
     assert [name for name, _ in pick_place.observation_layout] == [t.name for t in pick_place.observation_terms]
     assert layout["joint_vel"] == 6 and layout["touch_fixed"] == 1 and sum(layout.values()) == sizes[pick_place.name]
@@ -245,7 +245,7 @@ def task_config(text: str) -> TaskConfig:
 
 
 def build_reach(plugins: PluginHost, config_text: str) -> Task:
-    spec = BUILTIN_TASKS["so_arm100_reach"]
+    spec = TASKS["so_arm100_reach"]
     return build_task("so_arm100_reach", compile_model(spec), plugins, task_config(config_text))
 
 
@@ -322,7 +322,7 @@ def test_config_keyframe_sets_where_episodes_start_and_an_unknown_one_lists_the_
 
 def test_term_returning_the_wrong_shape_is_reported(plugins: PluginHost) -> None:
     spec = dataclasses.replace(
-        BUILTIN_TASKS["so_arm100_reach"], rewards=(TermSpec("site_pos", params={"site": "gripper"}, name="where"),)
+        TASKS["so_arm100_reach"], rewards=(TermSpec("site_pos", params={"site": "gripper"}, name="where"),)
     )
     with pytest.raises(ConfigError, match=r"reward term 'where' \(site_pos\) returned shape \(2, 3\); expected \(N,\)"):
         build_task(spec, compile_model(spec), plugins)
@@ -343,7 +343,7 @@ def test_plugins_add_terms_and_tasks_through_the_hooks() -> None:
             registry.add(
                 "tall_ant",
                 lambda: dataclasses.replace(
-                    BUILTIN_TASKS["ant_locomotion"],
+                    TASKS["ant_locomotion"],
                     name="tall_ant",
                     rewards=(TermSpec("height_bonus", 2.0, {"scale": 0.5}),),
                 ),
@@ -358,7 +358,7 @@ def test_plugins_add_terms_and_tasks_through_the_hooks() -> None:
             (PluginInfo("tall", "joshua-tall", "0", "test"), TallAntPlugin()),
         ]
     )
-    model = compile_model(BUILTIN_TASKS["ant_locomotion"])
+    model = compile_model(TASKS["ant_locomotion"])
     task = build_task("tall_ant", model, host)
     ctx = TermContext(xp=np, dt=task.dt, qpos=np.array([[0.0, 0.0, 0.6] + [0.0] * (model.nq - 3)]))
     total, terms = task.rewards(ctx)
@@ -377,13 +377,13 @@ def test_every_training_preset_names_a_task_that_builds_on_its_model(plugins: Pl
             model = load_model(Path(training.model_path), plugins=plugins)
             task = build_task(training.task, model, plugins, training.task_config)
             checked.append(task.name)
-    assert set(BUILTIN_TASKS) <= set(checked)
+    assert set(TASKS) <= set(checked)
 
 
 def test_whole_tasks_run_inside_jax_jit_with_a_jax_random_key(plugins: PluginHost) -> None:
     from joshua_core.tasks import JaxRandom
 
-    for spec in BUILTIN_TASKS.values():
+    for spec in TASKS.values():
         model = compile_model(spec)
         task = build_task(spec, model, plugins)
         ctx = random_states(task, model, seed=5)
@@ -411,7 +411,7 @@ def test_whole_tasks_run_inside_jax_jit_with_a_jax_random_key(plugins: PluginHos
 
 
 def test_delta_actions_move_the_controls_in_force_and_start_from_the_keyframe(plugins: PluginHost) -> None:
-    spec = BUILTIN_TASKS["so_arm100_reach"]
+    spec = TASKS["so_arm100_reach"]
     model = compile_model(spec)
     task = build_reach(plugins, 'action { mode: "delta" scale: 0.1 }')
     assert task.delta_actions and task.spec.action.scale == 0.1

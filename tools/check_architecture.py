@@ -14,6 +14,8 @@
   `PluginHost.backend`);
 - no source names, as a string, a task another distribution registers: a task's other names are its own
   (`TaskSpec.aliases`), declared by the plugin that provides it;
+- the core defines no task: it constructs no `TaskSpec` and implements no `joshua_register_tasks` hook. It owns the
+  task machinery; a robot's tasks live with the plugin that provides the robot, or in joshua-tasks;
 - `PluginHost.discover()` only in the entry points listed in ENTRY_POINTS: library code takes the run's host;
 - no source file over 600 lines and no function over 120, unless the file says "long because" (a reason).
   Split by meaning, never to meet these numbers.
@@ -47,6 +49,10 @@ ENTRY_POINTS = {
     ("joshua_sb3.task_envs", "task_vec_env"): "documented convenience: any task as an SB3 VecEnv (docs/usd.md)",
     ("joshua_sb3.task_envs", "alias_env"): "`from joshua_sb3 import AntEnv`: a task's alias (docs/usd.md)",
 }
+# The class a task is written as, and the hook that registers tasks: the core constructs the one and implements
+# the other nowhere (tests/test_architecture.py checks that the core still defines both under these names).
+TASK_CLASS = "TaskSpec"
+TASK_HOOK = "joshua_register_tasks"
 MAX_LINES = 600
 MAX_FUNCTION_LINES = 120
 EXCUSE = "long because"
@@ -114,6 +120,21 @@ def foreign_tasks(path: Path, distribution: str, tasks: dict[str, str]) -> list[
     ]
 
 
+def task_definitions(path: Path) -> list[tuple[int, str]]:
+    """(line, what) of each task a file defines: a `TaskSpec(...)` call, or an implementation (`@hookimpl`) of the
+    task registration hook."""
+    found: list[tuple[int, str]] = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Call):
+            called = node.func.id if isinstance(node.func, ast.Name) else getattr(node.func, "attr", None)
+            if called == TASK_CLASS:
+                found.append((node.lineno, f"constructs a {TASK_CLASS}"))
+        elif isinstance(node, ast.FunctionDef) and node.name == TASK_HOOK:
+            if any(ast.unparse(decorator).split(".")[-1] == "hookimpl" for decorator in node.decorator_list):
+                found.append((node.lineno, f"implements {TASK_HOOK}"))
+    return found
+
+
 def discover_calls(path: Path) -> list[tuple[int, str | None]]:
     """(line, enclosing function) of each `....discover(...)` call in a file."""
     found: list[tuple[int, str | None]] = []
@@ -171,6 +192,12 @@ def findings(root: Path = ROOT) -> list[str]:
                 for name in item.names or ("(the whole module)",):
                     if name not in exported:
                         found.append(f"{where}:{item.line}: {other.name}.{name} is not in {other.name}.__all__")
+        if package.name == "joshua_core":
+            for line, what in task_definitions(path):
+                found.append(
+                    f"{where}:{line}: the core {what}; a robot's tasks live with the plugin that provides the robot "
+                    "or in joshua-tasks"
+                )
         for line, function in discover_calls(path):
             if (module, function) not in ENTRY_POINTS:
                 found.append(

@@ -18,8 +18,8 @@ from numpy.typing import NDArray
 from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import UsageError
 from joshua_core.plugins import PluginHost
-from joshua_core.tasks.builtin import ARMS, pick_place
 from joshua_lerobot.rollouts import EpisodeProducer, Rollout, frame_stride
+from joshua_tasks import ARMS, pick_place
 
 SCRIPTED_TASKS = tuple(pick_place(arm).name for arm in ARMS)  # the tasks PickPlaceScript solves
 

@@ -19,8 +19,8 @@ from joshua_core.errors import ConfigError
 from joshua_core.kinds import Kind
 from joshua_core.plugins import PluginHost
 from joshua_core.resources import resolve_data_path
-from joshua_core.tasks.builtin import BUILTIN_TASKS
 from joshua_mujoco.vector import BatchedVectorEnv, make_vector_env, vector_env_from_config
+from joshua_tasks import TASKS
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +33,7 @@ def run(env: BatchedVectorEnv, steps: int, seed: int) -> list[tuple[np.ndarray, 
     return [env.step(rng.uniform(-1.2, 1.2, env.action_space.shape))[:4] for _ in range(steps)]
 
 
-@pytest.mark.parametrize("task", sorted(BUILTIN_TASKS))
+@pytest.mark.parametrize("task", sorted(TASKS))
 def test_every_task_steps_1000_times_without_nan(task: str, plugins: PluginHost) -> None:
     env = make_vector_env(task, 4, seed=1, plugins=plugins)
     assert env.single_observation_space.dtype == np.float32 and env.single_action_space.dtype == np.float32
@@ -167,14 +167,14 @@ def test_gymnasium_make_for_every_registered_task(plugins: PluginHost) -> None:
     made = done.stdout.split()
     assert made == [joshua_mujoco.envs.env_id(task) for task in plugins.names(Kind.TASK)]
     assert {"joshua/SoArm100Reach-v0", "joshua/AntLocomotion-v0", "joshua/IsaacAntLocomotion-v0"} <= set(made)
-    assert set(BUILTIN_TASKS) <= set(plugins.names(Kind.TASK))
+    assert set(TASKS) <= set(plugins.names(Kind.TASK))
     vector = gymnasium.make_vec("joshua/SoArm100Reach-v0", num_envs=2, vectorization_mode="vector_entry_point")
     assert isinstance(vector, BatchedVectorEnv) and vector.num_envs == 2
 
 
 def test_gymnasium_make_sets_the_time_limit_and_dt_of_the_task() -> None:
     env = gymnasium.make("joshua/AntLocomotion-v0")
-    spec = BUILTIN_TASKS["ant_locomotion"]
+    spec = TASKS["ant_locomotion"]
     assert env.spec.max_episode_steps == spec.episode_length == 1000
     assert env.unwrapped.dt == pytest.approx(0.05)  # frame skip 5 x 0.01 s, as Ant-v5
     env.reset(seed=0)

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import joshua_ppo.plugin
+import joshua_tasks.plugin
 from joshua_core import builtin_plugin, hookimpl
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
@@ -59,13 +60,15 @@ def joshua_register_backends(registry: Any) -> None:
 
 
 def host() -> PluginHost:
-    """The core, the ppo trainer and the test backends; neither joshua-mujoco's nor joshua-mjx's plugin."""
+    """The core, the ppo trainer, the robot tasks and the test backends; neither joshua-mujoco's nor joshua-mjx's
+    plugin."""
     test_plugin = ModuleType("test_backends")
     test_plugin.joshua_register_backends = joshua_register_backends  # type: ignore[attr-defined]
     return PluginHost(
         [
             (PluginInfo("core", "joshua-core", "0", "builtin"), builtin_plugin),
             (PluginInfo("ppo", "joshua-ppo", "0", "joshua_ppo.plugin"), joshua_ppo.plugin),
+            (PluginInfo("tasks", "joshua-tasks", "0", "joshua_tasks.plugin"), joshua_tasks.plugin),
             (PluginInfo("test", "test-backends", "0", "test_backends"), test_plugin),
         ]
     )
