@@ -7,7 +7,7 @@
 #   ./setup.sh --all    every plugin and the web display (viser): also joshua-mirror (rclpy + Fast DDS wheels, no ROS install),
 #                       joshua-sb3 (stable-baselines3 with torch: its CPU wheel on 3.11), joshua-mjx and joshua-ppo
 #                       (MJX with MuJoCo Warp, JAX, Flax, Optax; JAX for the CPU: on a GPU machine add
-#                       pip install "jax[cuda13]")
+#                       pip install "jax[cuda13]") with joshua-jax, the compile cache they share
 #                       joshua-usd with its physx extra (usd-core: USD robots on MuJoCo, export to Isaac; ovphysx,
 #                       ovstage and physx-usd-schemas: PhysX and its USD schemas, ~203 MB of wheels), joshua-sysid
 #                       (joshua sysid: fit servo and joint parameters to recordings with mujoco.sysid),
@@ -122,7 +122,7 @@ fi
 requirements=(-e . -e plugins/joshua-render -e plugins/joshua-mujoco -e plugins/joshua-modes -e plugins/joshua-tasks)
 if [[ -n $option ]]; then
   requirements=("${requirements[@]/plugins\/joshua-render/plugins/joshua-render[web]}")  # --web: the browser display
-  requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e 'plugins/joshua-mjx[warp]' -e plugins/joshua-ppo -e plugins/joshua-usd -e plugins/joshua-sysid -e plugins/joshua-export -e plugins/joshua-lerobot)
+  requirements+=(-e plugins/joshua-mirror -e plugins/joshua-sb3 -e plugins/joshua-jax -e 'plugins/joshua-mjx[warp]' -e plugins/joshua-ppo -e plugins/joshua-usd -e plugins/joshua-sysid -e plugins/joshua-export -e plugins/joshua-lerobot)
   # torch first, pinned: then stable-baselines3 finds it installed and pulls nothing more. On 3.11 the pin is the
   # CPU wheel; for 3.12 PyPI has only CUDA builds, and constraints.txt pins the one that downloads least
   echo "setup: installing torch into $venv"

@@ -9,7 +9,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from joshua_core import __version__, catalog
-from joshua_core.compile_cache import NO_CACHE_ENV_VAR, add_no_cache_argument, apply_no_cache
 from joshua_core.config import (
     LoadedConfig,
     apply_override,
@@ -27,7 +26,7 @@ from joshua_core.errors import JoshuaError, PluginNotFoundError, UsageError
 from joshua_core.interrupts import reported
 from joshua_core.kinds import Kind
 from joshua_core.options import LENIENT, OptionSet
-from joshua_core.outputs import check_name, user_cache_dir
+from joshua_core.outputs import NO_CACHE_ENV_VAR, add_no_cache_argument, apply_no_cache, check_name, user_cache_dir
 from joshua_core.plugins import DISABLE_ENV_VAR, PluginHost
 from joshua_core.run_context import RunContext
 

@@ -19,12 +19,12 @@ from typing import TYPE_CHECKING
 
 from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.cli import writable_file
-from joshua_core.compile_cache import add_no_cache_argument, apply_no_cache
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Command, EpisodeResults, PolicyFormat
 from joshua_core.json_files import read_json_object
 from joshua_core.kinds import Kind
 from joshua_core.limits import cli_number
+from joshua_core.outputs import add_no_cache_argument, apply_no_cache
 from joshua_core.run_context import RunContext
 from joshua_core.runs import CONFIG_FILE, add_checkpoint_arguments, read_run_config
 from joshua_core.statistics import report_lines, summarize

@@ -1,6 +1,8 @@
 """Where JOSHUA writes: names that become paths, writes kept inside their folder, folders it may replace.
 
-Compiled programs and other per-user state that a run may rebuild live in `user_cache_dir()`.
+Compiled programs and other per-user state that a run may rebuild live in `user_cache_dir()`. Whether a program
+may use it is one switch, `--no-cache` or `JOSHUA_NO_CACHE=1` (`cache_enabled()`): the core declares and sets it,
+and the plugins that keep compiled programs there (joshua-jax) read it, so the core knows no compiler's cache.
 
 A name the user chooses for something JOSHUA creates (a run, an output folder, an output file) is one plain
 path component, so that it cannot lead outside the folder it is made in. A folder JOSHUA writes whole (a
@@ -10,6 +12,7 @@ asked for it (`--overwrite`): JOSHUA never deletes what it did not make.
 
 from __future__ import annotations
 
+import argparse
 import os
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -19,6 +22,7 @@ from joshua_core.atomic import atomic_directory
 from joshua_core.errors import UsageError
 
 CACHE_HOME_ENV_VAR = "XDG_CACHE_HOME"
+NO_CACHE_ENV_VAR = "JOSHUA_NO_CACHE"  # set, the caches in user_cache_dir() are neither read nor kept
 MARKER = ".joshua-output"  # in every folder JOSHUA writes whole: what tells it apart from the user's folders
 MAX_NAME_BYTES = 255  # the longest file name Linux and macOS file systems take
 _SHOWN = 60  # characters of a refused name that the message shows
@@ -30,6 +34,26 @@ def user_cache_dir() -> Path:
     home = Path(os.environ.get(CACHE_HOME_ENV_VAR, "")).expanduser()
     base = home if home.is_absolute() else Path.home() / ".cache"  # the rule: a relative path is ignored
     return base / "joshua"
+
+
+def cache_enabled() -> bool:
+    """False when JOSHUA_NO_CACHE is set to anything but '', '0', 'false' or 'no' (what --no-cache sets)."""
+    return os.environ.get(NO_CACHE_ENV_VAR, "").strip().lower() in ("", "0", "false", "no")
+
+
+def add_no_cache_argument(parser: argparse.ArgumentParser) -> None:
+    """Declare `--no-cache`, the way every command that compiles takes it; `apply_no_cache` acts on it."""
+    parser.add_argument(
+        "--no-cache",
+        action="store_true",
+        help=f"neither read nor keep compiled programs in {user_cache_dir()} (same as {NO_CACHE_ENV_VAR}=1)",
+    )
+
+
+def apply_no_cache(args: argparse.Namespace) -> None:
+    """With `--no-cache`, turn caching off for this process and the processes it starts (through the variable)."""
+    if args.no_cache:
+        os.environ[NO_CACHE_ENV_VAR] = "1"
 
 
 def check_name(name: str, what: str) -> str:

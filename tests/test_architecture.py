@@ -120,6 +120,26 @@ def test_arrows_one_way_rules_are_found(tmp_path: Path) -> None:
     assert f"run.py:2: names {backend}'s task '{task}'" in lines
 
 
+def test_a_compile_cache_in_the_core_is_found(tmp_path: Path) -> None:
+    """The core may trace with JAX, but Warp and the compile caches' settings are joshua-jax's."""
+    check = load_tool("check_architecture")
+    fake_repository(
+        tmp_path,
+        {
+            "joshua_core/random.py": "def key():\n    import jax\n    return jax.random.key(0)\n",
+            "joshua_core/cache.py": (
+                "import os\nimport jax\n\ndef keep(folder):\n    import warp\n"
+                '    jax.config.update("jax_compilation_cache_dir", folder)\n'
+                "    warp.config.kernel_cache_dir = folder\n"
+                '    return os.environ.get("WARP_CACHE_PATH")\n'
+            ),
+        },
+    )
+    found = check.findings(tmp_path)
+    assert [line.split(": ")[0] for line in found] == [f"joshua_core/cache.py:{line}" for line in (5, 6, 7, 8)], found
+    assert "the core imports warp" in found[0] and "compile-cache setting jax_compilation_cache_dir" in found[1]
+
+
 def test_a_task_the_core_defines_is_found(tmp_path: Path) -> None:
     """A TaskSpec constructed in the core, or a task hook implemented there, is a finding; in a plugin neither is."""
     check = load_tool("check_architecture")

@@ -1,14 +1,28 @@
-"""joshua_core.outputs: names that become paths are one plain component, writes stay inside their folder, and
-only a folder joshua wrote is ever replaced."""
+"""joshua_core.outputs: names that become paths are one plain component, writes stay inside their folder, only a
+folder joshua wrote is ever replaced, and the user's cache folder follows XDG with one switch to leave it unused
+(--no-cache, JOSHUA_NO_CACHE; what joshua-jax keeps there: its tests/test_compile_cache.py)."""
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import pytest
 
+from joshua_core.cli import build_parser
 from joshua_core.errors import UsageError
-from joshua_core.outputs import MARKER, check_inside, check_name, check_replaceable, output_folder
+from joshua_core.evaluation import EvalCommand
+from joshua_core.outputs import (
+    MARKER,
+    NO_CACHE_ENV_VAR,
+    apply_no_cache,
+    cache_enabled,
+    check_inside,
+    check_name,
+    check_replaceable,
+    output_folder,
+    user_cache_dir,
+)
 from joshua_core.runs import check_run_name, create_run, open_run
 
 
@@ -114,3 +128,31 @@ def test_an_out_folder_where_nothing_can_be_made_is_one_line(capsys: pytest.Capt
     assert main(["lerobot-export", example, "--out", "/proc/nope"]) == 2  # /proc takes no new folder, even as root
     error = capsys.readouterr().err
     assert error.count("\n") == 1 and error.startswith("joshua: error: /proc/") and "Traceback" not in error, error
+
+
+def test_user_cache_dir_follows_xdg(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert user_cache_dir() == tmp_path / "joshua"
+    monkeypatch.setenv("XDG_CACHE_HOME", "relative/cache")  # the XDG rule: a relative path is ignored
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert user_cache_dir() == tmp_path / "home" / ".cache" / "joshua"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    assert user_cache_dir() == tmp_path / "home" / ".cache" / "joshua"
+
+
+@pytest.mark.parametrize("value, enabled", [("", True), ("0", True), ("false", True), ("1", False), ("yes", False)])
+def test_the_no_cache_variable_values(monkeypatch: pytest.MonkeyPatch, value: str, enabled: bool) -> None:
+    monkeypatch.setenv(NO_CACHE_ENV_VAR, value)
+    assert cache_enabled() is enabled
+
+
+def test_no_cache_on_the_command_line_sets_the_variable(monkeypatch: pytest.MonkeyPatch) -> None:
+    eval_parser = argparse.ArgumentParser()
+    EvalCommand().add_arguments(eval_parser)
+    for args in (build_parser().parse_args(["--no-cache"]), eval_parser.parse_args(["some_run", "--no-cache"])):
+        monkeypatch.delenv(NO_CACHE_ENV_VAR, raising=False)
+        apply_no_cache(args)
+        assert not cache_enabled()
+    monkeypatch.delenv(NO_CACHE_ENV_VAR)
+    apply_no_cache(build_parser().parse_args([]))
+    assert cache_enabled()

@@ -6,6 +6,9 @@
   (imports inside functions count: a function-local import does not open a circle; `if TYPE_CHECKING:` ones
   do not, they never run);
 - the core imports no plugin;
+- the core imports no Warp and names no compile-cache setting of JAX or Warp (COMPILE_CACHE_SETTINGS): the caches
+  are joshua-jax's, and the core only declares the switch that turns them off (`joshua_core.outputs`). The core
+  may import JAX itself: tasks are traced in `jax.jit` (`joshua_core.tasks.context.JaxRandom`);
 - a plugin imports from another only the names that one lists in its `__init__.py` `__all__`;
 - a backend distribution never imports a trainer distribution, and a trainer distribution never imports a backend
   one: trainers ask the run for environments (which is which: what each registers, `joshua_core/providers.json`);
@@ -48,6 +51,17 @@ ENTRY_POINTS = {
     ("joshua_mjx.env", "make_mjx_env"): "documented convenience (joshua-mjx README)",
     ("joshua_sb3.task_envs", "task_vec_env"): "documented convenience: any task as an SB3 VecEnv (docs/usd.md)",
     ("joshua_sb3.task_envs", "alias_env"): "`from joshua_sb3 import AntEnv`: a task's alias (docs/usd.md)",
+}
+# JAX's and Warp's settings of their compile caches (config options, attributes, environment variables)
+COMPILE_CACHE_SETTINGS = {
+    "jax_compilation_cache_dir",
+    "jax_enable_compilation_cache",
+    "jax_persistent_cache_min_compile_time_secs",
+    "jax_persistent_cache_min_entry_size_bytes",
+    "JAX_COMPILATION_CACHE_DIR",
+    "kernel_cache_dir",
+    "cache_kernels",
+    "WARP_CACHE_PATH",
 }
 # The class a task is written as, and the hook that registers tasks: the core constructs the one and implements
 # the other nowhere (tests/test_architecture.py checks that the core still defines both under these names).
@@ -120,6 +134,39 @@ def foreign_tasks(path: Path, distribution: str, tasks: dict[str, str]) -> list[
     ]
 
 
+def compile_cache_settings(path: Path) -> list[tuple[int, str]]:
+    """(line, setting) of each name, attribute or string in a file that is one of COMPILE_CACHE_SETTINGS."""
+    found: list[tuple[int, str]] = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Attribute):
+            name = node.attr
+        elif isinstance(node, ast.Name):
+            name = node.id
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
+            name = node.value
+        else:
+            continue
+        if name in COMPILE_CACHE_SETTINGS:
+            found.append((node.lineno, name))
+    return sorted(found)
+
+
+def compile_caches_in_core(path: Path, imports: list[Import], root: Path) -> list[str]:
+    """What a core module breaks of the compile-cache rule: an import of Warp, a cache setting of JAX or Warp."""
+    where = path.relative_to(root)
+    found = [
+        f"{where}:{item.line}: the core imports {item.target}; Warp is a plugin's (joshua-mjx, joshua-jax)"
+        for item in imports
+        if item.target.split(".")[0] == "warp"
+    ]
+    found += [
+        f"{where}:{line}: the core names the compile-cache setting {name}; the caches are joshua-jax's "
+        "(the core has only the switch, joshua_core.outputs.cache_enabled)"
+        for line, name in compile_cache_settings(path)
+    ]
+    return found
+
+
 def task_definitions(path: Path) -> list[tuple[int, str]]:
     """(line, what) of each task a file defines: a `TaskSpec(...)` call, or an implementation (`@hookimpl`) of the
     task registration hook."""
@@ -177,6 +224,8 @@ def findings(root: Path = ROOT) -> list[str]:
     for module, (package, path, imports) in modules.items():
         by_package.setdefault(package.name, {})[module] = imports
         where = path.relative_to(root)
+        if package.name == "joshua_core":
+            found += compile_caches_in_core(path, imports, root)
         for item in imports:
             other = known.get(item.target.split(".")[0])
             if other is None or other.name == package.name or other.name == "joshua_core":

@@ -8,9 +8,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from joshua_core.compile_cache import use_compile_cache
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Backend, EnvKind, EnvSpec
+from joshua_jax import use_compile_cache
 from joshua_mjx.engine import MjxEngine, mjx_variant
 from joshua_mjx.env import MjxEnv, mjx_envs
 from joshua_mjx.impl import Physics

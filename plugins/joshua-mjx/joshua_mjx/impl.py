@@ -27,8 +27,8 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from joshua_core.compile_cache import building_into
 from joshua_core.errors import ConfigError, ModelError
+from joshua_jax import building_into
 from joshua_mjx.engine import put_model as put_jax_model
 from joshua_mjx.physics import mjx
 

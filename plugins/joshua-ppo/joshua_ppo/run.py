@@ -19,7 +19,6 @@ import jax
 import numpy as np
 
 from joshua_core.atomic import atomic_write_json, json_safe
-from joshua_core.compile_cache import CompileCache, cache_reads
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.curves import write_training_curves
 from joshua_core.options import message_to_dict, options_of
@@ -28,6 +27,7 @@ from joshua_core.run_context import RunContext
 from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
 from joshua_core.statistics import SUCCESS_METRIC
 from joshua_core.tasks import METRIC_PREFIX
+from joshua_jax import CompileCache, cache_reads
 from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import RUN_FORMAT, checkpoint_payloads, read_metrics, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings

@@ -13,7 +13,6 @@ from typing import Any
 import jax
 
 from joshua_core.atomic import atomic_write_json
-from joshua_core.compile_cache import CompileCache, use_compile_cache
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.determinism import use_determinism
 from joshua_core.errors import ConfigError
@@ -32,6 +31,7 @@ from joshua_core.runs import (
     resume_run,
     saved_training,
 )
+from joshua_jax import CompileCache, use_compile_cache
 from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import RESUME_FILES, RUN_FORMAT, load_params, load_state, resume_payloads
 from joshua_ppo.config_settings import PpoSettings

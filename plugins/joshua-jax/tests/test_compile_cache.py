@@ -1,10 +1,9 @@
-"""Compiled programs kept between runs (joshua_core.compile_cache): where they go, that a second process reads them,
-that damaged entries only warn, and the switches that turn the cache off. Each case is a fresh Python process,
-since JAX reads its cache settings once per process."""
+"""Compiled programs kept between runs (joshua_jax.compile_cache): where they go, that a second process reads them,
+that damaged entries only warn, and that the core's switch (JOSHUA_NO_CACHE) turns the cache off. Each case is a
+fresh Python process, since JAX reads its cache settings once per process."""
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -14,16 +13,14 @@ from pathlib import Path
 
 import pytest
 
-from joshua_core.cli import build_parser
-from joshua_core.compile_cache import NO_CACHE_ENV_VAR, apply_no_cache, building_into, cache_enabled
-from joshua_core.evaluation import EvalCommand
-from joshua_core.outputs import user_cache_dir
+from joshua_core.outputs import NO_CACHE_ENV_VAR
+from joshua_jax import building_into
 
 # a tiny jitted function; prints what use_compile_cache reported and the cache reads of the compile
 PROGRAM = """
 import json, sys
 import jax, jax.numpy as jnp
-from joshua_core.compile_cache import cache_reads, use_compile_cache
+from joshua_jax import cache_reads, use_compile_cache
 cache = use_compile_cache()
 value = float(jax.jit(lambda x: jnp.sin(x) * 2.0 + 1.0)(jnp.float32(0.5)))
 warp = sys.modules.get("warp")
@@ -49,16 +46,6 @@ def run_program(cache_home: Path, **env: str) -> tuple[dict, str]:
 
 def entries(folder: Path) -> list[Path]:
     return sorted(folder.glob("*-cache"))
-
-
-def test_user_cache_dir_follows_xdg(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    assert user_cache_dir() == tmp_path / "joshua"
-    monkeypatch.setenv("XDG_CACHE_HOME", "relative/cache")  # the XDG rule: a relative path is ignored
-    monkeypatch.setenv("HOME", str(tmp_path / "home"))
-    assert user_cache_dir() == tmp_path / "home" / ".cache" / "joshua"
-    monkeypatch.delenv("XDG_CACHE_HOME")
-    assert user_cache_dir() == tmp_path / "home" / ".cache" / "joshua"
 
 
 def test_second_run_reads_what_the_first_kept(tmp_path: Path) -> None:
@@ -120,7 +107,7 @@ def test_warp_kernels_go_to_the_cache_folder_when_warp_is_installed(tmp_path: Pa
 
 WARP_PROGRAM = """
 import warp as wp
-from joshua_core.compile_cache import use_compile_cache
+from joshua_jax import use_compile_cache
 use_compile_cache()
 @wp.kernel
 def double(values: wp.array(dtype=float)):
@@ -148,29 +135,11 @@ def test_warp_builds_its_kernels_in_the_cache_folder(tmp_path: Path) -> None:
     assert list((tmp_path / "joshua" / "warp").glob("*/wp_*")), "Warp kept no kernel module in the cache folder"
 
 
-@pytest.mark.parametrize("value, enabled", [("", True), ("0", True), ("false", True), ("1", False), ("yes", False)])
-def test_the_variable_values(monkeypatch: pytest.MonkeyPatch, value: str, enabled: bool) -> None:
-    monkeypatch.setenv(NO_CACHE_ENV_VAR, value)
-    assert cache_enabled() is enabled
-
-
-def test_no_cache_on_the_command_line_sets_the_variable(monkeypatch: pytest.MonkeyPatch) -> None:
-    eval_parser = argparse.ArgumentParser()
-    EvalCommand().add_arguments(eval_parser)
-    for args in (build_parser().parse_args(["--no-cache"]), eval_parser.parse_args(["some_run", "--no-cache"])):
-        monkeypatch.delenv(NO_CACHE_ENV_VAR, raising=False)
-        apply_no_cache(args)
-        assert not cache_enabled()
-    monkeypatch.delenv(NO_CACHE_ENV_VAR)
-    apply_no_cache(build_parser().parse_args([]))
-    assert cache_enabled()
-
-
 # builds under the lock of the folder argv[1], after saying whether it had to wait
 BUILDER = """
 import sys
 from pathlib import Path
-from joshua_core.compile_cache import building_into
+from joshua_jax import building_into
 with building_into(Path(sys.argv[1]), "test programs"):
     print("built", flush=True)
 """

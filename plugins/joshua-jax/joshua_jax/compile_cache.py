@@ -4,16 +4,16 @@ JAX's persistent compilation cache and Warp's kernel cache both go to this user'
 (`joshua_core.outputs.user_cache_dir()`: `jax/` and `warp/` in it). What JAX and Warp do with an entry
 they cannot read is their documented behaviour, relied on here: JAX warns and compiles anew
 (`jax_raise_persistent_cache_errors` is off by default), Warp rebuilds a kernel whose cached module is missing.
-`--no-cache` on the command line, or `JOSHUA_NO_CACHE=1`, turns both off; a cache folder the user already gave
-JAX (`JAX_COMPILATION_CACHE_DIR`, `jax_compilation_cache_dir`) or Warp (`WARP_CACHE_PATH`) is kept.
+The core's switch turns both off (`--no-cache` on the command line, or `JOSHUA_NO_CACHE=1`:
+`joshua_core.outputs.cache_enabled`); a cache folder the user already gave JAX (`JAX_COMPILATION_CACHE_DIR`,
+`jax_compilation_cache_dir`) or Warp (`WARP_CACHE_PATH`) is kept.
 
 Backends and trainers that compile call `use_compile_cache()` before their first compilation; it imports JAX
-(and Warp, where it is installed) only then, so the core itself stays free of them.
+(and Warp, where it is installed) only then, so importing this module loads neither.
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import fcntl
 import functools
@@ -25,9 +25,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from joshua_core.outputs import user_cache_dir
+from joshua_core.outputs import NO_CACHE_ENV_VAR, cache_enabled, user_cache_dir
 
-NO_CACHE_ENV_VAR = "JOSHUA_NO_CACHE"
 WARP_CACHE_ENV_VAR = "WARP_CACHE_PATH"  # Warp's own setting, read by warp.init()
 BUILD_LOCK = "joshua-build.lock"  # the file `building_into` locks in a cache folder
 ENTRY_SUFFIX = "-cache"  # how JAX names a cached program's file
@@ -52,26 +51,6 @@ class CompileCache:
         if self.folder is None:
             return f"compilation cache off ({NO_CACHE_ENV_VAR})"
         return f"compilation cache {'warm' if self.programs else 'cold'}: {self.folder}"
-
-
-def cache_enabled() -> bool:
-    """False when JOSHUA_NO_CACHE is set to anything but '', '0', 'false' or 'no' (what --no-cache sets)."""
-    return os.environ.get(NO_CACHE_ENV_VAR, "").strip().lower() in ("", "0", "false", "no")
-
-
-def add_no_cache_argument(parser: argparse.ArgumentParser) -> None:
-    """Declare `--no-cache`, the way every command that compiles takes it; `apply_no_cache` acts on it."""
-    parser.add_argument(
-        "--no-cache",
-        action="store_true",
-        help=f"neither read nor keep compiled programs in {user_cache_dir()} (same as {NO_CACHE_ENV_VAR}=1)",
-    )
-
-
-def apply_no_cache(args: argparse.Namespace) -> None:
-    """With `--no-cache`, turn caching off for this process and the processes it starts (through the variable)."""
-    if args.no_cache:
-        os.environ[NO_CACHE_ENV_VAR] = "1"
 
 
 def use_compile_cache() -> CompileCache:
