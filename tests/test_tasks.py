@@ -20,7 +20,17 @@ from joshua_core.config_pb2 import TaskConfig
 from joshua_core.errors import ConfigError
 from joshua_core.plugins import PluginHost, PluginInfo, Registrar
 from joshua_core.resources import resolve_data_path
-from joshua_core.tasks import BoundTerm, Task, TaskSpec, TermContext, TermKind, TermSpec, build_task, load_task_spec
+from joshua_core.tasks import (
+    BoundTerm,
+    Task,
+    TaskSpec,
+    TermContext,
+    TermKind,
+    TermSpec,
+    build_task,
+    load_task_spec,
+    parse_param,
+)
 from joshua_core.tasks.grasping import GRASP_TERMS
 from joshua_core.tasks.handles import Actuators, Body, Joints, resolve_handle
 from joshua_core.tasks.terms import BUILTIN_TERMS
@@ -495,3 +505,11 @@ def test_progress_is_the_speed_of_closing_on_the_command_and_a_round_trip_earns_
     aside = progress(ctx.replace(prev_qpos=start, qpos=sideways))
     np.testing.assert_allclose(aside, (0.3 - np.hypot(0.3, 0.01)) / ctx.dt, rtol=1e-6)
     assert np.all(np.abs(aside) < closing / 50)
+
+
+@pytest.mark.parametrize("text", ["[" * 100_000 + "]" * 100_000, "1" * 5000])
+def test_a_term_parameter_json_cannot_hold_is_a_config_error(text: str) -> None:
+    # json recurses once per nesting level and int() refuses 4300+ digits: both a one-line ConfigError (exit 2)
+    with pytest.raises(ConfigError, match="term parameter"):
+        parse_param(text)
+    assert parse_param("[1, 2]") == (1, 2) and parse_param("cube") == "cube"

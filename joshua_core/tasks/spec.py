@@ -130,6 +130,9 @@ def parse_param(text: str) -> Any:
         value = json.loads(text)
     except json.JSONDecodeError:
         return text
+    except (RecursionError, ValueError) as error:  # json recurses once per level; int() refuses 4300+ digits
+        reason = "nests too deeply" if isinstance(error, RecursionError) else str(error)
+        raise ConfigError(f"term parameter {text[:40]!r}...: {reason}") from None
     return tuple(value) if isinstance(value, list) else value
 
 
