@@ -1,6 +1,7 @@
 """JOSHUA's own plugin: the components that ship with joshua-core and need no other distribution.
 
-It registers no task: robot tasks live with the plugin that provides the robot, or in joshua-tasks.
+It registers no task and no data folder: a robot's tasks, models and presets live with the plugin that provides the
+robot, or in a tasks distribution the core does not own.
 """
 
 from __future__ import annotations

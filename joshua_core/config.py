@@ -24,7 +24,7 @@ from joshua_core.defaults import simulation_backend, simulation_mode, training_p
 from joshua_core.errors import ConfigError, UsageError
 from joshua_core.limits import check_numbers
 from joshua_core.options import OptionSet, close_names, field_or_option, sub_message
-from joshua_core.resources import presets_dir, resolve_data_path
+from joshua_core.resources import PRESETS, resolve_data_path, shipped_file, shipped_names
 
 PRESET_SUFFIX = ".pbtxt"
 
@@ -39,14 +39,15 @@ class LoadedConfig:
 
 
 def preset_names() -> list[str]:
-    """Names of the shipped presets, sorted."""
-    return sorted(path.stem for path in presets_dir().glob(f"*{PRESET_SUFFIX}"))
+    """Names of the presets the installed plugins ship, sorted."""
+    return shipped_names(PRESETS, PRESET_SUFFIX)
 
 
 def preset_path(name: str) -> Path:
-    """Path of preset `name`; an unknown name raises UsageError listing the close ones."""
-    path = presets_dir() / f"{name}{PRESET_SUFFIX}"
-    if path.is_file():
+    """Path of preset `name`; an unknown name raises UsageError listing the close ones, and so does one that two
+    plugins ship (naming both)."""
+    path = shipped_file(PRESETS, f"{name}{PRESET_SUFFIX}")
+    if path is not None:
         return path
     names = preset_names()
     close = difflib.get_close_matches(name, names, n=4, cutoff=0.4)

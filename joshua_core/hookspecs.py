@@ -136,3 +136,15 @@ def joshua_register_policy_formats(registry: Registrar) -> None:
     path; `joshua eval FOLDER` declares each registered format's options and, for a folder without a JOSHUA run's
     `trainer` entry, asks each format whether it `accepts` the folder.
     """
+
+
+@hookspec
+def joshua_register_data_folders(registry: Registrar) -> None:
+    """Register folders of shipped data (robot models, presets): `registry.add(name, target, summary)`.
+
+    Called by PluginHost when it is built. `target` is the `pathlib.Path` of a folder, or the "module:attribute"
+    path of one, that holds `models/` (model files that relative paths in configs and presets resolve against),
+    `presets/` (`.pbtxt` presets, by file name) or both; `name` names the folder in `joshua plugins`. The core
+    ships no data: `joshua_core.resources` looks in every registered folder, and a preset two plugins ship is an
+    error naming both.
+    """

@@ -19,6 +19,7 @@ class Kind(enum.Enum):
     READER = "reader"
     TRAJECTORY_READER = "trajectory_reader"
     POLICY_FORMAT = "policy_format"
+    DATA = "data_folder"
 
     @property
     def hook_name(self) -> str:

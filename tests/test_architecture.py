@@ -176,3 +176,25 @@ def test_the_layer_picture_is_drawn_from_the_current_imports() -> None:
     spec.loader.exec_module(layers)
     drawn = (REPO_ROOT / "docs" / "architecture_layers.svg").read_text(encoding="utf-8")
     assert drawn == layers.render(), "out of date: run python docs/architecture_layers.py"
+
+
+def test_robot_data_in_the_core_is_found(tmp_path: Path) -> None:
+    """The core's wheel force-including a folder, a model or preset inside joshua_core/, the core naming the
+    distribution that ships the data: each is found."""
+    check = load_tool("check_architecture")
+    catalog = json.loads((REPO_ROOT / "joshua_core" / "providers.json").read_text())
+    shipper = next(name for name, provided in catalog.items() if "data_folder" in provided)
+    fake_repository(tmp_path, {"joshua_core/resources.py": f'HOME = "{shipper.replace("-", "_")}"\n'})
+    (tmp_path / "pyproject.toml").write_text(
+        '[tool.hatch.build.targets.wheel.force-include]\n"models" = "joshua_core/models"\n'
+    )
+    (tmp_path / "joshua_core" / "presets").mkdir()
+    (tmp_path / "joshua_core" / "presets" / "sim.pbtxt").write_text("")
+    found = check.findings(tmp_path)
+    assert [line.split(": ")[0] for line in found] == [
+        "pyproject.toml",
+        "joshua_core/presets",
+        "joshua_core/presets/sim.pbtxt",
+        "joshua_core/resources.py",
+    ], found
+    assert f"names {shipper}, which ships data" in found[3]

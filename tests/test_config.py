@@ -11,6 +11,7 @@ import joshua_sample_plugin
 import pytest
 
 from joshua_core import config as config_module
+from joshua_core import resources
 from joshua_core.config import (
     apply_override,
     config_text_of,
@@ -25,7 +26,7 @@ from joshua_core.config_pb2 import JoshuaConfig, SimulationConfig, TrainingConfi
 from joshua_core.errors import ConfigError, ModelError, UsageError
 from joshua_core.options import LENIENT, OptionSet, message_to_dict, options_of, parse_dict
 from joshua_core.plugins import PluginHost, PluginInfo
-from joshua_core.resources import models_dir
+from joshua_core.resources import DataFolder, models_dir
 from joshua_mirror import options_pb2 as mirror_options
 from joshua_modes import options_pb2 as modes_options
 from joshua_ppo import options_pb2 as ppo_options
@@ -163,9 +164,10 @@ def test_extends_of_an_unknown_preset_suggests_close_names(tmp_path: Path) -> No
 
 
 def test_extends_cycle_is_reported(tmp_path: Path, monkeypatch) -> None:
-    (tmp_path / "a.pbtxt").write_text('extends: "b"\n')
-    (tmp_path / "b.pbtxt").write_text('extends: "a"\n')
-    monkeypatch.setattr(config_module, "presets_dir", lambda: tmp_path)
+    (tmp_path / "presets").mkdir()
+    (tmp_path / "presets" / "a.pbtxt").write_text('extends: "b"\n')
+    (tmp_path / "presets" / "b.pbtxt").write_text('extends: "a"\n')
+    monkeypatch.setattr(resources, "installed_folders", lambda: (DataFolder(tmp_path, "a test's data folder"),))
     with pytest.raises(ConfigError, match="cycle: a -> b -> a"):
         load_preset("a", OPTIONS)
 

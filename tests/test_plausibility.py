@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from joshua_core import config as config_module
+from joshua_core import resources
 from joshua_core.cli import main
 from joshua_core.config import MAX_EXTENDS_DEPTH, load_preset
 from joshua_core.errors import ConfigError
 from joshua_core.options import LENIENT
-from joshua_core.resources import models_dir
+from joshua_core.resources import DataFolder, models_dir
 
 EXAMPLE = str(models_dir() / "trajectories" / "so_arm100_example.csv")
 
@@ -79,10 +79,12 @@ def test_zero_still_means_the_default_where_a_bound_has_a_minimum(capsys: pytest
 
 def test_a_chain_of_extends_deeper_than_the_limit_is_one_line(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     depth = 1500  # beyond Python's recursion limit, which it used to hit
+    presets = tmp_path / "presets"
+    presets.mkdir()
     for index in range(depth):
-        (tmp_path / f"p{index}.pbtxt").write_text(f'extends: "p{index + 1}"\n')
-    (tmp_path / f"p{depth}.pbtxt").write_text('description: "the bottom"\n')
-    monkeypatch.setattr(config_module, "presets_dir", lambda: tmp_path)
+        (presets / f"p{index}.pbtxt").write_text(f'extends: "p{index + 1}"\n')
+    (presets / f"p{depth}.pbtxt").write_text('description: "the bottom"\n')
+    monkeypatch.setattr(resources, "installed_folders", lambda: (DataFolder(tmp_path, "a test's data folder"),))
     with pytest.raises(ConfigError, match=f"extends a chain of more than {MAX_EXTENDS_DEPTH} presets"):
         load_preset("p0", LENIENT)
     assert load_preset(f"p{depth - MAX_EXTENDS_DEPTH + 1}", LENIENT).message.description == "the bottom"

@@ -19,6 +19,10 @@
   (`TaskSpec.aliases`), declared by the plugin that provides it;
 - the core defines no task: it constructs no `TaskSpec` and implements no `joshua_register_tasks` hook. It owns the
   task machinery; a robot's tasks live with the plugin that provides the robot, or in joshua-tasks;
+- the core ships no robot data: its wheel force-includes nothing, `joshua_core/` holds no model or preset file
+  (CORE_DATA_SUFFIXES) and no folder of them (CORE_DATA_FOLDERS), and its source names no distribution that ships
+  a data folder (`joshua_core/providers.json`); the plugins ship the models and presets, each in the data folder it
+  registers, and `joshua_core.resources` finds them through the registrations;
 - `PluginHost.discover()` only in the entry points listed in ENTRY_POINTS: library code takes the run's host;
 - no source file over 600 lines and no function over 120, unless the file says "long because" (a reason).
   Split by meaning, never to meet these numbers.
@@ -31,6 +35,7 @@ from __future__ import annotations
 import ast
 import json
 import sys
+import tomllib
 from pathlib import Path
 from typing import NamedTuple
 
@@ -51,6 +56,7 @@ ENTRY_POINTS = {
     ("joshua_mjx.env", "make_mjx_env"): "documented convenience (joshua-mjx README)",
     ("joshua_sb3.task_envs", "task_vec_env"): "documented convenience: any task as an SB3 VecEnv (docs/usd.md)",
     ("joshua_sb3.task_envs", "alias_env"): "`from joshua_sb3 import AntEnv`: a task's alias (docs/usd.md)",
+    ("joshua_core.resources", "_installed"): "the installed plugins' data folders: users and presets name files there",
 }
 # JAX's and Warp's settings of their compile caches (config options, attributes, environment variables)
 COMPILE_CACHE_SETTINGS = {
@@ -67,6 +73,9 @@ COMPILE_CACHE_SETTINGS = {
 # the other nowhere (tests/test_architecture.py checks that the core still defines both under these names).
 TASK_CLASS = "TaskSpec"
 TASK_HOOK = "joshua_register_tasks"
+# What the core's wheel would carry if robot data crept back in: the plugins' data folders hold these.
+CORE_DATA_FOLDERS = ("models", "presets")
+CORE_DATA_SUFFIXES = (".xml", ".pbtxt", ".usd", ".usda", ".usdc", ".usdz", ".stl", ".obj", ".onnx", ".csv")
 MAX_LINES = 600
 MAX_FUNCTION_LINES = 120
 EXCUSE = "long because"
@@ -94,6 +103,7 @@ class Roles(NamedTuple):
     backends: set[str]  # distributions that register a backend
     trainers: set[str]  # distributions that register a trainer
     tasks: dict[str, str]  # task name -> the distribution that registers it
+    data: set[str]  # distributions that register a data folder
 
 
 def roles(root: Path) -> Roles:
@@ -103,6 +113,7 @@ def roles(root: Path) -> Roles:
         backends={name for name, provided in catalog.items() if "backend" in provided},
         trainers={name for name, provided in catalog.items() if "trainer" in provided},
         tasks={task: name for name, provided in catalog.items() for task in provided.get("task", ())},
+        data={name for name, provided in catalog.items() if "data_folder" in provided},
     )
 
 
@@ -179,6 +190,31 @@ def task_definitions(path: Path) -> list[tuple[int, str]]:
         elif isinstance(node, ast.FunctionDef) and node.name == TASK_HOOK:
             if any(ast.unparse(decorator).split(".")[-1] == "hookimpl" for decorator in node.decorator_list):
                 found.append((node.lineno, f"implements {TASK_HOOK}"))
+    return found
+
+
+def core_data(root: Path, shippers: set[str]) -> list[str]:
+    """What breaks the rule that the core ships no robot data: a force-include of the core's wheel, a model or
+    preset file (or a folder of them) in joshua_core/, a core source naming a distribution that ships data."""
+    found: list[str] = []
+    pyproject = root / "pyproject.toml"
+    if pyproject.is_file():
+        wheel = tomllib.loads(pyproject.read_text(encoding="utf-8")).get("tool", {}).get("hatch", {}).get("build", {})
+        included = wheel.get("targets", {}).get("wheel", {}).get("force-include", {})
+        found += [
+            f"pyproject.toml: the core's wheel force-includes {source}; ship data with a plugin (a data folder)"
+            for source in included
+        ]
+    core = root / "joshua_core"
+    for path in sorted(core.rglob("*")):
+        where = path.relative_to(root)
+        if path.is_dir() and path.name in CORE_DATA_FOLDERS or path.is_file() and path.suffix in CORE_DATA_SUFFIXES:
+            found.append(f"{where}: robot data in the core; ship it with a plugin (a data folder it registers)")
+        elif path.suffix == ".py":
+            text = path.read_text(encoding="utf-8")
+            for name in sorted(shippers):
+                if name in text or name.replace("-", "_") in text:
+                    found.append(f"{where}: names {name}, which ships data; the core finds data by registration")
     return found
 
 
@@ -261,6 +297,7 @@ def findings(root: Path = ROOT) -> list[str]:
     for name, imports in sorted(by_package.items()):
         for circle in module_circles(known[name], imports):
             found.append(f"{known[name].folder.relative_to(root)}: import circle: {' -> '.join(circle)}")
+    found += core_data(root, registered.data)
     for circle in circles(distribution_graph(root)):
         found.append(f"import circle between distributions: {' -> '.join(circle)}")
     return found

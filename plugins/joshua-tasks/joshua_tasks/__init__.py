@@ -1,5 +1,6 @@
 """JOSHUA's robot tasks: locomotion of the Ant and the three-legged walker, reach and pick-and-place of the
-SO-ARM100 and SO-101 arms, on the robot models the core ships (docs/tasks.md describes each one).
+SO-ARM100 and SO-101 arms, on the robot models this distribution ships with the presets (`joshua_tasks.data`;
+docs/tasks.md describes each task).
 
 The core keeps only the task machinery (`joshua_core.tasks`: TaskSpec, the term library, the checks when a
 task is built); these are tasks written with it, registered by this distribution's plugin (`joshua_tasks.plugin`).
