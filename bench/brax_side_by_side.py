@@ -60,7 +60,7 @@ BRAX_SETTINGS = (
     "training.gamma=0.97",
     "training.clip_epsilon=0.3",
     "training.ppo.anneal_learning_rate=false",
-    "training.ppo.hidden_sizes=[32, 32, 32, 32]",
+    "training.hidden_sizes=[32, 32, 32, 32]",
 )
 
 

@@ -454,7 +454,7 @@ def train_teacher(args: argparse.Namespace) -> float:
     included. With --smoke it trains 32 steps of 4 envs."""
     folder = (args.out / "teacher").resolve()
     steps = 32 if args.smoke else args.teacher_steps
-    overrides = {"total_timesteps": steps, "checkpoint_dir": folder, "ppo.run_name": "teacher"}
+    overrides = {"total_timesteps": steps, "checkpoint_dir": folder, "run_name": "teacher"}
     overrides |= {"ppo.video_interval": -1, "ppo.viewer": "OFF"}
     if args.smoke:
         overrides |= {"num_envs": 4, "num_steps": 4, "minibatch_size": 8}

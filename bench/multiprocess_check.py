@@ -174,10 +174,10 @@ def check(args: argparse.Namespace) -> int:
     per_iteration = config.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
     common = base + [
         "training.checkpoint_dir=runs",
-        f"training.ppo.run_name={RUN}",
+        f"training.run_name={RUN}",
         "training.ppo.video_interval=-1",
         "training.ppo.viewer=OFF",
-        f"training.ppo.checkpoint_interval={per_iteration * args.iterations}",
+        f"training.checkpoint_interval={per_iteration * args.iterations}",
     ]
     first = common + [f"training.total_timesteps={per_iteration * args.iterations}"]
     checks, root = Checks(), args.out.resolve()
@@ -208,7 +208,7 @@ def check(args: argparse.Namespace) -> int:
 
     print("3. the two resume the run; SIGTERM to process 1 once both train", flush=True)
     started = time.perf_counter()
-    longer = common + ["training.ppo.resume=true", f"training.total_timesteps={per_iteration * 100_000}"]
+    longer = common + ["training.resume=true", f"training.total_timesteps={per_iteration * 100_000}"]
     resuming = pair(root, longer, args, machine)
     deadline = time.monotonic() + WAIT_SECONDS
     # process 0's progress line names the return once an iteration has run: both are in the training loop then

@@ -116,6 +116,36 @@ def _read_text(
         read(rewritten.text, config, allow_unknown_extension=options.lenient, allow_unknown_field=options.lenient)
     except text_format.ParseError as error:
         raise ConfigError(f"{source}:{rewritten.located(error)}") from None
+    _apply_moves(config, rewritten.moves, check=not merge)
+
+
+def _apply_moves(config: JoshuaConfig, moves: list[config_text.Move], *, check: bool) -> None:
+    """Set the new spelling of each moved field its old one wrote (`joshua_core.legacy`). `check`: a new spelling
+    the text sets to another value is a ConfigError; a text merged over its preset (checked when it was parsed on
+    its own) overrides the preset's value instead."""
+    grouped: dict[tuple[str, ...], list[config_text.Move]] = {}
+    for move in moves:  # the items of an old list written as several `old: value` lines are one value
+        key = (*(entered.full_name for entered in move.path), move.option.full_name, move.new)
+        grouped.setdefault(key, []).append(move)
+    for group in grouped.values():
+        first = group[0]
+        target: Message = config
+        for entered in first.path:
+            target = sub_message(target, entered)
+        given = type(target)()
+        try:
+            text_format.Parse(" ".join(f"{first.new}: {move.text}" for move in group), given)
+        except text_format.ParseError as error:
+            old_path, _ = legacy.moved_paths(first.option, first.old, first.new)
+            raise ConfigError(f"{first.where}: {old_path}: {config_text.bare_message(error)}") from None
+        field = target.DESCRIPTOR.fields_by_name[first.new]
+        set_here = any(listed is field for listed, _ in target.ListFields())
+        if check and set_here and getattr(target, first.new) != getattr(given, first.new):
+            raise ConfigError(f"{first.where}: {legacy.moved_conflict(first.option, first.old, first.new)}")
+        target.ClearField(first.new)
+        target.MergeFrom(given)
+        if not sub_message(target, first.option).ListFields():  # the option held only moved fields: it is unset
+            target.ClearExtension(first.option)
 
 
 def _clear_repeated_fields_set_in(overlay: Message, base: Message) -> None:
@@ -151,13 +181,21 @@ def apply_override(config: JoshuaConfig, assignment: str, options: OptionSet) ->
     if path.strip() == "extends":
         raise UsageError("--set extends=... has no effect; put `extends` in a config file or use --preset")
     message: Message = config
+    parent: Message = config  # the message `message` is a field of, and that field
+    entered: FieldDescriptor | None = None
     parts = path.strip().split(".")
     for depth, part in enumerate(parts):
         match = _PATH_PART.match(part)
         if match and depth == len(parts) - 1 and legacy.is_renamed(message.DESCRIPTOR.full_name, match["name"]):
             _set_renamed(message, value.strip(), assignment, options)
             return
-        field = field_or_option(message.DESCRIPTOR, match["name"], options) if match else None
+        name = match["name"] if match else part
+        new = options.moved_field(entered, name) if depth == len(parts) - 1 else None
+        if new is not None and entered is not None:  # an option's field that moved to the message it extends
+            if not options.lenient:  # the notice once, by the strict pass (as for a renamed field)
+                legacy.moved_notice(f"--set {assignment}", entered, name, new)
+            message = parent
+        field = field_or_option(message.DESCRIPTOR, new or name, options) if match else None
         if match is None or field is None:
             if options.lenient:
                 return
@@ -175,6 +213,7 @@ def apply_override(config: JoshuaConfig, assignment: str, options: OptionSet) ->
             raise UsageError(
                 f"--set {assignment}: '{field.name}' is not a list or message: it cannot be indexed or descended into"
             )
+        parent, entered = message, field
         message = _descend(message, field, match["index"], assignment)
 
 

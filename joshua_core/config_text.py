@@ -10,7 +10,10 @@ tracking the message type at each nesting level, and rewrites
 - a bare identifier after `mode:` in `simulation` into a quoted string;
 - an old spelling of a field that left the core schema (`framework: SB3`) into its new one
   (`joshua_core.legacy`), naming it in a one-line notice unless lenient (the CLI's first, lenient, pass
-  rewrites it too, without the notice, so that the notice is printed once).
+  rewrites it too, without the notice, so that the notice is printed once);
+- an option's old field that moved to the message the option extends (`ppo { run_name: "x" }`, declared by the
+  plugin: `OptionSet.moved`) out of the text, into a `Move` the loader applies after parsing
+  (`Rewritten.moves`), naming the new spelling in a one-line notice.
 
 Each edit is recorded, so that an error protobuf finds in the rewritten text is reported at its place
 in the original (`Rewritten.located`). `to_short` does the reverse for `--print-config`.
@@ -46,12 +49,26 @@ class Edit:
     text: str
 
 
+@dataclass(frozen=True)
+class Move:
+    """An option's old field `old`, written `old: text` in the option at `where`, whose new spelling is the field
+    `new` of the message the option extends, found from the root by `path`."""
+
+    path: tuple[FieldDescriptor, ...]
+    option: FieldDescriptor
+    old: str
+    new: str
+    text: str
+    where: str
+
+
 @dataclass
 class Rewritten:
-    """A rewritten text and the edits that made it from the original."""
+    """A rewritten text, the edits that made it from the original, and the moved fields it took out."""
 
     original: str
     edits: list[Edit] = field(default_factory=list)
+    moves: list[Move] = field(default_factory=list)
 
     @property
     def text(self) -> str:
@@ -102,6 +119,7 @@ class _Walker:
         self.rewritten = Rewritten(text)
         self.options = options
         self.names: list[set[str]] = []  # the field names of each open message, innermost last
+        self.fields: list[FieldDescriptor | None] = []  # the field each open message is the value of (root: None)
         self._tokens = text_format.Tokenizer(text.split("\n"))
         self._message(root, closing=None)
 
@@ -117,6 +135,11 @@ class _Walker:
     def renamed(self, message: Descriptor, name: str, value: str, spans: list[tuple[int, int, int]]) -> None:
         """An old field `name: value` of `message` (`joshua_core.legacy`); `spans`: (line, column, length) of
         its name, colon and value."""
+        return None
+
+    def moved(self, old: str, new: str, text: str, spans: list[tuple[int, int, int]]) -> None:
+        """An old field `old: text` of the innermost open option (`self.fields[-1]`) that moved to the field `new`
+        of the message the option extends; `spans`: (line, column, length) of each of its tokens."""
         return None
 
     def closed(self, message: Descriptor | None) -> None:
@@ -136,8 +159,9 @@ class _Walker:
         self._tokens.NextToken()
         return token
 
-    def _message(self, message: Descriptor | None, closing: str | None) -> None:
+    def _message(self, message: Descriptor | None, closing: str | None, entered: FieldDescriptor | None = None) -> None:
         self.names.append(set())
+        self.fields.append(entered)
         while not self._tokens.AtEnd():
             if self._tokens.token == closing:
                 self._advance()
@@ -148,6 +172,7 @@ class _Walker:
                 self._field(message)
         self.closed(message)
         self.names.pop()
+        self.fields.pop()
 
     def _field(self, message: Descriptor | None) -> None:
         at = self._position()
@@ -165,6 +190,10 @@ class _Walker:
             self.names[-1].add(name)
             if message is not None and legacy.is_renamed(message.full_name, name):
                 self._renamed(message, name, at)
+                return
+            new = self.options.moved_field(self.fields[-1], name) if message is not None else None
+            if new is not None:
+                self._moved(name, new, at)
                 return
             found = self.name(message, name, at) if message is not None else None
         else:
@@ -184,11 +213,28 @@ class _Walker:
         spans.append((*self._position(), len(self._tokens.token)))
         self.renamed(message, name, self._advance(), spans)
 
+    def _moved(self, name: str, new: str, at: tuple[int, int]) -> None:
+        """Read a moved field's `: value` (a scalar or a `[...]` list of them) and hand its tokens to `moved`."""
+        spans = [(*at, len(name))]
+        if self._tokens.token == ":":
+            spans.append((*self._position(), 1))
+            self._advance()
+        values: list[str] = []
+        depth = 0
+        while not self._tokens.AtEnd() and (depth or not values):
+            token = self._tokens.token
+            if token in ("}", ">", "{", "<") or (token == "]" and not depth):
+                return  # not a scalar or a list of them: left for protobuf to report
+            depth += {"[": 1, "]": -1}.get(token, 0)
+            spans.append((*self._position(), len(token)))
+            values.append(self._advance())
+        self.moved(name, new, " ".join(values), spans)
+
     def _value(self, found: FieldDescriptor | None) -> None:
         token = self._tokens.token
         if token in _CLOSING:
             self._advance()
-            self._message(found.message_type if found is not None else None, _CLOSING[token])
+            self._message(found.message_type if found is not None else None, _CLOSING[token], found)
         elif token == "[":  # a list: values or messages, separated by commas
             self._advance()
             while not self._tokens.AtEnd() and not self._tokens.TryConsume("]"):
@@ -220,6 +266,17 @@ class _ToProtobuf(_Walker):
             legacy.notice(where, value)
         self._renames[-1].append((fields or {}, spans))
 
+    def moved(self, old: str, new: str, text: str, spans: list[tuple[int, int, int]]) -> None:
+        option = self.fields[-1]
+        assert option is not None  # a moved field is one of an option's
+        where = f"{self.source}:{spans[0][0] + 1}:{spans[0][1] + 1}"
+        if self.notices:
+            legacy.moved_notice(where, option, old, new)
+        path = tuple(entered for entered in self.fields[1:-1] if entered is not None)
+        self.rewritten.moves.append(Move(path, option, old, new, text, where))
+        for line, column, length in spans:
+            self.edit((line, column), length, "")
+
     def closed(self, message: Descriptor | None) -> None:
         # The new fields are those the old one stood for that the message does not set itself.
         for fields, spans in self._renames.pop():
@@ -227,9 +284,9 @@ class _ToProtobuf(_Walker):
             for index, (line, column, length) in enumerate(spans):
                 self.edit((line, column), length, legacy.new_spelling(unset) if index == 0 else "")
 
-    def _message(self, message: Descriptor | None, closing: str | None) -> None:
+    def _message(self, message: Descriptor | None, closing: str | None, entered: FieldDescriptor | None = None) -> None:
         self._renames.append([])
-        super()._message(message, closing)
+        super()._message(message, closing, entered)
 
     def name(self, message: Descriptor, name: str, at: tuple[int, int]) -> FieldDescriptor | None:
         found = field_or_option(message, name, self.options)
@@ -279,8 +336,8 @@ def provider_hint(name: str) -> str:
 
 def to_protobuf(text: str, root: Descriptor, options: OptionSet, source: str, *, notices: bool = True) -> Rewritten:
     """`text` as protobuf's parser reads it: options bracketed, bare modes quoted, old spellings in their new one
-    (with a notice when `notices` and not lenient); unknown names are located ConfigErrors unless `options` is
-    lenient."""
+    or taken out as moves (with a notice when `notices` and not lenient); unknown names are located ConfigErrors
+    unless `options` is lenient."""
     return _ToProtobuf(text, root, options, source, notices).rewritten
 
 

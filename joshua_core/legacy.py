@@ -7,11 +7,24 @@ field means, so each old spelling has one home.
 `training.framework` (an enum `MJX`/`SB3` that chose the default trainer and backend) named plugins in the
 core schema; a config now names its `trainer` and `backend`, whose defaults (`joshua_core.defaults`) are what
 `framework: MJX`, the old default, meant.
+
+Options that every trainer shares (run name, resume, checkpoint interval, hidden sizes, normalisation) moved from
+the trainers' options into `TrainingConfig`: `training { ppo { run_name: "x" } }` is now `training { run_name: "x"
+}`. Which fields moved, and under which name, each plugin declares where it registers its options
+(`Registrar.add(..., moved={old: new})`, kept by `OptionSet.moved`), rather than a rule read off the names: a
+field moves only where the plugin had it (`offpolicy { hidden_sizes: ... }` never existed and stays an error), a
+field may change its name on the way (`disable_observation_normalization` is now `disable_normalization`), and
+the core names no plugin. This module holds what the loaders do with such a field: its old and new paths, the
+notice, and the error when a config sets both, differently.
 """
 
 from __future__ import annotations
 
 import sys
+
+from google.protobuf.descriptor import FieldDescriptor
+
+from joshua_core.config_pb2 import JoshuaConfig
 
 # The trainer and backend each old framework chose when the config named neither.
 FRAMEWORKS: dict[str, dict[str, str]] = {
@@ -53,3 +66,24 @@ def notice(where: str, value: str | int) -> None:
         f"joshua: notice: {where}: training.framework is gone; framework: {value} is now {new_spelling(fields)}",
         file=sys.stderr,
     )
+
+
+def moved_paths(extension: FieldDescriptor, old: str, new: str) -> tuple[str, str]:
+    """("training.ppo.run_name", "training.run_name"): the paths of an option's field `old` that moved to the field
+    `new` of the message the option extends."""
+    parent = extension.containing_type
+    holders = [f.name for f in JoshuaConfig.DESCRIPTOR.fields if f.message_type is parent]
+    prefix = holders[0] if holders else parent.name
+    return f"{prefix}.{extension.name}.{old}", f"{prefix}.{new}"
+
+
+def moved_notice(where: str, extension: FieldDescriptor, old: str, new: str) -> None:
+    """Print the one-line notice that the option field `old` (at `where`) is now `new` of the message it extends."""
+    old_path, new_path = moved_paths(extension, old, new)
+    print(f"joshua: notice: {where}: {old_path} is now {new_path}", file=sys.stderr)
+
+
+def moved_conflict(extension: FieldDescriptor, old: str, new: str) -> str:
+    """The error for a config that sets a moved field both ways with different values."""
+    old_path, new_path = moved_paths(extension, old, new)
+    return f"{old_path} and {new_path} are both set, differently ({old_path} is the old spelling): keep {new_path}"

@@ -68,9 +68,8 @@ BOUNDS: dict[str, Bound] = {
     "joshua_modes.ReplayOptions.penetration_threshold": Bound(0),
     "joshua_mirror.MirrorOptions.display_fps": Bound(0, MAX_FPS),
     "joshua_mirror.MirrorOptions.stale_timeout": Bound(0),
-    "joshua_ppo.PpoOptions.hidden_sizes": Bound(1, MAX_LAYER_WIDTH),
+    "joshua.TrainingConfig.hidden_sizes": Bound(1, MAX_LAYER_WIDTH),
     "joshua_ppo.PpoOptions.value_hidden_sizes": Bound(1, MAX_LAYER_WIDTH),
-    "joshua_sb3.Sb3Options.hidden_sizes": Bound(1, MAX_LAYER_WIDTH),
     "joshua_ppo.Distributed.num_processes": Bound(0),
     "joshua_ppo.Distributed.process_id": Bound(0),
 }

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from google.protobuf import json_format
@@ -33,6 +33,9 @@ class OptionSet:
 
     extensions: tuple[FieldDescriptor, ...] = ()
     lenient: bool = False
+    # Per option (its full name): its old fields that moved to the message it extends, {old name: new name}, which
+    # the loaders read as the new ones (`joshua_core.legacy`).
+    moved: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
 
     def find(self, message: Descriptor, name: str) -> FieldDescriptor | None:
         """The registered extension of `message` named `name` (short or full name), if any."""
@@ -43,6 +46,12 @@ class OptionSet:
             ):
                 return extension
         return None
+
+    def moved_field(self, option: FieldDescriptor | None, name: str) -> str | None:
+        """The field of the extended message that the old field `name` of the option `option` moved to, if any."""
+        if option is None or not option.is_extension:
+            return None
+        return self.moved.get(option.full_name, {}).get(name)
 
     def names(self, message: Descriptor) -> list[str]:
         """Sorted short names of the registered extensions of `message`."""
@@ -93,17 +102,19 @@ def _short_key(key: str) -> str:
     return key[1:-1].rpartition(".")[2] if key.startswith("[") and key.endswith("]") else key
 
 
-def parse_dict(data: Mapping[str, Any], message: Message, options: OptionSet) -> None:
-    """`json_format.ParseDict` into `message`, reading options by their short names (or bracketed full names)."""
-    json_format.ParseDict(_bracketed(data, message.DESCRIPTOR, options), message)
+def parse_dict(data: Mapping[str, Any], message: Message, options: OptionSet, source: str = "config") -> None:
+    """`json_format.ParseDict` into `message`, reading options by their short names (or bracketed full names);
+    `source` (e.g. a config.json's path) is where the notice of an old spelling says it is."""
+    json_format.ParseDict(_bracketed(data, message.DESCRIPTOR, options, source), message)
 
 
-def _bracketed(data: Any, descriptor: Descriptor | None, options: OptionSet) -> Any:
-    """A copy of `data` with each option's short name replaced by `[full.name]`, which ParseDict reads, and each
-    old field (`joshua_core.legacy`) by the fields it stood for that `data` does not set itself."""
+def _bracketed(data: Any, descriptor: Descriptor | None, options: OptionSet, source: str) -> Any:
+    """A copy of `data` with each option's short name replaced by `[full.name]`, which ParseDict reads, each
+    old field (`joshua_core.legacy`) by the fields it stood for that `data` does not set itself, and each option's
+    field that moved to `data`'s message (`OptionSet.moved`) moved there."""
     if descriptor is None or not isinstance(data, Mapping):
         return data
-    result = {}
+    result: dict[Any, Any] = {}
     for key, value in data.items():
         if isinstance(key, str) and legacy.is_renamed(descriptor.full_name, key):
             fields = legacy.framework_fields(value)
@@ -114,14 +125,42 @@ def _bracketed(data: Any, descriptor: Descriptor | None, options: OptionSet) -> 
         field = field_or_option(descriptor, key, options) if isinstance(key, str) else None
         if field is not None and field.is_extension:
             key = f"[{field.full_name}]"
+            if isinstance(value, Mapping) and value:
+                value = _moved_out(value, field, data, result, options, source)
+                if not value:  # the option held only moved fields: it is unset
+                    continue
         child = field.message_type if field is not None else None
         if child is not None and child.GetOptions().map_entry:
             value_type = child.fields_by_name["value"].message_type
             if isinstance(value, Mapping):
-                value = {k: _bracketed(v, value_type, options) for k, v in value.items()}
+                value = {k: _bracketed(v, value_type, options, source) for k, v in value.items()}
         elif isinstance(value, list):
-            value = [_bracketed(item, child, options) for item in value]
+            value = [_bracketed(item, child, options, source) for item in value]
         else:
-            value = _bracketed(value, child, options)
+            value = _bracketed(value, child, options, source)
         result[key] = value
     return result
+
+
+def _moved_out(
+    values: Mapping[str, Any],
+    option: FieldDescriptor,
+    parent: Mapping[str, Any],
+    result: dict[Any, Any],
+    options: OptionSet,
+    source: str,
+) -> dict[str, Any]:
+    """The option's `values` without its old fields that moved to the message it extends (`OptionSet.moved`), each
+    put into `result` (the parent's copy) under its new name, with a notice; one that `parent` (or another option)
+    sets differently is a ParseError."""
+    kept = {}
+    for key, value in values.items():
+        new = options.moved_field(option, key)
+        if new is None:
+            kept[key] = value
+            continue
+        legacy.moved_notice(source, option, key, new)
+        if parent.get(new, value) != value or result.get(new, value) != value:
+            raise json_format.ParseError(legacy.moved_conflict(option, key, new))
+        result[new] = value
+    return kept

@@ -14,7 +14,7 @@ import functools
 import importlib
 import inspect
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from importlib import metadata
 from typing import Any
@@ -52,6 +52,7 @@ class Component:
     "module:attr" path.
 
     `env_kinds`: the environment kinds (EnvKind values) a backend provides, or a trainer can train on.
+    `moved`: an option's old fields that moved to the message it extends, (old name, new name) pairs.
     """
 
     kind: Kind
@@ -60,6 +61,7 @@ class Component:
     summary: str
     plugin: PluginInfo
     env_kinds: tuple[str, ...] = ()
+    moved: tuple[tuple[str, str], ...] = ()
 
     def load(self) -> Any:
         """Import the target if it is still a path; a failure names the plugin and the cause."""
@@ -88,11 +90,21 @@ class Registrar:
         self.plugin = plugin
         self.added: list[Component] = []
 
-    def add(self, name: str, target: object, summary: str = "", *, env_kinds: Iterable[str] = ()) -> None:
+    def add(
+        self,
+        name: str,
+        target: object,
+        summary: str = "",
+        *,
+        env_kinds: Iterable[str] = (),
+        moved: Mapping[str, str] | None = None,
+    ) -> None:
         """Register `target` (an object, or a "module:attr" path imported on first use) as `name`.
 
         `env_kinds` (backends and trainers only): the EnvKind values ("numpy", "jax") a backend provides,
         or a trainer can train on; declared here so that they are checked without importing anything.
+        `moved` (options only): {old name: new name} of the option's fields that moved to the message it extends,
+        which old configs still write in the option (`joshua_core.legacy`).
         """
         if not isinstance(name, str) or not name:
             raise TypeError(f"{self.kind.value} name must be a non-empty string, got {name!r}")
@@ -108,7 +120,10 @@ class Registrar:
             raise ValueError(f"{self.kind.value} '{name}': only backends and trainers declare env_kinds")
         if unknown := [kind for kind in kinds if kind not in known]:
             raise ValueError(f"{self.kind.value} '{name}': unknown env_kinds {unknown}; known: {', '.join(known)}")
-        self.added.append(Component(self.kind, name, target, summary, self.plugin, kinds))
+        if moved and self.kind is not Kind.OPTIONS:
+            raise ValueError(f"{self.kind.value} '{name}': only options declare moved fields")
+        renames = tuple(sorted((moved or {}).items()))
+        self.added.append(Component(self.kind, name, target, summary, self.plugin, kinds, renames))
 
 
 def _normalized(name: str) -> str:
@@ -307,10 +322,14 @@ class PluginHost:
             for name in self.names(Kind.OPTIONS):
                 component = self.component(Kind.OPTIONS, name)
                 try:
-                    loaded.append((component.plugin, _extension_of(component)))
+                    loaded.append((component, _extension_of(component)))
                 except PluginLoadError as error:
                     self._drop_broken(component.plugin, str(error))
-            self._options = OptionSet(tuple(option for plugin, option in loaded if not plugin.error))
+            usable = [(component, option) for component, option in loaded if not component.plugin.error]
+            self._options = OptionSet(
+                tuple(option for _, option in usable),
+                moved={option.full_name: dict(component.moved) for component, option in usable if component.moved},
+            )
         return self._options
 
     def _drop_broken(self, plugin: PluginInfo, error: str) -> None:
@@ -361,9 +380,15 @@ def _extension_of(component: Component) -> FieldDescriptor:
     """The protobuf extension an option component names; anything else is a PluginLoadError naming the plugin."""
     target = component.load()
     name = component.name
+    owner = f"option '{name}' from plugin '{component.plugin.name}' ({component.plugin.distribution})"
     if not (isinstance(target, FieldDescriptor) and target.is_extension and target.name == name):
         raise PluginLoadError(
-            f"option '{name}' from plugin '{component.plugin.name}' ({component.plugin.distribution}) is "
-            f"{target!r}, not a protobuf extension named '{name}' (e.g. \"my_plugin.options_pb2:{name}\")"
+            f"{owner} is {target!r}, not a protobuf extension named '{name}' (e.g. \"my_plugin.options_pb2:{name}\")"
         )
+    for old, new in component.moved:
+        if target.message_type is None or old in target.message_type.fields_by_name:
+            raise PluginLoadError(f"{owner} declares '{old}' moved, but its message still has it (or is no message)")
+        if new not in target.containing_type.fields_by_name:
+            parent = target.containing_type.name
+            raise PluginLoadError(f"{owner} declares '{old}' moved to {parent}.{new}, which does not exist")
     return target

@@ -122,7 +122,7 @@ def create_run(root: Path, name: str | None, *, stem: str, options: str) -> RunF
     when that is taken.
 
     A name the config chose that exists is a ConfigError (or a RunInUseError while a process trains it);
-    `options` is where the config's run options live (e.g. "training.ppo"), or the command-line option that
+    `options` is where the config's run options live ("training"), or the command-line option that
     names the run (e.g. "--run-name": such runs are never continued), for the hint.
     """
     root.mkdir(parents=True, exist_ok=True)

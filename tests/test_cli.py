@@ -179,7 +179,7 @@ def test_a_config_of_a_missing_mode_plugin_says_what_to_install_before_its_optio
         result = run_joshua(*args, "--set", "simulation.offscreen.fps=60", env=disabled)
         assert result.returncode == 2, args
         assert "no mode named 'OFFSCREEN' is installed. It comes from joshua-modes" in result.stderr, result.stderr
-    training = run_joshua("--preset", "ant_train_mjx_tuned", "--set", "training.ppo.entropy_coef=0", env=disabled)
+    training = run_joshua("--preset", "ant_train_mjx_tuned", "--set", "training.entropy_coef=0", env=disabled)
     assert training.returncode == 2 and "It comes from joshua-ppo, which is disabled" in training.stderr
     headless = run_joshua(*HEADLESS, "--set", "simulation.offscreen.fps=60", env=disabled)  # needs no joshua-modes
     assert headless.returncode == 2 and "is an option of joshua-modes" in headless.stderr, headless.stderr
@@ -236,7 +236,7 @@ def test_an_output_dir_that_is_a_file_or_cannot_be_made_exits_2(run_joshua, tmp_
 
 
 def test_an_item_of_a_list_of_numbers_is_set_by_index(run_joshua) -> None:
-    result = run_joshua("--preset", "so_arm100_reach_sb3", "--set", "training.sb3.hidden_sizes[1]=8", "--print-config")
+    result = run_joshua("--preset", "so_arm100_reach_sb3", "--set", "training.hidden_sizes[1]=8", "--print-config")
     assert result.returncode == 0, result.stderr
     sizes = [line.split(":")[1].strip() for line in result.stdout.splitlines() if "hidden_sizes:" in line]
     assert sizes[1] == "8" and len(sizes) == 2

@@ -298,11 +298,12 @@ def test_options_read_by_short_name_or_bracketed(tmp_path: Path) -> None:
 
 def test_extends_merges_options_and_replaces_their_lists(tmp_path: Path) -> None:
     custom = tmp_path / "tuned.pbtxt"
-    custom.write_text('extends: "ant_train_mjx_tuned"\ntraining { ppo { hidden_sizes: [32] entropy_coef: 0 } }\n')
-    ppo = options_of(load_file(custom, OPTIONS).message.training, ppo_options.ppo)
-    assert list(ppo.hidden_sizes) == [32]  # the file's list replaces the preset's
+    custom.write_text('extends: "ant_train_mjx_tuned"\ntraining { hidden_sizes: [32] entropy_coef: 0 }\n')
+    training = load_file(custom, OPTIONS).message.training
+    ppo = options_of(training, ppo_options.ppo)
+    assert list(training.hidden_sizes) == [32]  # the file's list replaces the preset's
     assert list(ppo.value_hidden_sizes) == [256] * 5 and ppo.squash_actions  # the rest from the preset
-    assert ppo.entropy_coef == 0  # a zero written in the file overrides the preset's 0.01
+    assert training.entropy_coef == 0  # a zero written in the file overrides the preset's 0.01
 
 
 def test_error_after_a_rewritten_name_keeps_its_original_place(tmp_path: Path) -> None:
@@ -356,8 +357,8 @@ def test_overrides_set_options_by_short_name() -> None:
     assert offscreen.HasField("shadows") and not offscreen.shadows
     assert options_of(loaded.message.simulation, modes_options.replay).strict
     training = load_preset("ant_train_mjx_tuned", OPTIONS).message
-    apply_override(training, "training.ppo.hidden_sizes=[16, 16]", OPTIONS)
-    assert list(options_of(training.training, ppo_options.ppo).hidden_sizes) == [16, 16]
+    apply_override(training, "training.hidden_sizes=[16, 16]", OPTIONS)
+    assert list(training.training.hidden_sizes) == [16, 16]
 
 
 @pytest.mark.parametrize(
@@ -406,13 +407,13 @@ def test_a_third_party_plugin_adds_options_without_touching_the_core(tmp_path: P
 def test_run_config_dicts_name_options_by_short_name() -> None:
     training = finalize(load_preset("ant_train_mjx_tuned", OPTIONS)).training
     document = message_to_dict(training)
-    assert document["ppo"]["hidden_sizes"] == [128] * 4 and not any(key.startswith("[") for key in document)
+    assert document["ppo"]["value_hidden_sizes"] == [256] * 5 and not any(key.startswith("[") for key in document)
     again = TrainingConfig()
     parse_dict(document, again, OPTIONS)
     assert again == training
     bracketed = TrainingConfig()
-    parse_dict({"[joshua_ppo.ppo]": {"entropy_coef": 0.5}}, bracketed, OPTIONS)
-    assert options_of(bracketed, ppo_options.ppo).entropy_coef == 0.5
+    parse_dict({"[joshua_ppo.ppo]": {"value_coef": 0.5}}, bracketed, OPTIONS)
+    assert options_of(bracketed, ppo_options.ppo).value_coef == 0.5
 
 
 # Finite numbers and bounds: one generic walk over the finalized config (joshua_core.limits).
@@ -430,7 +431,7 @@ def test_run_config_dicts_name_options_by_short_name() -> None:
         ("sim_offscreen", "simulation.render_height=100000", "simulation.render_height: must be at most 8192"),
         ("sim_mirror", "simulation.mirror.display_fps=5000", "simulation.mirror.display_fps: must be at most 1000"),
         ("ant_train_mjx", "training.learning_rate=nan", "training.learning_rate: must be finite, got nan"),
-        ("ant_train_mjx", "training.ppo.entropy_coef=inf", "training.ppo.entropy_coef: must be finite, got inf"),
+        ("ant_train_mjx", "training.entropy_coef=inf", "training.entropy_coef: must be finite, got inf"),
     ],
 )
 def test_non_finite_and_absurd_numbers_are_config_errors(preset: str, assignment: str, expected: str) -> None:
@@ -456,14 +457,14 @@ def test_bounds_at_their_limit_are_accepted() -> None:
 
 def test_items_of_a_list_of_numbers_are_set_by_index() -> None:
     loaded = load_preset("ant_train_mjx_tuned", OPTIONS)
-    apply_override(loaded.message, "training.ppo.hidden_sizes=[64, 64]", OPTIONS)
-    apply_override(loaded.message, "training.ppo.hidden_sizes[1]=8", OPTIONS)
-    apply_override(loaded.message, "training.ppo.hidden_sizes[2]=4", OPTIONS)  # one past the end appends
-    assert list(options_of(loaded.message.training, ppo_options.ppo).hidden_sizes) == [64, 8, 4]
+    apply_override(loaded.message, "training.hidden_sizes=[64, 64]", OPTIONS)
+    apply_override(loaded.message, "training.hidden_sizes[1]=8", OPTIONS)
+    apply_override(loaded.message, "training.hidden_sizes[2]=4", OPTIONS)  # one past the end appends
+    assert list(loaded.message.training.hidden_sizes) == [64, 8, 4]
     with pytest.raises(UsageError, match=r"hidden_sizes has 3 items; use an index up to 3"):
-        apply_override(loaded.message, "training.ppo.hidden_sizes[7]=8", OPTIONS)
+        apply_override(loaded.message, "training.hidden_sizes[7]=8", OPTIONS)
     with pytest.raises(UsageError, match=r"Couldn't parse integer: x"):
-        apply_override(loaded.message, "training.ppo.hidden_sizes[0]=x", OPTIONS)
+        apply_override(loaded.message, "training.hidden_sizes[0]=x", OPTIONS)
     with pytest.raises(UsageError, match=r"'duration' is not a list or message: it cannot be indexed"):
         apply_override(loaded.message, "simulation.duration[0]=1", OPTIONS)
 

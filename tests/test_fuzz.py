@@ -36,8 +36,8 @@ PLUGIN_FIELDS = (
     "simulation.viewer.fps",
     "simulation.viewer.display",
     "simulation.mirror.rate_hz",
-    "training.ppo.hidden_sizes[1]",
-    "training.sb3.hidden_sizes[0]",
+    "training.hidden_sizes[1]",
+    "training.hidden_sizes[0]",
     "training.sb3.algorithm",
 )
 JOINTS = [f"joint_{i}" for i in range(1, 7)]

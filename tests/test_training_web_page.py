@@ -50,7 +50,7 @@ TRAININGS = {
                 "minibatch_size": 40,
                 "total_timesteps": 10**9,
                 "task_config.episode_length": 20,
-                "ppo.hidden_sizes": "[16]",
+                "hidden_sizes": "[16]",
                 "ppo.viewer": "OFF",
                 "ppo.video_interval": -1,
             }.items()

@@ -46,7 +46,7 @@ def main() -> None:
         work = Path(folder)
         env = {**os.environ, KEY_ENV_VAR: str(work / "checkpoint.key")}
         joshua("--preset", PRESET, *SMOOTH, "--set", "training.checkpoint_dir=runs",
-               "--set", "training.sb3.run_name=reach", cwd=work, env=env)  # fmt: skip
+               "--set", "training.run_name=reach", cwd=work, env=env)  # fmt: skip
         joshua("eval", "runs/reach", "--episodes", "5", "--no-video", cwd=work, env=env)
         # exported beside the run, then its two files copied over the committed ones: `--out` replaces only a
         # folder that joshua wrote, and the committed folder carries no output marker

@@ -34,7 +34,7 @@ PPO_TINY = {  # 4 environments x 5 steps, one iteration: enough for a normaliser
     # Warp's physics (the export reads only the network), whose iteration compiles far sooner than MJX-JAX's
     "task": "so_arm100_reach", "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1,
     "mjx": {"impl": "WARP"},
-    "total_timesteps": 20, "ppo": {"run_name": "tiny", "video_interval": -1, "hidden_sizes": [32, 16]},
+    "total_timesteps": 20, "run_name": "tiny", "hidden_sizes": [32, 16], "ppo": {"video_interval": -1},
 }  # fmt: skip
 
 
@@ -90,7 +90,7 @@ def sb3_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     key = work / "checkpoint.key"
     done = joshua(
         "--preset", "so_arm100_reach_sb3", "--set", "training.total_timesteps=3200",
-        "--set", "training.checkpoint_dir=runs", "--set", "training.sb3.run_name=reach", cwd=work, key=key,
+        "--set", "training.checkpoint_dir=runs", "--set", "training.run_name=reach", cwd=work, key=key,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr[-2000:]
     return work / "runs" / "reach", key

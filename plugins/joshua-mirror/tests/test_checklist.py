@@ -21,7 +21,7 @@ extends: "so_arm100_reach_sb3"
 training {
   num_envs: 2 num_steps: 8 minibatch_size: 16 num_epochs: 1 total_timesteps: 16
   checkpoint_dir: "runs"
-  sb3 { run_name: "reach" hidden_sizes: [8] }
+  run_name: "reach" hidden_sizes: [8]
   task_config {
     events { name: "servo_kp" term: "randomize_actuator_gains" mode: RESET
              params { key: "kp_range" value: "[0.85, 1.15]" } }

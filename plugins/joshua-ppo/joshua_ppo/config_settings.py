@@ -51,9 +51,10 @@ class PpoSettings:
     @classmethod
     def from_config(cls, config: TrainingConfig) -> PpoSettings:
         options = options_of(config, options_pb2.ppo)
-        for name in ("hidden_sizes", "value_hidden_sizes"):
-            if any(size <= 0 for size in getattr(options, name)):
-                raise ConfigError(f"training.ppo.{name} must be positive, got {list(getattr(options, name))}")
+        for owner, name in ((config, "training.hidden_sizes"), (options, "training.ppo.value_hidden_sizes")):
+            sizes = list(getattr(owner, name.rpartition(".")[2]))
+            if any(size <= 0 for size in sizes):
+                raise ConfigError(f"{name} must be positive, got {sizes}")
         for name in ("desired_kl", "max_kl"):
             if getattr(options, name) < 0:
                 raise ConfigError(f"training.ppo.{name} must not be negative, got {getattr(options, name)}")
@@ -70,7 +71,7 @@ class PpoSettings:
                 value_coef=options.value_coef,
                 max_grad_norm=options.max_grad_norm,
             ),
-            entropy_coef=options.entropy_coef,
+            entropy_coef=config.entropy_coef,
             desired_kl=options.desired_kl,
             max_kl=options.max_kl,
             anneal_steps=total if options.anneal_learning_rate else 0,
@@ -78,9 +79,9 @@ class PpoSettings:
         if optimization.max_grad_norm is not None and optimization.max_grad_norm < 0:  # negative: no clipping
             optimization = replace(optimization, max_grad_norm=None)
         network = NetworkSettings(
-            **set_fields(hidden_sizes=tuple(options.hidden_sizes), activation=options.activation),
+            **set_fields(hidden_sizes=tuple(config.hidden_sizes), activation=options.activation),
             value_hidden_sizes=tuple(options.value_hidden_sizes),
-            normalize_observations=not options.disable_observation_normalization,
+            normalize_observations=not config.disable_normalization,
             squash_actions=options.squash_actions,
             state_dependent_std=options.state_dependent_std,
             pixels=pixel_settings(options.pixels) if options.HasField("pixels") else None,
@@ -99,7 +100,7 @@ class PpoSettings:
             ),
             network=network,
             total_timesteps=total,
-            checkpoint_interval=checkpoint_interval(options.checkpoint_interval, total),
+            checkpoint_interval=checkpoint_interval(config.checkpoint_interval, total),
             seed=int(config.seed),
             teacher=_teacher_settings(options.teacher) if options.HasField("teacher") else None,
         )

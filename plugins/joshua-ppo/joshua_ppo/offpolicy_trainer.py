@@ -60,12 +60,10 @@ class OffPolicyRun(Run):
 class OffPolicyTrainer(JaxTrainer):
     """TD3 or SAC (`name`) on the JAX environments of the configured backend; docs/training-offpolicy.md."""
 
-    options_path = OPTIONS
     run_format = RUN_FORMAT
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
-        options = options_of(config, options_pb2.offpolicy)
-        cache, cluster = self.prepare(config, options)
+        cache, cluster = self.prepare(config)
         settings = offpolicy_settings(config, self.name)
         env = environment(config, context, training_envs=True)
         make_actor(env, settings)  # a pixel actor's cameras and terms are checked before anything is written
@@ -79,7 +77,6 @@ class OffPolicyTrainer(JaxTrainer):
             config,
             context,
             cluster,
-            options,
             lambda folder: OffPolicyRun(config, settings, env, context, folder, cache),
             lambda checkpoint, payloads: load_state(checkpoint, env, settings, payloads),
             fit,

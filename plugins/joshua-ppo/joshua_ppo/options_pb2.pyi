@@ -13,7 +13,7 @@ OFFPOLICY_FIELD_NUMBER: _ClassVar[int]
 offpolicy: _descriptor.FieldDescriptor
 
 class PpoOptions(_message.Message):
-    __slots__ = ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "value_hidden_sizes", "squash_actions", "activation", "state_dependent_std", "recompute_advantages", "advantage", "entropy_coef", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "desired_kl", "max_kl", "anneal_learning_rate", "disable_observation_normalization", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs", "distributed", "pixels", "teacher")
+    __slots__ = ("value_hidden_sizes", "squash_actions", "activation", "state_dependent_std", "recompute_advantages", "advantage", "reward_scaling", "unrolls_per_iteration", "max_grad_norm", "desired_kl", "max_kl", "anneal_learning_rate", "value_coef", "video_interval", "video_steps", "viewer", "viewer_envs", "distributed", "pixels", "teacher")
     class Advantage(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
         __slots__ = ()
         GAE: _ClassVar[PpoOptions.Advantage]
@@ -28,24 +28,18 @@ class PpoOptions(_message.Message):
     AUTO: PpoOptions.Viewer
     OFF: PpoOptions.Viewer
     ON: PpoOptions.Viewer
-    RUN_NAME_FIELD_NUMBER: _ClassVar[int]
-    RESUME_FIELD_NUMBER: _ClassVar[int]
-    CHECKPOINT_INTERVAL_FIELD_NUMBER: _ClassVar[int]
-    HIDDEN_SIZES_FIELD_NUMBER: _ClassVar[int]
     VALUE_HIDDEN_SIZES_FIELD_NUMBER: _ClassVar[int]
     SQUASH_ACTIONS_FIELD_NUMBER: _ClassVar[int]
     ACTIVATION_FIELD_NUMBER: _ClassVar[int]
     STATE_DEPENDENT_STD_FIELD_NUMBER: _ClassVar[int]
     RECOMPUTE_ADVANTAGES_FIELD_NUMBER: _ClassVar[int]
     ADVANTAGE_FIELD_NUMBER: _ClassVar[int]
-    ENTROPY_COEF_FIELD_NUMBER: _ClassVar[int]
     REWARD_SCALING_FIELD_NUMBER: _ClassVar[int]
     UNROLLS_PER_ITERATION_FIELD_NUMBER: _ClassVar[int]
     MAX_GRAD_NORM_FIELD_NUMBER: _ClassVar[int]
     DESIRED_KL_FIELD_NUMBER: _ClassVar[int]
     MAX_KL_FIELD_NUMBER: _ClassVar[int]
     ANNEAL_LEARNING_RATE_FIELD_NUMBER: _ClassVar[int]
-    DISABLE_OBSERVATION_NORMALIZATION_FIELD_NUMBER: _ClassVar[int]
     VALUE_COEF_FIELD_NUMBER: _ClassVar[int]
     VIDEO_INTERVAL_FIELD_NUMBER: _ClassVar[int]
     VIDEO_STEPS_FIELD_NUMBER: _ClassVar[int]
@@ -54,24 +48,18 @@ class PpoOptions(_message.Message):
     DISTRIBUTED_FIELD_NUMBER: _ClassVar[int]
     PIXELS_FIELD_NUMBER: _ClassVar[int]
     TEACHER_FIELD_NUMBER: _ClassVar[int]
-    run_name: str
-    resume: bool
-    checkpoint_interval: int
-    hidden_sizes: _containers.RepeatedScalarFieldContainer[int]
     value_hidden_sizes: _containers.RepeatedScalarFieldContainer[int]
     squash_actions: bool
     activation: str
     state_dependent_std: bool
     recompute_advantages: bool
     advantage: PpoOptions.Advantage
-    entropy_coef: float
     reward_scaling: float
     unrolls_per_iteration: int
     max_grad_norm: float
     desired_kl: float
     max_kl: float
     anneal_learning_rate: bool
-    disable_observation_normalization: bool
     value_coef: float
     video_interval: int
     video_steps: int
@@ -80,7 +68,7 @@ class PpoOptions(_message.Message):
     distributed: Distributed
     pixels: PixelOptions
     teacher: Teacher
-    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., hidden_sizes: _Optional[_Iterable[int]] = ..., value_hidden_sizes: _Optional[_Iterable[int]] = ..., squash_actions: _Optional[bool] = ..., activation: _Optional[str] = ..., state_dependent_std: _Optional[bool] = ..., recompute_advantages: _Optional[bool] = ..., advantage: _Optional[_Union[PpoOptions.Advantage, str]] = ..., entropy_coef: _Optional[float] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., desired_kl: _Optional[float] = ..., max_kl: _Optional[float] = ..., anneal_learning_rate: _Optional[bool] = ..., disable_observation_normalization: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ..., distributed: _Optional[_Union[Distributed, _Mapping]] = ..., pixels: _Optional[_Union[PixelOptions, _Mapping]] = ..., teacher: _Optional[_Union[Teacher, _Mapping]] = ...) -> None: ...
+    def __init__(self, value_hidden_sizes: _Optional[_Iterable[int]] = ..., squash_actions: _Optional[bool] = ..., activation: _Optional[str] = ..., state_dependent_std: _Optional[bool] = ..., recompute_advantages: _Optional[bool] = ..., advantage: _Optional[_Union[PpoOptions.Advantage, str]] = ..., reward_scaling: _Optional[float] = ..., unrolls_per_iteration: _Optional[int] = ..., max_grad_norm: _Optional[float] = ..., desired_kl: _Optional[float] = ..., max_kl: _Optional[float] = ..., anneal_learning_rate: _Optional[bool] = ..., value_coef: _Optional[float] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ..., distributed: _Optional[_Union[Distributed, _Mapping]] = ..., pixels: _Optional[_Union[PixelOptions, _Mapping]] = ..., teacher: _Optional[_Union[Teacher, _Mapping]] = ...) -> None: ...
 
 class PixelOptions(_message.Message):
     __slots__ = ("cameras", "observation_terms", "commands", "channels", "kernel_sizes", "strides", "feature_size")
@@ -119,10 +107,7 @@ class Distributed(_message.Message):
     def __init__(self, coordinator: _Optional[str] = ..., num_processes: _Optional[int] = ..., process_id: _Optional[int] = ...) -> None: ...
 
 class OffPolicyOptions(_message.Message):
-    __slots__ = ("run_name", "resume", "checkpoint_interval", "video_interval", "video_steps", "viewer", "viewer_envs", "replay_steps", "updates_per_step", "learning_starts", "n_step", "tau", "critic_learning_rate", "actor_hidden_sizes", "critic_hidden_sizes", "reward_scaling", "max_grad_norm", "disable_observation_normalization", "policy_delay", "exploration_std_min", "exploration_std_max", "target_noise", "target_noise_clip", "initial_alpha", "target_entropy_scale", "pixels", "image_shift")
-    RUN_NAME_FIELD_NUMBER: _ClassVar[int]
-    RESUME_FIELD_NUMBER: _ClassVar[int]
-    CHECKPOINT_INTERVAL_FIELD_NUMBER: _ClassVar[int]
+    __slots__ = ("video_interval", "video_steps", "viewer", "viewer_envs", "replay_steps", "updates_per_step", "learning_starts", "n_step", "tau", "critic_learning_rate", "actor_hidden_sizes", "critic_hidden_sizes", "reward_scaling", "max_grad_norm", "policy_delay", "exploration_std_min", "exploration_std_max", "target_noise", "target_noise_clip", "initial_alpha", "target_entropy_scale", "pixels", "image_shift")
     VIDEO_INTERVAL_FIELD_NUMBER: _ClassVar[int]
     VIDEO_STEPS_FIELD_NUMBER: _ClassVar[int]
     VIEWER_FIELD_NUMBER: _ClassVar[int]
@@ -137,7 +122,6 @@ class OffPolicyOptions(_message.Message):
     CRITIC_HIDDEN_SIZES_FIELD_NUMBER: _ClassVar[int]
     REWARD_SCALING_FIELD_NUMBER: _ClassVar[int]
     MAX_GRAD_NORM_FIELD_NUMBER: _ClassVar[int]
-    DISABLE_OBSERVATION_NORMALIZATION_FIELD_NUMBER: _ClassVar[int]
     POLICY_DELAY_FIELD_NUMBER: _ClassVar[int]
     EXPLORATION_STD_MIN_FIELD_NUMBER: _ClassVar[int]
     EXPLORATION_STD_MAX_FIELD_NUMBER: _ClassVar[int]
@@ -147,9 +131,6 @@ class OffPolicyOptions(_message.Message):
     TARGET_ENTROPY_SCALE_FIELD_NUMBER: _ClassVar[int]
     PIXELS_FIELD_NUMBER: _ClassVar[int]
     IMAGE_SHIFT_FIELD_NUMBER: _ClassVar[int]
-    run_name: str
-    resume: bool
-    checkpoint_interval: int
     video_interval: int
     video_steps: int
     viewer: PpoOptions.Viewer
@@ -164,7 +145,6 @@ class OffPolicyOptions(_message.Message):
     critic_hidden_sizes: _containers.RepeatedScalarFieldContainer[int]
     reward_scaling: float
     max_grad_norm: float
-    disable_observation_normalization: bool
     policy_delay: int
     exploration_std_min: float
     exploration_std_max: float
@@ -174,4 +154,4 @@ class OffPolicyOptions(_message.Message):
     target_entropy_scale: float
     pixels: PixelOptions
     image_shift: int
-    def __init__(self, run_name: _Optional[str] = ..., resume: _Optional[bool] = ..., checkpoint_interval: _Optional[int] = ..., video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ..., replay_steps: _Optional[int] = ..., updates_per_step: _Optional[int] = ..., learning_starts: _Optional[int] = ..., n_step: _Optional[int] = ..., tau: _Optional[float] = ..., critic_learning_rate: _Optional[float] = ..., actor_hidden_sizes: _Optional[_Iterable[int]] = ..., critic_hidden_sizes: _Optional[_Iterable[int]] = ..., reward_scaling: _Optional[float] = ..., max_grad_norm: _Optional[float] = ..., disable_observation_normalization: _Optional[bool] = ..., policy_delay: _Optional[int] = ..., exploration_std_min: _Optional[float] = ..., exploration_std_max: _Optional[float] = ..., target_noise: _Optional[float] = ..., target_noise_clip: _Optional[float] = ..., initial_alpha: _Optional[float] = ..., target_entropy_scale: _Optional[float] = ..., pixels: _Optional[_Union[PixelOptions, _Mapping]] = ..., image_shift: _Optional[int] = ...) -> None: ...
+    def __init__(self, video_interval: _Optional[int] = ..., video_steps: _Optional[int] = ..., viewer: _Optional[_Union[PpoOptions.Viewer, str]] = ..., viewer_envs: _Optional[int] = ..., replay_steps: _Optional[int] = ..., updates_per_step: _Optional[int] = ..., learning_starts: _Optional[int] = ..., n_step: _Optional[int] = ..., tau: _Optional[float] = ..., critic_learning_rate: _Optional[float] = ..., actor_hidden_sizes: _Optional[_Iterable[int]] = ..., critic_hidden_sizes: _Optional[_Iterable[int]] = ..., reward_scaling: _Optional[float] = ..., max_grad_norm: _Optional[float] = ..., policy_delay: _Optional[int] = ..., exploration_std_min: _Optional[float] = ..., exploration_std_max: _Optional[float] = ..., target_noise: _Optional[float] = ..., target_noise_clip: _Optional[float] = ..., initial_alpha: _Optional[float] = ..., target_entropy_scale: _Optional[float] = ..., pixels: _Optional[_Union[PixelOptions, _Mapping]] = ..., image_shift: _Optional[int] = ...) -> None: ...

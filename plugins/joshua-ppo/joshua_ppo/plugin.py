@@ -29,7 +29,22 @@ def joshua_register_trainers(registry: Registrar) -> None:
     )
 
 
+# The options' fields that moved to TrainingConfig, which every trainer reads: old configs that still write them
+# in `ppo { ... }` or `offpolicy { ... }` are read as the new ones (joshua_core.legacy).
+_SHARED = {"run_name": "run_name", "resume": "resume", "checkpoint_interval": "checkpoint_interval"}
+_NORMALIZATION = {"disable_observation_normalization": "disable_normalization"}
+PPO_MOVED = _SHARED | _NORMALIZATION | {"hidden_sizes": "hidden_sizes", "entropy_coef": "entropy_coef"}
+OFFPOLICY_MOVED = _SHARED | _NORMALIZATION
+
+
 @hookimpl
 def joshua_register_options(registry: Registrar) -> None:
-    registry.add("ppo", "joshua_ppo.options_pb2:ppo", "ppo trainer: network, advantages, schedule, run, videos")
-    registry.add("offpolicy", "joshua_ppo.options_pb2:offpolicy", "td3 and sac trainers: replay, updates, networks")
+    registry.add(
+        "ppo", "joshua_ppo.options_pb2:ppo", "ppo trainer: network, advantages, schedule, videos", moved=PPO_MOVED
+    )
+    registry.add(
+        "offpolicy",
+        "joshua_ppo.options_pb2:offpolicy",
+        "td3 and sac trainers: replay, updates, networks",
+        moved=OFFPOLICY_MOVED,
+    )

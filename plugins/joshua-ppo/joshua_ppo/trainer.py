@@ -19,7 +19,6 @@ from joshua_core.errors import ConfigError
 from joshua_core.interfaces import EpisodeResults, Trainer
 from joshua_core.interrupts import resume_command, stop_requests
 from joshua_core.limits import check_one_iteration
-from joshua_core.options import options_of
 from joshua_core.policy import ExportedPolicy
 from joshua_core.run_context import RunContext
 from joshua_core.runs import (
@@ -32,7 +31,6 @@ from joshua_core.runs import (
     saved_training,
 )
 from joshua_jax import CompileCache, use_compile_cache
-from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import RESUME_FILES, RUN_FORMAT, load_params, load_state, resume_payloads
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.distributed import Cluster, join
@@ -47,7 +45,7 @@ from joshua_ppo.state import Progress
 from joshua_ppo.teacher import load_teacher
 from joshua_ppo.train import train_ppo
 
-OPTIONS = "training.ppo"  # where the run options live, for hints
+RUN_OPTIONS = "training"  # where the run options (run_name, resume) live, for hints
 Resume = tuple[Path, dict[str, bytes]]  # the checkpoint to resume from and its payloads (resume_payloads)
 # a trainer's loop given its keyword arguments resume, on_progress, on_checkpoint and should_stop -> where it ended
 Fit = Callable[..., Progress]
@@ -60,45 +58,40 @@ class JaxTrainer(Trainer, ABC):
     0's), the processes of a multi-process run, monitors, and stopping on a signal with a checkpoint."""
 
     name: str  # the registered trainer name, written into config.json
-    options_path: str  # where its options live in a config (e.g. "training.ppo")
     run_format: str  # the "format" of its runs' config.json
 
-    def prepare(self, config: TrainingConfig, options: Any) -> tuple[CompileCache, Cluster]:
+    def prepare(self, config: TrainingConfig) -> tuple[CompileCache, Cluster]:
         """What comes before anything compiles or is built: the determinism flags (before JAX starts its backends),
         the compilation cache, the run's processes (before anything asks JAX for its devices), and the run name
-        in `options` checked."""
+        checked."""
         use_determinism(config)
         cache = use_compile_cache()
         cluster = join(config)
         cluster.check_same_config(config)
-        if options.run_name:
-            check_run_name(options.run_name, f"{self.options_path}.run_name")
+        if config.run_name:
+            check_run_name(config.run_name, f"{RUN_OPTIONS}.run_name")
         return cache, cluster
 
-    def open_run(
-        self, config: TrainingConfig, options: Any, root: Path, processes: int
-    ) -> tuple[RunFolder, Resume | None]:
+    def open_run(self, config: TrainingConfig, root: Path, processes: int) -> tuple[RunFolder, Resume | None]:
         """The run folder, locked, and the checkpoint to resume from with what resuming reads (None: a new run)."""
-        if not options.resume:
-            return create_run(root, options.run_name or None, stem=config.task, options=self.options_path), None
-        run, saved = resume_run(root, options.run_name or None, trainer=self.name, options=self.options_path)
+        if not config.resume:
+            return create_run(root, config.run_name or None, stem=config.task, options=RUN_OPTIONS), None
+        run, saved = resume_run(root, config.run_name or None, trainer=self.name, options=RUN_OPTIONS)
         try:
             if saved.get("task") != config.task:
                 raise ConfigError(
-                    f"{self.options_path}.resume: run '{run.name}' trained task '{saved.get('task')}', "
+                    f"{RUN_OPTIONS}.resume: run '{run.name}' trained task '{saved.get('task')}', "
                     f"this config asks for '{config.task}'"
                 )
             if saved.get("processes", 1) != processes:
                 raise ConfigError(
-                    f"{self.options_path}.resume: run '{run.name}' was trained by {saved.get('processes', 1)} "
+                    f"{RUN_OPTIONS}.resume: run '{run.name}' was trained by {saved.get('processes', 1)} "
                     f"processes, this one has {processes}; resume it with as many (the environments are split across "
                     "them)"
                 )
             checkpoints = run.checkpoints()
             if not checkpoints:
-                raise ConfigError(
-                    f"{self.options_path}.resume: run '{run.name}' in {root} has no checkpoint to resume from"
-                )
+                raise ConfigError(f"{RUN_OPTIONS}.resume: run '{run.name}' in {root} has no checkpoint to resume from")
             return run, (checkpoints[-1], resume_payloads(checkpoints[-1]))
         except Exception:
             run.close()
@@ -109,14 +102,13 @@ class JaxTrainer(Trainer, ABC):
         config: TrainingConfig,
         context: RunContext,
         cluster: Cluster,
-        options: Any,
         make_run: Callable[[RunFolder], Run],
         load: Load,
         fit: Fit,
     ) -> Path:
         """Open the run on process 0 (`make_run` its monitors), resume it or write its config, and `fit` on every
         process; a signal stops it after an iteration, with a checkpoint and the command that resumes it."""
-        opened = cluster.on_leader(lambda: self.open_run(config, options, context.output_dir, cluster.num_processes))
+        opened = cluster.on_leader(lambda: self.open_run(config, context.output_dir, cluster.num_processes))
         if opened is None:  # another process than 0: it trains alongside and writes nothing
             return self._train(cluster, None, _shared_resume(cluster, None), load, fit)
         folder, resume = opened
@@ -149,7 +141,7 @@ class JaxTrainer(Trainer, ABC):
             if run is not None:
                 print(
                     f"{self.name}: stopped at {progress.env_steps} steps; checkpoint {checkpoint}\n"
-                    f"resume with: {resume_command(self.options_path, run.name)}",
+                    f"resume with: {resume_command(RUN_OPTIONS, run.name)}",
                     flush=True,
                 )
             raise stop.interrupted()
@@ -215,12 +207,10 @@ class PpoTrainer(JaxTrainer):
     """PPO on the JAX environments of the configured backend; see the plugin README."""
 
     name = TRAINER_NAME
-    options_path = OPTIONS
     run_format = RUN_FORMAT
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
-        options = options_of(config, options_pb2.ppo)
-        cache, cluster = self.prepare(config, options)
+        cache, cluster = self.prepare(config)
         settings = PpoSettings.from_config(config)
         env = environment(config, context, training_envs=True)
         teacher = None
@@ -243,7 +233,6 @@ class PpoTrainer(JaxTrainer):
             config,
             context,
             cluster,
-            options,
             lambda folder: PpoRun(config, settings, env, context, folder, cache),
             lambda checkpoint, payloads: load_state(checkpoint, env, settings, payloads),
             fit,

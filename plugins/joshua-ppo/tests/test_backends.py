@@ -88,9 +88,9 @@ def training(backend: str) -> TrainingConfig:
         total_timesteps=40,
     )
     config.task_config.episode_length = 3
+    config.run_name = "third_party"
+    config.hidden_sizes.extend([16])
     options = config.Extensions[options_pb2.ppo]
-    options.run_name = "third_party"
-    options.hidden_sizes.extend([16])
     options.video_interval = 2
     options.video_steps = 4
     options.viewer = PpoOptions.OFF

@@ -58,7 +58,9 @@ def test_a_training_of_blow_ups_stops_with_one_line_and_keeps_its_checkpoint(tmp
         "num_epochs": 1,
         "total_timesteps": 256,
         "checkpoint_dir": str(tmp_path),
-        "ppo": {"run_name": "unstable", "hidden_sizes": [8], "video_interval": -1},
+        "run_name": "unstable",
+        "hidden_sizes": [8],
+        "ppo": {"video_interval": -1},
     }
     parse_dict(settings, config, host.options())
     with pytest.raises(SimulationsBlewUp) as stopped:

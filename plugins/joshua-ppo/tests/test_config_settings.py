@@ -25,11 +25,11 @@ def test_an_empty_config_takes_every_default_of_the_settings_dataclasses() -> No
 
 def test_the_fields_a_config_sets_replace_the_defaults() -> None:
     config = TrainingConfig(num_steps=5, num_epochs=2, minibatch_size=64, gamma=0.5, total_timesteps=1000)
+    config.hidden_sizes.extend([32, 16])
+    config.disable_normalization = True
     options = options_of(config, options_pb2.ppo)
-    options.hidden_sizes.extend([32, 16])
     options.activation = "tanh"
     options.max_grad_norm = -1.0  # negative: no clipping
-    options.disable_observation_normalization = True
     options.anneal_learning_rate = True
     settings = PpoSettings.from_config(config)
     assert (settings.rollout.num_steps, settings.rollout.unrolls_per_iteration) == (5, 1)

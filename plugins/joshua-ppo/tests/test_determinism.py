@@ -31,7 +31,9 @@ SLIDER = {  # 2 iterations of 8 environments x 8 steps on the smallest test mode
     "minibatch_size": 32,
     "total_timesteps": 128,
     "seed": 3,
-    "ppo": {"hidden_sizes": [16], "run_name": "same", "video_interval": -1},
+    "hidden_sizes": [16],
+    "run_name": "same",
+    "ppo": {"video_interval": -1},
 }
 
 

@@ -45,7 +45,10 @@ CONFIG: dict[str, Any] = {  # 8 environments x 5 steps per iteration, 2 iteratio
     "total_timesteps": 80,
     "seed": 3,
     "checkpoint_dir": "runs",
-    "ppo": {"run_name": "slider", "hidden_sizes": [16], "checkpoint_interval": 80, "video_steps": 10, "viewer": "OFF"},
+    "run_name": "slider",
+    "hidden_sizes": [16],
+    "checkpoint_interval": 80,
+    "ppo": {"video_steps": 10, "viewer": "OFF"},
 }
 
 
@@ -181,10 +184,10 @@ def test_two_processes_train_as_one_with_all_their_devices(tmp_path: Path) -> No
     assert largest_difference(ends[leader], parameters(single / "runs" / "slider_step_0" / "params.msgpack")) > 1e-3
 
     # resuming: by one process, a one-line error; by two, from where the run was
-    longer = {**CONFIG, "total_timesteps": 4000, "ppo": {**CONFIG["ppo"], "resume": True}}
+    longer = {**CONFIG, "total_timesteps": 4000, "resume": True}
     alone = finish({leader: start(leader, longer, devices=4)})[leader]
     assert one_line_error(alone) == (
-        "joshua: error: training.ppo.resume: run 'slider' was trained by 2 processes, this one has 1; "
+        "joshua: error: training.resume: run 'slider' was trained by 2 processes, this one has 1; "
         "resume it with as many (the environments are split across them)"
     )
     resuming = two_processes(tmp_path, longer)
@@ -249,9 +252,9 @@ def test_incomplete_process_settings_are_config_errors(
 
 @pytest.mark.slow
 def test_an_error_of_process_0_stops_the_others_with_its_message(tmp_path: Path) -> None:
-    resume = {**CONFIG, "ppo": {**CONFIG["ppo"], "resume": True}}
+    resume = {**CONFIG, "resume": True}
     results = finish(two_processes(tmp_path, resume))
-    missing = "training.ppo.resume: there is no run 'slider' in runs to resume"
+    missing = "training.resume: there is no run 'slider' in runs to resume"
     assert [one_line_error(result) for result in results.values()] == [
         f"joshua: error: {missing}",
         f"joshua: error: process 0 stopped: {missing}",

@@ -28,7 +28,6 @@ _NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e-?\d+)?")
 
 # (message, field) of options.proto -> the default an empty config resolves it to.
 PROTO_DEFAULTS: dict[tuple[str, str], Any] = {
-    ("PpoOptions", "hidden_sizes"): RESOLVED.network.hidden_sizes,
     ("PpoOptions", "activation"): RESOLVED.network.activation,
     ("PpoOptions", "reward_scaling"): RESOLVED.returns.reward_scaling,
     ("PpoOptions", "unrolls_per_iteration"): RESOLVED.rollout.unrolls_per_iteration,
@@ -103,6 +102,13 @@ def test_the_proto_comments_state_the_settings_defaults(message: str, field: str
     assert states(stated[1], PROTO_DEFAULTS[(message, field)]), (
         f"{PROTO.name}: {message}.{field} says {stated[1]!r}; the settings say {PROTO_DEFAULTS[(message, field)]!r}"
     )
+
+
+def test_the_proto_comments_state_the_shared_hidden_sizes_default() -> None:
+    """training.hidden_sizes is the core's field, whose comment leaves its default to the trainer: PpoOptions says
+    it beside value_hidden_sizes."""
+    stated = re.search(r"training\.hidden_sizes, empty: ([\d, ]+)\.", " ".join(field_comments("PpoOptions").values()))
+    assert stated is not None and states(stated[1], RESOLVED.network.hidden_sizes), stated
 
 
 def test_the_guide_states_the_settings_defaults() -> None:

@@ -23,7 +23,7 @@ TINY = {  # 4 environments x 5 steps, one iteration; the checkpoint's files are 
     # Warp's, whose programs compile far sooner than MJX-JAX's, and episodes short enough for an eval to end at once
     "task": "ant_locomotion", "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1,
     "mjx": {"impl": "WARP"}, "task_config": {"episode_length": 20},
-    "total_timesteps": 20, "ppo": {"run_name": "tiny", "video_interval": -1, "hidden_sizes": [16]},
+    "total_timesteps": 20, "run_name": "tiny", "hidden_sizes": [16], "ppo": {"video_interval": -1},
 }  # fmt: skip
 
 
@@ -35,9 +35,9 @@ def tiny_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def other_hidden_sizes(text: str, sizes: list[int]) -> str:
-    """The config.json `text` with the run's training.ppo.hidden_sizes set to `sizes`."""
+    """The config.json `text` with the run's training.hidden_sizes set to `sizes`."""
     document = json.loads(text)
-    document["training"]["ppo"]["hidden_sizes"] = sizes
+    document["training"]["hidden_sizes"] = sizes
     return json.dumps(document)
 
 

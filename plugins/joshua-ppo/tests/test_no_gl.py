@@ -15,7 +15,7 @@ NO_EGL_DRIVER = {"MUJOCO_GL": "egl", "__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexis
 SLIDER = {  # one iteration of distributed_worker.py's slider task, a video asked for at every checkpoint
     "task": "slider_reach", "backend": "mjx", "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1,
     "total_timesteps": 20, "checkpoint_dir": "runs",
-    "ppo": {"run_name": "slider", "hidden_sizes": [8], "video_interval": 0},
+    "run_name": "slider", "hidden_sizes": [8], "ppo": {"video_interval": 0},
 }  # fmt: skip
 
 

@@ -41,14 +41,14 @@ CONFIG: dict[str, Any] = {
     "minibatch_size": 256,
     "total_timesteps": 16000,
     "seed": 0,
+    "run_name": "reach",
+    "checkpoint_interval": 8000,
     "offpolicy": {
-        "run_name": "reach",
         "actor_hidden_sizes": [64, 64],
         "critic_hidden_sizes": [64, 64],
         "replay_steps": 1000,
         "updates_per_step": 8,
         "learning_starts": 16,
-        "checkpoint_interval": 8000,
         "video_interval": -1,
     },
 }
@@ -152,7 +152,7 @@ def check_the_exported_mlp(root: Path) -> None:
 
 def check_resuming(root: Path) -> None:
     first = from_bytes(None, (root / "reach_step_16000" / "train_state.msgpack").read_bytes())
-    checkpoint = train(Td3Trainer(), root, total_timesteps=16320, offpolicy={"resume": True})
+    checkpoint = train(Td3Trainer(), root, total_timesteps=16320, resume=True)
     assert checkpoint.name == "reach_step_16320"
     second = from_bytes(None, (checkpoint / "train_state.msgpack").read_bytes())
     assert (first["iteration"], second["iteration"]) == (100, 102)

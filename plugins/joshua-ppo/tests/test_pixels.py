@@ -63,14 +63,10 @@ CONFIG = {
     "seed": 0,
     "mjx": {"impl": "WARP"},
     "task_config": {"episode_length": 20, "cameras": [{"camera": "overview", "width": SIZE, "height": SIZE}]},
-    "ppo": {
-        "run_name": "pixels",
-        "hidden_sizes": [16],
-        "value_hidden_sizes": [16],
-        "video_interval": -1,
-        "checkpoint_interval": 2 * NUM_ENVS * NUM_STEPS,
-        "pixels": PIXELS,
-    },
+    "run_name": "pixels",
+    "hidden_sizes": [16],
+    "checkpoint_interval": 2 * NUM_ENVS * NUM_STEPS,
+    "ppo": {"value_hidden_sizes": [16], "video_interval": -1, "pixels": PIXELS},
 }
 JOINTS = 6  # joint_pos: the arm's six joints
 GOAL = 3  # the goal command: a position
@@ -88,10 +84,10 @@ def env() -> MjxEnv:
     return make_mjx_env(TASK, 2, task_config=cameras, physics=Physics("warp"))
 
 
-def _settings(ppo: dict[str, Any]) -> PpoSettings:
-    """The PPO settings of a config whose `ppo` options are `ppo`."""
+def _settings(training: dict[str, Any]) -> PpoSettings:
+    """The PPO settings of the training config `training` (a dict, as config.json holds it)."""
     config = TrainingConfig()
-    parse_dict({"ppo": ppo}, config, PluginHost.discover().options())
+    parse_dict(training, config, PluginHost.discover().options())
     return PpoSettings.from_config(config)
 
 
@@ -102,7 +98,7 @@ def teacher_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     config = copy.deepcopy(CONFIG) | {"learning_rate": 1e-2}
     del config["task_config"]["cameras"], config["ppo"]["pixels"]
     config["task_config"]["episode_length"] = NUM_STEPS  # episodes end, so its history records a return and success
-    config["ppo"]["run_name"] = "teacher"
+    config["run_name"] = "teacher"
     root = tmp_path_factory.mktemp("teacher")
     return train_mjx(model_path="so_arm100/pick_place_mjx.xml", config=config, checkpoint_dir=root)
 
@@ -114,7 +110,8 @@ def test_a_pixel_policy_trains_beside_its_teacher(
     loss with its weight, in every minibatch; the run's log names the teacher and how far it had learned."""
     weight = 10.0
     config = copy.deepcopy(CONFIG)
-    config["ppo"] |= {"run_name": "student", "teacher": {"run": str(teacher_run.parent / "teacher"), "weight": weight}}
+    config["run_name"] = "student"
+    config["ppo"]["teacher"] = {"run": str(teacher_run.parent / "teacher"), "weight": weight}
     train_mjx(model_path="so_arm100/pick_place_mjx.xml", config=config, checkpoint_dir=tmp_path)
     taught = json.loads((teacher_run / "metrics.json").read_text())["history"][-1]
     assert (
@@ -122,7 +119,7 @@ def test_a_pixel_policy_trains_beside_its_teacher(
         f"{taught['mean_return']:.4g}, success {taught['metrics/success']:.3f})"
     ) in capsys.readouterr().out
     history = json.loads((tmp_path / "student" / "metrics.json").read_text())["history"]
-    optimization = _settings(config["ppo"]).optimization
+    optimization = _settings(config).optimization
     assert len(history) == 2
     for record in history:
         assert np.isfinite(record["teacher_kl"]) and record["teacher_kl"] > 1e-3, record  # the policies differ
@@ -132,8 +129,8 @@ def test_a_pixel_policy_trains_beside_its_teacher(
 
 
 def test_a_teacher_must_see_the_flat_observation_of_the_same_task(pixel_run: Path, env: MjxEnv) -> None:
-    options, network = PluginHost.discover().options(), _settings(CONFIG["ppo"]).network
-    teacher = _settings({"teacher": {"run": str(pixel_run)}}).teacher
+    options, network = PluginHost.discover().options(), _settings(CONFIG).network
+    teacher = _settings({"ppo": {"teacher": {"run": str(pixel_run)}}}).teacher
     assert teacher is not None and teacher.weight == 1.0  # the default weight
     with pytest.raises(ConfigError, match="a policy that sees camera images; the teacher must see the flat"):
         load_teacher(teacher, env, TASK, options, network)
@@ -165,7 +162,7 @@ def test_a_pixel_run_trains_a_conv_encoder_and_states_its_image_memory(pixel_run
 
 def test_the_policy_action_follows_the_image_not_the_unseen_state(pixel_run: Path, env: MjxEnv) -> None:
     saved = from_bytes(None, (pixel_run / "params.msgpack").read_bytes())
-    network = _settings(CONFIG["ppo"]).network
+    network = _settings(CONFIG).network
     net = make_network(env, network)
     stats = RunningStatistics(**{name: np.asarray(value) for name, value in saved["normalizer"].items()})
     state = env.reset(jax.random.PRNGKey(0))
@@ -195,12 +192,12 @@ def test_eval_runs_the_pixel_policy_from_its_checkpoint(pixel_run: Path, tmp_pat
     results = PpoTrainer().evaluate(pixel_run, episodes=2, seed=0, video_path=None, context=context)
     assert results.lengths == [20, 20], results  # neither 20-step episode ends early by an error
     with pytest.raises(ConfigError, match="sees camera images"):  # an MLP of the flat observation cannot hold it
-        mlp_policy(pixel_run, _settings(CONFIG["ppo"]).network)
+        mlp_policy(pixel_run, _settings(CONFIG).network)
 
 
 def test_whole_unrolls_carry_their_images_when_advantages_are_recomputed(env: MjxEnv) -> None:
     """Minibatches of whole unrolls (batch-major images) reach the loss: one iteration moves the encoder."""
-    network = _settings({"hidden_sizes": [8], "pixels": PIXELS}).network
+    network = _settings({"hidden_sizes": [8], "ppo": {"pixels": PIXELS}}).network
     optimization = OptimizationSettings(num_epochs=1, minibatch_size=4)
     returns = ReturnSettings(recompute_advantages=True)
     iteration = make_iteration(
@@ -259,10 +256,9 @@ def test_an_offpolicy_pixel_actor_trains_from_its_camera_and_evaluates(tmp_path:
     from joshua_ppo.offpolicy_trainer import Td3Trainer
 
     config = copy.deepcopy(CONFIG)
-    del config["ppo"]
+    del config["ppo"], config["hidden_sizes"], config["checkpoint_interval"]
     config |= {"trainer": "td3", "minibatch_size": 8, "total_timesteps": NUM_ENVS * NUM_STEPS}
     config["offpolicy"] = {
-        "run_name": "pixels",
         "actor_hidden_sizes": [16],
         "critic_hidden_sizes": [16],
         "replay_steps": 8,

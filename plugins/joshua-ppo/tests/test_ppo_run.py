@@ -45,7 +45,10 @@ REACH = {  # 16 envs x 25 steps per iteration, 15 iterations: about 60 s on 2 co
     "gamma": 0.97,
     "total_timesteps": 6000,
     "seed": 1,
-    "ppo": {"hidden_sizes": [64, 64], "run_name": "reach", "checkpoint_interval": 4000, "video_interval": -1},
+    "hidden_sizes": [64, 64],
+    "run_name": "reach",
+    "checkpoint_interval": 4000,
+    "ppo": {"video_interval": -1},
 }
 
 
@@ -135,7 +138,10 @@ ANT = {
     "minibatch_size": 40,
     "num_epochs": 1,
     "total_timesteps": 80,
-    "ppo": {"run_name": "ant", "checkpoint_interval": 40, "video_interval": -1, "hidden_sizes": [32]},
+    "run_name": "ant",
+    "checkpoint_interval": 40,
+    "hidden_sizes": [32],
+    "ppo": {"video_interval": -1},
 }
 
 
@@ -148,7 +154,7 @@ def test_training_resumes_from_the_newest_checkpoint_with_its_optimizer(tmp_path
     frames = [frame for ok, frame in iter(capture.read, (False, None)) if ok]
     assert len(frames) >= 12 and frames[0].shape == (480, 640, 3) and frames[0].std() > 10, len(frames)
     first = from_bytes(None, (tmp_path / "ant_step_80" / "train_state.msgpack").read_bytes())
-    resumed = {**ANT, "mjx": WARP, "total_timesteps": 160, "ppo": {**ANT["ppo"], "resume": True}}
+    resumed = {**ANT, "mjx": WARP, "total_timesteps": 160, "resume": True}
     checkpoint = train_mjx(model_path="ant/ant_mjx.xml", config=resumed, checkpoint_dir=tmp_path)
     assert checkpoint.name == "ant_step_160"
     second = from_bytes(None, (checkpoint / "train_state.msgpack").read_bytes())
@@ -160,7 +166,7 @@ def test_training_resumes_from_the_newest_checkpoint_with_its_optimizer(tmp_path
 
 
 def test_diverging_training_stops_with_a_clear_message_and_keeps_the_last_good_checkpoint(tmp_path: Path) -> None:
-    config = {**ANT, "mjx": WARP, "learning_rate": 1e30, "ppo": {**ANT["ppo"], "run_name": "nan", "max_grad_norm": -1}}
+    config = {**ANT, "mjx": WARP, "learning_rate": 1e30, "run_name": "nan", "ppo": {**ANT["ppo"], "max_grad_norm": -1}}
     with pytest.raises(TrainingDiverged, match="diverged in iteration"):
         train_mjx(model_path="ant/ant_mjx.xml", config=config, checkpoint_dir=tmp_path)
     kept = run_checkpoints(tmp_path, "nan")
@@ -175,8 +181,6 @@ def test_brax_style_network_round_trips_through_eval(tmp_path: Path) -> None:
     Brax's advantage estimator and an annealed learning rate."""
     options = {
         **ANT["ppo"],
-        "run_name": "brax",
-        "hidden_sizes": [8, 8],
         "value_hidden_sizes": [16],
         "squash_actions": True,
         "activation": "swish",
@@ -185,7 +189,8 @@ def test_brax_style_network_round_trips_through_eval(tmp_path: Path) -> None:
         "anneal_learning_rate": True,
     }
     # the network is the subject: any physics, and episodes short enough for `joshua eval` to roll out at once
-    config = {**ANT, "mjx": WARP, "task_config": {"episode_length": 20}, "ppo": options}
+    config = {**ANT, "mjx": WARP, "task_config": {"episode_length": 20}, "run_name": "brax", "hidden_sizes": [8, 8]}
+    config["ppo"] = options
     checkpoint = train_mjx(model_path="ant/ant_mjx.xml", config=config, checkpoint_dir=tmp_path)
     params = from_bytes(None, (checkpoint / "params.msgpack").read_bytes())["params"]
     kernels = sorted(tuple(np.shape(layer["kernel"])) for name, layer in params.items() if name.startswith("Dense"))
@@ -224,8 +229,8 @@ def test_bad_settings_are_config_errors(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="no_such_field"):
         train_mjx(model_path="ant/ant_mjx.xml", config={"no_such_field": 1}, checkpoint_dir=tmp_path)
     for name, problem in (("/../x", "holds a '/'"), ("..", "not a name of its own"), ("x_step_9", "_step_<N>")):
-        with pytest.raises(UsageError, match=f"training.ppo.run_name '{re.escape(name)}' .*{re.escape(problem)}"):
-            train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "ppo": {"run_name": name}}, checkpoint_dir=tmp_path)
+        with pytest.raises(UsageError, match=f"training.run_name '{re.escape(name)}' .*{re.escape(problem)}"):
+            train_mjx(model_path="ant/ant_mjx.xml", config={**ANT, "run_name": name}, checkpoint_dir=tmp_path)
     assert not any(tmp_path.iterdir())  # no run folder left behind by a rejected config
     training = TrainingConfig(task="ant_locomotion", backend="mujoco")
     with pytest.raises(ConfigError, match="backend 'mujoco' does not provide; backends that do: mjx"):
@@ -243,8 +248,8 @@ def test_live_viewer_shows_the_training_ants_and_closing_it_lets_training_finish
 ) -> None:
     settings = {
         "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1, "total_timesteps": 4 * 5 * 300,
-        "checkpoint_dir": str(tmp_path), "ppo.run_name": "live", "ppo.viewer": "ON", "ppo.video_interval": -1,
-        "ppo.hidden_sizes": "[16]",
+        "checkpoint_dir": str(tmp_path), "run_name": "live", "ppo.viewer": "ON", "ppo.video_interval": -1,
+        "hidden_sizes": "[16]",
     }  # fmt: skip
     overrides = [arg for name, value in settings.items() for arg in ("--set", f"training.{name}={value}")]
     environment = {key: value for key, value in os.environ.items() if key not in ("MUJOCO_GL", "PYOPENGL_PLATFORM")}
@@ -288,7 +293,7 @@ def test_runs_started_together_get_their_own_folders_and_a_name_in_use_is_refuse
     names while it trains fails at once, in one line naming the process that holds it, touching nothing."""
     settings = {
         "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1, "total_timesteps": 10**9,
-        "checkpoint_dir": str(tmp_path), "ppo.viewer": "OFF", "ppo.video_interval": -1, "ppo.hidden_sizes": "[16]",
+        "checkpoint_dir": str(tmp_path), "ppo.viewer": "OFF", "ppo.video_interval": -1, "hidden_sizes": "[16]",
     }  # fmt: skip
     overrides = [arg for name, value in settings.items() for arg in ("--set", f"training.{name}={value}")]
     command = [*JOSHUA, "--preset", "ant_train_mjx", *overrides]
@@ -309,7 +314,7 @@ def test_runs_started_together_get_their_own_folders_and_a_name_in_use_is_refuse
         taken = folders[0]
         config = (taken / "config.json").read_bytes()
         third = subprocess.run(
-            [*command, "--set", f"training.ppo.run_name={taken.name}"], capture_output=True, text=True, timeout=300
+            [*command, "--set", f"training.run_name={taken.name}"], capture_output=True, text=True, timeout=300
         )
         errors = [line for line in third.stderr.splitlines() if line.startswith("joshua: error:")]
         assert third.returncode == 2 and "Traceback" not in third.stderr, third.stderr[-2000:]

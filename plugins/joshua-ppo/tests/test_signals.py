@@ -23,8 +23,8 @@ JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
 # finish when the run stops: compiles in seconds on the CPU
 SETTINGS = {
     "mjx.impl": "WARP", "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1, "total_timesteps": 10**9,
-    "checkpoint_dir": "runs", "ppo.viewer": "OFF", "ppo.video_interval": -1, "ppo.hidden_sizes": "[16]",
-    "ppo.run_name": "stopped",
+    "checkpoint_dir": "runs", "ppo.viewer": "OFF", "ppo.video_interval": -1, "hidden_sizes": "[16]",
+    "run_name": "stopped",
 }  # fmt: skip
 OVERRIDES = [arg for name, value in SETTINGS.items() for arg in ("--set", f"training.{name}={value}")]
 ARGS = ["--preset", "ant_train_mjx", *OVERRIDES]
@@ -63,7 +63,7 @@ def test_ctrl_c_saves_a_checkpoint_and_says_how_to_resume(tmp_path: Path) -> Non
     run_dir = tmp_path / "runs" / "stopped"
     command = next(line for line in stdout.splitlines() if line.startswith("resume with: "))
     argv = shlex.split(command.removeprefix("resume with: "))
-    assert argv[1:] == [*ARGS, "--set", "training.ppo.resume=true"]
+    assert argv[1:] == [*ARGS, "--set", "training.resume=true"]
 
     total = stopped_at + 20
     resumed = subprocess.run(

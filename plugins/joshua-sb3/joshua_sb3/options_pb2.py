@@ -25,7 +25,7 @@ _sym_db = _symbol_database.Default()
 from joshua_core import config_pb2 as joshua_dot_config__pb2
 
 
-DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x18joshua_sb3/options.proto\x12\njoshua_sb3\x1a\x13joshua/config.proto\"\xc3\x01\n\nSb3Options\x12\x11\n\talgorithm\x18\x01 \x01(\t\x12\x10\n\x08run_name\x18\x02 \x01(\t\x12\x0e\n\x06resume\x18\x03 \x01(\x08\x12\x1b\n\x13\x63heckpoint_interval\x18\x04 \x01(\x03\x12\x14\n\x0chidden_sizes\x18\x05 \x03(\x05\x12\x1d\n\x15\x64isable_normalization\x18\x06 \x01(\x08\x12\x14\n\x0c\x65ntropy_coef\x18\x07 \x01(\x02\x12\x18\n\x10trust_checkpoint\x18\x08 \x01(\x08:<\n\x03sb3\x12\x16.joshua.TrainingConfig\x18\x86\x08 \x01(\x0b\x32\x16.joshua_sb3.Sb3OptionsB\x05\x92\x03\x02\x08\x02\x62\x08\x65\x64itionsp\xe8\x07')
+DESCRIPTOR = _descriptor_pool.Default().AddSerializedFile(b'\n\x18joshua_sb3/options.proto\x12\njoshua_sb3\x1a\x13joshua/config.proto\"\x99\x01\n\nSb3Options\x12\x11\n\talgorithm\x18\x01 \x01(\t\x12\x18\n\x10trust_checkpoint\x18\x08 \x01(\x08J\x04\x08\x02\x10\x08R\x08run_nameR\x06resumeR\x13\x63heckpoint_intervalR\x0chidden_sizesR\x15\x64isable_normalizationR\x0c\x65ntropy_coef:<\n\x03sb3\x12\x16.joshua.TrainingConfig\x18\x86\x08 \x01(\x0b\x32\x16.joshua_sb3.Sb3OptionsB\x05\x92\x03\x02\x08\x02\x62\x08\x65\x64itionsp\xe8\x07')
 
 _globals = globals()
 _builder.BuildMessageAndEnumDescriptors(DESCRIPTOR, _globals)
@@ -34,5 +34,5 @@ if not _descriptor._USE_C_DESCRIPTORS:
   _globals['DESCRIPTOR']._loaded_options = None
   _globals['DESCRIPTOR']._serialized_options = b'\222\003\002\010\002'
   _globals['_SB3OPTIONS']._serialized_start=62
-  _globals['_SB3OPTIONS']._serialized_end=257
+  _globals['_SB3OPTIONS']._serialized_end=215
 # @@protoc_insertion_point(module_scope)

@@ -16,6 +16,14 @@ def joshua_register_trainers(registry: Registrar) -> None:
     )
 
 
+# The options' fields that moved to TrainingConfig, which every trainer reads: old configs that still write them
+# in `sb3 { ... }` are read as the new ones (joshua_core.legacy).
+MOVED = {
+    name: name
+    for name in ("run_name", "resume", "checkpoint_interval", "hidden_sizes", "disable_normalization", "entropy_coef")
+}
+
+
 @hookimpl
 def joshua_register_options(registry: Registrar) -> None:
-    registry.add("sb3", "joshua_sb3.options_pb2:sb3", "sb3 trainer: algorithm, network, run, resume")
+    registry.add("sb3", "joshua_sb3.options_pb2:sb3", "sb3 trainer: algorithm, checkpoint trust", moved=MOVED)

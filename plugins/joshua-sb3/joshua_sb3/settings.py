@@ -54,10 +54,10 @@ class Settings:
             if ignored:
                 names = ", ".join(f"training.{name}" for name in ignored)
                 print(f"joshua: warning: {algorithm} ignores {names} (PPO settings)", file=sys.stderr)
-        if any(size <= 0 for size in options.hidden_sizes):
-            raise ConfigError(f"training.sb3.hidden_sizes must be positive, got {list(options.hidden_sizes)}")
-        if options.checkpoint_interval < 0:
-            raise ConfigError("training.sb3.checkpoint_interval must not be negative")
+        if any(size <= 0 for size in config.hidden_sizes):
+            raise ConfigError(f"training.hidden_sizes must be positive, got {list(config.hidden_sizes)}")
+        if config.checkpoint_interval < 0:
+            raise ConfigError("training.checkpoint_interval must not be negative")
         total_timesteps = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
         num_steps = config.num_steps or (64 if on_policy else 1)
         # SB3 collects num_steps per environment (PPO's n_steps, SAC's and TD3's train_freq) before it checks the total
@@ -65,7 +65,7 @@ class Settings:
         return cls(
             algorithm=algorithm,
             total_timesteps=total_timesteps,
-            checkpoint_interval=checkpoint_interval(options.checkpoint_interval, total_timesteps),
+            checkpoint_interval=checkpoint_interval(config.checkpoint_interval, total_timesteps),
             num_steps=num_steps,
             num_epochs=config.num_epochs or (10 if on_policy else 1),
             minibatch_size=config.minibatch_size or 256,
@@ -73,9 +73,9 @@ class Settings:
             gamma=config.gamma or 0.99,
             gae_lambda=config.gae_lambda or 0.95,
             clip_epsilon=config.clip_epsilon or 0.2,
-            entropy_coef=options.entropy_coef,
-            hidden_sizes=tuple(options.hidden_sizes) or DEFAULT_HIDDEN_SIZES,
-            normalize=not options.disable_normalization,
+            entropy_coef=config.entropy_coef,
+            hidden_sizes=tuple(config.hidden_sizes) or DEFAULT_HIDDEN_SIZES,
+            normalize=not config.disable_normalization,
             seed=int(config.seed),
         )
 

@@ -65,7 +65,7 @@ TRAINER_NAME = "sb3"
 RUN_FORMAT = "joshua-sb3-run/1"
 ALGORITHM_CLASSES: dict[str, type[BaseAlgorithm]] = {"PPO": PPO, "SAC": SAC, "TD3": TD3}
 DEVICE = "cpu"  # small MLP policies: the CPU beats a GPU round trip per environment step
-OPTIONS = "training.sb3"  # where the run options live, for hints
+RUN_OPTIONS = "training"  # where the run options (run_name, resume) live, for hints
 TRAIN_TRUST_HINT = "--set training.sb3.trust_checkpoint=true"
 EVAL_TRUST_HINT = "joshua eval RUN --trust-checkpoint"
 
@@ -217,7 +217,7 @@ def _diverged(step: int) -> TrainingDiverged:
     return TrainingDiverged(
         f"training diverged at {step} steps: the policy's parameters became NaN or infinite, or too large for its "
         "action distribution; the last checkpoint written before it is kept. Lower training.learning_rate, keep "
-        f"the observations normalised (no {OPTIONS}.disable_normalization), or check the model and the task's "
+        f"the observations normalised (no {RUN_OPTIONS}.disable_normalization), or check the model and the task's "
         "rewards and observations for huge values"
     )
 
@@ -233,24 +233,23 @@ def _open_run(config: TrainingConfig, context: RunContext, settings: Settings) -
     """The run folder to write, locked, and the checkpoint to resume from (None for a new run, or for a
     resumed run killed before its first checkpoint)."""
     root = context.output_dir
-    options = options_of(config, options_pb2.sb3)
-    if options.run_name:
-        check_run_name(options.run_name, f"{OPTIONS}.run_name")
-    if not options.resume:
+    if config.run_name:
+        check_run_name(config.run_name, f"{RUN_OPTIONS}.run_name")
+    if not config.resume:
         stem = f"{config.task}_{settings.algorithm.lower()}"
-        return create_run(root, options.run_name or None, stem=stem, options=OPTIONS), None
-    run, saved = resume_run(root, options.run_name or None, trainer=TRAINER_NAME, options=OPTIONS)
+        return create_run(root, config.run_name or None, stem=stem, options=RUN_OPTIONS), None
+    run, saved = resume_run(root, config.run_name or None, trainer=TRAINER_NAME, options=RUN_OPTIONS)
     for key, value in (("algorithm", settings.algorithm), ("task", config.task)):
         if saved.get(key) != value:
             run.close()
             raise ConfigError(
-                f"training.sb3.resume: run {run.path} was trained with {key} '{saved.get(key)}', "
+                f"{RUN_OPTIONS}.resume: run {run.path} was trained with {key} '{saved.get(key)}', "
                 f"this config asks for '{value}'"
             )
     checkpoints = run.checkpoints()
     if not checkpoints:
         print(
-            f"joshua: warning: {OPTIONS}.resume: run {run.path} has no checkpoint (it stopped before its first); "
+            f"joshua: warning: {RUN_OPTIONS}.resume: run {run.path} has no checkpoint (it stopped before its first); "
             "training it from the start",
             file=sys.stderr,
         )
@@ -416,7 +415,7 @@ def _learn(
         if stop.requested:
             print(
                 f"sb3: stopped at {model.num_timesteps} steps; checkpoint {checkpoint}\n"
-                f"resume with: {resume_command(OPTIONS, run.run.name)}",
+                f"resume with: {resume_command(RUN_OPTIONS, run.run.name)}",
                 flush=True,
             )
             raise stop.interrupted()

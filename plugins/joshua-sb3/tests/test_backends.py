@@ -21,7 +21,6 @@ from joshua_core.interfaces import Backend, EnvKind, EnvSpec
 from joshua_core.plugins import PluginHost, PluginInfo
 from joshua_core.resources import resolve_data_path
 from joshua_core.run_context import RunContext
-from joshua_sb3 import options_pb2
 
 
 class ThirdPartyEnvs(gymnasium.vector.VectorWrapper):
@@ -87,9 +86,8 @@ def training(backend: str, run_name: str) -> TrainingConfig:
         minibatch_size=32,
     )
     config.task_config.episode_length = 10
-    options = config.Extensions[options_pb2.sb3]
-    options.run_name = run_name
-    options.hidden_sizes.extend([16])
+    config.run_name = run_name
+    config.hidden_sizes.extend([16])
     return config
 
 

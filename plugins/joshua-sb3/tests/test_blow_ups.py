@@ -20,7 +20,6 @@ from joshua_core.plugins import PluginHost, PluginInfo, Registrar
 from joshua_core.run_context import RunContext
 from joshua_core.statistics import summarize
 from joshua_core.tasks import TaskSpec, TermSpec
-from joshua_sb3 import options_pb2
 from joshua_sb3.run_folder import KEY_ENV_VAR
 
 MASS_ON_SLIDES = """<mujoco><option timestep="0.02" gravity="{pull} 0 0"/><worldbody><body name="mass">
@@ -77,10 +76,9 @@ def training(root: Path, *, pull: float, steps: int, learning_rate: float = 3e-4
         learning_rate=learning_rate,
         seed=1,
     )
-    options = config.Extensions[options_pb2.sb3]
-    options.run_name = "slider"
-    options.hidden_sizes.extend([8])
-    options.checkpoint_interval = ENVS * steps  # step 0 and the end
+    config.run_name = "slider"
+    config.hidden_sizes.extend([8])
+    config.checkpoint_interval = ENVS * steps  # step 0 and the end
     return config
 
 

@@ -49,7 +49,7 @@ def train(host: PluginHost, root: Path) -> dict[str, torch.Tensor]:
         "training.num_epochs=2",
         "training.total_timesteps=256",
         "training.nthread=2",
-        "training.sb3.run_name=same",
+        "training.run_name=same",
     ):
         apply_override(loaded.message, assignment, options)
     training: TrainingConfig = finalize(loaded).training

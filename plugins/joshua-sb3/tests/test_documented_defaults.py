@@ -73,7 +73,7 @@ def test_the_guide_states_the_settings_defaults(name: str) -> None:
 
 def test_the_proto_comments_state_the_settings_defaults() -> None:
     text = PROTO.read_text(encoding="utf-8")
-    hidden = re.search(r"// Hidden layer sizes[^\n]*empty: ([\d, ]+)\.\n\s*repeated int32 hidden_sizes", text)
+    hidden = re.search(r"training\.hidden_sizes: [^;]*empty: ([\d, ]+);", text)
     assert hidden is not None and numbers(hidden[1]) == [float(size) for size in PPO.hidden_sizes]
     algorithm = re.search(r'// Algorithm: "(\w+)" \(default\)', text)
     assert algorithm is not None and algorithm[1] == PPO.algorithm

@@ -14,7 +14,7 @@ from joshua_sb3.run_folder import KEY_ENV_VAR
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
 SETTINGS = {  # one update of 4 x 16 steps
     "num_envs": 4, "num_steps": 16, "minibatch_size": 32, "num_epochs": 1, "total_timesteps": 64,
-    "checkpoint_dir": "runs", "sb3.run_name": "reach",
+    "checkpoint_dir": "runs", "run_name": "reach",
 }  # fmt: skip
 
 

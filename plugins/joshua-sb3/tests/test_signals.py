@@ -23,7 +23,7 @@ SETTINGS = [
     "--preset", "so_arm100_reach_sb3",
     "--set", "training.num_envs=4", "--set", "training.num_steps=25", "--set", "training.num_epochs=1",
     "--set", "training.minibatch_size=100", "--set", "training.checkpoint_dir=runs",
-    "--set", "training.sb3.run_name=stopped", "--set", "training.total_timesteps=1000000",
+    "--set", "training.run_name=stopped", "--set", "training.total_timesteps=1000000",
 ]  # fmt: skip
 
 
@@ -54,7 +54,7 @@ def test_a_signalled_run_saves_a_checkpoint_and_says_how_to_resume(tmp_path: Pat
     assert stopped_at > 0 and f"sb3: stopped at {stopped_at} steps; checkpoint runs/stopped_step_{stopped_at}" in stdout
     command = next(line for line in stdout.splitlines() if line.startswith("resume with: "))
     argv = shlex.split(command.removeprefix("resume with: "))
-    assert argv[0] == "joshua" and argv[1:] == [*SETTINGS, "--set", "training.sb3.resume=true"]
+    assert argv[0] == "joshua" and argv[1:] == [*SETTINGS, "--set", "training.resume=true"]
 
     total = stopped_at + 100
     resumed = subprocess.run(

@@ -66,7 +66,7 @@ def trained(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
         "--preset", PRESET,
         "--set", f"training.total_timesteps={LEARNING_STEPS}",
         "--set", "training.checkpoint_dir=runs",
-        "--set", "training.sb3.run_name=reach",
+        "--set", "training.run_name=reach",
         cwd=work, key=key,
     )  # fmt: skip
     assert process.returncode == 0, process.stderr
@@ -185,8 +185,8 @@ def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
     settings = [
         "--preset", PRESET,
         "--set", "training.num_envs=8", "--set", "training.num_steps=25", "--set", "training.num_epochs=2",
-        "--set", "training.minibatch_size=100", "--set", "training.sb3.checkpoint_interval=400",
-        "--set", "training.checkpoint_dir=runs", "--set", "training.sb3.run_name=killed",
+        "--set", "training.minibatch_size=100", "--set", "training.checkpoint_interval=400",
+        "--set", "training.checkpoint_dir=runs", "--set", "training.run_name=killed",
     ]  # fmt: skip
     run_dir = tmp_path / "runs" / "killed"
     process = subprocess.Popen(
@@ -209,9 +209,9 @@ def test_killed_run_resumes_from_its_last_checkpoint(tmp_path: Path) -> None:
 
     total = killed_at + 1000
     again = joshua(*settings, "--set", f"training.total_timesteps={total}", cwd=tmp_path, key=key)
-    assert again.returncode == 2 and "exists; continue it with --set training.sb3.resume=true" in again.stderr
+    assert again.returncode == 2 and "exists; continue it with --set training.resume=true" in again.stderr
     resumed = joshua(
-        *settings, "--set", f"training.total_timesteps={total}", "--set", "training.sb3.resume=true",
+        *settings, "--set", f"training.total_timesteps={total}", "--set", "training.resume=true",
         cwd=tmp_path, key=key,
     )  # fmt: skip
     assert resumed.returncode == 0, resumed.stderr
@@ -228,8 +228,8 @@ def test_sac_keeps_its_replay_buffer_in_the_newest_checkpoint_and_resumes(tmp_pa
     key = tmp_path / "checkpoint.key"
     settings = [
         "--preset", PRESET, "--set", "training.sb3.algorithm=SAC", "--set", "training.num_envs=4",
-        "--set", "training.minibatch_size=64", "--set", "training.sb3.checkpoint_interval=200",
-        "--set", "training.checkpoint_dir=runs", "--set", "training.sb3.run_name=sac",
+        "--set", "training.minibatch_size=64", "--set", "training.checkpoint_interval=200",
+        "--set", "training.checkpoint_dir=runs", "--set", "training.run_name=sac",
         "--set", "training.gae_lambda=0", "--set", "training.clip_epsilon=0",
     ]  # fmt: skip
     first = joshua(*settings, "--set", "training.total_timesteps=400", cwd=tmp_path, key=key)
@@ -238,7 +238,7 @@ def test_sac_keeps_its_replay_buffer_in_the_newest_checkpoint_and_resumes(tmp_pa
     assert [folder.name for folder in folders][-1] == "sac_step_400" and len(folders) == 3
     assert [(folder / "replay_buffer.pkl").exists() for folder in folders] == [False, False, True]
     resumed = joshua(
-        *settings, "--set", "training.total_timesteps=600", "--set", "training.sb3.resume=true", cwd=tmp_path, key=key
+        *settings, "--set", "training.total_timesteps=600", "--set", "training.resume=true", cwd=tmp_path, key=key
     )
     assert resumed.returncode == 0, resumed.stderr
     assert "from sac_step_400 (400 steps)" in resumed.stdout
@@ -279,7 +279,7 @@ def test_runs_started_together_get_their_own_folders_and_a_name_in_use_is_refuse
         assert set(holders) == {process.pid for process in first}
         taken = runs[0]
         config = (taken / "config.json").read_bytes()
-        third = joshua(*settings, "--set", f"training.sb3.run_name={taken.name}", cwd=tmp_path, key=key)
+        third = joshua(*settings, "--set", f"training.run_name={taken.name}", cwd=tmp_path, key=key)
         errors = [line for line in third.stderr.splitlines() if line.startswith("joshua: error:")]
         assert third.returncode == 2 and "Traceback" not in third.stderr, third.stderr[-2000:]
         holder = next(pid for pid, run in holders.items() if run == taken)
@@ -295,9 +295,9 @@ def test_runs_started_together_get_their_own_folders_and_a_name_in_use_is_refuse
 def test_a_run_name_that_is_not_a_plain_name_is_refused_before_training(tmp_path: Path) -> None:
     for name, problem in (("/../x", "holds a '/'"), ("a/b", "holds a '/'"), ("reach_step_99999", "_step_<N>")):
         done = joshua(
-            "--preset", PRESET, "--set", "training.checkpoint_dir=runs", "--set", f"training.sb3.run_name={name}",
+            "--preset", PRESET, "--set", "training.checkpoint_dir=runs", "--set", f"training.run_name={name}",
             cwd=tmp_path, key=tmp_path / "key",
         )  # fmt: skip
         assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr[-2000:]
-        assert f"training.sb3.run_name '{name}' " in done.stderr and problem in done.stderr, done.stderr
+        assert f"training.run_name '{name}' " in done.stderr and problem in done.stderr, done.stderr
     assert not (tmp_path / "runs").exists() or not any((tmp_path / "runs").iterdir())  # no run folder begun

@@ -27,7 +27,7 @@ def test_preset_trains_from_the_cli_and_writes_a_checkpoint(preset: str, tmp_pat
             "--set", f"training.total_timesteps={TIMESTEPS}",
             "--set", "training.num_envs=2", "--set", "training.num_steps=16",
             "--set", "training.minibatch_size=32", "--set", "training.num_epochs=1",
-            "--set", "training.checkpoint_dir=runs", "--set", "training.sb3.run_name=tiny",
+            "--set", "training.checkpoint_dir=runs", "--set", "training.run_name=tiny",
         ],
         cwd=tmp_path,
         env={**os.environ, KEY_ENV_VAR: str(tmp_path / "checkpoint.key")},

@@ -41,7 +41,7 @@ def test_one_sb3_policy_on_mujoco_and_physx(tmp_path: Path) -> None:
         "--set", "training.minibatch_size=64",
         "--set", f"training.task_config.episode_length={EPISODE_LENGTH}",
         "--set", "training.checkpoint_dir=runs",
-        "--set", "training.sb3.run_name=tiny",
+        "--set", "training.run_name=tiny",
         cwd=tmp_path,
     )  # fmt: skip
     assert trained.returncode == 0, trained.stderr

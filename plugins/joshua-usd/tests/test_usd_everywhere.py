@@ -48,7 +48,7 @@ def test_ppo_trains_on_mjx_through_the_usd_backend(tmp_path: Path) -> None:
     settings = {
         "framework": "MJX", "backend": "usd", "num_envs": 4, "num_steps": 5, "minibatch_size": 20, "num_epochs": 1,
         "total_timesteps": 40, "checkpoint_dir": "runs", "ppo.viewer": "OFF", "ppo.video_interval": -1,
-        "ppo.hidden_sizes": "[16]", "ppo.run_name": "usd",
+        "hidden_sizes": "[16]", "run_name": "usd",
         "mjx.impl": "WARP",  # the backend's model is the subject: Warp's iteration compiles far sooner than MJX-JAX's
     }  # fmt: skip
     overrides = [arg for name, value in settings.items() for arg in ("--set", f"training.{name}={value}")]
