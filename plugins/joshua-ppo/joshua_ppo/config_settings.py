@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
@@ -18,6 +18,7 @@ from joshua_ppo.settings import (
     PixelSettings,
     ReturnSettings,
     RolloutSettings,
+    RunSettings,
     TeacherSettings,
 )
 
@@ -37,6 +38,7 @@ class PpoSettings:
     checkpoint_interval: int
     seed: int
     teacher: TeacherSettings | None = None  # loaded with the environments: joshua_ppo.teacher.load_teacher
+    run: RunSettings = field(default_factory=RunSettings)
 
     @property
     def groups(self) -> dict[str, Any]:
@@ -103,7 +105,19 @@ class PpoSettings:
             checkpoint_interval=checkpoint_interval(config.checkpoint_interval, total),
             seed=int(config.seed),
             teacher=_teacher_settings(options.teacher) if options.HasField("teacher") else None,
+            run=run_settings(config, options),
         )
+
+
+def run_settings(config: TrainingConfig, options: options_pb2.PpoOptions | options_pb2.OffPolicyOptions) -> RunSettings:
+    """The run settings of a JAX trainer: the run folder from `config`, videos and the viewer from its `options`."""
+    return RunSettings(
+        name=config.run_name,
+        resume=config.resume,
+        video_interval=options.video_interval,
+        **set_fields(video_steps=options.video_steps, viewer_envs=options.viewer_envs),
+        viewer=PpoOptions.Viewer.Name(options.viewer).lower(),
+    )
 
 
 def _teacher_settings(options: options_pb2.Teacher) -> TeacherSettings:

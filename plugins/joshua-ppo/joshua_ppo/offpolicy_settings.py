@@ -16,9 +16,9 @@ from joshua_core.errors import ConfigError
 from joshua_core.options import options_of
 from joshua_core.runs import checkpoint_interval
 from joshua_ppo import options_pb2
-from joshua_ppo.config_settings import DEFAULT_TOTAL_TIMESTEPS, pixel_settings, set_fields
+from joshua_ppo.config_settings import DEFAULT_TOTAL_TIMESTEPS, pixel_settings, run_settings, set_fields
 from joshua_ppo.networks import ACTIVATIONS
-from joshua_ppo.settings import PixelSettings
+from joshua_ppo.settings import PixelSettings, RunSettings
 
 ALGORITHMS = ("td3", "sac")
 OPTIONS = "training.offpolicy"
@@ -56,6 +56,7 @@ class OffPolicySettings:
     target_entropy_scale: float = -0.5  # sac: the target entropy is this x the action size
     pixels: PixelSettings | None = None  # set: the actor sees camera images, the critics the flat state
     image_shift: int = 4  # pixels: random-shift augmentation of every image in every update (0: none)
+    run: RunSettings = RunSettings()  # the run folder, videos and the live viewer
 
     @property
     def squash_actions(self) -> bool:
@@ -124,6 +125,7 @@ def offpolicy_settings(config: TrainingConfig, algorithm: str) -> OffPolicySetti
         exploration_std=std,
         pixels=pixel_settings(options.pixels, OPTIONS) if options.HasField("pixels") else None,
         image_shift=max(options.image_shift, 0) if options.image_shift else defaults.image_shift,
+        run=run_settings(config, options),
         **given,
     )
     if settings.learning_starts <= settings.n_step:

@@ -9,10 +9,8 @@ from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.limits import check_one_iteration
-from joshua_core.options import options_of
 from joshua_core.run_context import RunContext
 from joshua_core.runs import RunFolder
-from joshua_ppo import options_pb2
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.offpolicy_iteration import make_actor
 from joshua_ppo.offpolicy_settings import OPTIONS, OffPolicySettings, check_batch, offpolicy_settings
@@ -37,6 +35,7 @@ class OffPolicyRun(Run):
 
     run_format = RUN_FORMAT
     options_path = OPTIONS
+    settings: OffPolicySettings
 
     def __init__(
         self,
@@ -48,7 +47,7 @@ class OffPolicyRun(Run):
         cache: Any,
     ) -> None:
         self.trainer_name = settings.algorithm
-        super().__init__(config, settings, env, context, run, cache, options_of(config, options_pb2.offpolicy))
+        super().__init__(config, settings, env, context, run, cache)
 
     def policy(self, env: JaxEnv) -> Act:
         return offpolicy_policy(env, self.settings)
@@ -63,8 +62,8 @@ class OffPolicyTrainer(JaxTrainer):
     run_format = RUN_FORMAT
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
-        cache, cluster = self.prepare(config)
         settings = offpolicy_settings(config, self.name)
+        cache, cluster = self.prepare(config, settings.run)
         env = environment(config, context, training_envs=True)
         make_actor(env, settings)  # a pixel actor's cameras and terms are checked before anything is written
         check_batch(settings, env.num_envs, env.mesh.size)
@@ -77,6 +76,7 @@ class OffPolicyTrainer(JaxTrainer):
             config,
             context,
             cluster,
+            settings.run,
             lambda folder: OffPolicyRun(config, settings, env, context, folder, cache),
             lambda checkpoint, payloads: load_state(checkpoint, env, settings, payloads),
             fit,

@@ -21,14 +21,13 @@ import numpy as np
 from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.curves import write_training_curves
-from joshua_core.options import message_to_dict, options_of
+from joshua_core.options import message_to_dict
 from joshua_core.progress import progress_bar
 from joshua_core.run_context import RunContext
 from joshua_core.runs import CONFIG_FILE, METRICS_FILE, RunFolder
 from joshua_core.statistics import SUCCESS_METRIC
 from joshua_core.tasks import METRIC_PREFIX
 from joshua_jax import CompileCache, cache_reads
-from joshua_ppo import options_pb2
 from joshua_ppo.checkpoints import RUN_FORMAT, checkpoint_payloads, read_metrics, write_checkpoint
 from joshua_ppo.config_settings import PpoSettings
 from joshua_ppo.envs import JaxEnv, environment
@@ -81,8 +80,8 @@ class ScalarLog:
 
 class Run(ABC):
     """One run being trained: its folder, history and monitors; the callbacks the training loop calls. A trainer
-    names itself (`trainer_name`, also the messages' prefix), its options (run, videos, viewer: `options`) and
-    says what differs in the abstract methods."""
+    names itself (`trainer_name`, also the messages' prefix) and where its options live (`options_path`), and says
+    what differs in the abstract methods; videos and the viewer follow its settings' `run` (RunSettings)."""
 
     trainer_name: str
     run_format: str
@@ -91,15 +90,13 @@ class Run(ABC):
     def __init__(
         self,
         config: TrainingConfig,
-        settings: Any,  # the trainer's settings dataclass: total_timesteps and seed besides its own
+        settings: Any,  # the trainer's settings dataclass: total_timesteps, seed and run besides its own
         env: JaxEnv,
         context: RunContext,
         run: RunFolder,
         cache: CompileCache,
-        options: Any,  # the trainer's options message
     ) -> None:
         self.config = config
-        self.options = options
         self.cache = cache
         self._reads_before: tuple[int, int] | None = None  # cache reads when compiling began, until reported
         self.settings = settings
@@ -187,7 +184,7 @@ class Run(ABC):
             initial=start,
         )
         self.scalars = ScalarLog(self.folder / "tensorboard")
-        self.viewer = open_viewer(self.options, self.env.model, self.options_path)
+        self.viewer = open_viewer(self.settings.run, self.env.model, self.options_path)
         processes = jax.process_count()
         devices = ", ".join(str(device) for device in jax.devices())
         where = f"{len(jax.devices())} devices of {processes} processes" if processes > 1 else devices
@@ -227,7 +224,7 @@ class Run(ABC):
             f"{self.trainer_name} {self.config.task} return {self.last_return:.4g}", refresh=False
         )
         self.bar.update(report.env_steps - self.bar.n)
-        interval = self.options.video_interval
+        interval = self.settings.run.video_interval
         if interval > 0 and report.iteration % interval == 0:
             self.record_video(state, report.env_steps)
         if self.viewer is not None:
@@ -265,7 +262,7 @@ class Run(ABC):
             title=f"{self.config.task}: {self.trainer_name}",
             series=CURVE_SERIES,
         )
-        if report is not None and self.options.video_interval == 0:
+        if report is not None and self.settings.run.video_interval == 0:
             self.record_video(state, progress.env_steps)
 
     def record_video(self, state: State, step: int) -> None:
@@ -275,7 +272,7 @@ class Run(ABC):
         def film() -> Path | None:
             if self._rollout is None:  # on this process's devices: the others do not take part
                 env = environment(self.config, self.context, jax.local_device_count(), jax.local_devices())
-                steps = self.options.video_steps or env.task.episode_length
+                steps = self.settings.run.video_steps or env.task.episode_length
                 self._rollout = env, make_rollout(env, self.policy(env), steps)
             env, rollout = self._rollout
             params, normalizer = jax.device_get((state.params, state.normalizer))  # from every process's devices
@@ -293,17 +290,7 @@ class PpoRun(Run):
     trainer_name = TRAINER_NAME
     run_format = RUN_FORMAT
     options_path = "training.ppo"
-
-    def __init__(
-        self,
-        config: TrainingConfig,
-        settings: PpoSettings,
-        env: JaxEnv,
-        context: RunContext,
-        run: RunFolder,
-        cache: CompileCache,
-    ) -> None:
-        super().__init__(config, settings, env, context, run, cache, options_of(config, options_pb2.ppo))
+    settings: PpoSettings
 
     def policy(self, env: JaxEnv) -> Act:
         return deterministic_policy(env, self.settings.network)

@@ -17,6 +17,19 @@ ADVANTAGE_ESTIMATORS = ("gae", "lambda_return")  # ReturnSettings.advantage
 
 
 @dataclass(frozen=True)
+class RunSettings:
+    """A JAX trainer's run besides its algorithm: which run folder (training.run_name, resume), and what it shows and
+    records besides checkpoints (its options' videos and live viewer)."""
+
+    name: str = ""  # empty: a new run named after the task and the time
+    resume: bool = False  # continue the run `name` (empty: the trainer's newest) from its newest checkpoint
+    video_interval: int = 0  # iterations between rollout videos; 0: at every checkpoint; negative: never
+    video_steps: int = 0  # environment steps of each video; 0: one episode
+    viewer: str = "auto"  # the live MuJoCo viewer: "auto" (when a display is usable), "off" or "on" (required)
+    viewer_envs: int = 4  # environments the live viewer draws over each other
+
+
+@dataclass(frozen=True)
 class RolloutSettings:
     """How much experience one iteration collects: num_envs x num_steps x unrolls_per_iteration transitions,
     where num_envs is the environments' own (`env.num_envs`)."""

@@ -40,7 +40,7 @@ from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.policy import deterministic_policy
 from joshua_ppo.rollout import Act, collect, episode_results, make_rollout, render_video
 from joshua_ppo.run import TRAINER_NAME, PpoRun, Run
-from joshua_ppo.settings import NetworkSettings, check_settings
+from joshua_ppo.settings import NetworkSettings, RunSettings, check_settings
 from joshua_ppo.state import Progress
 from joshua_ppo.teacher import load_teacher
 from joshua_ppo.train import train_ppo
@@ -60,7 +60,7 @@ class JaxTrainer(Trainer, ABC):
     name: str  # the registered trainer name, written into config.json
     run_format: str  # the "format" of its runs' config.json
 
-    def prepare(self, config: TrainingConfig) -> tuple[CompileCache, Cluster]:
+    def prepare(self, config: TrainingConfig, run: RunSettings) -> tuple[CompileCache, Cluster]:
         """What comes before anything compiles or is built: the determinism flags (before JAX starts its backends),
         the compilation cache, the run's processes (before anything asks JAX for its devices), and the run name
         checked."""
@@ -68,15 +68,17 @@ class JaxTrainer(Trainer, ABC):
         cache = use_compile_cache()
         cluster = join(config)
         cluster.check_same_config(config)
-        if config.run_name:
-            check_run_name(config.run_name, f"{RUN_OPTIONS}.run_name")
+        if run.name:
+            check_run_name(run.name, f"{RUN_OPTIONS}.run_name")
         return cache, cluster
 
-    def open_run(self, config: TrainingConfig, root: Path, processes: int) -> tuple[RunFolder, Resume | None]:
+    def open_run(
+        self, config: TrainingConfig, settings: RunSettings, root: Path, processes: int
+    ) -> tuple[RunFolder, Resume | None]:
         """The run folder, locked, and the checkpoint to resume from with what resuming reads (None: a new run)."""
-        if not config.resume:
-            return create_run(root, config.run_name or None, stem=config.task, options=RUN_OPTIONS), None
-        run, saved = resume_run(root, config.run_name or None, trainer=self.name, options=RUN_OPTIONS)
+        if not settings.resume:
+            return create_run(root, settings.name or None, stem=config.task, options=RUN_OPTIONS), None
+        run, saved = resume_run(root, settings.name or None, trainer=self.name, options=RUN_OPTIONS)
         try:
             if saved.get("task") != config.task:
                 raise ConfigError(
@@ -102,13 +104,14 @@ class JaxTrainer(Trainer, ABC):
         config: TrainingConfig,
         context: RunContext,
         cluster: Cluster,
+        settings: RunSettings,
         make_run: Callable[[RunFolder], Run],
         load: Load,
         fit: Fit,
     ) -> Path:
         """Open the run on process 0 (`make_run` its monitors), resume it or write its config, and `fit` on every
         process; a signal stops it after an iteration, with a checkpoint and the command that resumes it."""
-        opened = cluster.on_leader(lambda: self.open_run(config, context.output_dir, cluster.num_processes))
+        opened = cluster.on_leader(lambda: self.open_run(config, settings, context.output_dir, cluster.num_processes))
         if opened is None:  # another process than 0: it trains alongside and writes nothing
             return self._train(cluster, None, _shared_resume(cluster, None), load, fit)
         folder, resume = opened
@@ -210,8 +213,8 @@ class PpoTrainer(JaxTrainer):
     run_format = RUN_FORMAT
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
-        cache, cluster = self.prepare(config)
         settings = PpoSettings.from_config(config)
+        cache, cluster = self.prepare(config, settings.run)
         env = environment(config, context, training_envs=True)
         teacher = None
         if settings.teacher is not None:  # checked before anything is written
@@ -233,6 +236,7 @@ class PpoTrainer(JaxTrainer):
             config,
             context,
             cluster,
+            settings.run,
             lambda folder: PpoRun(config, settings, env, context, folder, cache),
             lambda checkpoint, payloads: load_state(checkpoint, env, settings, payloads),
             fit,

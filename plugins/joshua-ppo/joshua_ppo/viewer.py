@@ -6,23 +6,22 @@ from __future__ import annotations
 import mujoco
 
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_ppo.options_pb2 import OffPolicyOptions, PpoOptions
+from joshua_ppo.settings import RunSettings
 from joshua_render import LiveViewer, TrainingPage, open_training_page
 from joshua_render import open_viewer as open_live_viewer
 
-DEFAULT_VIEWER_ENVS = 4
 PAGE_ENVS = 4  # environments the web page shows side by side (fewer when the run has fewer)
 
 
-def open_viewer(options: PpoOptions | OffPolicyOptions, model: mujoco.MjModel, owner: str) -> LiveViewer | None:
-    """The live viewer the options of a trainer (at `owner` in a config) ask for: none for OFF; for AUTO when a
-    display is usable; for ON, or a UsageError saying what to do without a display."""
-    if options.viewer == PpoOptions.OFF:
+def open_viewer(run: RunSettings, model: mujoco.MjModel, owner: str) -> LiveViewer | None:
+    """The live viewer a run's settings ask for (the options of a trainer at `owner` in a config): none for off; for
+    auto when a display is usable; for on, or a UsageError saying what to do without a display."""
+    if run.viewer == "off":
         return None
     return open_live_viewer(
         model,
-        options.viewer_envs or DEFAULT_VIEWER_ENVS,
-        required=options.viewer == PpoOptions.ON,
+        run.viewer_envs,
+        required=run.viewer == "on",
         what=f"{owner}.viewer ON (the live MuJoCo viewer)",
     )
 

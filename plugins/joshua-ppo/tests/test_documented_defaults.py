@@ -18,7 +18,6 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_ppo.config_settings import DEFAULT_TOTAL_TIMESTEPS, PpoSettings
 from joshua_ppo.envs import DEFAULT_NUM_ENVS
 from joshua_ppo.settings import PixelSettings, TeacherSettings
-from joshua_ppo.viewer import DEFAULT_VIEWER_ENVS
 
 PROTO = Path(joshua_ppo.__file__).with_name("options.proto")
 GUIDE = Path(__file__).resolve().parents[3] / "docs" / "training-mjx.md"
@@ -33,7 +32,7 @@ PROTO_DEFAULTS: dict[tuple[str, str], Any] = {
     ("PpoOptions", "unrolls_per_iteration"): RESOLVED.rollout.unrolls_per_iteration,
     ("PpoOptions", "max_grad_norm"): RESOLVED.optimization.max_grad_norm,
     ("PpoOptions", "value_coef"): RESOLVED.optimization.value_coef,
-    ("PpoOptions", "viewer_envs"): DEFAULT_VIEWER_ENVS,
+    ("PpoOptions", "viewer_envs"): RESOLVED.run.viewer_envs,
     ("PixelOptions", "channels"): PIXELS.channels,
     ("PixelOptions", "kernel_sizes"): PIXELS.kernel_sizes,
     ("PixelOptions", "strides"): PIXELS.strides,
@@ -52,7 +51,7 @@ GUIDE_DEFAULTS: dict[str, Any] = {
     "advantage": RESOLVED.returns.advantage,
     "desired_kl": RESOLVED.optimization.desired_kl,
     "max_kl": RESOLVED.optimization.max_kl,
-    "viewer_envs": DEFAULT_VIEWER_ENVS,
+    "viewer_envs": RESOLVED.run.viewer_envs,
 }
 # The guide's sentence of the TrainingConfig fields PPO reads: name -> default.
 TRAINING_DEFAULTS: dict[str, Any] = {

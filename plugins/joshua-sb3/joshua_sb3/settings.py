@@ -23,9 +23,9 @@ DEFAULT_REPLAY_BUFFER_SIZE = 1_000_000  # SB3's default, transitions of all envi
 
 @dataclass(frozen=True)
 class Settings:
-    """Resolved hyper-parameters; `num_steps` and `num_epochs` mean per-env rollout length and epochs for PPO,
-    steps between updates (train_freq) and gradient steps per update for SAC/TD3. The number of environments
-    is not among them: the environments hold it."""
+    """Resolved hyper-parameters and the run's folder options; `num_steps` and `num_epochs` mean per-env rollout
+    length and epochs for PPO, steps between updates (train_freq) and gradient steps per update for SAC/TD3. The
+    number of environments is not among them: the environments hold it."""
 
     algorithm: str
     total_timesteps: int
@@ -41,6 +41,9 @@ class Settings:
     hidden_sizes: tuple[int, ...]
     normalize: bool
     seed: int
+    run_name: str = ""  # empty: a new run named after the task, the algorithm and the time
+    resume: bool = False  # continue the run `run_name` (empty: the newest sb3 run) from its last checkpoint
+    trust_checkpoint: bool = False  # resume from a run folder this machine's user did not write
 
     @classmethod
     def from_config(cls, config: TrainingConfig) -> Settings:
@@ -77,6 +80,9 @@ class Settings:
             hidden_sizes=tuple(config.hidden_sizes) or DEFAULT_HIDDEN_SIZES,
             normalize=not config.disable_normalization,
             seed=int(config.seed),
+            run_name=config.run_name,
+            resume=config.resume,
+            trust_checkpoint=options.trust_checkpoint,
         )
 
     def algorithm_kwargs(self) -> dict[str, Any]:

@@ -30,7 +30,7 @@ from joshua_core.errors import ConfigError, CorruptCheckpointError, TrainingDive
 from joshua_core.interfaces import EnvKind, EpisodeResults, Trainer
 from joshua_core.interrupts import StopRequest, resume_command, stop_requests
 from joshua_core.json_files import read_json_object
-from joshua_core.options import message_to_dict, options_of
+from joshua_core.options import message_to_dict
 from joshua_core.policy import ExportedPolicy
 from joshua_core.progress import progress_bar
 from joshua_core.run_context import RunContext
@@ -46,7 +46,6 @@ from joshua_core.runs import (
     saved_training,
 )
 from joshua_core.tasks import FAILED_EPISODES, METRIC_PREFIX, MIN_ENDED_EPISODES, REWARD_PREFIX, check_blow_ups
-from joshua_sb3 import options_pb2
 from joshua_sb3.export import saved_policy
 from joshua_sb3.rollout import roll_out
 from joshua_sb3.run_folder import (
@@ -233,12 +232,12 @@ def _open_run(config: TrainingConfig, context: RunContext, settings: Settings) -
     """The run folder to write, locked, and the checkpoint to resume from (None for a new run, or for a
     resumed run killed before its first checkpoint)."""
     root = context.output_dir
-    if config.run_name:
-        check_run_name(config.run_name, f"{RUN_OPTIONS}.run_name")
-    if not config.resume:
+    if settings.run_name:
+        check_run_name(settings.run_name, f"{RUN_OPTIONS}.run_name")
+    if not settings.resume:
         stem = f"{config.task}_{settings.algorithm.lower()}"
-        return create_run(root, config.run_name or None, stem=stem, options=RUN_OPTIONS), None
-    run, saved = resume_run(root, config.run_name or None, trainer=TRAINER_NAME, options=RUN_OPTIONS)
+        return create_run(root, settings.run_name or None, stem=stem, options=RUN_OPTIONS), None
+    run, saved = resume_run(root, settings.run_name or None, trainer=TRAINER_NAME, options=RUN_OPTIONS)
     for key, value in (("algorithm", settings.algorithm), ("task", config.task)):
         if saved.get(key) != value:
             run.close()
@@ -304,7 +303,7 @@ class Sb3Trainer(Trainer):
                 resume_from,
                 settings.algorithm,
                 vec_env,
-                trust=options_of(config, options_pb2.sb3).trust_checkpoint,
+                trust=settings.trust_checkpoint,
                 trust_hint=TRAIN_TRUST_HINT,
                 with_buffer=True,
             )
