@@ -17,7 +17,7 @@ from google.protobuf import text_format
 
 from joshua_core.errors import UsageError
 from joshua_core.policy import ExportedPolicy
-from joshua_core.resources import models_dir
+from joshua_core.resources import MODELS, data_dirs
 from joshua_core.tasks import Joints
 from joshua_export.graph import INPUT_NAME, OUTPUT_NAME
 from joshua_export.observer import Observer, model_sha256
@@ -108,11 +108,13 @@ def _finite(value: float) -> float | None:
 
 
 def portable_model_path(path: str) -> str:
-    """A model inside the shipped models folder as a path relative to it (trainers record absolute paths), so the
+    """A model inside a shipped models folder as a path relative to it (trainers record absolute paths), so the
     contract finds its model in any checkout; any other path as it is."""
     candidate = Path(path)
-    if candidate.is_absolute() and candidate.is_relative_to(models_dir()):
-        return str(candidate.relative_to(models_dir()))
+    if candidate.is_absolute():
+        for shipped in data_dirs(MODELS):
+            if candidate.is_relative_to(shipped):
+                return str(candidate.relative_to(shipped))
     return path
 
 
