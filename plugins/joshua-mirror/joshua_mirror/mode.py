@@ -81,13 +81,13 @@ class MirrorMode(Mode):
                 recorder = Recorder(joints, options.record, units=units, teleop=teleop)
             transport = arm or _open_topics(stack, options, mirror, recorder)
             transport.start(mirror)
-            display = _open_display(stack, config, context, mirror)
+            display = _open_display(stack, config, options, context, mirror)
             loop = _MainLoop(engine, mirror, transport, display, options)
             with recorder.sampling(mirror) if recorder else nullcontext():
                 stopped_by = loop.run(config.duration)
             _warn(transport.poll())  # a last look: a problem that came during the final status period
             transport.close()  # nothing may change the state while it is reported
-            report = {**_report(config, mirror, loop, stopped_by), **transport.report()}
+            report = {**_report(config, options, mirror, loop, stopped_by), **transport.report()}
             report["recording"] = recorder.write(config, context) if recorder else None
         path = context.output_dir / REPORT_FILE
         atomic_write_json(path, json_safe(report))  # NaN/inf are not JSON: null
@@ -322,14 +322,13 @@ def _float64_callback(events: ArmEvents, index: int, loss: TopicLoss) -> Any:
 
 
 def _open_display(
-    stack: ExitStack, config: SimulationConfig, context: RunContext, mirror: Mirror
+    stack: ExitStack, config: SimulationConfig, options: MirrorOptions, context: RunContext, mirror: Mirror
 ) -> _DisplayFeed | None:
-    """The display the options ask for (None for NONE), on an engine of its own from the config's backend; a set
-    `simulation.web` (`--web`) means WEB, a web page that also shows the topics' status.
+    """The display the mirror options ask for (None for NONE), on an engine of its own from the config's backend; a
+    set `simulation.web` (`--web`) means WEB, a web page that also shows the topics' status.
 
     It shows its first frame (the start pose) before it is announced, so "display: ..." means it is up.
     """
-    options = options_of(config, options_pb2.mirror)
     choice = MirrorOptions.WEB if config.web else options.display
     if choice == MirrorOptions.NONE:
         return None
@@ -526,8 +525,9 @@ def _warn_loss(line: str | None) -> None:
         _warn([line])
 
 
-def _report(config: SimulationConfig, mirror: Mirror, loop: _MainLoop, stopped_by: str) -> dict[str, Any]:
-    options = options_of(config, options_pb2.mirror)
+def _report(
+    config: SimulationConfig, options: MirrorOptions, mirror: Mirror, loop: _MainLoop, stopped_by: str
+) -> dict[str, Any]:
     return {
         "model_path": config.model_path,
         "apply": MirrorOptions.Apply.Name(options.apply),

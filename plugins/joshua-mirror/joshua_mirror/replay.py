@@ -85,9 +85,10 @@ class MirrorReplayCommand(Command):
         config = finalize(load(args, plugins.options())).simulation
         if simulation_mode(config) != "MIRROR":
             raise ConfigError(f"mirror-replay needs a MIRROR config; this one is {simulation_mode(config)}")
+        options = options_of(config, options_pb2.mirror)
         if args.joint_state:
-            options_of(config, options_pb2.mirror).message_type = MirrorOptions.JOINT_STATE
-        joints, model_joints = _joints_of(config, plugins)
+            options.message_type = MirrorOptions.JOINT_STATE
+        joints, model_joints = _joints_of(config, options, plugins)
         trajectory = read_trajectory(resolve_data_path(args.csv, what="trajectory"), model_joints)
         trajectory.require_playable()
         columns = _columns(trajectory, joints, args.csv)
@@ -104,7 +105,7 @@ class MirrorReplayCommand(Command):
             [encoder_values, *(_interp_target(trajectory, times, column, joint) for joint, column in commanded)]
         )
         with RosSession("joshua_mirror_replay") as ros:
-            publisher = _EncoderPublisher(ros, config, joints, [joint.command_topic for joint, _ in commanded])
+            publisher = _EncoderPublisher(ros, options, joints, [joint.command_topic for joint, _ in commanded])
             publisher.wait_for_subscribers(args.wait)
             try:
                 _play(publisher, times - times[0], encoder_values, args.speed, args.loops)
@@ -115,14 +116,15 @@ class MirrorReplayCommand(Command):
         return 0
 
 
-def _joints_of(config: SimulationConfig, plugins: PluginHost) -> tuple[list[MirroredJoint], list[str]]:
-    """The config's mapped joints (checked against its model, like the mirror does), and the model's hinge and
-    slide joints: the columns a trajectory of this model may have (the rule of every trajectory reader). The model
-    is the engine's of the backend the config names, as the mirror's is."""
+def _joints_of(
+    config: SimulationConfig, options: MirrorOptions, plugins: PluginHost
+) -> tuple[list[MirroredJoint], list[str]]:
+    """The config's mapped joints (checked against its model as its mirror `options` say, like the mirror does), and
+    the model's hinge and slide joints: the columns a trajectory of this model may have (the rule of every trajectory
+    reader). The model is the engine's of the backend the config names, as the mirror's is."""
     import mujoco
 
     with plugins.backend(config.backend).create_engine(Path(config.model_path), plugins) as engine:
-        options = options_of(config, options_pb2.mirror)
         model = engine.model
         scalar = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
         names = [model.joint(j).name for j in range(model.njnt) if int(model.jnt_type[j]) in scalar]
@@ -165,17 +167,16 @@ def _interp_target(trajectory: Trajectory, times: np.ndarray, column: int, joint
 
 
 class _EncoderPublisher:
-    """Publishes one row of encoder values the way the config's mirror listens: Float64 per topic or JointState,
-    then the row's commands (its last values), Float64 on each of `command_topics`."""
+    """Publishes one row of encoder values the way a mirror of these `options` listens: Float64 per topic or
+    JointState, then the row's commands (its last values), Float64 on each of `command_topics`."""
 
     def __init__(
-        self, ros: RosSession, config: SimulationConfig, joints: list[MirroredJoint], command_topics: list[str]
+        self, ros: RosSession, options: MirrorOptions, joints: list[MirroredJoint], command_topics: list[str]
     ) -> None:
         float64, joint_state = message_types()
         self.node = ros.node
         self.float64 = float64
         self.joint_state = joint_state
-        options = options_of(config, options_pb2.mirror)
         if options.message_type == MirrorOptions.JOINT_STATE:
             topic = options.joint_state_topic or DEFAULT_JOINT_STATE_TOPIC
             self.publishers = [self.node.create_publisher(joint_state, topic, 10)]

@@ -34,7 +34,7 @@ from joshua_core.resources import resolve_data_path  # noqa: E402
 from joshua_core.run_context import RunContext  # noqa: E402
 from joshua_core.trajectory_sources import load_trajectory  # noqa: E402
 from joshua_modes import options_pb2  # noqa: E402
-from joshua_modes.options_pb2 import OffscreenOptions  # noqa: E402
+from joshua_modes.options_pb2 import OffscreenOptions, ReplayOptions  # noqa: E402
 from joshua_modes.replay import Replayer, model_joint_ranges  # noqa: E402
 from joshua_modes.validation import validate, validated_replayer  # noqa: E402
 from joshua_render import VideoWriter, camera_id, create_renderer, write_png  # noqa: E402
@@ -194,7 +194,7 @@ class OffscreenMode(Mode):
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         warn_no_web_page(config, "OFFSCREEN")
-        options = options_of(config, options_pb2.offscreen)
+        options, replay = options_of(config, options_pb2.offscreen), options_of(config, options_pb2.replay)
         fps = options.fps or DEFAULT_FPS
         width, height = render_size(config)
         outputs = OffscreenOutputs(context.output_dir)
@@ -208,7 +208,7 @@ class OffscreenMode(Mode):
             )
             try:
                 try:
-                    advance, times = self._timeline(config, engine, context, fps, staging.temporary)
+                    advance, times = self._timeline(config, replay, engine, context, fps, staging.temporary)
                 except UsageError:
                     staging.publish()  # the report of a refused replay says why nothing was rendered
                     raise
@@ -220,16 +220,22 @@ class OffscreenMode(Mode):
 
     @staticmethod
     def _timeline(
-        config: SimulationConfig, engine: Engine, context: RunContext, fps: float, staging: Path
+        config: SimulationConfig,
+        replay: ReplayOptions,
+        engine: Engine,
+        context: RunContext,
+        fps: float,
+        staging: Path,
     ) -> tuple[Replayer | None, NDArray[np.float64]]:
-        """The replayer (None: plain physics) and the times of the frames; the validation report goes into
-        `staging`."""
+        """The replayer (None: plain physics) of the trajectory, validated as `replay` says, and the times of the
+        frames; the validation report goes into `staging`."""
         if not config.trajectory_path:
             return None, frame_times(0.0, config.duration or DEFAULT_DURATION_S, fps)
         replayer, _ = validated_replayer(
             config,
             engine,
             context.output_dir / REPORT_NAME,
+            replay=replay,
             refusal="nothing rendered because simulation.replay.strict is set",
             plugins=context.plugins,
             staged_at=staging / REPORT_NAME,

@@ -56,6 +56,7 @@ class PassiveMode(Mode):
                 config,
                 engine,
                 report_path,
+                replay=replay,
                 refusal="not replayed because simulation.replay.strict is set (--strict)",
                 plugins=context.plugins,
             )

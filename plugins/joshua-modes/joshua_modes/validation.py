@@ -24,7 +24,6 @@ from joshua_core.atomic import atomic_write_json, json_safe
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import UsageError
 from joshua_core.interfaces import Engine
-from joshua_core.options import options_of
 from joshua_core.trajectory import Trajectory
 from joshua_core.trajectory_sources import load_trajectory
 from joshua_modes import options_pb2
@@ -373,6 +372,7 @@ def validated_replayer(
     engine: Engine,
     report_path: Path,
     *,
+    replay: options_pb2.ReplayOptions,
     refusal: str,
     plugins: PluginHost,
     staged_at: Path | None = None,
@@ -380,9 +380,8 @@ def validated_replayer(
     """Load (CSV, or a dataset through a plugin's reader; episode `replay.episode`) and validate
     `config.trajectory_path` against the engine's model, print the report and write it as JSON (to `staged_at`
     when given: a caller that publishes all its outputs together moves it to `report_path`); return the
-    replayer of its usable rows. With `replay.strict` and any problem, raise UsageError ending in `refusal`
-    (what was not done) instead."""
-    replay = options_of(config, options_pb2.replay)
+    replayer of its usable rows. `replay`: the config's replay options, which the mode read. With
+    `replay.strict` and any problem, raise UsageError ending in `refusal` (what was not done) instead."""
     trajectory = load_trajectory(
         config.trajectory_path, model_joint_ranges(engine.model), episode=replay.episode, plugins=plugins
     )
