@@ -44,9 +44,11 @@ from mjx_time_to_target import environment, raw_physics_rate, train  # noqa: E40
 from mjx_train_ant import evaluate_returns  # noqa: E402
 
 from joshua_core.config import apply_override, finalize, load_preset  # noqa: E402
+from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost  # noqa: E402
 from joshua_mjx import MjxEnv  # noqa: E402
-from joshua_ppo.config_settings import PpoSettings  # noqa: E402
+from joshua_ppo import options_pb2
+from joshua_ppo.config_settings import ppo_settings
 
 PRESET = "ant_train_mjx_tuned"
 # Brax's published Ant settings as JOSHUA config overrides of the tuned preset (same task and model).
@@ -169,7 +171,7 @@ def env_episode_length(config: Any, plugins: PluginHost) -> int:
 
 def run_joshua(name: str, config: Any, plugins: PluginHost, args: argparse.Namespace) -> dict:
     """JOSHUA's PPO on `config` until the training return reaches the target or the time limit."""
-    settings = PpoSettings.from_config(config)
+    settings = ppo_settings(options_of(config, options_pb2.ppo), config)
     env = environment(config, plugins, config.num_envs, jax.devices()[:1], training=True)
     outcome, snapshots = train(settings, env, args.target, args.max_seconds, args.iterations, args.snapshot_interval)
     eval_env = environment(config, plugins, args.eval_envs, jax.devices()[:1])

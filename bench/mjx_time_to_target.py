@@ -57,16 +57,16 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.defaults import training_output_dir
 from joshua_core.interrupts import reported
 from joshua_core.json_files import read_json_object
-from joshua_core.options import OptionSet
+from joshua_core.options import OptionSet, options_of
 from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
 from joshua_core.statistics import SUCCESS_METRIC, summarize
 from joshua_core.tasks import METRIC_PREFIX, REWARD_PREFIX
 from joshua_mjx import MjxEnv, Physics
 from joshua_mjx.physics import mjx
-from joshua_ppo import offpolicy_iteration, offpolicy_train
+from joshua_ppo import offpolicy_iteration, offpolicy_train, options_pb2
 from joshua_ppo.checkpoints import checkpoint_payloads, load_state, resume_payloads, write_payloads
-from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.config_settings import PpoSettings, ppo_settings
 from joshua_ppo.envs import environment as ppo_environment
 from joshua_ppo.normalizer import RunningStatistics
 from joshua_ppo.offpolicy_settings import ALGORITHMS, offpolicy_settings
@@ -100,7 +100,7 @@ class Learner:
 def learner(name: str, config: TrainingConfig) -> Learner:
     """The trainer `name` with the config's settings."""
     if name == "ppo":
-        settings = PpoSettings.from_config(config)
+        settings = ppo_settings(options_of(config, options_pb2.ppo), config)
 
         def ppo_shapes(env: MjxEnv) -> tuple[Any, Any]:
             shapes = abstract_state(env, network=settings.network, optimization=settings.optimization)
@@ -119,7 +119,7 @@ def learner(name: str, config: TrainingConfig) -> Learner:
             checkpoint_payloads,
             lambda folder, env: load_state(folder, env, settings),
         )
-    settings = offpolicy_settings(config, name)
+    settings = offpolicy_settings(options_of(config, options_pb2.offpolicy), config)
 
     def offpolicy_shapes(env: MjxEnv) -> tuple[Any, Any]:
         shapes = offpolicy_iteration.abstract_state(env, settings)
@@ -480,6 +480,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         args.num_envs,
         plugins.options(),
     )
+    config.trainer = args.trainer  # the off-policy settings are those of the algorithm it names
     trainer = learner(args.trainer, config)
     Physics.from_training(config).leave_memory_to_warp()  # before jax.devices() starts JAX's backends
     devices = jax.devices()
@@ -494,7 +495,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     settings = trainer.settings
     teacher = None
     if args.trainer == "ppo" and settings.teacher is not None:
-        teacher = load_teacher(settings.teacher, env, config.task, plugins.options(), settings.network)
+        context = RunContext(plugins, Path(training_output_dir(config)))
+        teacher = load_teacher(settings.teacher, env, config.task, context, settings.network)
     outcome, snapshots = train(
         trainer,
         env,

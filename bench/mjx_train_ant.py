@@ -76,9 +76,11 @@ from mjx_time_to_target import (
 from processes import Machine, probe
 
 from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost
 from joshua_mjx import MjxEnv, Physics
-from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo import options_pb2
+from joshua_ppo.config_settings import PpoSettings, ppo_settings
 from joshua_ppo.envs import DEFAULT_NUM_ENVS
 
 RESULT = "RESULT "  # the line an --independent process reports its outcome on
@@ -102,7 +104,7 @@ def with_minibatch(settings: PpoSettings, minibatch_size: int) -> PpoSettings:
 def batch(config: TrainingConfig, weak: bool, devices: int, shares: int) -> tuple[int, PpoSettings]:
     """(environments, settings) of one of `shares` processes that together train on `devices` devices: weak, the
     preset's batch per device; strong, the preset's batch split over the devices."""
-    settings = PpoSettings.from_config(config)
+    settings = ppo_settings(options_of(config, options_pb2.ppo), config)
     num_envs, minibatch = config.num_envs or DEFAULT_NUM_ENVS, settings.optimization.minibatch_size
     if weak:
         num_envs, minibatch = num_envs * devices, minibatch * devices
@@ -199,7 +201,7 @@ def in_process(args: argparse.Namespace, config: TrainingConfig, plugins: Plugin
     Physics.from_training(config).leave_memory_to_warp()  # before jax.devices() starts JAX's backends
     import jax
 
-    settings = PpoSettings.from_config(config)
+    settings = ppo_settings(options_of(config, options_pb2.ppo), config)
     print(f"devices: {jax.devices()}  preset {args.preset}: {settings.rollout} {settings.optimization}", flush=True)
     counts = device_counts(args, len(jax.devices())) if args.scaling else [len(jax.devices())]
     results = []

@@ -165,12 +165,14 @@ def check(args: argparse.Namespace) -> int:
         raise SystemExit(f"the check needs 4 devices (on a CPU host: {flag})")
     from mjx_time_to_target import SMOKE, load_config
 
+    from joshua_core.options import options_of
     from joshua_core.plugins import PluginHost
-    from joshua_ppo.config_settings import PpoSettings
+    from joshua_ppo import options_pb2
+    from joshua_ppo.config_settings import ppo_settings
 
     base = (SMOKE if args.smoke else []) + args.set  # the preset's physics; --set training.mjx.impl=... the other
     config = load_config(args.preset, base, None, PluginHost.discover().options())
-    rollout = PpoSettings.from_config(config).rollout
+    rollout = ppo_settings(options_of(config, options_pb2.ppo), config).rollout
     per_iteration = config.num_envs * rollout.num_steps * rollout.unrolls_per_iteration
     common = base + [
         "training.checkpoint_dir=runs",

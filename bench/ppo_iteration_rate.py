@@ -47,12 +47,14 @@ def compiled_iteration(config: Any, devices: int = 1) -> tuple[Any, Any, Any, An
     import jax
     from mjx_time_to_target import environment
 
+    from joshua_core.options import options_of
     from joshua_core.plugins import PluginHost
-    from joshua_ppo.config_settings import PpoSettings
+    from joshua_ppo import options_pb2
+    from joshua_ppo.config_settings import ppo_settings
     from joshua_ppo.iteration import make_iteration
     from joshua_ppo.state import init_state
 
-    settings = PpoSettings.from_config(config)
+    settings = ppo_settings(options_of(config, options_pb2.ppo), config)
     env = environment(config, PluginHost.discover(), None, jax.devices()[:devices], True)
     state = init_state(env, seed=0, network=settings.network, optimization=settings.optimization)
     iteration = make_iteration(env, **settings.groups)

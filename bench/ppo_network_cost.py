@@ -22,9 +22,11 @@ import jax
 import jax.numpy as jnp
 from mjx_time_to_target import environment, load_config
 
+from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost
+from joshua_ppo import options_pb2
 from joshua_ppo.batches import Sample, Unroll
-from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.config_settings import ppo_settings
 from joshua_ppo.iteration import _Iteration
 from joshua_ppo.normalizer import fresh_statistics
 
@@ -59,7 +61,7 @@ def main() -> None:
     args = parser.parse_args()
     plugins = PluginHost.discover()
     config = load_config(args.preset, args.set, None, plugins.options())
-    settings = PpoSettings.from_config(config)
+    settings = ppo_settings(options_of(config, options_pb2.ppo), config)
     env = environment(config, plugins, None, jax.devices()[:1])  # made, never reset
     num_envs = env.num_envs
     steps = _Iteration(env, settings.rollout, settings.optimization, settings.returns, settings.network)

@@ -103,6 +103,13 @@ def joshua_register_options(registry: Registrar) -> None:
     extends (`simulation { offscreen { fps: 30 } }`). The CLI imports the targets (`PluginHost.options`)
     before it parses a config strictly, so a `_pb2` module must stay light: it imports only protobuf
     and `joshua_core.config_pb2`. See docs/configuration.md for the field numbers.
+
+    `settings="module:function"` (optional) names the function that turns the option into the plugin's
+    typed settings, `function(options, config) -> settings`: `options` is the option's message in
+    `config`, the SimulationConfig or TrainingConfig it extends, whose shared fields the settings may
+    read too. It returns a frozen object, raises ConfigError (one line naming the field) for a bad
+    value, and is imported and called only when a mode or trainer asks its `RunContext.settings(name,
+    config)`, once per config and run. Without it, the option's message is its settings.
     """
 
 

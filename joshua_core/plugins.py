@@ -14,7 +14,7 @@ import functools
 import importlib
 import inspect
 import os
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from importlib import metadata
 from typing import Any
@@ -53,6 +53,8 @@ class Component:
 
     `env_kinds`: the environment kinds (EnvKind values) a backend provides, or a trainer can train on.
     `moved`: an option's old fields that moved to the message it extends, (old name, new name) pairs.
+    `settings`: an option's settings function (`joshua_register_options`), or its "module:function" path; None: the
+    option's message is its settings.
     """
 
     kind: Kind
@@ -62,12 +64,21 @@ class Component:
     plugin: PluginInfo
     env_kinds: tuple[str, ...] = ()
     moved: tuple[tuple[str, str], ...] = ()
+    settings: object = None
 
     def load(self) -> Any:
         """Import the target if it is still a path; a failure names the plugin and the cause."""
-        if not isinstance(self.target, str):
-            return self.target
-        module_name, _, attribute_path = self.target.partition(":")
+        return self._import(self.target)
+
+    def load_settings(self) -> Callable[[Any, Any], Any] | None:
+        """Import the settings function if it is still a path (None: the option registered none)."""
+        return self._import(self.settings) if self.settings is not None else None
+
+    def _import(self, target: object) -> Any:
+        """`target` itself, or the object its "module:attr" path names; a failure names the plugin and the cause."""
+        if not isinstance(target, str):
+            return target
+        module_name, _, attribute_path = target.partition(":")
         owner = f"{self.kind.value} '{self.name}' from plugin '{self.plugin.name}' ({self.plugin.distribution})"
         try:
             return functools.reduce(getattr, attribute_path.split("."), importlib.import_module(module_name))
@@ -79,7 +90,7 @@ class Component:
                 f"dependencies: pip install --force-reinstall {self.plugin.distribution}"
             ) from error
         except Exception as error:  # a plugin's import can fail in any way; report it, don't crash
-            raise PluginLoadError(f"{owner} failed to load {self.target}: {type(error).__name__}: {error}") from error
+            raise PluginLoadError(f"{owner} failed to load {target}: {type(error).__name__}: {error}") from error
 
 
 class Registrar:
@@ -98,6 +109,7 @@ class Registrar:
         *,
         env_kinds: Iterable[str] = (),
         moved: Mapping[str, str] | None = None,
+        settings: object = None,
     ) -> None:
         """Register `target` (an object, or a "module:attr" path imported on first use) as `name`.
 
@@ -105,13 +117,16 @@ class Registrar:
         or a trainer can train on; declared here so that they are checked without importing anything.
         `moved` (options only): {old name: new name} of the option's fields that moved to the message it extends,
         which old configs still write in the option (`joshua_core.legacy`).
+        `settings` (options only): the function that turns the option into its typed settings, or its
+        "module:function" path imported on first use (`joshua_register_options` says what it takes).
         """
         if not isinstance(name, str) or not name:
             raise TypeError(f"{self.kind.value} name must be a non-empty string, got {name!r}")
-        if isinstance(target, str) and ":" not in target:
-            raise ValueError(
-                f"{self.kind.value} '{name}': target path must look like 'module:attribute', got {target!r}"
-            )
+        for path in (target, settings):
+            if isinstance(path, str) and ":" not in path:
+                raise ValueError(
+                    f"{self.kind.value} '{name}': target path must look like 'module:attribute', got {path!r}"
+                )
         if any(component.name == name for component in self.added):
             raise ValueError(f"{self.kind.value} '{name}' registered twice by the same plugin")
         kinds = (env_kinds,) if isinstance(env_kinds, str) else tuple(env_kinds)
@@ -122,8 +137,10 @@ class Registrar:
             raise ValueError(f"{self.kind.value} '{name}': unknown env_kinds {unknown}; known: {', '.join(known)}")
         if moved and self.kind is not Kind.OPTIONS:
             raise ValueError(f"{self.kind.value} '{name}': only options declare moved fields")
+        if settings is not None and self.kind is not Kind.OPTIONS:
+            raise ValueError(f"{self.kind.value} '{name}': only options register settings")
         renames = tuple(sorted((moved or {}).items()))
-        self.added.append(Component(self.kind, name, target, summary, self.plugin, kinds, renames))
+        self.added.append(Component(self.kind, name, target, summary, self.plugin, kinds, renames, settings))
 
 
 def _normalized(name: str) -> str:

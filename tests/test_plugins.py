@@ -11,6 +11,7 @@ import textwrap
 from pathlib import Path
 from types import ModuleType
 
+import joshua_sample_plugin
 import pytest
 
 from joshua_core import __version__, builtin_plugin, catalog, hookimpl
@@ -434,6 +435,70 @@ def test_a_third_party_plugin_adds_a_mode_and_its_options(tmp_path: Path, run_jo
     missing = run_joshua("--config", str(config))  # not installed: the mode is what to install, not a field error
     assert missing.returncode == 2 and "no mode named 'SAMPLE' is installed" in missing.stderr
     assert "levle" not in missing.stderr and "Traceback" not in missing.stderr
+
+
+def test_a_run_resolves_the_settings_of_an_option_once(tmp_path: Path) -> None:
+    """A settings function gets the option and the config it extends, once per run and config; an option registered
+    without one is its own settings, its message."""
+    calls: list[int] = []
+
+    def settings(options, config) -> tuple[int, float]:
+        calls.append(options.level)
+        return options.level, config.duration
+
+    def register(registry) -> None:
+        registry.add("sample", "joshua_sample_plugin:sample", "with settings", settings=settings)
+
+    context = RunContext(host_of(("settled", plugin_module(joshua_register_options=register))), tmp_path)
+    config = SimulationConfig(duration=2.0)
+    config.Extensions[joshua_sample_plugin.sample].level = 3
+    first = context.settings("sample", config)
+    assert first == (3, 2.0) and all(context.settings("sample", config) is first for _ in range(3))
+    assert calls == [3]
+    config.Extensions[joshua_sample_plugin.sample].level = 4  # another config: its own settings
+    assert context.settings("sample", config) == (4, 2.0) and calls == [3, 4]
+    assert RunContext(context.plugins, tmp_path).settings("sample", config) == (4, 2.0)  # another run resolves again
+    assert calls == [3, 4, 4]
+    plain = RunContext(host_of(("sample", joshua_sample_plugin)), tmp_path)
+    assert plain.settings("sample", config) is config.Extensions[joshua_sample_plugin.sample]
+    with pytest.raises(ConfigError, match="SimulationConfig has no option 'ppo'"):
+        plain.settings("ppo", config)
+    host = host_of(
+        ("odd", plugin_module(joshua_register_modes=lambda registry: registry.add("X", GoodMode, settings=len)))
+    )
+    assert "only options register settings" in host.problems[0]
+
+
+SETTLED_REGISTRATION = 'registry.add("sample", "joshua_sample_plugin:sample", "SAMPLE: level, sizes, label")'
+SETTLED_SETTINGS = """
+
+from joshua_core.errors import ConfigError
+
+
+def sample_settings(options, config):
+    if options.level < 0:
+        raise ConfigError(f"simulation.sample.level must not be negative, got {options.level}")
+    return options
+"""
+
+
+def test_a_bad_value_a_settings_function_rejects_is_one_line_exit_2(tmp_path: Path, run_joshua) -> None:
+    """The sample plugin with a settings function that its mode asks the run for."""
+    source = (Path(__file__).parent / "joshua_sample_plugin.py").read_text()
+    source = source.replace(
+        SETTLED_REGISTRATION, SETTLED_REGISTRATION[:-1] + ', settings="joshua_sample_plugin:sample_settings")'
+    ).replace("options_of(config, sample)", 'context.settings("sample", config)')
+    site = tmp_path / "site"
+    install_fake_distribution(site, "joshua-sample", "sample", "joshua_sample_plugin", source + SETTLED_SETTINGS)
+    env = {"PYTHONPATH": os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")]))}
+    config = tmp_path / "sample.pbtxt"
+    config.write_text(SAMPLE_CONFIG)
+    run = run_joshua("--config", str(config), env=env)
+    assert run.returncode == 0, run.stderr
+    assert json.loads((tmp_path / "joshua_output" / "sample.json").read_text())["level"] == 2
+    bad = run_joshua("--config", str(config), "--set", "simulation.sample.level=-1", env=env)
+    assert bad.returncode == 2, bad.stderr
+    assert bad.stderr == "joshua: error: simulation.sample.level must not be negative, got -1\n"
 
 
 def plugin_with_env_kinds(kind: str, *components: tuple[str, object, tuple[str, ...]]) -> ModuleType:

@@ -1,4 +1,5 @@
-"""A TrainingConfig's PPO hyper-parameters turned into `train_ppo`'s settings, with the defaults filled in."""
+"""A TrainingConfig's PPO hyper-parameters turned into `train_ppo`'s settings, with the defaults filled in: the settings
+of the `ppo` option, which the run resolves once (`RunContext.settings`)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,6 @@ from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
-from joshua_core.options import options_of
 from joshua_core.runs import checkpoint_interval
 from joshua_ppo import options_pb2
 from joshua_ppo.networks import ACTIVATIONS
@@ -23,6 +23,7 @@ from joshua_ppo.settings import (
 )
 
 DEFAULT_TOTAL_TIMESTEPS = 50_000_000
+OPTION = "ppo"  # the option these are the settings of
 
 
 @dataclass(frozen=True)
@@ -50,63 +51,64 @@ class PpoSettings:
             "network": self.network,
         }
 
-    @classmethod
-    def from_config(cls, config: TrainingConfig) -> PpoSettings:
-        options = options_of(config, options_pb2.ppo)
-        for owner, name in ((config, "training.hidden_sizes"), (options, "training.ppo.value_hidden_sizes")):
-            sizes = list(getattr(owner, name.rpartition(".")[2]))
-            if any(size <= 0 for size in sizes):
-                raise ConfigError(f"{name} must be positive, got {sizes}")
-        for name in ("desired_kl", "max_kl"):
-            if getattr(options, name) < 0:
-                raise ConfigError(f"training.ppo.{name} must not be negative, got {getattr(options, name)}")
-        for name in ("num_steps", "num_epochs", "minibatch_size", "total_timesteps"):  # num_envs: by EnvSpec
-            if getattr(config, name) < 0:
-                raise ConfigError(f"training.{name} must not be negative")
-        total = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
-        optimization = OptimizationSettings(
-            **set_fields(
-                num_epochs=config.num_epochs,
-                minibatch_size=config.minibatch_size,
-                learning_rate=config.learning_rate,
-                clip_epsilon=config.clip_epsilon,
-                value_coef=options.value_coef,
-                max_grad_norm=options.max_grad_norm,
-            ),
-            entropy_coef=config.entropy_coef,
-            desired_kl=options.desired_kl,
-            max_kl=options.max_kl,
-            anneal_steps=total if options.anneal_learning_rate else 0,
-        )
-        if optimization.max_grad_norm is not None and optimization.max_grad_norm < 0:  # negative: no clipping
-            optimization = replace(optimization, max_grad_norm=None)
-        network = NetworkSettings(
-            **set_fields(hidden_sizes=tuple(config.hidden_sizes), activation=options.activation),
-            value_hidden_sizes=tuple(options.value_hidden_sizes),
-            normalize_observations=not config.disable_normalization,
-            squash_actions=options.squash_actions,
-            state_dependent_std=options.state_dependent_std,
-            pixels=pixel_settings(options.pixels) if options.HasField("pixels") else None,
-        )
-        if network.activation not in ACTIVATIONS:
-            raise ConfigError(f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}")
-        return cls(
-            rollout=RolloutSettings(
-                **set_fields(num_steps=config.num_steps, unrolls_per_iteration=options.unrolls_per_iteration)
-            ),
-            optimization=optimization,
-            returns=ReturnSettings(
-                **set_fields(gamma=config.gamma, gae_lambda=config.gae_lambda, reward_scaling=options.reward_scaling),
-                recompute_advantages=options.recompute_advantages,
-                advantage=PpoOptions.Advantage.Name(options.advantage).lower(),
-            ),
-            network=network,
-            total_timesteps=total,
-            checkpoint_interval=checkpoint_interval(config.checkpoint_interval, total),
-            seed=int(config.seed),
-            teacher=_teacher_settings(options.teacher) if options.HasField("teacher") else None,
-            run=run_settings(config, options),
-        )
+
+def ppo_settings(options: PpoOptions, config: TrainingConfig) -> PpoSettings:
+    """The PPO settings of `config` and its `ppo` options (the settings function the plugin registers with them); a
+    value out of its range is a ConfigError naming its field."""
+    for owner, name in ((config, "training.hidden_sizes"), (options, "training.ppo.value_hidden_sizes")):
+        sizes = list(getattr(owner, name.rpartition(".")[2]))
+        if any(size <= 0 for size in sizes):
+            raise ConfigError(f"{name} must be positive, got {sizes}")
+    for name in ("desired_kl", "max_kl"):
+        if getattr(options, name) < 0:
+            raise ConfigError(f"training.ppo.{name} must not be negative, got {getattr(options, name)}")
+    for name in ("num_steps", "num_epochs", "minibatch_size", "total_timesteps"):  # num_envs: by EnvSpec
+        if getattr(config, name) < 0:
+            raise ConfigError(f"training.{name} must not be negative")
+    total = config.total_timesteps or DEFAULT_TOTAL_TIMESTEPS
+    optimization = OptimizationSettings(
+        **set_fields(
+            num_epochs=config.num_epochs,
+            minibatch_size=config.minibatch_size,
+            learning_rate=config.learning_rate,
+            clip_epsilon=config.clip_epsilon,
+            value_coef=options.value_coef,
+            max_grad_norm=options.max_grad_norm,
+        ),
+        entropy_coef=config.entropy_coef,
+        desired_kl=options.desired_kl,
+        max_kl=options.max_kl,
+        anneal_steps=total if options.anneal_learning_rate else 0,
+    )
+    if optimization.max_grad_norm is not None and optimization.max_grad_norm < 0:  # negative: no clipping
+        optimization = replace(optimization, max_grad_norm=None)
+    network = NetworkSettings(
+        **set_fields(hidden_sizes=tuple(config.hidden_sizes), activation=options.activation),
+        value_hidden_sizes=tuple(options.value_hidden_sizes),
+        normalize_observations=not config.disable_normalization,
+        squash_actions=options.squash_actions,
+        state_dependent_std=options.state_dependent_std,
+        pixels=pixel_settings(options.pixels) if options.HasField("pixels") else None,
+    )
+    if network.activation not in ACTIVATIONS:
+        raise ConfigError(f"training.ppo.activation '{options.activation}' is not one of: {', '.join(ACTIVATIONS)}")
+    return PpoSettings(
+        rollout=RolloutSettings(
+            **set_fields(num_steps=config.num_steps, unrolls_per_iteration=options.unrolls_per_iteration)
+        ),
+        optimization=optimization,
+        returns=ReturnSettings(
+            **set_fields(gamma=config.gamma, gae_lambda=config.gae_lambda, reward_scaling=options.reward_scaling),
+            recompute_advantages=options.recompute_advantages,
+            advantage=PpoOptions.Advantage.Name(options.advantage).lower(),
+        ),
+        network=network,
+        total_timesteps=total,
+        checkpoint_interval=checkpoint_interval(config.checkpoint_interval, total),
+        seed=int(config.seed),
+        teacher=_teacher_settings(options.teacher) if options.HasField("teacher") else None,
+        run=run_settings(config, options),
+    )
 
 
 def run_settings(config: TrainingConfig, options: options_pb2.PpoOptions | options_pb2.OffPolicyOptions) -> RunSettings:

@@ -1,5 +1,6 @@
 """The off-policy trainers' settings (`td3`, `sac`): one frozen dataclass whose defaults are theirs (their only
-home, docs/training-offpolicy.md says why each), filled from a TrainingConfig and checked before anything is built.
+home, docs/training-offpolicy.md says why each), filled from a TrainingConfig and checked before anything is built:
+the settings of the `offpolicy` option, which the run resolves once (`RunContext.settings`).
 
 The defaults follow FastTD3's recipe for thousands of GPU environments (Seo et al. 2025): large minibatches drawn
 from a replay buffer kept on the device, n-step returns, clipped double Q, several updates per environment step,
@@ -13,7 +14,6 @@ from typing import Any
 
 from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
-from joshua_core.options import options_of
 from joshua_core.runs import checkpoint_interval
 from joshua_ppo import options_pb2
 from joshua_ppo.config_settings import DEFAULT_TOTAL_TIMESTEPS, pixel_settings, run_settings, set_fields
@@ -64,9 +64,12 @@ class OffPolicySettings:
         return True
 
 
-def offpolicy_settings(config: TrainingConfig, algorithm: str) -> OffPolicySettings:
-    """The settings of `config` for `algorithm`; a value out of its range is a ConfigError naming its field."""
-    options = options_of(config, options_pb2.offpolicy)
+def offpolicy_settings(options: options_pb2.OffPolicyOptions, config: TrainingConfig) -> OffPolicySettings:
+    """The settings of `config` and its `offpolicy` options for the algorithm `config.trainer` names (the settings
+    function the plugin registers with them); a value out of its range is a ConfigError naming its field."""
+    algorithm = config.trainer
+    if algorithm not in ALGORITHMS:
+        raise ConfigError(f"training.offpolicy is for the trainers {', '.join(ALGORITHMS)}, not '{algorithm}'")
     for name in ("num_steps", "minibatch_size", "total_timesteps"):
         if getattr(config, name) < 0:
             raise ConfigError(f"training.{name} must not be negative, got {getattr(config, name)}")

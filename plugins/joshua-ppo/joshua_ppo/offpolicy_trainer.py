@@ -13,7 +13,7 @@ from joshua_core.run_context import RunContext
 from joshua_core.runs import RunFolder
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.offpolicy_iteration import make_actor
-from joshua_ppo.offpolicy_settings import OPTIONS, OffPolicySettings, check_batch, offpolicy_settings
+from joshua_ppo.offpolicy_settings import OPTIONS, OffPolicySettings, check_batch
 from joshua_ppo.offpolicy_train import (
     RUN_FORMAT,
     checkpoint_payloads,
@@ -60,9 +60,10 @@ class OffPolicyTrainer(JaxTrainer):
     """TD3 or SAC (`name`) on the JAX environments of the configured backend; docs/training-offpolicy.md."""
 
     run_format = RUN_FORMAT
+    option = OPTIONS.rpartition(".")[2]
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
-        settings = offpolicy_settings(config, self.name)
+        settings: OffPolicySettings = context.settings(self.option, config)
         cache, cluster = self.prepare(config, settings.run)
         env = environment(config, context, training_envs=True)
         make_actor(env, settings)  # a pixel actor's cameras and terms are checked before anything is written
@@ -82,13 +83,12 @@ class OffPolicyTrainer(JaxTrainer):
             fit,
         )
 
-    def saved_policy(self, config: TrainingConfig, checkpoint: Path, env: JaxEnv) -> SavedPolicy:
-        settings = offpolicy_settings(config, self.name)
+    def saved_policy(self, settings: OffPolicySettings, checkpoint: Path, env: JaxEnv) -> SavedPolicy:
         params, normalizer = load_actor(checkpoint, env, settings)
         return offpolicy_policy(env, settings), params, normalizer
 
-    def exported_network(self, config: TrainingConfig) -> NetworkSettings:
-        return exported_network(offpolicy_settings(config, self.name))
+    def exported_network(self, settings: OffPolicySettings) -> NetworkSettings:
+        return exported_network(settings)
 
 
 class Td3Trainer(OffPolicyTrainer):

@@ -1,5 +1,5 @@
-"""Entry point of joshua-ppo: registers the JAX trainers `ppo`, `td3` and `sac` and their options. Imports nothing
-heavy (no jax or flax)."""
+"""Entry point of joshua-ppo: registers the JAX trainers `ppo`, `td3` and `sac` and their options, each with the
+settings it is read into. Imports nothing heavy (no jax or flax)."""
 
 from __future__ import annotations
 
@@ -40,11 +40,16 @@ OFFPOLICY_MOVED = _SHARED | _NORMALIZATION
 @hookimpl
 def joshua_register_options(registry: Registrar) -> None:
     registry.add(
-        "ppo", "joshua_ppo.options_pb2:ppo", "ppo trainer: network, advantages, schedule, videos", moved=PPO_MOVED
+        "ppo",
+        "joshua_ppo.options_pb2:ppo",
+        "ppo trainer: network, advantages, schedule, videos",
+        moved=PPO_MOVED,
+        settings="joshua_ppo.config_settings:ppo_settings",
     )
     registry.add(
         "offpolicy",
         "joshua_ppo.options_pb2:offpolicy",
         "td3 and sac trainers: replay, updates, networks",
         moved=OFFPOLICY_MOVED,
+        settings="joshua_ppo.offpolicy_settings:offpolicy_settings",
     )

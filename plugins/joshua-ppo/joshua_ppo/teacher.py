@@ -10,11 +10,12 @@ import jax
 import jax.numpy as jnp
 
 from joshua_core.errors import ConfigError, CorruptCheckpointError
+from joshua_core.run_context import RunContext
 from joshua_core.runs import METRICS_FILE, saved_training
 from joshua_core.statistics import SUCCESS_METRIC
 from joshua_core.tasks import METRIC_PREFIX
 from joshua_ppo.checkpoints import RUN_FORMAT, load_params, read_metrics
-from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.config_settings import OPTION
 from joshua_ppo.envs import JaxEnv
 from joshua_ppo.normalizer import RunningStatistics, normalize
 from joshua_ppo.policy import Network, make_network
@@ -39,15 +40,17 @@ class Teacher(NamedTuple):
         return jax.lax.stop_gradient((mean, jnp.broadcast_to(log_std, mean.shape)))
 
 
-def load_teacher(settings: TeacherSettings, env: JaxEnv, task: str, options: Any, student: NetworkSettings) -> Teacher:
+def load_teacher(
+    settings: TeacherSettings, env: JaxEnv, task: str, context: RunContext, student: NetworkSettings
+) -> Teacher:
     """The teacher `settings` names, checked against the student: the same task (so the same flat observation and
     actions), a policy of the flat observation, actions squashed alike (the term compares the Gaussians before the
-    squashing); `options`: the installed plugin options (`PluginHost.options()`), to read its config.json."""
+    squashing); `context`: the run's, whose plugins read its config.json and resolve its settings."""
     where = f"training.ppo.teacher.run {settings.run}"
-    checkpoint, _, config = saved_training(Path(settings.run), RUN_FORMAT, options)
+    checkpoint, _, config = saved_training(Path(settings.run), RUN_FORMAT, context.plugins.options())
     if config.task != task:
         raise ConfigError(f"{where}: a policy of task '{config.task}', not '{task}'")
-    network = PpoSettings.from_config(config).network
+    network = context.settings(OPTION, config).network
     if network.pixels is not None:
         raise ConfigError(f"{where}: a policy that sees camera images; the teacher must see the flat observation")
     if network.squash_actions != student.squash_actions:

@@ -32,7 +32,7 @@ from joshua_core.runs import (
 )
 from joshua_jax import CompileCache, use_compile_cache
 from joshua_ppo.checkpoints import RESUME_FILES, RUN_FORMAT, load_params, load_state, resume_payloads
-from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.config_settings import OPTION, PpoSettings
 from joshua_ppo.distributed import Cluster, join
 from joshua_ppo.envs import JaxEnv, environment
 from joshua_ppo.export import mlp_policy
@@ -59,6 +59,7 @@ class JaxTrainer(Trainer, ABC):
 
     name: str  # the registered trainer name, written into config.json
     run_format: str  # the "format" of its runs' config.json
+    option: str  # the option whose settings it trains with (`RunContext.settings`)
 
     def prepare(self, config: TrainingConfig, run: RunSettings) -> tuple[CompileCache, Cluster]:
         """What comes before anything compiles or is built: the determinism flags (before JAX starts its backends),
@@ -158,13 +159,14 @@ class JaxTrainer(Trainer, ABC):
         return checkpoint
 
     @abstractmethod
-    def saved_policy(self, config: TrainingConfig, checkpoint: Path, env: JaxEnv) -> SavedPolicy:
-        """The deterministic policy a checkpoint of a run trained with `config` holds, for `env`: as rollouts take
-        it, with its parameters and normaliser (a CorruptCheckpointError when they do not fit)."""
+    def saved_policy(self, settings: Any, checkpoint: Path, env: JaxEnv) -> SavedPolicy:
+        """The deterministic policy a checkpoint of a run trained with `settings` (its config's) holds, for `env`: as
+        rollouts take it, with its parameters and normaliser (a CorruptCheckpointError when they do not fit)."""
 
     @abstractmethod
-    def exported_network(self, config: TrainingConfig) -> NetworkSettings:
-        """The saved policy described as the MLP `joshua_ppo.export.mlp_policy` reads."""
+    def exported_network(self, settings: Any) -> NetworkSettings:
+        """The saved policy of a run trained with `settings` described as the MLP `joshua_ppo.export.mlp_policy`
+        reads."""
 
     def evaluate(
         self,
@@ -181,7 +183,7 @@ class JaxTrainer(Trainer, ABC):
         use_compile_cache()  # before anything compiles
         devices = len(jax.devices())
         env = environment(config, context, -(-episodes // devices) * devices)
-        act, params, normalizer = self.saved_policy(config, checkpoint, env)
+        act, params, normalizer = self.saved_policy(context.settings(self.option, config), checkpoint, env)
         print(f"{self.name}: evaluating {checkpoint} ({checkpoint_step(checkpoint)} steps) over {episodes} episodes")
         rollout = make_rollout(env, act, env.task.episode_length, recorded=video_grid)
         episode = collect(rollout(params, normalizer, jax.random.PRNGKey(seed)), episodes)
@@ -194,7 +196,8 @@ class JaxTrainer(Trainer, ABC):
     def export_policy(self, run_dir: Path, *, context: RunContext, trust_checkpoint: bool = False) -> ExportedPolicy:
         # msgpack runs no code: nothing to trust
         checkpoint, _, config = saved_training(run_dir, self.run_format, context.plugins.options())
-        return ExportedPolicy(self.name, checkpoint, config, mlp_policy(checkpoint, self.exported_network(config)))
+        network = self.exported_network(context.settings(self.option, config))
+        return ExportedPolicy(self.name, checkpoint, config, mlp_policy(checkpoint, network))
 
 
 def _shared_resume(cluster: Cluster, resume: Resume | None) -> Resume | None:
@@ -211,14 +214,15 @@ class PpoTrainer(JaxTrainer):
 
     name = TRAINER_NAME
     run_format = RUN_FORMAT
+    option = OPTION
 
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
-        settings = PpoSettings.from_config(config)
+        settings: PpoSettings = context.settings(self.option, config)
         cache, cluster = self.prepare(config, settings.run)
         env = environment(config, context, training_envs=True)
         teacher = None
         if settings.teacher is not None:  # checked before anything is written
-            teacher = load_teacher(settings.teacher, env, config.task, context.plugins.options(), settings.network)
+            teacher = load_teacher(settings.teacher, env, config.task, context, settings.network)
         # a bad batch layout is a config error before anything is written
         recompute = settings.returns.recompute_advantages
         check_settings(settings.rollout, settings.optimization, env.num_envs, env.mesh.size, whole_unrolls=recompute)
@@ -242,10 +246,9 @@ class PpoTrainer(JaxTrainer):
             fit,
         )
 
-    def saved_policy(self, config: TrainingConfig, checkpoint: Path, env: JaxEnv) -> SavedPolicy:
-        settings = PpoSettings.from_config(config)
+    def saved_policy(self, settings: PpoSettings, checkpoint: Path, env: JaxEnv) -> SavedPolicy:
         params, normalizer = load_params(checkpoint, env, settings.network)
         return deterministic_policy(env, settings.network), params, normalizer
 
-    def exported_network(self, config: TrainingConfig) -> NetworkSettings:
-        return PpoSettings.from_config(config).network
+    def exported_network(self, settings: PpoSettings) -> NetworkSettings:
+        return settings.network

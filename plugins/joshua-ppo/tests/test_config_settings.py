@@ -9,12 +9,13 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.options import options_of
 from joshua_ppo import options_pb2
-from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo.config_settings import ppo_settings
+from joshua_ppo.options_pb2 import PpoOptions
 from joshua_ppo.settings import NetworkSettings, OptimizationSettings, ReturnSettings, RolloutSettings
 
 
 def test_an_empty_config_takes_every_default_of_the_settings_dataclasses() -> None:
-    settings = PpoSettings.from_config(TrainingConfig())
+    settings = ppo_settings(PpoOptions(), TrainingConfig())
     assert settings.groups == {
         "rollout": RolloutSettings(),
         "optimization": OptimizationSettings(),
@@ -31,7 +32,7 @@ def test_the_fields_a_config_sets_replace_the_defaults() -> None:
     options.activation = "tanh"
     options.max_grad_norm = -1.0  # negative: no clipping
     options.anneal_learning_rate = True
-    settings = PpoSettings.from_config(config)
+    settings = ppo_settings(options_of(config, options_pb2.ppo), config)
     assert (settings.rollout.num_steps, settings.rollout.unrolls_per_iteration) == (5, 1)
     assert (settings.optimization.num_epochs, settings.optimization.minibatch_size) == (2, 64)
     assert settings.optimization.learning_rate == OptimizationSettings().learning_rate
@@ -48,4 +49,4 @@ def test_an_unknown_activation_is_a_config_error() -> None:
     config = TrainingConfig()
     options_of(config, options_pb2.ppo).activation = "gelu"
     with pytest.raises(ConfigError, match="activation 'gelu' is not one of: relu"):
-        PpoSettings.from_config(config)
+        ppo_settings(options_of(config, options_pb2.ppo), config)

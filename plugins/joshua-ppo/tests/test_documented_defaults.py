@@ -2,7 +2,7 @@
 
 `joshua_ppo.settings` is the one home of PPO's defaults; the proto comments ("0: 0.5") and the docs' option table
 restate them for readers, so this test reads both and compares every stated default with what an empty config
-resolves to (`PpoSettings.from_config`).
+resolves to (`ppo_settings`).
 """
 
 from __future__ import annotations
@@ -15,13 +15,14 @@ import pytest
 
 import joshua_ppo
 from joshua_core.config_pb2 import TrainingConfig
-from joshua_ppo.config_settings import DEFAULT_TOTAL_TIMESTEPS, PpoSettings
+from joshua_ppo.config_settings import DEFAULT_TOTAL_TIMESTEPS, ppo_settings
 from joshua_ppo.envs import DEFAULT_NUM_ENVS
+from joshua_ppo.options_pb2 import PpoOptions
 from joshua_ppo.settings import PixelSettings, TeacherSettings
 
 PROTO = Path(joshua_ppo.__file__).with_name("options.proto")
 GUIDE = Path(__file__).resolve().parents[3] / "docs" / "training-mjx.md"
-RESOLVED = PpoSettings.from_config(TrainingConfig())
+RESOLVED = ppo_settings(PpoOptions(), TrainingConfig())
 PIXELS = PixelSettings(cameras=("camera",))
 _NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e-?\d+)?")
 

@@ -24,7 +24,6 @@ from joshua_core.plugins import PluginHost, PluginInfo, Registrar
 from joshua_core.run_context import RunContext
 from joshua_core.runs import run_checkpoints
 from joshua_ppo.envs import environment
-from joshua_ppo.offpolicy_settings import offpolicy_settings
 from joshua_ppo.offpolicy_train import load_actor, offpolicy_policy
 from joshua_ppo.offpolicy_trainer import OffPolicyTrainer, SacTrainer, Td3Trainer
 
@@ -138,7 +137,7 @@ def check_the_exported_mlp(root: Path) -> None:
     assert exported.trainer == "td3" and mlp.output == "tanh"
     config = TrainingConfig()
     parse_dict({**CONFIG, "trainer": "td3"}, config, plugins().options())
-    settings = offpolicy_settings(config, "td3")
+    settings = context.settings("offpolicy", config)
     env = environment(config, context, 8)
     params, normalizer = load_actor(root / "reach_step_16000", env, settings)
     state = env.reset(jax.random.PRNGKey(3))

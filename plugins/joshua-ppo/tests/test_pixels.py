@@ -23,12 +23,12 @@ from joshua_core.config import finalize, load_preset
 from joshua_core.config_pb2 import TaskConfig, TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import EnvKind
-from joshua_core.options import parse_dict
+from joshua_core.options import options_of, parse_dict
 from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
 from joshua_mjx import MjxEnv, Physics, make_mjx_env
-from joshua_ppo import train_mjx
-from joshua_ppo.config_settings import PpoSettings
+from joshua_ppo import options_pb2, train_mjx
+from joshua_ppo.config_settings import PpoSettings, ppo_settings
 from joshua_ppo.export import mlp_policy
 from joshua_ppo.iteration import make_iteration
 from joshua_ppo.normalizer import RunningStatistics
@@ -88,7 +88,7 @@ def _settings(training: dict[str, Any]) -> PpoSettings:
     """The PPO settings of the training config `training` (a dict, as config.json holds it)."""
     config = TrainingConfig()
     parse_dict(training, config, PluginHost.discover().options())
-    return PpoSettings.from_config(config)
+    return ppo_settings(options_of(config, options_pb2.ppo), config)
 
 
 @pytest.fixture(scope="module")
@@ -129,13 +129,13 @@ def test_a_pixel_policy_trains_beside_its_teacher(
 
 
 def test_a_teacher_must_see_the_flat_observation_of_the_same_task(pixel_run: Path, env: MjxEnv) -> None:
-    options, network = PluginHost.discover().options(), _settings(CONFIG).network
+    context, network = RunContext(PluginHost.discover(), pixel_run), _settings(CONFIG).network
     teacher = _settings({"ppo": {"teacher": {"run": str(pixel_run)}}}).teacher
     assert teacher is not None and teacher.weight == 1.0  # the default weight
     with pytest.raises(ConfigError, match="a policy that sees camera images; the teacher must see the flat"):
-        load_teacher(teacher, env, TASK, options, network)
+        load_teacher(teacher, env, TASK, context, network)
     with pytest.raises(ConfigError, match="a policy of task 'so_arm100_pick_place', not 'so_arm100_reach'"):
-        load_teacher(teacher, env, "so_arm100_reach", options, network)
+        load_teacher(teacher, env, "so_arm100_reach", context, network)
     with pytest.raises(ConfigError, match="teacher.run must name"):
         _settings({"teacher": {"weight": 2.0}})
     with pytest.raises(ConfigError, match="teacher.weight must not be negative"):
@@ -215,7 +215,7 @@ def test_the_pixels_preset_validates_against_its_task() -> None:
     state; its environments (2 here) render on MuJoCo Warp, and the network it describes builds against them."""
     plugins = PluginHost.discover()
     training = finalize(load_preset("so_arm100_pick_place_pixels", plugins.options())).training
-    settings = PpoSettings.from_config(training)
+    settings = ppo_settings(options_of(training, options_pb2.ppo), training)
     pixels = settings.network.pixels
     assert pixels is not None and pixels.cameras == ("overview",) and pixels.commands == ("goal",)
     assert settings.network.separate_value_network

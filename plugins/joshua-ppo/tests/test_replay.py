@@ -12,10 +12,12 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.errors import ConfigError
 from joshua_core.options import parse_dict
 from joshua_core.plugins import PluginHost
+from joshua_ppo import options_pb2
 from joshua_ppo.offpolicy_iteration import random_shift
 from joshua_ppo.offpolicy_losses import critic_loss, critic_target
 from joshua_ppo.offpolicy_networks import squashed_gaussian
 from joshua_ppo.offpolicy_settings import check_batch, offpolicy_settings
+from joshua_ppo.options_pb2 import OffPolicyOptions
 from joshua_ppo.replay import Step, add, empty_replay, n_step_return, sample
 
 GAMMA = 0.9
@@ -100,14 +102,14 @@ def test_losses_and_the_squashed_gaussian() -> None:
     ],
 )
 def test_bad_settings_are_config_errors(options: dict, message: str) -> None:
-    config = TrainingConfig()
+    config = TrainingConfig(trainer="td3")
     parse_dict(options, config, PluginHost.discover().options())
     with pytest.raises(ConfigError, match=message):
-        offpolicy_settings(config, "td3")
+        offpolicy_settings(config.Extensions[options_pb2.offpolicy], config)
 
 
 def test_a_minibatch_larger_than_the_first_buffer_is_a_config_error() -> None:
-    settings = offpolicy_settings(TrainingConfig(minibatch_size=4096), "sac")
+    settings = offpolicy_settings(OffPolicyOptions(), TrainingConfig(trainer="sac", minibatch_size=4096))
     check_batch(settings, num_envs=512, devices=1)
     with pytest.raises(ConfigError, match="minibatch_size 4096 is more than the 2048 transitions the buffer holds"):
         check_batch(settings, num_envs=256, devices=1)

@@ -1,4 +1,5 @@
-"""Entry point of joshua-sb3: registers the `sb3` trainer and its options. Imports nothing heavy."""
+"""Entry point of joshua-sb3: registers the `sb3` trainer and its options, with the settings they are read into.
+Imports nothing heavy."""
 
 from __future__ import annotations
 
@@ -26,4 +27,10 @@ MOVED = {
 
 @hookimpl
 def joshua_register_options(registry: Registrar) -> None:
-    registry.add("sb3", "joshua_sb3.options_pb2:sb3", "sb3 trainer: algorithm, checkpoint trust", moved=MOVED)
+    registry.add(
+        "sb3",
+        "joshua_sb3.options_pb2:sb3",
+        "sb3 trainer: algorithm, checkpoint trust",
+        moved=MOVED,
+        settings="joshua_sb3.settings:sb3_settings",
+    )

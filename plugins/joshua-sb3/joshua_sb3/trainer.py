@@ -56,7 +56,7 @@ from joshua_sb3.run_folder import (
     verify_checkpoint,
     write_checkpoint,
 )
-from joshua_sb3.settings import Settings
+from joshua_sb3.settings import OPTION, Settings
 from joshua_sb3.vec_env import METRICS_KEY, REWARD_TERMS_KEY, SameStepVecEnv, blown_up, ended_episodes
 from joshua_sb3.web_page import PagePublisher, open_page
 
@@ -280,7 +280,7 @@ class Sb3Trainer(Trainer):
     def train(self, config: TrainingConfig, context: RunContext) -> Path:
         if use_determinism(config):  # the JAX environments' XLA flag, and torch's deterministic algorithms
             torch.use_deterministic_algorithms(True)
-        settings = Settings.from_config(config)
+        settings: Settings = context.settings(OPTION, config)
         folder, resume_from = _open_run(config, context, settings)
         with folder:  # locked while training; a new run that fails before writing anything leaves no folder
             return self._train(config, context, settings, folder, resume_from)

@@ -18,7 +18,7 @@ from joshua_core.config_pb2 import TrainingConfig
 from joshua_core.defaults import DEFAULT_NUMPY_NUM_ENVS
 from joshua_core.options import options_of
 from joshua_sb3 import options_pb2
-from joshua_sb3.settings import Settings
+from joshua_sb3.settings import Settings, sb3_settings
 
 GUIDE = Path(__file__).resolve().parents[3] / "docs" / "training-sb3.md"
 PROTO = Path(joshua_sb3.__file__).with_name("options.proto")
@@ -28,7 +28,7 @@ _NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:e-?\d+)?")
 def resolved(algorithm: str) -> Settings:
     config = TrainingConfig()
     options_of(config, options_pb2.sb3).algorithm = algorithm
-    return Settings.from_config(config)
+    return sb3_settings(options_of(config, options_pb2.sb3), config)
 
 
 PPO, SAC = resolved("PPO"), resolved("SAC")

@@ -9,10 +9,12 @@ from pathlib import Path
 import pytest
 
 from joshua_core.config_pb2 import TrainingConfig
+from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
 from joshua_core.runs import CONFIG_FILE, create_run
-from joshua_sb3.settings import Settings
+from joshua_sb3 import options_pb2
+from joshua_sb3.settings import sb3_settings
 from joshua_sb3.trainer import RUN_OPTIONS, TRAINER_NAME, _open_run
 
 TASK = "so_arm100_reach"
@@ -22,7 +24,7 @@ def test_resuming_a_run_without_a_checkpoint_says_it_starts_afresh(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     config = TrainingConfig(task=TASK, resume=True, run_name="reach")
-    settings = Settings.from_config(config)
+    settings = sb3_settings(options_of(config, options_pb2.sb3), config)
     with create_run(tmp_path, "reach", stem=TASK, options=RUN_OPTIONS) as run:  # its config written, then stopped
         saved = {"trainer": TRAINER_NAME, "algorithm": settings.algorithm, "task": TASK}
         (run.path / CONFIG_FILE).write_text(json.dumps(saved))
