@@ -24,11 +24,9 @@ from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError, JoshuaError, UsageError
 from joshua_core.interfaces import Engine, Mode
 from joshua_core.limits import MAX_CONTROL_HZ, MIN_CONTROL_HZ
-from joshua_core.options import options_of
 from joshua_core.run_context import RunContext
-from joshua_mirror import options_pb2
 from joshua_mirror.graph import TypeChecker
-from joshua_mirror.joints import MirroredJoint, resolve_joints, topic_mappings
+from joshua_mirror.joints import MirroredJoint, resolve_joints
 from joshua_mirror.lerobot_arm import FOLLOWERS, LEADERS, LeRobotArm, follower_of, lerobot_units
 from joshua_mirror.loss import TopicLoss
 from joshua_mirror.mirror import Mirror
@@ -59,12 +57,12 @@ class MirrorMode(Mode):
     pass, Ctrl-C, or the arm's port fails."""
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
-        options = options_of(config, options_pb2.mirror)
+        options: MirrorOptions = context.settings("mirror", config)
         _check_lerobot(options)
         with ExitStack() as stack:
             engine = stack.enter_context(context.create_engine(config))
             _check_mujoco(engine)
-            mappings = topic_mappings(config)
+            mappings = context.settings("mirror_topic_mappings", config).mappings
             joints = resolve_joints(engine.model, mappings, options, by_topics=not options.lerobot.robot_type)
             units = _arm_units(options.lerobot, joints)
             arm = _open_arm(stack, options.lerobot, joints, units)  # before the twin's clock starts: lerobot loads

@@ -1,7 +1,9 @@
 """Entry point of joshua-mirror: registers the MIRROR mode, its options, `joshua mirror-replay`, `joshua deploy`
 and `joshua checklist`.
 
-Imports nothing heavy: the options module (options_pb2) imports only protobuf and the core schema.
+Imports nothing heavy: the options module (options_pb2) imports only protobuf and the core schema. The options
+register no settings function: each is its own settings, the message the MIRROR mode gets from
+`RunContext.settings`.
 """
 
 from __future__ import annotations

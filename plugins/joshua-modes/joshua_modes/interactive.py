@@ -17,10 +17,8 @@ from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.defaults import DEFAULT_SIMULATION_BACKEND
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import Engine, Mode
-from joshua_core.options import options_of
 from joshua_core.plugins import PluginHost
 from joshua_core.run_context import RunContext
-from joshua_modes import options_pb2
 from joshua_modes.options_pb2 import ViewerOptions
 from joshua_render import InteractiveControls, InteractivePage, ViewerDisplay, open_interactive_page
 
@@ -146,7 +144,7 @@ class InteractiveMode(Mode):
     """The viewer on the config's model; `keyframe` empty means the model's first keyframe."""
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
-        viewer = options_of(config, options_pb2.viewer)
+        viewer: ViewerOptions = context.settings("viewer", config)
         web = config.web if config.web or viewer.display == ViewerOptions.WEB else None
         with context.create_engine(config) as engine:
             simulate(engine, keyframe=config.keyframe or None, duration=config.duration, web=web)

@@ -27,13 +27,11 @@ from joshua_core.defaults import DEFAULT_SIMULATION_BACKEND  # noqa: E402
 from joshua_core.errors import ConfigError, UsageError  # noqa: E402
 from joshua_core.headless import warn_no_web_page  # noqa: E402
 from joshua_core.interfaces import DEFAULT_RENDER_HEIGHT, DEFAULT_RENDER_WIDTH, Engine, Mode, render_size  # noqa: E402
-from joshua_core.options import options_of  # noqa: E402
 from joshua_core.plugins import PluginHost  # noqa: E402
 from joshua_core.progress import progress_bar  # noqa: E402
 from joshua_core.resources import resolve_data_path  # noqa: E402
 from joshua_core.run_context import RunContext  # noqa: E402
 from joshua_core.trajectory_sources import load_trajectory  # noqa: E402
-from joshua_modes import options_pb2  # noqa: E402
 from joshua_modes.options_pb2 import OffscreenOptions, ReplayOptions  # noqa: E402
 from joshua_modes.replay import Replayer, model_joint_ranges  # noqa: E402
 from joshua_modes.validation import validate, validated_replayer  # noqa: E402
@@ -194,7 +192,8 @@ class OffscreenMode(Mode):
 
     def run(self, config: SimulationConfig, context: RunContext) -> None:
         warn_no_web_page(config, "OFFSCREEN")
-        options, replay = options_of(config, options_pb2.offscreen), options_of(config, options_pb2.replay)
+        options: OffscreenOptions = context.settings("offscreen", config)
+        replay: ReplayOptions = context.settings("replay", config)
         fps = options.fps or DEFAULT_FPS
         width, height = render_size(config)
         outputs = OffscreenOutputs(context.output_dir)

@@ -15,12 +15,10 @@ from pathlib import Path
 from joshua_core.config_pb2 import SimulationConfig
 from joshua_core.errors import ConfigError
 from joshua_core.interfaces import Mode
-from joshua_core.options import options_of
 from joshua_core.progress import progress_bar
 from joshua_core.run_context import RunContext
-from joshua_modes import options_pb2
 from joshua_modes.offscreen import frame_times
-from joshua_modes.options_pb2 import ViewerOptions
+from joshua_modes.options_pb2 import ReplayOptions, ViewerOptions
 from joshua_modes.replay import Replayer
 from joshua_modes.validation import ValidationReport, validated_replayer
 from joshua_render import Display, RecordingDisplay, WebDisplay, open_display, open_web_display
@@ -47,7 +45,8 @@ class PassiveMode(Mode):
             raise ConfigError(
                 "PASSIVE mode replays a trajectory: set simulation.trajectory_path to a CSV file or a LeRobot dataset"
             )
-        replay, viewer = options_of(config, options_pb2.replay), options_of(config, options_pb2.viewer)
+        replay: ReplayOptions = context.settings("replay", config)
+        viewer: ViewerOptions = context.settings("viewer", config)
         speed = replay.speed or 1.0
         fps = viewer.fps or DEFAULT_FPS
         with context.create_engine(config) as engine:

@@ -1,6 +1,7 @@
 """Entry point of joshua-modes: registers the OFFSCREEN, PASSIVE and INTERACTIVE modes and their options.
 
-Imports nothing heavy: the options module (options_pb2) imports only protobuf and the core schema.
+Imports nothing heavy: the options module (options_pb2) imports only protobuf and the core schema. The options
+register no settings function: each is its own settings, the message a mode gets from `RunContext.settings`.
 """
 
 from __future__ import annotations
