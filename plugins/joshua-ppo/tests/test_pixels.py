@@ -137,9 +137,9 @@ def test_a_teacher_must_see_the_flat_observation_of_the_same_task(pixel_run: Pat
     with pytest.raises(ConfigError, match="a policy of task 'so_arm100_pick_place', not 'so_arm100_reach'"):
         load_teacher(teacher, env, "so_arm100_reach", context, network)
     with pytest.raises(ConfigError, match="teacher.run must name"):
-        _settings({"teacher": {"weight": 2.0}})
+        _settings({"ppo": {"teacher": {"weight": 2.0}}})
     with pytest.raises(ConfigError, match="teacher.weight must not be negative"):
-        _settings({"teacher": {"run": "runs/x", "weight": -1.0}})
+        _settings({"ppo": {"teacher": {"run": "runs/x", "weight": -1.0}}})
 
 
 def test_a_pixel_run_trains_a_conv_encoder_and_states_its_image_memory(pixel_run: Path) -> None:
@@ -232,10 +232,10 @@ def test_the_pixels_preset_validates_against_its_task() -> None:
 
 def test_pixel_options_without_a_camera_or_with_unknown_names_are_one_line_config_errors(env: MjxEnv) -> None:
     with pytest.raises(ConfigError, match="pixels.cameras must name at least one") as error:
-        _settings({"pixels": {"observation_terms": ["joint_pos"]}})
+        _settings({"ppo": {"pixels": {"observation_terms": ["joint_pos"]}}})
     errors = [error.value]
     with pytest.raises(ConfigError, match="one entry per conv layer") as error:
-        _settings({"pixels": {"cameras": ["overview"], "channels": [4, 8], "kernel_sizes": [3]}})
+        _settings({"ppo": {"pixels": {"cameras": ["overview"], "channels": [4, 8], "kernel_sizes": [3]}}})
     errors.append(error.value)
     for pixels, message in (
         ({"cameras": ["nowhere"]}, "camera 'nowhere' is not one of the task's cameras \\(overview\\)"),
@@ -243,7 +243,7 @@ def test_pixel_options_without_a_camera_or_with_unknown_names_are_one_line_confi
         ({"cameras": ["overview"], "commands": ["target"]}, "command 'target' is not one of the task's commands"),
     ):
         with pytest.raises(ConfigError, match=message) as error:
-            make_network(env, _settings({"pixels": pixels}).network)
+            make_network(env, _settings({"ppo": {"pixels": pixels}}).network)
         errors.append(error.value)
     assert all("\n" not in str(value) for value in errors), errors
 
