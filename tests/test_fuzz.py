@@ -16,6 +16,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import pytest
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -215,6 +216,7 @@ def trajectory_csvs(draw: st.DrawFn) -> bytes:
     return "\n".join(rows).encode("utf-8", "surrogatepass")
 
 
+@pytest.mark.slow
 @given(trajectory_csvs())
 @settings(FUZZ, max_examples=25)
 def test_any_trajectory_csv_is_a_clean_exit(csv: bytes) -> None:

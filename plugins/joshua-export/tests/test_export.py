@@ -174,6 +174,7 @@ def test_bad_runs_are_one_line_exit_2(sb3_run: tuple[Path, Path], ppo_run: Path,
     one_line_exit_2(joshua("export", str(damaged), cwd=tmp_path), "has no params.msgpack")
 
 
+@pytest.mark.slow
 def test_out_replaces_only_a_folder_joshua_wrote_and_only_with_overwrite(
     sb3_run: tuple[Path, Path], tmp_path: Path
 ) -> None:

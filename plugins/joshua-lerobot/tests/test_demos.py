@@ -93,6 +93,7 @@ def simulated() -> list[dict[str, Any]]:
     return attempts
 
 
+@pytest.mark.slow
 def test_demos_keep_the_successful_attempts_and_lerobot_loads_them(tmp_path: Path) -> None:
     out = tmp_path / "demos"
     done = demos(out, "--episodes", "2", "--num-envs", str(NUM_ENVS), "--seed", str(SEED), "--fps", str(FPS),

@@ -522,6 +522,7 @@ def joshua_units(root: Path, *options: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(command, capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_a_dataset_lerobot_recorded_in_range_units_reads_once_its_units_are_recorded(
     tmp_path: Path, ranges: dict[str, tuple[float, float]], capsys: pytest.CaptureFixture[str]
 ) -> None:

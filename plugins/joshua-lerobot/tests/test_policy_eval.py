@@ -55,6 +55,7 @@ def joshua_eval(folder: Path, *options: str, python: Path | str) -> subprocess.C
     return subprocess.run(command, capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_joshua_eval_reports_a_lerobot_policys_success_rate_with_intervals(
     policy: Path, lerobot_folder: Path, tmp_path: Path
 ) -> None:
@@ -74,6 +75,7 @@ def test_joshua_eval_reports_a_lerobot_policys_success_rate_with_intervals(
     assert video.stat().st_size > 0
 
 
+@pytest.mark.slow
 def test_the_policys_actions_drive_the_arm(policy: Path, lerobot_folder: Path) -> None:
     plugins = PluginHost.discover()
     with PolicyProcess(str(lerobot_python(lerobot_folder)), policy, "cpu", DEFAULT_REPLY_SECONDS) as process:
@@ -127,6 +129,7 @@ def test_bad_input_is_one_line_and_exit_2(
     assert done.returncode == 2 and done.stderr.count("\n") == 1 and message in done.stderr, done.stderr
 
 
+@pytest.mark.slow
 def test_a_policy_taking_a_camera_the_task_lacks_is_refused_naming_it(lerobot_folder: Path, tmp_path: Path) -> None:
     inputs = {"observation.state": [6], "observation.images.wrist": [3, HEIGHT, WIDTH]}
     folder = save_policy(tmp_path / "wrist", tmp_path, inputs)

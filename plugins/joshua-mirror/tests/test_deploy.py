@@ -284,6 +284,7 @@ def test_a_topic_of_another_type_stops_the_deploy(
     assert json.loads(report.read_text())["stopped_by"] == "wrong message type"
 
 
+@pytest.mark.slow
 def test_bad_input_is_one_line(tmp_path: Path, ros_env: dict[str, str]) -> None:
     (tmp_path / "arm.pbtxt").write_text(CONFIG)
     five = "".join(  # a config of its own: joint_6 is not mapped

@@ -494,6 +494,7 @@ simulation {
 """
 
 
+@pytest.mark.slow
 def test_mirror_records_the_motion_and_commands_it_receives(tmp_path: Path, ros_env: dict[str, str]) -> None:
     """`joshua mirror-replay` publishes a CSV's positions (encoders) and targets (commands); the mirror's
     recording reads back through load_trajectory, as a CSV and as a LeRobot dataset, on the published path."""
@@ -556,6 +557,7 @@ def assert_on_path(
     assert np.ptp(delays) < 0.1, delays
 
 
+@pytest.mark.slow
 def test_recording_keeps_its_rate_while_the_display_records_video(tmp_path: Path, ros_env: dict[str, str]) -> None:
     """The CSV recording is sampled at its configured fps whatever the display costs: with display RECORD at
     640x480 a frame takes longer than a sample period, yet the rows come 1/30 s apart (median within 10 %) and

@@ -96,6 +96,7 @@ def _drawn(env: MjxEnv, state, names: tuple[str, ...]) -> dict:
     return {**state.params, **{name: drawn[name] for name in names}}
 
 
+@pytest.mark.slow
 def test_at_strength_zero_the_images_are_the_unrandomized_ones(plain: MjxEnv, randomized: MjxEnv) -> None:
     key = jax.random.PRNGKey(0)
     state, reference = randomized.reset(key), plain.reset(key)

@@ -268,6 +268,7 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one(
     assert any("num_envs 3 must be a multiple of the 2 devices" in line for line in lines), done.stdout
 
 
+@pytest.mark.slow
 def test_the_mjx_engine_tracks_the_mujoco_engine() -> None:
     engines = MjxEngine("so_arm100/scene_mjx.xml"), MuJoCoEngine("so_arm100/scene_mjx.xml")
     for engine in engines:

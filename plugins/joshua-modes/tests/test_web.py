@@ -58,6 +58,7 @@ def arm_image(driver: webdriver.Chrome) -> list[NDArray[np.uint8]]:
     return [image] if orange_pixels(image) >= MIN_ARM_PIXELS else []
 
 
+@pytest.mark.slow
 def test_page_draws_the_moving_arm_and_pause_stops_time(replay_url: str, browser: webdriver.Chrome) -> None:
     browser.get(replay_url)
     wait = WebDriverWait(browser, PAGE_S, poll_frequency=0.2)
@@ -79,6 +80,7 @@ def test_page_draws_the_moving_arm_and_pause_stops_time(replay_url: str, browser
     wait.until(lambda d: shown_time(d) != paused_at)
 
 
+@pytest.mark.slow
 def test_page_lists_the_problems_with_their_times_marks_them_and_goes_to_them(
     tmp_path: Path, browser: webdriver.Chrome, web_run: Any
 ) -> None:

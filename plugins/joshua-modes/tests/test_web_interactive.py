@@ -59,6 +59,7 @@ def target_fields(driver: Any) -> list[Any]:
     return driver.find_elements(By.XPATH, "//label[text()='drag target (m)']/following::input[position() <= 3]")
 
 
+@pytest.mark.slow
 def test_frames_toggle_drag_and_reset(tmp_path: Path, browser: Any, web_run: Any) -> None:
     command = [str(JOSHUA_SCRIPT), "--preset", "so_arm100_sim_interactive"]
     with web_run(command, cwd=tmp_path, env=headless_env(MUJOCO_GL="egl"), startup_s=STARTUP_S) as (url, process):

@@ -4,6 +4,7 @@ attempt for attempt and in order."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from joshua_core.resources import resolve_data_path
 from joshua_mujoco import PlannerPool, compile_model
@@ -15,6 +16,7 @@ ATTEMPTS = 5
 PLAN_TOL = 1e-9
 
 
+@pytest.mark.slow
 def test_the_pools_plans_are_the_planners_in_order() -> None:
     model = compile_model(resolve_data_path("so_arm100/pick_place_mjx.xml"))
     rng = np.random.default_rng(0)

@@ -40,6 +40,7 @@ def test_a_state_beyond_the_bounds_is_a_blow_up_before_it_turns_non_finite() -> 
     assert nonfinite(np, qpos, qvel).tolist() == [False, True, True, False]
 
 
+@pytest.mark.slow
 def test_a_training_of_blow_ups_stops_with_one_line_and_keeps_its_checkpoint(tmp_path: Path) -> None:
     host = PluginHost(
         [

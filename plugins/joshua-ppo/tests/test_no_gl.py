@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 HERE = Path(__file__).parent
 NO_EGL_DRIVER = {"MUJOCO_GL": "egl", "__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent/egl_vendor.json"}
 SLIDER = {  # one iteration of distributed_worker.py's slider task, a video asked for at every checkpoint
@@ -35,6 +37,7 @@ def warnings(stderr: str) -> list[str]:
     return [line for line in stderr.splitlines() if line.startswith("joshua: warning:")]
 
 
+@pytest.mark.slow
 def test_training_and_eval_go_on_without_gl(tmp_path: Path) -> None:
     trained = run("distributed_worker.py", json.dumps(SLIDER), str(tmp_path), cwd=tmp_path, **NO_EGL_DRIVER)
     assert trained.returncode == 0, trained.stderr[-3000:]

@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from joshua_sb3.run_folder import KEY_ENV_VAR
 
 JOSHUA = [sys.executable, "-m", "joshua_core.cli"]
@@ -24,6 +26,7 @@ def joshua(*args: str, cwd: Path, **gl: str) -> subprocess.CompletedProcess[str]
     return subprocess.run([*JOSHUA, *args], cwd=cwd, env=environment, capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_training_and_eval_go_on_without_gl(tmp_path: Path) -> None:
     overrides = [arg for name, value in SETTINGS.items() for arg in ("--set", f"training.{name}={value}")]
     trained = joshua("--preset", "so_arm100_reach_sb3", *overrides, cwd=tmp_path, MUJOCO_GL="bogus")

@@ -50,6 +50,7 @@ def test_jax_vec_env_reports_episodes_as_sb3_expects(ant_jax) -> None:  # type: 
     np.testing.assert_allclose(observation, first, atol=1e-5)  # no reset noise: the next episode starts alike
 
 
+@pytest.mark.slow
 def test_ppo_trains_on_the_jax_vec_env(ant_jax, silent_logger: Logger) -> None:  # type: ignore[no-untyped-def]
     model = PPO("MlpPolicy", JaxVecEnv(ant_jax), n_steps=8, batch_size=12, n_epochs=1, device="cpu", seed=0)
     model.set_logger(silent_logger)

@@ -64,6 +64,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> tuple[list[Path], dict
     return paths, truth
 
 
+@pytest.mark.slow
 def test_fit_finds_the_true_parameters_and_writes_a_model_that_compiles(recorded, tmp_path: Path) -> None:
     paths, truth = recorded
     done = joshua("sysid", *map(str, paths), "--output-dir", "out", "--run-name", "arm", cwd=tmp_path)
