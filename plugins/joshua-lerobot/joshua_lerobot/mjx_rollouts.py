@@ -11,7 +11,7 @@ the measurements, the sag correction and the mapping of servo targets to actions
 with jax.numpy (`corrected_targets`, `integrate_sag`, the task's own `action_for_ctrl`): a jitted `lax.scan` over a
 chunk of dataset rows, `stride` control steps each, and the chunk's joint positions, targets and frames come to the
 host in one transfer. The rollout never waits on the host between steps; the host's planning, a CPU core's work
-per attempt, bounds the rate where the device is faster.
+per attempt, bounds the rate when the device outpaces it.
 
 It simulates the MJX scene (the config's model, else pick_place_mjx.xml): MJX's solver lets the script place the
 cube there, where mujoco's CPU solver does not (scripted_rollouts.py simulates the CPU scene).

@@ -259,7 +259,7 @@ class _Iteration:
         shape = (self.num_minibatches, self.local_minibatch)
         minibatches = jax.tree.map(lambda x: x[order].reshape(*shape, *x.shape[1:]), samples)
         keys = jax.random.split(entropy_key, self.num_minibatches)
-        # 4 gradient steps per loop trip: fewer loop trips run faster, more only compile longer
+        # 4 gradient steps per loop trip: each trip costs loop overhead, and a longer unroll only lengthens compilation
         return jax.lax.scan(self.gradient_step, carry, (minibatches, keys), unroll=min(self.num_minibatches, 4))
 
     def local(
