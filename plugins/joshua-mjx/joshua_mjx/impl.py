@@ -9,7 +9,7 @@ Data (Warp allocates contacts and constraint rows up front, `nconmax`/`njmax`), 
 Capacities, the rule: per environment, as many contacts and constraint rows as MJX-JAX allocates for the model
 (its contacts are one per collision pair and contact point, its rows every one those contacts and the model's
 joint limits, equalities and frictions can take), so a model that MJX-JAX steps never overflows on Warp;
-`nconmax`/`njmax` replace them (smaller is faster where few contacts are active at once).
+`nconmax`/`njmax` replace them (smaller arrays cost less where few contacts are active at once).
 """
 
 from __future__ import annotations
