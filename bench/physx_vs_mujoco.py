@@ -1,12 +1,13 @@
 """PhysX against MuJoCo: env steps/s of the Isaac Ant task on the usd backend, every engine in one run.
 
     python bench/physx_vs_mujoco.py                                   # CPU: PhysX and mujoco.batch, 256 envs
-    python bench/physx_vs_mujoco.py --engines physx mjx-jax mjx-warp --envs 4096 8192   # GPU machine
+    python bench/physx_vs_mujoco.py --engines physx-jax mjx-warp --envs 8192 16384   # GPU machine
 
 Engines: `mujoco` (mujoco.batch on the CPU's cores) and `physx` (ovphysx: CPU PhysX here, GPU PhysX where
-CUDA is present) are the usd backend's NUMPY environments, stepped from Python with open-loop controls; `mjx-jax`
-and `mjx-warp` are its JAX environments (MJX with either implementation), stepped in a compiled loop of the same
-controls, so they pay no host round trip per step. Every rate is after the first steps (compilation, warm-up).
+CUDA is present) are the usd backend's NUMPY environments, stepped from Python with open-loop controls;
+`physx-jax` (the same PhysX, its state on the device where JAX runs), `mjx-jax` and `mjx-warp` (MJX with either
+implementation) are its JAX environments, stepped in a compiled loop of the same controls, so the task's terms
+run on the device and no state crosses to the host. Every rate is after the first steps (compilation, warm-up).
 At the first size, with both `mujoco` and `physx`, it also prints how far their joint trajectories drift apart
 under the same controls from the same start (sim-to-sim).
 """
@@ -27,14 +28,15 @@ from joshua_mujoco.vector import task_config_from_options
 from joshua_usd.options_pb2 import UsdOptions, usd
 
 NO_RESET_NOISE = {"reset_joints_uniform": {"weight": 0}, "reset_qvel_normal": {"weight": 0}}
-ENGINES = ("mujoco", "physx", "mjx-jax", "mjx-warp")
+ENGINES = ("mujoco", "physx", "physx-jax", "mjx-jax", "mjx-warp")
+JAX_ENGINES = ("physx-jax", "mjx-jax", "mjx-warp")
 WARMUP_STEPS = 10  # stepped before timing: PhysX's first steps and the compiled loop's first call
 
 
 def make(plugins: PluginHost, engine: str, num_envs: int) -> Any:
     """The Isaac Ant environments of `engine` (see the module docstring), `num_envs` of them."""
     training = TrainingConfig()
-    if engine == "physx":
+    if engine.startswith("physx"):
         training.Extensions[usd].physics = UsdOptions.PHYSX
     if engine.startswith("mjx-"):
         from joshua_mjx.options_pb2 import MjxOptions
@@ -48,7 +50,7 @@ def make(plugins: PluginHost, engine: str, num_envs: int) -> Any:
         task_config=task_config_from_options({"terms": NO_RESET_NOISE}),
         training=training,
     )
-    kind = EnvKind.JAX if engine.startswith("mjx-") else EnvKind.NUMPY
+    kind = EnvKind.JAX if engine in JAX_ENGINES else EnvKind.NUMPY
     return plugins.backend("usd").create_envs(spec, kind, plugins)
 
 
@@ -102,7 +104,7 @@ def main() -> None:
             try:
                 env = make(plugins, engine, num_envs)
                 start = time.perf_counter()
-                if engine.startswith("mjx-"):
+                if engine in JAX_ENGINES:
                     rate = step_jax(env, actions)
                 else:
                     rate, trajectories[engine] = step_numpy(env, actions)

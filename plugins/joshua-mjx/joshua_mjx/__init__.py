@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     from joshua_mjx.backend import MjxBackend
     from joshua_mjx.engine import MJX_SUFFIX, MjxEngine, mjx_variant
     from joshua_mjx.env import EnvState, MjxEnv, make_mjx_env
+    from joshua_mjx.external import ExternalPhysics
     from joshua_mjx.impl import WARP, Physics
 
 __all__ = [
@@ -20,6 +21,7 @@ __all__ = [
     "MjxBackend",
     "MjxEngine",
     "EnvState",
+    "ExternalPhysics",
     "MjxEnv",
     "make_mjx_env",
     "mjx_variant",
@@ -28,6 +30,7 @@ __all__ = [
 ]
 _HOME = {
     "EnvState": "env",
+    "ExternalPhysics": "external",
     "MjxEnv": "env",
     "make_mjx_env": "env",
     "MjxBackend": "backend",

@@ -44,6 +44,7 @@ from joshua_core.resources import resolve_data_path
 from joshua_core.tasks import (
     DERIVED_FIELDS,
     KINEMATIC_FIELDS,
+    MODEL_FIELDS,
     Episode,
     EpisodeSums,
     Task,
@@ -59,6 +60,7 @@ from joshua_core.tasks import (
 from joshua_mjx.batch import STEP_INPUTS, PerEnvRandom, split_each, where_env
 from joshua_mjx.cameras import Cameras
 from joshua_mjx.engine import mjx_variant
+from joshua_mjx.external import ExternalPhysics
 from joshua_mjx.impl import WARP, CapturedGraphs, OverflowCheck, Physics, batch_data
 from joshua_mjx.physics import mjx
 from joshua_mjx.randomized import ModelRandomization
@@ -126,10 +128,14 @@ class MjxEnv:
         desync_episodes: bool = False,
         curriculum: bool = False,
         physics: Physics | None = None,
+        external: ExternalPhysics | None = None,
     ) -> None:
         devices = list(devices or jax.devices())
         self.physics = physics = physics or Physics()
         physics.check_devices(devices)
+        self.external = external
+        if external is not None:
+            _check_external(external, task, physics, devices)
         if num_envs % len(devices):
             raise ConfigError(
                 f"num_envs {num_envs} must be a multiple of the {len(devices)} devices it is spread over "
@@ -384,8 +390,11 @@ class MjxEnv:
         """`data` after frame_skip physics steps. Only MuJoCo's integration state goes from one to the next: what
         else the steps before the last compute, the last recomputes, so XLA drops it (positions of cameras and
         geoms, inertias, constraint rows, ... stay on chip or go unwritten, which saves memory traffic). The
-        Data is what frame_skip whole steps give, to float32 rounding (XLA may fuse the two programs differently)."""
-
+        Data is what frame_skip whole steps give, to float32 rounding (XLA may fuse the two programs differently).
+        An external physics steps the whole batch itself."""
+        if self.external is not None:
+            with jax.named_scope("physics"):
+                return self.external.advance(data, self.task.frame_skip, fields)
         if self.physics.impl == WARP:
             # Warp's FFI step rewrites every field of the Data it is given, so whatever the loop does not carry
             # XLA copies into each call: carrying the whole Data is the lean path there (bench/mjx_env_cost.py)
@@ -402,8 +411,9 @@ class MjxEnv:
     def _external_forces(self, fields: dict[str, jax.Array], data: mjx.Data) -> mjx.Data:
         """`data` with rne_postconstraint's cfrc_ext (contact and applied forces on each body), which the terms
         read. Its other outputs (cacc, cfrc_int: two passes over the body tree) are not kept, so XLA drops them.
-        MuJoCo Warp computes cfrc_ext within its step and forward (run_rne_postconstraint, set in __init__)."""
-        if self.physics.impl == WARP:
+        MuJoCo Warp computes cfrc_ext within its step and forward (run_rne_postconstraint, set in __init__), an
+        external physics within its step (a start state has none: nothing touches it before its first step)."""
+        if self.physics.impl == WARP or self.external is not None:
             return data
         cfrc_ext = self._physics(mjx.rne_postconstraint, fields, data)._impl.cfrc_ext
         return data.replace(_impl=data._impl.replace(cfrc_ext=cfrc_ext))
@@ -441,6 +451,8 @@ class MjxEnv:
             qvel=ctx.qvel.astype(dtype),
             ctrl=task.reset_ctrl(jnp, n, params).astype(dtype),
         )
+        if self.external is not None:
+            data = self.external.start(data)
         fields = self.randomization.model_params(params)
         data = self._physics(mjx.forward, fields, data)
         if self._contact_forces:
@@ -487,6 +499,29 @@ class MjxEnv:
             return jnp.nan_to_num(observation, posinf=0.0, neginf=0.0)
 
         return finite(True), finite(False) if self.task.noisy_observations else None
+
+
+def _check_external(external: ExternalPhysics, task: Task, physics: Physics, devices: list[jax.Device]) -> None:
+    """Refuse, in one line each, what an external physics cannot step: several devices, cameras (MuJoCo Warp's
+    renderer draws MuJoCo's state), MuJoCo Warp beside it, a derived field it does not give, a randomized model
+    field it does not take."""
+    if len(devices) > 1:
+        raise ConfigError(
+            f"task '{task.name}': its physics steps the environments on one device, not {len(devices)}; "
+            "set CUDA_VISIBLE_DEVICES to one GPU"
+        )
+    if task.cameras or physics.impl == WARP:
+        raise ConfigError(f"task '{task.name}': cameras and MuJoCo Warp need MuJoCo's physics")
+    missing = sorted((set(DERIVED_FIELDS) - KINEMATIC_FIELDS - external.gives) & task.fields)
+    if missing:
+        raise ConfigError(f"task '{task.name}': its terms read {', '.join(missing)}, which its physics does not give")
+    refused = sorted(name for name in task.param_fields if name in MODEL_FIELDS and name not in external.randomizable)
+    if refused:
+        taken = ", ".join(sorted(external.randomizable)) or "none"
+        raise ConfigError(
+            f"task '{task.name}': its events randomize {', '.join(refused)}, which its physics does not take "
+            f"per environment (it takes {taken})"
+        )
 
 
 def make_mjx_env(

@@ -2,9 +2,9 @@
 (`joshua_mujoco.read_spec`), MJCF included, on MuJoCo physics (the default) or PhysX.
 
 Engines are joshua-mujoco's `MuJoCoEngine`; JAX environments joshua-mjx's (an optional dependency,
-imported only then). NUMPY environments are joshua-mujoco's `mujoco.batch` ones, or with
-`training.usd { physics: PHYSX }` the same environments on PhysX (`joshua_usd.physx`): the model is
-written to USD by our exporter first when it is not a stage already.
+imported only then). NUMPY environments are joshua-mujoco's `mujoco.batch` ones. With
+`training.usd { physics: PHYSX }` both kinds step on PhysX (`joshua_usd.physx`, `joshua_usd.physx_jax`):
+the model is written to USD by our exporter first when it is not a stage already.
 """
 
 from __future__ import annotations
@@ -25,11 +25,11 @@ MJX_MISSING = (
     "backend usd: JAX environments need joshua-mjx, which is not installed; "
     "install joshua-mjx (pip install 'joshua-usd[mjx]')"
 )
-PHYSX_JAX = "backend usd: physics PHYSX gives NUMPY environments only; use a NUMPY framework (sb3) or physics MUJOCO"
 
 
 class UsdBackend(Backend):
-    """The `usd` backend: a MuJoCoEngine per model; NUMPY (mujoco.batch or PhysX) and JAX (MJX) environments."""
+    """The `usd` backend: a MuJoCoEngine per model; NUMPY (mujoco.batch or PhysX) and JAX (MJX or PhysX)
+    environments."""
 
     def create_engine(
         self,
@@ -42,11 +42,8 @@ class UsdBackend(Backend):
         return MuJoCoEngine(model_path, render_width=render_width, render_height=render_height, plugins=plugins)
 
     def create_envs(self, spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> Any:
-        physx = uses_physx(spec.training)
-        if physx and kind is not EnvKind.NUMPY:
-            raise ConfigError(PHYSX_JAX)
-        if physx:
-            return physx_envs(spec, plugins)
+        if uses_physx(spec.training):
+            return physx_envs(spec, kind, plugins)
         if kind is EnvKind.NUMPY:
             return MuJoCoBackend().create_envs(spec, kind, plugins)
         return mjx_backend().create_envs(spec, kind, plugins)
@@ -59,8 +56,10 @@ def uses_physx(training: TrainingConfig | None) -> bool:
     return training is not None and training.Extensions[usd].physics == UsdOptions.PHYSX
 
 
-def physx_envs(spec: EnvSpec, plugins: PluginHost) -> Any:
-    """joshua-mujoco's BatchedVectorEnv of the task on PhysX (joshua_usd.physx), reset with the spec's seed."""
+def physx_envs(spec: EnvSpec, kind: EnvKind, plugins: PluginHost) -> Any:
+    """The task on PhysX: joshua-mujoco's BatchedVectorEnv (NUMPY, `joshua_usd.physx`, reset with the spec's
+    seed) or joshua-mjx's MjxEnv (JAX, `joshua_usd.physx_jax`); the model is written to USD first when it is
+    not a stage."""
     from joshua_core.resources import resolve_data_path
     from joshua_core.tasks import load_task_spec
     from joshua_mujoco import BatchedSimulation, BatchedVectorEnv, load_task_model
@@ -73,6 +72,11 @@ def physx_envs(spec: EnvSpec, plugins: PluginHost) -> Any:
     with tempfile.TemporaryDirectory(prefix="joshua-physx-") as folder:
         if path.suffix.lower() not in USD_SUFFIXES:
             path = export_model(path, Path(folder) / f"{path.stem}.usda")
+        if kind is not EnvKind.NUMPY:
+            mjx_backend()  # says what to install where joshua-mjx is missing
+            from joshua_usd.physx_jax import physx_device_envs
+
+            return physx_device_envs(spec, path, task, model)
         physics = PhysxBatchPhysics(model, path, spec.num_envs, task.fields)
     simulation = BatchedSimulation(
         task, model, spec.num_envs, seed=spec.seed, physics=physics, curriculum=spec.curriculum

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 
 from joshua_core.errors import ConfigError
 from joshua_mujoco import BatchPhysics
+from joshua_usd.physx_state import contact_wrench, from_physx, robot_com, to_physx
 
 CONTACTS_PER_LINK = 16  # room for contact points per link and read; grown when a step reports more
 ENV_SPACING = 20.0  # metres between the lanes of the clones: further than a robot walks in an episode
@@ -152,31 +153,33 @@ def _prepared_stage(stage_path: Path, root: str, folder: Path, num_envs: int, co
     return path
 
 
-class PhysxBatchPhysics(BatchPhysics):
-    """`num_envs` clones of the stage's robot in one PhysX scene (see the module docstring)."""
+class PhysxScene:
+    """The stage's robot cloned `num_envs` times in one PhysX scene, each clone in its lane (`offsets`), with the
+    tensor bindings of its state and MuJoCo's names for PhysX's columns. Shared by the NUMPY environments
+    (`PhysxBatchPhysics`, numpy buffers) and the JAX ones (`joshua_usd.physx_jax`, device buffers); `direct_gpu`
+    keeps PhysX's state on the GPU (its tensors are then read and written as CUDA arrays only)."""
 
-    def __init__(self, model: mujoco.MjModel, stage_path: Path, num_envs: int, fields: frozenset[str]) -> None:
-        missing = unavailable(fields)
-        if missing:
-            raise ConfigError(
-                f"backend usd, physics PHYSX: the task's terms read {', '.join(missing)}, which PhysX does not give "
-                f"(it gives {', '.join(sorted(FIELDS))})"
-            )
+    def __init__(
+        self, model: mujoco.MjModel, stage_path: Path, num_envs: int, contacts: bool, *, direct_gpu: bool = False
+    ) -> None:
         free = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
         if len(free) != 1 or model.jnt_qposadr[free[0]] != 0:
             raise ConfigError("backend usd, physics PHYSX: the robot needs one floating root (a free joint first)")
         self.model = model
         self.num_envs = num_envs
-        self._actuator_dofs = _actuator_dofs(model)
-        self._biased = bool(np.any(model.actuator_biastype != 0))
+        self.actuator_dofs = _actuator_dofs(model)
+        self.biased = bool(np.any(model.actuator_biastype != 0))
         ovphysx, ovstage = _ovphysx()
         from ovphysx.types import TensorType
 
         root = _articulation_root(stage_path)
         self._folder = tempfile.TemporaryDirectory(prefix="joshua-physx-")
-        folder, contacts = Path(self._folder.name), "cfrc_ext" in fields
-        stage_path = _prepared_stage(stage_path, root, folder, num_envs, contacts, gpu=_cuda_present())
-        self._physx = physx = ovphysx.PhysX()
+        stage_path = _prepared_stage(stage_path, root, Path(self._folder.name), num_envs, contacts, _cuda_present())
+        if direct_gpu:  # PhysX's state stays on the GPU (ovphysx skills/tensor-bindings-gpu)
+            config = ovphysx.PhysXConfig(carbonite_overrides={"/physics/suppressReadback": True})
+            self.physx = physx = ovphysx.PhysX(config=config)
+        else:
+            self.physx = physx = ovphysx.PhysX()
         self._stage = ovstage.Stage(f"joshua-physx-{id(self)}")
         ovstage.population.open_usd(self._stage, str(stage_path), ordinal=1, domains=ovstage.PopulationDomain.ALL)
         self._stage.advance_write_floor(ordinal=1).wait()
@@ -189,46 +192,135 @@ class PhysxBatchPhysics(BatchPhysics):
             physx.wait_task(physx.clone(root, paths[1:], anchor_transforms=anchors))
         physx.wait_all()
         physx.warmup()
+        self._paths = paths
 
-        def bind(tensor_type: int) -> Any:
-            with warnings.catch_warnings():  # the tensor bindings are ovphysx 0.6's bulk (N, ...) numpy path
-                warnings.simplefilter("ignore", DeprecationWarning)
-                return physx.create_tensor_binding(prim_paths=paths, tensor_type=tensor_type, raise_if_empty=True)
-
-        self._root_pose = bind(TensorType.ARTICULATION_ROOT_POSE)
-        self._root_velocity = bind(TensorType.ARTICULATION_ROOT_VELOCITY)
-        self._dof_position = bind(TensorType.ARTICULATION_DOF_POSITION)
-        self._dof_velocity = bind(TensorType.ARTICULATION_DOF_VELOCITY)
-        self._dof_force = bind(TensorType.ARTICULATION_DOF_ACTUATION_FORCE)
-        self._link_pose = bind(TensorType.ARTICULATION_LINK_POSE)
+        self.root_pose = self.bind(TensorType.ARTICULATION_ROOT_POSE)
+        self.root_velocity = self.bind(TensorType.ARTICULATION_ROOT_VELOCITY)
+        self.dof_position = self.bind(TensorType.ARTICULATION_DOF_POSITION)
+        self.dof_velocity = self.bind(TensorType.ARTICULATION_DOF_VELOCITY)
+        self.dof_force = self.bind(TensorType.ARTICULATION_DOF_ACTUATION_FORCE)
+        self.link_pose = self.bind(TensorType.ARTICULATION_LINK_POSE)
         # MuJoCo's dofs and bodies in PhysX's columns, by name
-        names = self._dof_position.dof_names
+        names = self.dof_position.dof_names
         dofs = {model.joint(j).name: j for j in range(model.njnt) if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE}
         if sorted(names) != sorted(dofs):
             raise ConfigError(f"{stage_path}: PhysX's joints {sorted(names)} are not the model's {sorted(dofs)}")
-        self._qadr = np.array([model.jnt_qposadr[dofs[n]] for n in names])
-        self._vadr = np.array([model.jnt_dofadr[dofs[n]] for n in names])
-        self._column = {int(v): c for c, v in enumerate(self._vadr)}
-        self._actuator_columns = np.array([self._column[int(d)] for d in self._actuator_dofs], dtype=np.intp)
-        bodies = self._link_pose.body_names
-        self._bodies = np.array([model.body(name).id for name in bodies])
-        self._contacts = None
-        if "cfrc_ext" in fields:
-            self._sensors = [f"{p}/{b}" for p in paths for b in bodies]
-            self._bind_contacts(CONTACTS_PER_LINK * len(self._sensors))
-            robot = self._bodies
-            self._body_ipos, self._body_mass = model.body_ipos[robot], model.body_mass[robot]
-        self._switch_off_drives(TensorType, bind)
-        nd = len(names)
+        self.qadr = np.array([model.jnt_qposadr[dofs[n]] for n in names])
+        self.vadr = np.array([model.jnt_dofadr[dofs[n]] for n in names])
+        column = {int(v): c for c, v in enumerate(self.vadr)}
+        self.actuator_columns = np.array([column[int(d)] for d in self.actuator_dofs], dtype=np.intp)
+        self.bodies = np.array([model.body(name).id for name in self.link_pose.body_names])
+        self.contacts: Any = None
+        self.sensors = [f"{p}/{b}" for p in paths for b in self.link_pose.body_names] if contacts else []
+        if contacts:
+            self.bind_contacts(CONTACTS_PER_LINK * len(self.sensors))
+        self._switch_off_drives(TensorType)
+        self.limits = self._joint_limits(TensorType)
+
+    def bind(self, tensor_type: int) -> Any:
+        """A tensor binding of `tensor_type` over every clone."""
+        with warnings.catch_warnings():  # the tensor bindings are ovphysx 0.6's bulk (N, ...) path
+            warnings.simplefilter("ignore", DeprecationWarning)
+            return self.physx.create_tensor_binding(
+                prim_paths=self._paths, tensor_type=tensor_type, raise_if_empty=True
+            )
+
+    def bind_contacts(self, capacity: int) -> None:
+        """The contact report of every link of every clone: net forces and up to `capacity` contact points
+        (ovphysx's contact binding: rows in the order of the sensor paths, before the first step reported)."""
+        if self.contacts is not None:
+            self.contacts.destroy()
+        with warnings.catch_warnings():  # the contact binding is ovphysx 0.6's bulk (N, 3) contact force
+            warnings.simplefilter("ignore", DeprecationWarning)
+            self.contacts = self.physx.create_contact_binding(self.sensors, max_contact_data_count=capacity)
+        self.contact_capacity = capacity
+
+    def _switch_off_drives(self, tensor_type: Any) -> None:
+        """Zero the PhysX drive gains of actuated joints: their effort comes from MuJoCo's actuator law."""
+        for kind in (tensor_type.ARTICULATION_DOF_STIFFNESS, tensor_type.ARTICULATION_DOF_DAMPING):
+            binding = self.bind(kind)
+            gains = np.zeros(binding.shape, np.float32)
+            binding.read(gains)
+            gains[:, self.actuator_columns] = 0.0
+            binding.write(gains)
+            binding.destroy()
+
+    def _joint_limits(self, tensor_type: Any) -> NDArray[np.float32]:
+        """(num_envs, dofs, 2) joint limits (radians): written positions are held inside them."""
+        binding = self.bind(tensor_type.ARTICULATION_DOF_LIMIT)
+        limits = np.zeros(binding.shape, np.float32)
+        binding.read(limits)
+        binding.destroy()
+        return limits
+
+    def effort(self, xp: Any, ctrl: Any, qpos: Any, qvel: Any, gain: Any = None, bias: Any = None) -> Any:
+        """(num_envs, dofs) joint efforts in PhysX's columns: MuJoCo's actuator force (gain * ctrl + bias(q, qdot),
+        ctrl and force clamped to their ranges) times the gear, on numpy or jax.numpy (`xp`). `gain`/`bias`:
+        each environment's actuator_gainprm/biasprm (N, nu, 10) where they are randomized, else the model's."""
+        model = self.model
+        gain = model.actuator_gainprm if gain is None else gain
+        bias = model.actuator_biasprm if bias is None else bias
+        if model.actuator_ctrllimited.any():
+            low, high = model.actuator_ctrlrange.T
+            ctrl = xp.where(model.actuator_ctrllimited, xp.clip(ctrl, low, high), ctrl)
+        q = qpos[:, model.jnt_qposadr[model.actuator_trnid[:, 0]]]
+        force = gain[..., 0] * ctrl + bias[..., 0] + bias[..., 1] * q + bias[..., 2] * qvel[:, self.actuator_dofs]
+        if model.actuator_forcelimited.any():
+            low, high = model.actuator_forcerange.T
+            force = xp.where(model.actuator_forcelimited, xp.clip(force, low, high), force)
+        placement = np.zeros((model.nu, len(self.vadr)))  # each actuator's column
+        placement[np.arange(model.nu), self.actuator_columns] = model.actuator_gear[:, 0]
+        return force @ placement.astype(force.dtype)
+
+    def close(self) -> None:
+        physx = self.__dict__.pop("physx", None)
+        if physx is None:
+            return
+        if self.contacts is not None:
+            self.contacts.destroy()
+        for binding in (
+            self.root_pose, self.root_velocity, self.dof_position, self.dof_velocity, self.dof_force, self.link_pose,
+        ):  # fmt: skip
+            binding.destroy()
+        physx.wait_task(physx.detach_ovstage())
+        self._stage.destroy()
+        physx.destroy()
+        self._folder.cleanup()
+
+
+class PhysxBatchPhysics(BatchPhysics):
+    """`num_envs` clones of the stage's robot in one PhysX scene (see the module docstring)."""
+
+    def __init__(self, model: mujoco.MjModel, stage_path: Path, num_envs: int, fields: frozenset[str]) -> None:
+        missing = unavailable(fields)
+        if missing:
+            raise ConfigError(
+                f"backend usd, physics PHYSX: the task's terms read {', '.join(missing)}, which PhysX does not give "
+                f"(it gives {', '.join(sorted(FIELDS))})"
+            )
+        self.model = model
+        self.num_envs = num_envs
+        self.scene = scene = PhysxScene(model, stage_path, num_envs, "cfrc_ext" in fields)
+        self.offsets = scene.offsets
+        self._contacts: Any = None
+        if scene.contacts is not None:
+            from joshua_usd.physx_contacts import SUMS, ContactReader
+
+            self._contacts = ContactReader(scene, "cpu")
+            links = len(scene.sensors)
+            self._contact_arrays = (
+                np.zeros((links, 3), np.float32), np.zeros((links, 3), np.float32), np.zeros((links, SUMS), np.float32)
+            )  # fmt: skip
+            self._inertia = (model.body_ipos[scene.bodies], model.body_mass[scene.bodies])
+        nd = len(scene.vadr)
         self._buffers = {
             "root_pose": np.zeros((num_envs, 7), np.float32),
             "root_velocity": np.zeros((num_envs, 6), np.float32),
             "dof_position": np.zeros((num_envs, nd), np.float32),
             "dof_velocity": np.zeros((num_envs, nd), np.float32),
             "dof_force": np.zeros((num_envs, nd), np.float32),
-            "link_pose": np.zeros((num_envs, len(bodies), 7), np.float32),
+            "link_pose": np.zeros((num_envs, len(scene.bodies), 7), np.float32),
         }
-        self._limits = self._joint_limits(TensorType, bind)
         self._fields = {
             "qpos": np.tile(model.qpos0, (num_envs, 1)),
             "qvel": np.zeros((num_envs, model.nv)),
@@ -238,74 +330,6 @@ class PhysxBatchPhysics(BatchPhysics):
             "cfrc_ext": np.zeros((num_envs, model.nbody, 6)),
         }
         self._data = mujoco.MjData(model)
-
-    def _bind_contacts(self, capacity: int) -> None:
-        """The contact report of every link of every clone: net forces and up to `capacity` contact points
-        (ovphysx's contact binding: rows in the order of the sensor paths, before the first step reported)."""
-        if self._contacts is not None:
-            self._contacts.destroy()
-        with warnings.catch_warnings():  # the contact binding is ovphysx 0.6's bulk (N, 3) contact force
-            warnings.simplefilter("ignore", DeprecationWarning)
-            self._contacts = self._physx.create_contact_binding(self._sensors, max_contact_data_count=capacity)
-        sensors = self._contacts.sensor_count
-        self._contact_force = np.zeros((2, sensors, 3), np.float32)
-        self._contact_points = (
-            np.zeros((capacity, 1), np.float32),  # normal force (N)
-            np.zeros((capacity, 3), np.float32),  # world position
-            np.zeros((capacity, 3), np.float32),  # unit normal, towards the link
-            np.zeros((capacity, 1), np.float32),  # separation
-            np.zeros((sensors, 2), np.int32),  # per link: count, start
-            np.zeros((capacity, 2), np.int64),  # actor ids
-        )
-
-    def _contact_torque(self, friction: NDArray[np.float64]) -> NDArray[np.float64]:
-        """(num_envs, links, 3) torque of each link's contacts about its robot's centre of mass, in the world
-        (MuJoCo's cfrc_ext torque); `friction` is each link's net friction force (sensors, 3)."""
-        required = self._contacts.read_raw_contact_data(*self._contact_points)
-        magnitude, position, normal, _, layout, _ = self._contact_points
-        counts, starts = layout[:, 0].astype(np.intp), layout[:, 1].astype(np.intp)
-        sensor = np.repeat(np.arange(len(counts)), counts)
-        contact = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
-        envs, links = self.num_envs, len(self._bodies)
-        centre = self._robot_com() + self.offsets  # world frame, as PhysX reports the contact points
-        lever = position[contact].astype(np.float64) - centre[sensor // links]
-        force = magnitude[contact].astype(np.float64) * normal[contact]
-        torque = np.zeros((len(counts), 3))
-        np.add.at(torque, sensor, np.cross(lever, force))
-        weight, weighted = np.zeros(len(counts)), np.zeros((len(counts), 3))
-        np.add.at(weight, sensor, magnitude[contact, 0])
-        np.add.at(weighted, sensor, magnitude[contact] * lever)
-        pressed = weight > 0
-        torque[pressed] += np.cross(weighted[pressed] / weight[pressed, None], friction[pressed])
-        if required > len(magnitude):  # this read kept the first contacts; the next ones get room for all
-            self._bind_contacts(2 * required)
-        return torque.reshape(envs, links, 3)
-
-    def _robot_com(self) -> NDArray[np.float64]:
-        """(num_envs, 3) centre of mass of each clone's links, relative to its lane (MuJoCo's subtree_com)."""
-        xpos, xquat = self._fields["xpos"][:, self._bodies], self._fields["xquat"][:, self._bodies]
-        envs, links = xpos.shape[:2]
-        offset = np.broadcast_to(self._body_ipos, xpos.shape).reshape(-1, 3)
-        xipos = xpos + _rotate(xquat.reshape(-1, 4), offset).reshape(envs, links, 3)
-        return (xipos * self._body_mass[:, None]).sum(axis=1) / self._body_mass.sum()
-
-    def _switch_off_drives(self, tensor_type: Any, bind: Any) -> None:
-        """Zero the PhysX drive gains of actuated joints: their effort comes from MuJoCo's actuator law."""
-        for kind in (tensor_type.ARTICULATION_DOF_STIFFNESS, tensor_type.ARTICULATION_DOF_DAMPING):
-            binding = bind(kind)
-            gains = np.zeros(binding.shape, np.float32)
-            binding.read(gains)
-            gains[:, self._actuator_columns] = 0.0
-            binding.write(gains)
-            binding.destroy()
-
-    def _joint_limits(self, tensor_type: Any, bind: Any) -> NDArray[np.float32]:
-        """(num_envs, dofs, 2) joint limits (radians): written positions are held inside them."""
-        binding = bind(tensor_type.ARTICULATION_DOF_LIMIT)
-        limits = np.zeros(binding.shape, np.float32)
-        binding.read(limits)
-        binding.destroy()
-        return limits
 
     @property
     def nthread(self) -> int:
@@ -332,88 +356,57 @@ class PhysxBatchPhysics(BatchPhysics):
         """Write the state of `ids` into PhysX (joint positions held inside their limits), then read all back."""
         if not len(ids):
             return
-        qpos, qvel, b = self._fields["qpos"], self._fields["qvel"], self._buffers
-        index = np.asarray(ids, dtype=np.int32)
-        b["root_pose"][ids, :3] = qpos[ids, :3] + self.offsets[ids]
-        b["root_pose"][ids, 3:6] = qpos[ids, 4:7]
-        b["root_pose"][ids, 6] = qpos[ids, 3]
-        quat = qpos[ids, 3:7]
-        b["root_velocity"][ids, :3] = qvel[ids, :3]
-        b["root_velocity"][ids, 3:] = _rotate(quat, qvel[ids, 3:6])
-        limits = self._limits[ids]
-        b["dof_position"][ids] = np.clip(qpos[ids][:, self._qadr], limits[..., 0], limits[..., 1])
-        b["dof_velocity"][ids] = qvel[ids][:, self._vadr]
+        scene, b = self.scene, self._buffers
+        pose, velocity, position, dof_velocity = to_physx(
+            np, self._fields["qpos"][ids], self._fields["qvel"][ids], scene.offsets[ids], scene.qadr, scene.vadr,
+            scene.limits[ids],
+        )  # fmt: skip
+        b["root_pose"][ids], b["root_velocity"][ids] = pose, velocity
+        b["dof_position"][ids], b["dof_velocity"][ids] = position, dof_velocity
         b["dof_force"][ids] = 0.0
-        for binding, name in (
-            (self._root_pose, "root_pose"),
-            (self._root_velocity, "root_velocity"),
-            (self._dof_position, "dof_position"),
-            (self._dof_velocity, "dof_velocity"),
-            (self._dof_force, "dof_force"),
-        ):
-            binding.write(b[name], indices=index)
-        self._physx.update_articulations_kinematic()
+        index = np.asarray(ids, dtype=np.int32)
+        for name in ("root_pose", "root_velocity", "dof_position", "dof_velocity", "dof_force"):
+            getattr(scene, name).write(b[name], indices=index)
+        scene.physx.update_articulations_kinematic()
         self._read()
         self._fields["cfrc_ext"][ids] = 0.0
 
     def step(self, nstep: int) -> NDArray[np.bool_]:
-        dt = float(self.model.opt.timestep)
+        scene, f, dt = self.scene, self._fields, float(self.model.opt.timestep)
         for _ in range(nstep):
-            self._apply_ctrl()
-            self._physx.step_sync(dt)
-            if self._biased:
+            effort = scene.effort(np, f["ctrl"], f["qpos"], f["qvel"])
+            self._buffers["dof_force"][:] = effort
+            scene.dof_force.write(self._buffers["dof_force"])
+            scene.physx.step_sync(dt)
+            if scene.biased:
                 self._read()
-        if not self._biased:
+        if not scene.biased:
             self._read()
         return np.zeros(self.num_envs, dtype=bool)
 
-    def _apply_ctrl(self) -> None:
-        """MuJoCo's actuator force (gain * ctrl + bias) times the gear, clamped, as each joint's PhysX effort."""
-        model, qpos, qvel = self.model, self._fields["qpos"], self._fields["qvel"]
-        ctrl = self._fields["ctrl"]
-        if model.actuator_ctrllimited.any():
-            low, high = model.actuator_ctrlrange.T
-            ctrl = np.where(model.actuator_ctrllimited, np.clip(ctrl, low, high), ctrl)
-        joints = model.actuator_trnid[:, 0]
-        force = model.actuator_gainprm[:, 0] * ctrl
-        force += model.actuator_biasprm[:, 0]
-        force += model.actuator_biasprm[:, 1] * qpos[:, model.jnt_qposadr[joints]]
-        force += model.actuator_biasprm[:, 2] * qvel[:, self._actuator_dofs]
-        if model.actuator_forcelimited.any():
-            low, high = model.actuator_forcerange.T
-            force = np.where(model.actuator_forcelimited, np.clip(force, low, high), force)
-        effort = self._buffers["dof_force"]
-        effort[:] = 0.0
-        np.add.at(effort, (slice(None), self._actuator_columns), force * model.actuator_gear[:, 0])
-        self._dof_force.write(effort)
-
     def _read(self) -> None:
         """PhysX's state into the MuJoCo-layout fields."""
-        b, f = self._buffers, self._fields
-        self._root_pose.read(b["root_pose"])
-        self._root_velocity.read(b["root_velocity"])
-        self._dof_position.read(b["dof_position"])
-        self._dof_velocity.read(b["dof_velocity"])
-        self._link_pose.read(b["link_pose"])
-        pose = b["root_pose"].astype(np.float64)
-        f["qpos"][:, :3] = pose[:, :3] - self.offsets
-        f["qpos"][:, 3] = pose[:, 6]
-        f["qpos"][:, 4:7] = pose[:, 3:6]
-        f["qpos"][:, self._qadr] = b["dof_position"]
-        velocity = b["root_velocity"].astype(np.float64)
-        f["qvel"][:, :3] = velocity[:, :3]
-        f["qvel"][:, 3:6] = _rotate(_conjugate(f["qpos"][:, 3:7]), velocity[:, 3:])
-        f["qvel"][:, self._vadr] = b["dof_velocity"]
+        scene, b, f = self.scene, self._buffers, self._fields
+        for name in ("root_pose", "root_velocity", "dof_position", "dof_velocity", "link_pose"):
+            getattr(scene, name).read(b[name])
+        qpos, qvel = from_physx(
+            np, f["qpos"], f["qvel"], b["root_pose"].astype(np.float64), b["root_velocity"].astype(np.float64),
+            b["dof_position"], b["dof_velocity"], scene.offsets, scene.qadr, scene.vadr,
+        )  # fmt: skip
+        f["qpos"][:], f["qvel"][:] = qpos, qvel
         links = b["link_pose"].astype(np.float64)
-        f["xpos"][:, self._bodies] = links[..., :3] - self.offsets[:, None]
-        f["xquat"][:, self._bodies, 0] = links[..., 6]
-        f["xquat"][:, self._bodies, 1:] = links[..., 3:6]
+        f["xpos"][:, scene.bodies] = links[..., :3] - scene.offsets[:, None]
+        f["xquat"][:, scene.bodies, 0] = links[..., 6]
+        f["xquat"][:, scene.bodies, 1:] = links[..., 3:6]
         if self._contacts is not None:
-            self._contacts.read_net_normal_forces(self._contact_force[0])
-            self._contacts.read_net_friction_forces(self._contact_force[1])
-            forces = self._contact_force.sum(axis=0).reshape(self.num_envs, len(self._bodies), 3)
-            f["cfrc_ext"][:, self._bodies, :3] = self._contact_torque(self._contact_force[1].astype(np.float64))
-            f["cfrc_ext"][:, self._bodies, 3:] = forces
+            normal, friction, sums = self._contact_arrays
+            self._contacts.read(normal, friction, sums)
+            links_shape = (self.num_envs, len(scene.bodies))
+            centre = robot_com(np, f["xpos"][:, scene.bodies], f["xquat"][:, scene.bodies], *self._inertia)
+            wrench = contact_wrench(
+                np, *(a.reshape(*links_shape, -1).astype(np.float64) for a in (normal, friction, sums)), centre
+            )
+            f["cfrc_ext"][:, scene.bodies] = wrench
 
     def model_and_data(self, env_index: int) -> tuple[mujoco.MjModel, mujoco.MjData]:
         self._data.qpos[:] = self._fields["qpos"][env_index]
@@ -422,20 +415,7 @@ class PhysxBatchPhysics(BatchPhysics):
         return self.model, self._data
 
     def close(self) -> None:
-        physx = self.__dict__.pop("_physx", None)
-        if physx is None:
-            return
-        if self._contacts is not None:
-            self._contacts.destroy()
-        for binding in (
-            self._root_pose, self._root_velocity, self._dof_position, self._dof_velocity, self._dof_force,
-            self._link_pose,
-        ):  # fmt: skip
-            binding.destroy()
-        physx.wait_task(physx.detach_ovstage())
-        self._stage.destroy()
-        physx.destroy()
-        self._folder.cleanup()
+        self.scene.close()
 
 
 @functools.cache
@@ -447,13 +427,3 @@ def _cuda_present() -> bool:
     warp.config.quiet = True
     warp.init()
     return bool(warp.get_cuda_device_count())
-
-
-def _conjugate(quat: NDArray[np.float64]) -> NDArray[np.float64]:
-    return quat * np.array([1.0, -1.0, -1.0, -1.0])
-
-
-def _rotate(quat: NDArray[np.float64], vector: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Rotate (N, 3) vectors by (N, 4) w-first unit quaternions."""
-    w, u = quat[:, :1], quat[:, 1:]
-    return vector + 2.0 * np.cross(u, np.cross(u, vector) + w * vector)

@@ -107,11 +107,6 @@ def test_a_term_reading_what_physx_lacks_fails_in_one_line(plugins: PluginHost) 
     assert "\n" not in str(error.value)
 
 
-def test_physx_gives_numpy_environments_only(plugins: PluginHost) -> None:
-    with pytest.raises(ConfigError, match="physics PHYSX gives NUMPY environments only"):
-        plugins.backend("usd").create_envs(ant_spec(), EnvKind.JAX, plugins)
-
-
 @pytest.mark.parametrize("preset", ["isaac_ant_locomotion", "isaac_trileg"])
 def test_the_isaac_presets_choose_physx(preset: str, plugins: PluginHost) -> None:
     options = plugins.options()
