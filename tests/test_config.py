@@ -93,6 +93,7 @@ PLUGIN_PRESETS = {
     "so_arm100_reach_sb3",
     "ant_train_mjx_tuned",
     "trileg_train_mjx",
+    "isaac_ant_mjx",
     "so_arm100_pick_place_mjx_dr",
     "so_arm100_pick_place_pixels",
     *(f"so101_{name}" for name in ("sim_interactive", "sim_mirror", "reach_sb3", "train_mjx", "pick_place_mjx")),

@@ -210,8 +210,10 @@ class PhysxJaxPhysics(ExternalPhysics):
 def physx_device_envs(spec: Any, path: Path, task: Any, model: mujoco.MjModel) -> Any:
     """joshua-mjx's MjxEnv of `task` on PhysX (`PhysxJaxPhysics`), on one device of `spec.devices` (default: JAX's
     first)."""
-    from joshua_mjx import MjxEnv, Physics
+    from joshua_mjx import WARP, MjxEnv, Physics
 
+    # PhysX allocates its GPU memory outside JAX's pool, as MuJoCo Warp does: JAX is to allocate on demand
+    Physics(WARP).leave_memory_to_warp()
     devices = list(spec.devices or jax.devices()[:1])
     physics = PhysxJaxPhysics(model, path, spec.num_envs, "cfrc_ext" in task.fields, devices[0])
     deterministic = bool(spec.training is not None and spec.training.deterministic)
