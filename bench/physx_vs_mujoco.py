@@ -8,8 +8,8 @@ CUDA is present) are the usd backend's NUMPY environments, stepped from Python w
 `physx-jax` (the same PhysX, its state on the device where JAX runs), `mjx-jax` and `mjx-warp` (MJX with either
 implementation) are its JAX environments, stepped in a compiled loop of the same controls, so the task's terms
 run on the device and no state crosses to the host. Every rate is after the first steps (compilation, warm-up).
-At the first size, with both `mujoco` and `physx`, it also prints how far their joint trajectories drift apart
-under the same controls from the same start (sim-to-sim).
+At the first size it also prints how far every pair of engines' joint trajectories drift apart under the same
+controls from the same start, per joint too (sim-to-sim).
 """
 
 from __future__ import annotations
@@ -74,20 +74,25 @@ def step_numpy(env: Any, actions: np.ndarray) -> tuple[float, np.ndarray]:
     return (len(actions) - WARMUP_STEPS) * actions.shape[1] / seconds, np.array(joints)
 
 
-def step_jax(env: Any, actions: np.ndarray) -> float:
-    """Env steps/s of `actions` stepped in one compiled loop (timed on its second call)."""
+def step_jax(env: Any, actions: np.ndarray) -> tuple[float, np.ndarray]:
+    """Env steps/s of `actions` stepped in one compiled loop (timed on its second call), and environment 0's joint
+    angles at every step."""
     import jax
 
+    def body(state: Any, action: jax.Array) -> tuple[Any, jax.Array]:
+        state = env.step(state, action)
+        return state, state.data.qpos[0, 7:]
+
     def run(state: Any, sequence: jax.Array) -> Any:
-        return jax.lax.scan(lambda s, a: (env.step(s, a), None), state, sequence)[0]
+        return jax.lax.scan(body, state, sequence)
 
     loop = jax.jit(run)
     state = env.reset(jax.random.PRNGKey(0))
     sequence = jax.numpy.asarray(actions, dtype=jax.numpy.float32)
     jax.block_until_ready(loop(state, sequence))  # compiles
     start = time.perf_counter()
-    jax.block_until_ready(loop(state, sequence))
-    return actions.shape[0] * actions.shape[1] / (time.perf_counter() - start)
+    _, joints = jax.block_until_ready(loop(state, sequence))
+    return actions.shape[0] * actions.shape[1] / (time.perf_counter() - start), np.asarray(joints)
 
 
 def main() -> None:
@@ -105,7 +110,7 @@ def main() -> None:
                 env = make(plugins, engine, num_envs)
                 start = time.perf_counter()
                 if engine in JAX_ENGINES:
-                    rate = step_jax(env, actions)
+                    rate, trajectories[engine] = step_jax(env, actions)
                 else:
                     rate, trajectories[engine] = step_numpy(env, actions)
                     env.close()
@@ -114,11 +119,23 @@ def main() -> None:
                 continue
             seconds = time.perf_counter() - start
             print(f"{engine}: {rate:,.0f} env steps/s ({num_envs} envs, {args.steps} steps, {seconds:.1f} s in all)")
-        if size_index == 0 and {"mujoco", "physx"} <= trajectories.keys():
-            gap = np.abs(trajectories["physx"] - trajectories["mujoco"])
-            for t in (9, 49, args.steps - 1):
-                if t < args.steps:
-                    print(f"step {t + 1}: joint gap mean {gap[t].mean():.3f} rad, max {gap[t].max():.3f} rad")
+        if size_index == 0:
+            print_gaps(trajectories, args.steps)
+
+
+def print_gaps(trajectories: dict[str, np.ndarray], steps: int) -> None:
+    """How far each pair of engines' joint trajectories (environment 0, the same controls from the same start) drift
+    apart: over all joints after 10, 50 and the last step, and per joint over the whole run (sim-to-sim)."""
+    names = list(trajectories)
+    for i, first in enumerate(names):
+        for second in names[i + 1 :]:
+            gap = np.abs(trajectories[first] - trajectories[second])
+            for t in (9, 49, steps - 1):
+                if t < steps:
+                    print(f"{first} vs {second}, step {t + 1}: joint gap mean {gap[t].mean():.3f} rad, "
+                          f"max {gap[t].max():.3f} rad")  # fmt: skip
+            per_joint = " ".join(f"{value:.3f}" for value in gap.mean(axis=0))
+            print(f"{first} vs {second}, mean gap per joint over {steps} steps (rad): {per_joint}")
 
 
 if __name__ == "__main__":
