@@ -129,15 +129,15 @@ class PhysxJaxPhysics(ExternalPhysics):
     def _write_and_step(self, pose: wp.array, velocity: wp.array, position: wp.array, dof_velocity: wp.array,
                         effort: wp.array) -> None:  # fmt: skip
         """Write the state of the environments whose state is not what PhysX holds (`_changed`), every
-        environment's efforts, and step once. On a GPU, XLA's stream has produced the arrays by the time PhysX (on
-        its own streams) reads them."""
+        environment's efforts, and step once. On a GPU, XLA's stream has produced the arrays, and Warp's the mask,
+        by the time PhysX (on its own streams) reads them."""
         scene = self.scene
-        if self._device != "cpu":
-            wp.synchronize_stream(wp.get_stream(self._device))
+        self._finish()
         state = (pose, velocity, position, dof_velocity)
         self._mask.zero_()
         for given, held in zip(state, self._held, strict=True):
             wp.launch(_changed, dim=given.shape, inputs=[given, held], outputs=[self._mask], device=self._device)
+        self._finish()
         for binding, given in zip(self._state_bindings, state, strict=True):
             binding.write(given, mask=self._mask)
         scene.dof_force.write(effort)
@@ -199,7 +199,8 @@ class PhysxJaxPhysics(ExternalPhysics):
         return step, wp.jax_callable(physx_contact_step, num_outputs=8, graph_mode=mode, vmap_method=None)
 
     def _finish(self) -> None:
-        """On a GPU, PhysX's reads (on its own streams) are done before XLA's stream goes on to use them."""
+        """On a GPU, wait for the work queued on every stream (XLA's, Warp's, PhysX's): PhysX and Warp work on
+        streams of their own, ordered with XLA's only by the host."""
         if self._device != "cpu":
             wp.synchronize_device(self._device)
 
