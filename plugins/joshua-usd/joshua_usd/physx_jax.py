@@ -24,6 +24,7 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import mujoco
+import numpy as np
 import warp as wp
 
 from joshua_mjx import ExternalPhysics
@@ -56,9 +57,13 @@ class PhysxJaxPhysics(ExternalPhysics):
     law runs in JAX); the kinematic fields MjxEnv computes from the positions."""
 
     gives = frozenset({"cfrc_ext"})
-    randomizable = frozenset({"actuator_gainprm", "actuator_biasprm"})
+    # body_inertia as joshua_core's randomize_body_mass scales it, by the mass's factor: PhysX's inertia tensor
+    # (in its own principal frame) is scaled by the same factor
+    randomizable = frozenset({"actuator_gainprm", "actuator_biasprm", "body_mass", "body_inertia"})
 
-    def __init__(self, model: mujoco.MjModel, stage_path: Path, num_envs: int, contacts: bool, device: Any) -> None:
+    def __init__(
+        self, model: mujoco.MjModel, stage_path: Path, num_envs: int, contacts: bool, masses: bool, device: Any
+    ) -> None:
         on_gpu = device.platform in ("gpu", "cuda")
         self.scene = scene = PhysxScene(model, stage_path, num_envs, contacts, direct_gpu=on_gpu)
         self.model = model
@@ -88,16 +93,22 @@ class PhysxJaxPhysics(ExternalPhysics):
             wp.full(shape, UNHELD, dtype=wp.float32, device=self._device) for shape in self._dims.values()
         )
         self._mask = wp.zeros(num_envs, dtype=wp.uint8, device=self._device)
+        self._masses = _Masses(scene, model) if masses else None
         self._step, self._contact_step = self._callables()
-        self._inertia = (jnp.asarray(model.body_ipos[scene.bodies]), jnp.asarray(model.body_mass[scene.bodies]))
+        self._ipos = jnp.asarray(model.body_ipos[scene.bodies])
 
     def advance(self, data: Any, nstep: int, fields: dict[str, jax.Array]) -> Any:
         scene, qpos, qvel = self.scene, data.qpos, data.qvel
         gain, bias = fields.get("actuator_gainprm"), fields.get("actuator_biasprm")
+        # each environment's link masses where they are randomized (else the model's, which the call leaves be)
+        mass = fields.get(
+            "body_mass", jnp.broadcast_to(jnp.asarray(self.model.body_mass), (self.num_envs, self.model.nbody))
+        )
+        mass = mass[:, scene.bodies].astype(jnp.float32)
         for i in range(nstep):  # frame_skip: a few calls, unrolled
             effort = scene.effort(jnp, data.ctrl, qpos, qvel, gain, bias).astype(jnp.float32)
             state = to_physx(jnp, qpos, qvel, self._offsets, scene.qadr, scene.vadr, self._limits)
-            inputs = [x.astype(jnp.float32) for x in state] + [effort]
+            inputs = [x.astype(jnp.float32) for x in state] + [effort, mass]
             if i < nstep - 1 or self._contacts is None:
                 pose, velocity, position, dof_velocity = self._step(*inputs, output_dims=self._dims)
             else:
@@ -113,7 +124,7 @@ class PhysxJaxPhysics(ExternalPhysics):
             return data
         n, count = self.num_envs, len(scene.bodies)
         quat = jnp.concatenate([links[..., 6:7], links[..., 3:6]], axis=-1)
-        centre = robot_com(jnp, links[..., :3] - self._offsets[:, None], quat, *self._inertia)
+        centre = robot_com(jnp, links[..., :3] - self._offsets[:, None], quat, self._ipos, mass)
         normal, friction, sums = (a.reshape(n, count, -1) for a in (normal, friction, sums))
         wrench = contact_wrench(jnp, normal, friction, sums, centre)
         cfrc_ext = data._impl.cfrc_ext.at[:, scene.bodies].set(wrench.astype(data._impl.cfrc_ext.dtype))
@@ -127,7 +138,7 @@ class PhysxJaxPhysics(ExternalPhysics):
         return data.replace(qpos=data.qpos.at[:, scene.qadr].set(held))
 
     def _write_and_step(self, pose: wp.array, velocity: wp.array, position: wp.array, dof_velocity: wp.array,
-                        effort: wp.array) -> None:  # fmt: skip
+                        effort: wp.array, mass: wp.array) -> None:  # fmt: skip
         """Write the state of the environments whose state is not what PhysX holds (`_changed`), every
         environment's efforts, and step once. On a GPU, XLA's stream has produced the arrays, and Warp's the mask,
         by the time PhysX (on its own streams) reads them."""
@@ -141,6 +152,8 @@ class PhysxJaxPhysics(ExternalPhysics):
         for binding, given in zip(self._state_bindings, state, strict=True):
             binding.write(given, mask=self._mask)
         scene.dof_force.write(effort)
+        if self._masses is not None:
+            self._masses.write(mass.numpy())
         scene.physx.step_sync(float(self.model.opt.timestep))
 
     def _read(self, pose: wp.array, velocity: wp.array, position: wp.array, dof_velocity: wp.array) -> None:
@@ -161,12 +174,13 @@ class PhysxJaxPhysics(ExternalPhysics):
             position: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             dof_velocity: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             effort: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+            mass: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             out_pose: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             out_velocity: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             out_position: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             out_dof_velocity: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
         ) -> None:
-            self._write_and_step(pose, velocity, position, dof_velocity, effort)
+            self._write_and_step(pose, velocity, position, dof_velocity, effort, mass)
             self._read(out_pose, out_velocity, out_position, out_dof_velocity)
             self._finish()
 
@@ -176,6 +190,7 @@ class PhysxJaxPhysics(ExternalPhysics):
             position: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             dof_velocity: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             effort: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+            mass: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             out_pose: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             out_velocity: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             out_position: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
@@ -185,7 +200,7 @@ class PhysxJaxPhysics(ExternalPhysics):
             out_friction: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
             out_sums: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
         ) -> None:
-            self._write_and_step(pose, velocity, position, dof_velocity, effort)
+            self._write_and_step(pose, velocity, position, dof_velocity, effort, mass)
             self._read(out_pose, out_velocity, out_position, out_dof_velocity)
             self.scene.link_pose.read(out_links)
             assert self._contacts is not None  # this call exists only where the task reads contact forces
@@ -208,6 +223,36 @@ class PhysxJaxPhysics(ExternalPhysics):
         self.scene.close()
 
 
+class _Masses:
+    """Each environment's link masses and inertias in PhysX, written where a call is given masses other than those
+    PhysX holds (a new episode's draws). They are PhysX's host-side properties: the masses cross to the host on
+    each call (a few bytes per environment), the writes happen at episode starts only."""
+
+    def __init__(self, scene: PhysxScene, model: mujoco.MjModel) -> None:
+        from ovphysx.types import TensorType
+
+        self._mass = scene.bind(TensorType.ARTICULATION_BODY_MASS)
+        self._inertia = scene.bind(TensorType.ARTICULATION_BODY_INERTIA)
+        self._mass0 = np.zeros(self._mass.shape, np.float32)
+        self._inertia0 = np.zeros(self._inertia.shape, np.float32)
+        self._mass.read(self._mass0)
+        self._inertia.read(self._inertia0)
+        self._default = model.body_mass[scene.bodies].astype(np.float32)  # what the factors are relative to
+        self._held = np.broadcast_to(self._default, self._mass0.shape).copy()
+
+    def write(self, mass: np.ndarray) -> None:
+        """Give PhysX `mass` (num_envs, links), MuJoCo's masses of the links: PhysX's own scaled by their factors."""
+        changed = (np.abs(mass - self._held) > CHANGED * (1.0 + np.abs(self._held))).any(axis=1)
+        if not changed.any():
+            return
+        factor = mass / self._default
+        mask = changed.astype(np.uint8)
+        self._mass.write(np.ascontiguousarray(self._mass0 * factor, np.float32), mask=mask)
+        inertia = self._inertia0 * factor.reshape(*factor.shape, *(1,) * (self._inertia0.ndim - 2))
+        self._inertia.write(np.ascontiguousarray(inertia, np.float32), mask=mask)
+        self._held[changed] = mass[changed]
+
+
 def physx_device_envs(spec: Any, path: Path, task: Any, model: mujoco.MjModel) -> Any:
     """joshua-mjx's MjxEnv of `task` on PhysX (`PhysxJaxPhysics`), on one device of `spec.devices` (default: JAX's
     first)."""
@@ -216,7 +261,8 @@ def physx_device_envs(spec: Any, path: Path, task: Any, model: mujoco.MjModel) -
     # PhysX allocates its GPU memory outside JAX's pool, as MuJoCo Warp does: JAX is to allocate on demand
     Physics(WARP).leave_memory_to_warp()
     devices = list(spec.devices or jax.devices()[:1])
-    physics = PhysxJaxPhysics(model, path, spec.num_envs, "cfrc_ext" in task.fields, devices[0])
+    masses = "body_mass" in task.param_fields
+    physics = PhysxJaxPhysics(model, path, spec.num_envs, "cfrc_ext" in task.fields, masses, devices[0])
     deterministic = bool(spec.training is not None and spec.training.deterministic)
     return MjxEnv(
         task,

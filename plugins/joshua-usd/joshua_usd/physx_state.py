@@ -43,11 +43,12 @@ def from_physx(
 
 def robot_com(xp: Any, xpos: Any, xquat: Any, ipos: Any, mass: Any) -> Any:
     """(N, 3) centre of mass of each robot from its links' poses (N, links, 3 and 4, w-first) and their inertial
-    offsets and masses (MuJoCo's body_ipos, body_mass of the links)."""
+    offsets and masses (MuJoCo's body_ipos, body_mass of the links: (links,), or (N, links) where each robot has its
+    own)."""
     envs, links = xpos.shape[:2]
     offset = xp.broadcast_to(ipos, xpos.shape).reshape(-1, 3)
     xipos = xpos + rotate(xp, xquat.reshape(-1, 4), offset).reshape(envs, links, 3)
-    return (xipos * mass[:, None]).sum(axis=1) / mass.sum()
+    return (xipos * mass[..., None]).sum(axis=-2) / mass.sum(axis=-1)[..., None]
 
 
 def contact_wrench(xp: Any, normal: Any, friction: Any, sums: Any, centre: Any) -> Any:

@@ -116,6 +116,41 @@ def test_contact_wrenches_balance_the_weight_about_the_centre_of_mass(ant) -> No
         np.testing.assert_allclose(force.sum(axis=0), [0.0, 0.0, weight], atol=0.02 * weight)
 
 
+def test_randomized_masses_reach_physx_per_environment(plugins: PluginHost) -> None:
+    """randomize_body_mass's draws become each clone's PhysX link mass and inertia (scaled alike) when its episode
+    starts; a clone whose episode goes on keeps its own."""
+    from ovphysx.types import TensorType
+
+    from joshua_core.config_pb2 import EventConfig, TaskConfig
+
+    config = TaskConfig()
+    config.CopyFrom(task_config_from_options({"terms": NO_RESET_NOISE}))
+    event = config.events.add(name="torso_mass", term="randomize_body_mass", mode=EventConfig.RESET)
+    event.params["bodies"] = '["torso"]'
+    event.params["range"] = "[0.5, 2.0]"
+    env_spec = spec()
+    env = plugins.backend("usd").create_envs(
+        EnvSpec(
+            env_spec.task, NUM_ENVS, model_path=env_spec.model_path, task_config=config, training=env_spec.training
+        ),
+        EnvKind.JAX,
+        plugins,
+    )
+    state = env.step(env.reset(jax.random.PRNGKey(3)), jnp.zeros((NUM_ENVS, 8)))
+    torso = env.model.body("torso").id
+    factor = np.asarray(state.params["body_mass"])[:, torso] / env.model.body_mass[torso]
+    assert np.ptp(factor) > 0.05 and ((factor >= 0.5) & (factor <= 2.0)).all(), factor
+    scene = env.external.scene
+    column = list(scene.bodies).index(torso)
+    mass, inertia = scene.bind(TensorType.ARTICULATION_BODY_MASS), scene.bind(TensorType.ARTICULATION_BODY_INERTIA)
+    masses, inertias = np.zeros(mass.shape, np.float32), np.zeros(inertia.shape, np.float32)
+    mass.read(masses)
+    inertia.read(inertias)
+    np.testing.assert_allclose(masses[:, column] / masses[0, column], factor / factor[0], rtol=1e-5)
+    scale = (factor / factor[0]).reshape(-1, *(1,) * (inertias.ndim - 2))
+    np.testing.assert_allclose(inertias[:, column], inertias[0, column] * scale, rtol=1e-5, atol=1e-9)
+
+
 def test_what_physx_cannot_step_is_refused_in_one_line(plugins: PluginHost) -> None:
     from joshua_core.tasks import build_task, load_task_spec
     from joshua_mjx.env import _check_external
@@ -132,8 +167,9 @@ def test_what_physx_cannot_step_is_refused_in_one_line(plugins: PluginHost) -> N
     with pytest.raises(ConfigError, match=r"its terms read sensordata, which its physics does not give"):
         _check_external(physics, task, Physics(), [device])
     task.fields = task.fields - {"sensordata"}
-    task.param_fields = ("body_mass",)
-    with pytest.raises(ConfigError, match=r"randomize body_mass, .* \(it takes actuator_biasprm, actuator_gainprm\)"):
+    task.param_fields = ("geom_friction",)
+    taken = "actuator_biasprm, actuator_gainprm, body_inertia, body_mass"
+    with pytest.raises(ConfigError, match=rf"randomize geom_friction, .* \(it takes {taken}\)"):
         _check_external(physics, task, Physics(), [device])
 
 
