@@ -186,7 +186,8 @@ def test_ppo_trains_on_physx_from_the_command_line(tmp_path: Path) -> None:
     command = [
         sys.executable, "-m", "joshua_core.cli", "--preset", "isaac_ant_mjx",
         "--set", "training.usd.physics=PHYSX", "--set", "training.num_envs=4", "--set", "training.num_steps=4",
-        "--set", "training.minibatch_size=8", "--set", "training.total_timesteps=32",
+        "--set", "training.minibatch_size=8", "--set", "training.total_timesteps=16",
+        "--set", "training.ppo.video_interval=-1",
         "--set", f"training.checkpoint_dir={tmp_path}",
     ]  # fmt: skip
     done = subprocess.run(command, capture_output=True, text=True, timeout=900)
