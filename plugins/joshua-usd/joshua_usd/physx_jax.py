@@ -53,8 +53,8 @@ def _changed(
 
 class PhysxJaxPhysics(ExternalPhysics):
     """`num_envs` clones of the stage's robot in one PhysX scene, stepped from JAX on `device` (see the module
-    docstring). It gives cfrc_ext and takes the actuators' gains and biases per environment (MuJoCo's actuator
-    law runs in JAX); the kinematic fields MjxEnv computes from the positions."""
+    docstring). It gives cfrc_ext and takes the actuators' gains and biases (MuJoCo's actuator law runs in JAX) and
+    the links' masses (`_Masses`) per environment; the kinematic fields MjxEnv computes from the positions."""
 
     gives = frozenset({"cfrc_ext"})
     # body_inertia as joshua_core's randomize_body_mass scales it, by the mass's factor: PhysX's inertia tensor
