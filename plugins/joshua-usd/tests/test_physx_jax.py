@@ -116,6 +116,7 @@ def test_contact_wrenches_balance_the_weight_about_the_centre_of_mass(ant) -> No
         np.testing.assert_allclose(force.sum(axis=0), [0.0, 0.0, weight], atol=0.02 * weight)
 
 
+@pytest.mark.slow  # a PhysX scene and a compiled step of its own: 13 s
 def test_randomized_masses_reach_physx_per_environment(plugins: PluginHost) -> None:
     """randomize_body_mass's draws become each clone's PhysX link mass and inertia (scaled alike) when its episode
     starts; a clone whose episode goes on keeps its own."""
