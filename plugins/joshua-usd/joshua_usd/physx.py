@@ -209,6 +209,8 @@ class PhysxScene:
         self.vadr = np.array([model.jnt_dofadr[dofs[n]] for n in names])
         column = {int(v): c for c, v in enumerate(self.vadr)}
         self.actuator_columns = np.array([column[int(d)] for d in self.actuator_dofs], dtype=np.intp)
+        self._placement = np.zeros((model.nu, len(self.vadr)))  # each actuator's gear in its joint's column
+        self._placement[np.arange(model.nu), self.actuator_columns] = model.actuator_gear[:, 0]
         self.bodies = np.array([model.body(name).id for name in self.link_pose.body_names])
         self.contacts: Any = None
         self.sensors = [f"{p}/{b}" for p in paths for b in self.link_pose.body_names] if contacts else []
@@ -268,9 +270,7 @@ class PhysxScene:
         if model.actuator_forcelimited.any():
             low, high = model.actuator_forcerange.T
             force = xp.where(model.actuator_forcelimited, xp.clip(force, low, high), force)
-        placement = np.zeros((model.nu, len(self.vadr)))  # each actuator's column
-        placement[np.arange(model.nu), self.actuator_columns] = model.actuator_gear[:, 0]
-        return force @ placement.astype(force.dtype)
+        return force @ self._placement.astype(force.dtype)
 
     def close(self) -> None:
         physx = self.__dict__.pop("physx", None)
@@ -301,7 +301,6 @@ class PhysxBatchPhysics(BatchPhysics):
         self.model = model
         self.num_envs = num_envs
         self.scene = scene = PhysxScene(model, stage_path, num_envs, "cfrc_ext" in fields)
-        self.offsets = scene.offsets
         self._contacts: Any = None
         if scene.contacts is not None:
             from joshua_usd.physx_contacts import SUMS, ContactReader
