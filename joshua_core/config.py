@@ -116,6 +116,8 @@ def _read_text(
         read(rewritten.text, config, allow_unknown_extension=options.lenient, allow_unknown_field=options.lenient)
     except text_format.ParseError as error:
         raise ConfigError(f"{source}:{rewritten.located(error)}") from None
+    except ValueError as error:  # a number the parser read but the field cannot hold (an enum's 2**31)
+        raise ConfigError(f"{source}: {error}") from None
     _apply_moves(config, rewritten.moves, check=not merge)
 
 
@@ -138,6 +140,9 @@ def _apply_moves(config: JoshuaConfig, moves: list[config_text.Move], *, check: 
         except text_format.ParseError as error:
             old_path, _ = legacy.moved_paths(first.option, first.old, first.new)
             raise ConfigError(f"{first.where}: {old_path}: {config_text.bare_message(error)}") from None
+        except ValueError as error:  # as in _read_text: a number the field cannot hold
+            old_path, _ = legacy.moved_paths(first.option, first.old, first.new)
+            raise ConfigError(f"{first.where}: {old_path}: {error}") from None
         field = target.DESCRIPTOR.fields_by_name[first.new]
         set_here = any(listed is field for listed, _ in target.ListFields())
         if check and set_here and getattr(target, first.new) != getattr(given, first.new):

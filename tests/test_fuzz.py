@@ -18,7 +18,7 @@ from typing import Any
 
 import pytest
 from google.protobuf.descriptor import Descriptor, FieldDescriptor
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from joshua_core.cli import main
@@ -172,6 +172,7 @@ def config_texts(draw: st.DrawFn) -> bytes:
 
 
 @given(config_texts())
+@example(b'extends: "sim_passive"\ntraining { task_config { events { mode: 2147483648 } } }')  # an enum's 2**31
 @FUZZ
 def test_any_config_file_is_a_clean_exit(text: bytes) -> None:
     with workdir() as folder:
