@@ -235,13 +235,14 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one(
             results.append(np.asarray(state.data.qpos))
             print("devices", len(state.data.qpos.sharding.device_set))
         print("max difference", float(np.abs(results[0] - results[1]).max()))
-        for recompute in (False, True):  # minibatches of steps, or of whole unrolls
-            reports = []
-            train_ppo(env, rollout=RolloutSettings(5, 1), returns=ReturnSettings(recompute_advantages=recompute),
-                      optimization=OptimizationSettings(num_epochs=1, minibatch_size=10),
-                      network=NetworkSettings(hidden_sizes=(16,)), total_timesteps=40,
-                      on_progress=lambda report, state: reports.append(report))
-            print("losses finite", all(np.isfinite(r.metrics["loss"]) for r in reports), len(reports))
+        # minibatches of whole unrolls split over the devices (those of steps, the default: test_distributed.py's
+        # two processes of two devices each)
+        reports = []
+        train_ppo(env, rollout=RolloutSettings(5, 1), returns=ReturnSettings(recompute_advantages=True),
+                  optimization=OptimizationSettings(num_epochs=1, minibatch_size=10),
+                  network=NetworkSettings(hidden_sizes=(16,)), total_timesteps=40,
+                  on_progress=lambda report, state: reports.append(report))
+        print("losses finite", all(np.isfinite(r.metrics["loss"]) for r in reports), len(reports))
         # zero-size arrays (the ant has no tendons, mocap bodies...) stay out of the per-device computation:
         # jaxlib 0.11's GPU compiler crashes on them there
         settings = dict(rollout=RolloutSettings(5, 1), optimization=OptimizationSettings(1, 10),
@@ -262,7 +263,7 @@ def test_environments_shard_over_two_devices_with_the_same_results_as_one(
     assert "devices 1" in lines and "devices 2" in lines, done.stdout
     difference = float(next(line for line in lines if line.startswith("max difference")).split()[-1])
     assert difference < 1e-5, done.stdout
-    assert lines.count("losses finite True 2") == 2, done.stdout
+    assert "losses finite True 2" in lines, done.stdout
     inputs = next(line for line in lines if line.startswith("per-device inputs")).split()
     assert int(inputs[2]) > 50 and inputs[3:] == ["empty", "0"], done.stdout
     assert any("num_envs 3 must be a multiple of the 2 devices" in line for line in lines), done.stdout

@@ -1,20 +1,17 @@
-"""A scripted controller picks up the cube and places it on the goal, on the CPU scene (mujoco.batch) and on
-the MJX scene (MJX), through the task's own environments: the task is solvable in both physics, and the
-reward stages fire in order (reach, grasp, lift, place, at the goal, let go there). On the CPU scene, for both
-arms (the SO-ARM100's and the SO-101's task)."""
+"""A scripted controller picks up the cube and places it on the goal on the CPU scene (mujoco.batch), through the
+task's own environments, for both arms (the SO-ARM100's and the SO-101's task): the task is solvable and the
+reward stages fire in order (reach, grasp, lift, place, at the goal, let go there). The same script places the cube
+in the randomized MJX scene on MuJoCo Warp in joshua-lerobot's test_demos_gpu.py; MJX-JAX and Warp step that scene alike
+(test_randomization.py)."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Generator, Iterator
 from typing import Any
 
-import jax
 import numpy as np
 import pytest
 
-from joshua_core.config import finalize, load_preset
-from joshua_core.options import LENIENT
-from joshua_mjx import make_mjx_env
 from joshua_mujoco import JAW_CLOSED, Phase, PickPlaceScript, make_vector_env
 
 TASK = "so_arm100_pick_place"
@@ -92,30 +89,3 @@ def test_pressing_on_the_cube_touches_both_pads_but_is_no_grasp() -> None:
         pressed += bool(np.all(simulation.derived["sensordata"][0, touch] > 0.05))
         grasps += infos["reward_terms"]["grasp"][0] > 0
     assert pressed >= 10 and grasps == 0, (pressed, grasps)
-
-
-# The plain scene in 2 environments, as test_warp_parity's pick-and-place: the run's compilation cache then serves
-# their reset and step to whichever test runs second. The script drives the first; the second gets the same actions.
-# The randomized preset's scene (its events at full strength, on the MuJoCo Warp physics the preset trains on) is
-# solved by the script in joshua-lerobot's test_demos_gpu.py.
-@pytest.mark.slow
-def test_the_script_solves_the_mjx_scene() -> None:
-    """The MJX scene: the script places the cube at its goal with MJX-JAX's physics."""
-    preset, envs = "so_arm100_pick_place_mjx", 2  # the Warp pick-and-place parity test's programs (the run's cache)
-    env = make_mjx_env(TASK, envs, task_config=finalize(load_preset(preset, LENIENT)).training.task_config)
-    state = env.reset(jax.random.PRNGKey(3))
-    script = PickPlaceScript(env.model, env.task)
-    qpos = np.asarray(state.data.qpos[0])
-    cube = np.asarray(state.data.xpos[0, env.model.body("cube").id])
-    rewards, phases = [], []
-    actions = script.actions(qpos, cube, np.asarray(state.commands["goal"][0]))
-    latest = {"qpos": qpos}  # the joint positions after each step, for the script
-    for phase, action in drive(actions, lambda: latest["qpos"]):
-        batch = np.repeat(action[None], envs, axis=0)
-        state = env.step(state, jax.numpy.asarray(batch, dtype=jax.numpy.float32))
-        latest["qpos"] = np.asarray(state.data.qpos[0], dtype=np.float64)
-        assert not (state.terminated[0] or state.truncated[0])
-        rewards.append({name: float(value[0]) for name, value in state.reward_terms.items()})
-        phases.append(phase)
-    # at_goal is the task's success test (cube within 2 cm of the goal), weighted
-    check_solved(rewards, rewards[-1]["at_goal"] / WEIGHTS["at_goal"], phases)

@@ -83,14 +83,10 @@ def _mujoco(env: MjxEnv, qpos0: np.ndarray, qvel0: np.ndarray, ctrl: np.ndarray)
 MODELS = {"ant_locomotion": "ant/ant.xml"}
 
 
-@pytest.mark.parametrize(  # Ant in the fast tier (the cheapest compile); the arms and trileg in the full suite
-    "task",
-    [
-        "ant_locomotion",
-        pytest.param("trileg_locomotion", marks=pytest.mark.slow),
-        pytest.param("so_arm100_reach", marks=pytest.mark.slow),
-    ],  # pick-and-place: test_randomization.py, its randomized scene on MuJoCo (CPU), MJX-JAX and MJX-Warp
-)
+# the full suite only (25 s for Ant, the cheapest, on 2 cores): the fast tier steps Warp in test_cameras.py. The
+# arm: test_randomization.py's pick-and-place, its randomized scene on MuJoCo (CPU), MJX-JAX and Warp
+@pytest.mark.slow
+@pytest.mark.parametrize("task", ["ant_locomotion", "trileg_locomotion"])
 def test_warp_steps_a_task_like_jax_and_mujoco(task: str) -> None:
     jax_env = make_mjx_env(task, ENVS, model_path=MODELS.get(task))
     warp_env = make_mjx_env(task, ENVS, model_path=MODELS.get(task), physics=Physics("warp"))
