@@ -174,16 +174,18 @@ def test_publisher_loss_and_return_resumes_mirroring(tmp_path: Path, ros_env: di
 def test_two_publishers_on_one_topic_are_counted_apart(tmp_path: Path, ros_env: dict[str, str]) -> None:
     """Two publishers at once on each topic, each numbering its own messages: the interleaved numbers are no loss.
 
-    Every message joint_1's publishers send is read or counted lost (they publish once the mirror matched that
-    topic); a gap taken for a loss would count more than were sent. The other topics may match a little later,
-    on a busy machine after the first messages (those were never sent to the mirror, so never lost)."""
+    A gap taken for a loss would count more messages than were sent (80 per topic). Fewer may be counted: the
+    mirror reads best effort, and a publisher sees only its own side match, so a message it sends before the
+    mirror's reader has matched it is dropped unseen (once in a CI run: 79 of joint_1's 80), and the mirror's
+    numbering of that publisher starts at the first message it read. Both publishers are read on joint_1, so
+    more than one publisher's 40 arrive there."""
     mirror = start_mirror(tmp_path, ros_env)
     plan = json.dumps(float64_plan(range(40)))
     publishers = [subprocess.Popen([sys.executable, str(PUBLISHER), plan], env=ros_env) for _ in range(2)]
     assert [publisher.wait(timeout=60) for publisher in publishers] == [0, 0]
     report, _ = stop(mirror, tmp_path)
     lost = report["lost_messages"]
-    assert report["joints"]["joint_1"]["received"] + lost["/encoder/joint_1"] == 80, lost
+    assert 40 < report["joints"]["joint_1"]["received"] + lost["/encoder/joint_1"] <= 80, (report["joints"], lost)
     assert all(entry["received"] + lost[entry["source"]] <= 80 for entry in report["joints"].values()), lost
 
 
