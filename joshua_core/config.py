@@ -137,12 +137,10 @@ def _apply_moves(config: JoshuaConfig, moves: list[config_text.Move], *, check: 
         given = type(target)()
         try:
             text_format.Parse(" ".join(f"{first.new}: {move.text}" for move in group), given)
-        except text_format.ParseError as error:
+        except (text_format.ParseError, ValueError) as error:  # ValueError: as in _read_text
             old_path, _ = legacy.moved_paths(first.option, first.old, first.new)
-            raise ConfigError(f"{first.where}: {old_path}: {config_text.bare_message(error)}") from None
-        except ValueError as error:  # as in _read_text: a number the field cannot hold
-            old_path, _ = legacy.moved_paths(first.option, first.old, first.new)
-            raise ConfigError(f"{first.where}: {old_path}: {error}") from None
+            reason = config_text.bare_message(error) if isinstance(error, text_format.ParseError) else str(error)
+            raise ConfigError(f"{first.where}: {old_path}: {reason}") from None
         field = target.DESCRIPTOR.fields_by_name[first.new]
         set_here = any(listed is field for listed, _ in target.ListFields())
         if check and set_here and getattr(target, first.new) != getattr(given, first.new):

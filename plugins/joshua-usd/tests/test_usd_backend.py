@@ -57,13 +57,12 @@ def test_the_plugin_registers_the_backend_with_both_kinds(plugins: PluginHost) -
 def test_numpy_and_jax_environments_agree(plugins: PluginHost, ant_jax) -> None:  # type: ignore[no-untyped-def]
     task, backend = "isaac_ant_locomotion", plugins.backend("usd")
     cpu = backend.create_envs(spec(task), EnvKind.NUMPY, plugins)
-    mjx_env = ant_jax
     cpu_observation, _ = cpu.reset(seed=0)
-    state = mjx_env.reset(jax.random.PRNGKey(0))
+    state = ant_jax.reset(jax.random.PRNGKey(0))
     np.testing.assert_allclose(np.asarray(state.observation), cpu_observation, atol=1e-5)
     for action in 0.5 * np.random.default_rng(0).uniform(-1, 1, (STEPS, NUM_ENVS, cpu.task.action_size)):
         cpu_observation, cpu_reward, _, _, cpu_info = cpu.step(action)
-        state = mjx_env.step(state, jnp.asarray(action))
+        state = ant_jax.step(state, jnp.asarray(action))
         np.testing.assert_allclose(np.asarray(state.observation), cpu_observation, atol=OBSERVATION_TOLERANCE)
         np.testing.assert_allclose(np.asarray(state.reward), cpu_reward, atol=REWARD_TOLERANCE)
         for name, value in cpu_info["reward_terms"].items():
